@@ -2,5 +2,14 @@
 //! cameras. Images, 2D/3D labels and calibration are reprojected exactly; see `docs/` and the
 //! README for the conventions.
 
+pub mod camera;
+pub mod error;
+pub mod geometry;
 pub mod image;
+pub mod kitti;
+pub mod labels;
+pub mod output;
+pub mod pipeline;
 pub mod style;
+pub mod synth;
+pub mod warp;

@@ -1,1 +1,7 @@
-fn main() {}
+//! The `panoconv` command; all work happens in the library, see `cli.rs` for the interface.
+
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
+}

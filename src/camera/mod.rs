@@ -1,0 +1,122 @@
+//! Camera models behind one trait.
+//!
+//! Axes (every model, every frame): x right, y down, z forward, as KITTI's rectified camera
+//! frame. A *bearing* is a unit vector from the camera's optical centre. Pixel centres lie at
+//! integer coordinates: pixel (0, 0) covers [-0.5, 0.5)², as KITTI's P matrices assume.
+//!
+//! Each projection is one file implementing [`CameraModel`]; the warp, the label transform and
+//! the output-geometry search only talk to the trait, so a new model is one new file.
+
+mod cylindrical;
+mod equirect;
+mod intrinsics;
+mod perspective;
+
+pub use cylindrical::Cylindrical;
+pub use equirect::Equirect;
+pub use intrinsics::{ImageSize, Intrinsics};
+pub use perspective::Perspective;
+
+use nalgebra::{Point2, Vector3};
+
+/// Why a bearing or a pixel has no counterpart in a camera.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProjectionReject {
+    /// The ray points away from a camera that only sees its front half-space.
+    BehindCamera,
+    /// The ray is (numerically) on the projection's singular axis (cylinder axis, zero vector).
+    Singular,
+    /// The pixel lies outside the domain the projection maps (e.g. beyond a pole).
+    OutsideDomain,
+}
+
+/// The projections panoconv writes; names as in the `projection:` calib line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Projection {
+    Perspective,
+    Equirect,
+    Cylindrical,
+}
+
+impl Projection {
+    pub fn name(self) -> &'static str {
+        match self {
+            Projection::Perspective => "perspective",
+            Projection::Equirect => "equirect",
+            Projection::Cylindrical => "cylindrical",
+        }
+    }
+
+    /// The linear camera of this projection with intrinsics `k` and image `size`.
+    pub fn camera(self, k: Intrinsics, size: ImageSize) -> Box<dyn LinearCamera> {
+        match self {
+            Projection::Perspective => Box::new(Perspective::new(k, size)),
+            Projection::Equirect => Box::new(Equirect::new(k, size)),
+            Projection::Cylindrical => Box::new(Cylindrical::new(k, size)),
+        }
+    }
+}
+
+impl std::fmt::Display for Projection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A central camera: maps unit bearings (camera frame, axes above) to pixels and back.
+pub trait CameraModel: Send + Sync + std::fmt::Debug {
+    /// Pixel of a bearing. The pixel may lie outside the image; use [`CameraModel::size`].
+    fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject>;
+
+    /// Unit bearing of a pixel.
+    fn unproject(&self, pixel: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject>;
+
+    /// The distance this projection pairs with for a point `p` relative to the centre: the
+    /// quantity a detector regresses (z for perspective, range, or cylindrical rho).
+    fn distance(&self, p: &Vector3<f64>) -> f64;
+
+    /// Image size in pixels.
+    fn size(&self) -> ImageSize;
+
+    /// For a model that only sees one half-space: the normal n such that only bearings with
+    /// n·d > 0 can have an image. Used to clip 3D geometry before projecting it.
+    fn front_halfspace(&self) -> Option<Vector3<f64>> {
+        None
+    }
+
+    /// Pixels per full turn when the horizontal pixel coordinate is an angle about the y axis
+    /// (so that u and u ± period are the same direction).
+    fn horizontal_period(&self) -> Option<f64> {
+        None
+    }
+
+    /// Project a point given relative to the optical centre (any length).
+    fn project_point(&self, p: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let n = p.norm();
+        if !(n > 1e-12) {
+            return Err(ProjectionReject::Singular);
+        }
+        self.project(&(p / n))
+    }
+
+    /// Whether a continuous pixel position lies on the image ([-0.5, size - 0.5)).
+    fn contains(&self, px: &Point2<f64>) -> bool {
+        let s = self.size();
+        px.x >= -0.5 && px.y >= -0.5 && px.x < s.width as f64 - 0.5 && px.y < s.height as f64 - 0.5
+    }
+}
+
+/// A camera whose pixels are an affine map `K` of projection coordinates (a, b):
+/// pixel = K · (a, b, 1). Perspective, equirect and cylindrical are such cameras; their
+/// calib lines (`K2:`) describe them completely.
+pub trait LinearCamera: CameraModel {
+    fn projection(&self) -> Projection;
+    fn intrinsics(&self) -> Intrinsics;
+    /// Projection coordinates (a, b) of a bearing, before K (see the table in docs/geometry.md).
+    fn to_ab(&self, bearing: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
+    /// Bearing of projection coordinates (a, b).
+    fn from_ab(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
+    /// A boxed copy, for sharing an output camera between frames.
+    fn boxed_clone(&self) -> Box<dyn LinearCamera>;
+}

@@ -1,0 +1,88 @@
+//! Library errors. Every error that concerns a file names it, and the line and field when the
+//! problem is inside it, so a batch log points straight at the culprit.
+
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A malformed value inside a text file.
+    #[error("{}:{line}: {field}: {message}", path.display())]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        field: String,
+        message: String,
+    },
+    /// A file that is unusable as a whole (missing, empty, undecodable, inconsistent).
+    #[error("{}: {message}", path.display())]
+    File { path: PathBuf, message: String },
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A problem with the run's set-up (paths, options); nothing has been written.
+    #[error("{0}")]
+    Setup(String),
+    #[error(transparent)]
+    Style(#[from] crate::style::StyleError),
+}
+
+impl Error {
+    pub fn parse(
+        path: &Path,
+        line: usize,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Error::Parse {
+            path: path.to_path_buf(),
+            line,
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn file(path: &Path, message: impl Into<String>) -> Self {
+        Error::File {
+            path: path.to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Reads a whole file, tagging failures with its path.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
+/// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
+pub fn read_lines(path: &Path) -> Result<Vec<String>> {
+    let bytes = read_file(path)?;
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .map(|(i, raw)| {
+            let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+            String::from_utf8(raw.to_vec())
+                .map_err(|_| Error::parse(path, i + 1, "text", "line is not valid UTF-8"))
+        })
+        .collect::<Result<Vec<_>>>()
+        .map(|mut lines| {
+            // A final newline leaves one empty element behind, not a line.
+            if lines.last().is_some_and(|l| l.is_empty()) {
+                lines.pop();
+            }
+            lines
+        })
+}

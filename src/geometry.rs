@@ -1,0 +1,185 @@
+//! Output geometry: which output camera (intrinsics and canvas) a source camera maps to.
+//!
+//! Defaults follow the issue and the papers: the angular resolution at the centre equals the
+//! source focal length (fu = fx px/rad; cylindrical keeps f_phi/f_y = f_X/f_Y as Plaut et al.),
+//! and the canvas is the tight bounding box of the source field of view in the target
+//! projection, rounded outward to whole pixels.
+
+use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Projection};
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Pixels per radian at the centre of the output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scale {
+    /// The source camera's focal length (the default).
+    SourceFocal,
+    /// The width of a full 360° panorama at this scale (2048 gives 325.95 px/rad).
+    PanoWidth(u32),
+    PixelsPerDegree(f64),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Canvas {
+    /// The tight bounding box of the source field of view.
+    Tight,
+    /// The whole 360° of azimuth (and for equirect the whole 180° of latitude).
+    Full360,
+    /// An explicit size, centred on the source field of view.
+    Size(ImageSize),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OutputSpec {
+    pub projection: Projection,
+    pub scale: Scale,
+    pub canvas: Canvas,
+}
+
+impl OutputSpec {
+    pub fn new(projection: Projection) -> Self {
+        Self {
+            projection,
+            scale: Scale::SourceFocal,
+            canvas: Canvas::Tight,
+        }
+    }
+
+    /// Whether this spec maps a perspective source onto itself.
+    pub fn is_identity(&self) -> bool {
+        self.projection == Projection::Perspective
+            && self.scale == Scale::SourceFocal
+            && self.canvas == Canvas::Tight
+    }
+}
+
+/// Rounds up, forgiving floating-point noise so that an exact fit is not one pixel wider.
+fn ceil_px(x: f64) -> u32 {
+    (x - 1e-6).ceil().max(1.0) as u32
+}
+
+/// Projection coordinates (a, b) of the source field of view: its border densely and its
+/// interior on a grid (a wide source can reach its extremes inside, e.g. a pole).
+fn fov_bounds(target: &dyn LinearCamera, source: &dyn CameraModel) -> Result<[f64; 4]> {
+    let size = source.size();
+    let (w, h) = (size.width as f64, size.height as f64);
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut add = |x: f64, y: f64| {
+        if let Ok(d) = source.unproject(&nalgebra::Point2::new(x, y)) {
+            if let Ok((a, bb)) = target.to_ab(&d) {
+                b[0] = b[0].min(a);
+                b[1] = b[1].min(bb);
+                b[2] = b[2].max(a);
+                b[3] = b[3].max(bb);
+            }
+        }
+    };
+    let steps_x = (2.0 * w) as usize;
+    let steps_y = (2.0 * h) as usize;
+    for i in 0..=steps_x {
+        let x = -0.5 + w * i as f64 / steps_x as f64;
+        add(x, -0.5);
+        add(x, h - 0.5);
+    }
+    for j in 0..=steps_y {
+        let y = -0.5 + h * j as f64 / steps_y as f64;
+        add(-0.5, y);
+        add(w - 0.5, y);
+    }
+    for j in 0..=16 {
+        for i in 0..=16 {
+            add(-0.5 + w * i as f64 / 16.0, -0.5 + h * j as f64 / 16.0);
+        }
+    }
+    if !b.iter().all(|v| v.is_finite()) {
+        return Err(Error::Setup(format!(
+            "the source field of view has no image in the {} projection",
+            target.projection()
+        )));
+    }
+    Ok(b)
+}
+
+/// The output camera for a source camera (intrinsics `src_k` of a perspective source for the
+/// default scale; `source` for the field of view).
+pub fn output_camera(
+    spec: &OutputSpec,
+    src_k: Intrinsics,
+    source: &dyn CameraModel,
+) -> Result<Box<dyn LinearCamera>> {
+    let proj = spec.projection;
+    if spec.is_identity() {
+        return Ok(proj.camera(src_k, source.size()));
+    }
+    let fu = match spec.scale {
+        Scale::SourceFocal => src_k.fu,
+        Scale::PanoWidth(w) => w as f64 / (2.0 * PI),
+        Scale::PixelsPerDegree(d) => d * 180.0 / PI,
+    };
+    if !(fu > 0.0 && fu.is_finite()) {
+        return Err(Error::Setup(format!("invalid output scale {fu} px/rad")));
+    }
+    // Equirect pixels are square in angle; the others keep the source's aspect (Plaut: f_phi/f_y = f_X/f_Y).
+    let fv = match proj {
+        Projection::Equirect => fu,
+        _ => fu * src_k.fv / src_k.fu,
+    };
+    let unit = proj.camera(Intrinsics::new(1.0, 1.0, 0.0, 0.0), ImageSize::new(1, 1));
+    let [a0, b0, a1, b1] = fov_bounds(unit.as_ref(), source)?;
+    let tight = |f: f64, lo: f64, hi: f64| {
+        let n = ceil_px(f * (hi - lo));
+        // centre the rounding slack
+        let c = -0.5 - f * lo + (n as f64 - f * (hi - lo)) / 2.0;
+        (n, c)
+    };
+    let (width, height, k) = match spec.canvas {
+        Canvas::Tight => {
+            let (w, cu) = tight(fu, a0, a1);
+            let (h, cv) = tight(fv, b0, b1);
+            (w, h, Intrinsics::new(fu, fv, cu, cv))
+        }
+        Canvas::Size(s) => {
+            let cu = (s.width as f64 - 1.0) / 2.0 - fu * (a0 + a1) / 2.0;
+            let cv = (s.height as f64 - 1.0) / 2.0 - fv * (b0 + b1) / 2.0;
+            (s.width, s.height, Intrinsics::new(fu, fv, cu, cv))
+        }
+        Canvas::Full360 => {
+            if proj == Projection::Perspective {
+                return Err(Error::Setup("a perspective image cannot cover 360°".into()));
+            }
+            // The width must hold exactly 2π so that the panorama wraps without a seam.
+            let w = match spec.scale {
+                Scale::PanoWidth(w) => w,
+                _ => (2.0 * PI * fu).round() as u32,
+            };
+            let fu = w as f64 / (2.0 * PI);
+            let cu = w as f64 / 2.0 - 0.5;
+            match proj {
+                Projection::Equirect => {
+                    let h = w.div_ceil(2);
+                    let fv = h as f64 / PI;
+                    (w, h, Intrinsics::new(fu, fv, cu, h as f64 / 2.0 - 0.5))
+                }
+                _ => {
+                    let fv = fu * src_k.fv / src_k.fu;
+                    let (h, cv) = tight(fv, b0, b1);
+                    (w, h, Intrinsics::new(fu, fv, cu, cv))
+                }
+            }
+        }
+    };
+    if width > 65535 || height > 65535 {
+        return Err(Error::Setup(format!(
+            "output of {width}x{height} pixels is too large"
+        )));
+    }
+    Ok(proj.camera(k, ImageSize::new(width, height)))
+}

@@ -1,0 +1,237 @@
+//! KITTI calibration files (`calib/NNNNNN.txt`).
+//!
+//! Every line is kept verbatim so that the written file still parses in ordinary KITTI readers;
+//! the known matrices are parsed and checked. KITTI tracking's spellings (`R_rect`,
+//! `Tr_velo_cam`, `Tr_imu_velo`, with or without a colon) are accepted as aliases.
+
+use crate::camera::{ImageSize, Intrinsics, Perspective};
+use crate::error::{read_lines, Error, Result};
+use nalgebra::{Matrix3, Matrix3x4, Vector3};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone)]
+pub struct Calib {
+    pub path: PathBuf,
+    /// The input's lines, verbatim (line terminators removed).
+    pub lines: Vec<String>,
+    /// P0..P3, rectified projection matrices of cameras 0..3.
+    pub p: [Option<Matrix3x4<f64>>; 4],
+    pub r0_rect: Option<Matrix3<f64>>,
+    pub tr_velo_to_cam: Option<Matrix3x4<f64>>,
+    pub tr_imu_to_velo: Option<Matrix3x4<f64>>,
+}
+
+/// A rectified camera of the dataset: intrinsics and optical centre in rect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceCamera {
+    pub k: Intrinsics,
+    /// Optical centre in the rect frame, metres: C = -K⁻¹ · P[:, 3].
+    pub centre: Vector3<f64>,
+}
+
+impl SourceCamera {
+    pub fn camera(&self, size: ImageSize) -> Perspective {
+        Perspective::new(self.k, size)
+    }
+}
+
+enum Key {
+    P(usize),
+    R0Rect,
+    TrVeloToCam,
+    TrImuToVelo,
+}
+
+fn known_key(name: &str) -> Option<Key> {
+    Some(match name {
+        "P0" => Key::P(0),
+        "P1" => Key::P(1),
+        "P2" => Key::P(2),
+        "P3" => Key::P(3),
+        "R0_rect" | "R_rect" => Key::R0Rect,
+        "Tr_velo_to_cam" | "Tr_velo_cam" => Key::TrVeloToCam,
+        "Tr_imu_to_velo" | "Tr_imu_velo" => Key::TrImuToVelo,
+        _ => return None,
+    })
+}
+
+fn parse_numbers(
+    path: &Path,
+    line_no: usize,
+    key: &str,
+    values: &str,
+    count: usize,
+) -> Result<Vec<f64>> {
+    let tokens: Vec<&str> = values.split_whitespace().collect();
+    if tokens.len() != count {
+        return Err(Error::parse(
+            path,
+            line_no,
+            key,
+            format!("expected {count} numbers, found {}", tokens.len()),
+        ));
+    }
+    tokens
+        .iter()
+        .enumerate()
+        .map(|(i, t)| match t.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            Ok(_) => Err(Error::parse(
+                path,
+                line_no,
+                format!("{key}[{i}]"),
+                format!("{t:?} is not finite"),
+            )),
+            Err(_) => Err(Error::parse(
+                path,
+                line_no,
+                format!("{key}[{i}]"),
+                format!("{t:?} is not a number"),
+            )),
+        })
+        .collect()
+}
+
+impl Calib {
+    pub fn read(path: &Path) -> Result<Calib> {
+        let lines = read_lines(path)?;
+        Self::parse(path, lines)
+    }
+
+    pub fn parse(path: &Path, lines: Vec<String>) -> Result<Calib> {
+        let mut calib = Calib {
+            path: path.to_path_buf(),
+            lines: Vec::new(),
+            p: [None; 4],
+            r0_rect: None,
+            tr_velo_to_cam: None,
+            tr_imu_to_velo: None,
+        };
+        for (i, line) in lines.iter().enumerate() {
+            let line_no = i + 1;
+            let trimmed = line.trim();
+            if trimmed.is_empty() {
+                continue;
+            }
+            let (name, rest) = match trimmed.split_once(|c: char| c == ':' || c.is_whitespace()) {
+                Some((n, r)) => (n.trim(), r),
+                None => (trimmed, ""),
+            };
+            if name == "projection" {
+                return Err(Error::parse(
+                    path,
+                    line_no,
+                    "projection",
+                    "this calib was written by panoconv: its image is no longer rectilinear, convert the original dataset",
+                ));
+            }
+            let Some(key) = known_key(name) else { continue };
+            let rest = rest.trim_start_matches(':');
+            match key {
+                Key::P(n) => {
+                    let v = parse_numbers(path, line_no, name, rest, 12)?;
+                    calib.p[n] = Some(Matrix3x4::from_row_slice(&v));
+                }
+                Key::R0Rect => {
+                    let v = parse_numbers(path, line_no, name, rest, 9)?;
+                    calib.r0_rect = Some(Matrix3::from_row_slice(&v));
+                }
+                Key::TrVeloToCam => {
+                    let v = parse_numbers(path, line_no, name, rest, 12)?;
+                    calib.tr_velo_to_cam = Some(Matrix3x4::from_row_slice(&v));
+                }
+                Key::TrImuToVelo => {
+                    let v = parse_numbers(path, line_no, name, rest, 12)?;
+                    calib.tr_imu_to_velo = Some(Matrix3x4::from_row_slice(&v));
+                }
+            }
+        }
+        calib.lines = lines;
+        Ok(calib)
+    }
+
+    /// Camera `n` (2 = left colour, 3 = right colour) from `Pn = K [I | t]`.
+    pub fn camera(&self, n: usize) -> Result<SourceCamera> {
+        let field = format!("P{n}");
+        let p = self.p[n].ok_or_else(|| Error::file(&self.path, format!("no {field} line")))?;
+        let bad = |msg: &str| Error::file(&self.path, format!("{field}: {msg}"));
+        let w = p[(2, 2)];
+        if !(w > 0.0) {
+            return Err(bad("P[2][2] must be positive (P = K [I | t])"));
+        }
+        let p = p / w;
+        let scale = p[(0, 0)].abs().max(p[(1, 1)].abs()).max(1.0);
+        let tol = 1e-9 * scale;
+        if p[(1, 0)].abs() > tol || p[(2, 0)].abs() > tol || p[(2, 1)].abs() > tol {
+            return Err(bad("not of the form K [I | t] (a rectified camera)"));
+        }
+        if p[(0, 1)].abs() > tol {
+            return Err(bad("a skewed K is not supported"));
+        }
+        let (fu, fv) = (p[(0, 0)], p[(1, 1)]);
+        if !(fu > 0.0 && fv > 0.0) {
+            return Err(bad("focal lengths must be positive (singular K)"));
+        }
+        let k = Intrinsics::new(fu, fv, p[(0, 2)], p[(1, 2)]);
+        let km = Matrix3::new(fu, 0.0, k.cu, 0.0, fv, k.cv, 0.0, 0.0, 1.0);
+        let t = km.try_inverse().ok_or_else(|| bad("singular K"))?
+            * Vector3::new(p[(0, 3)], p[(1, 3)], p[(2, 3)]);
+        Ok(SourceCamera { k, centre: -t })
+    }
+
+    /// The output calib: every input line verbatim, then the description of the output camera.
+    /// For a perspective output, `Pn` is rewritten as K_out·[I | −C] for the converted cameras.
+    pub fn render_output(
+        &self,
+        projection: &str,
+        cameras: &[(usize, Intrinsics, Vector3<f64>)],
+    ) -> String {
+        let mut out = String::new();
+        for line in &self.lines {
+            let name = line
+                .trim_start()
+                .split(|c: char| c == ':' || c.is_whitespace())
+                .next()
+                .unwrap_or("");
+            let rewritten = cameras
+                .iter()
+                .find(|(n, _, _)| projection == "perspective" && name == format!("P{n}"));
+            match rewritten {
+                Some((n, k, c)) => {
+                    let t = -(Vector3::new(k.fu * c.x + k.cu * c.z, k.fv * c.y + k.cv * c.z, c.z));
+                    let p = [
+                        k.fu, 0.0, k.cu, t.x, 0.0, k.fv, k.cv, t.y, 0.0, 0.0, 1.0, t.z,
+                    ];
+                    out.push_str(&format!("P{n}: {}\n", join_sci(&p)));
+                }
+                None => {
+                    out.push_str(line);
+                    out.push('\n');
+                }
+            }
+        }
+        out.push_str(&format!("projection: {projection}\n"));
+        for (n, k, c) in cameras {
+            out.push_str(&format!("K{n}: {}\n", join_sci(&k.matrix())));
+            out.push_str(&format!("C{n}: {}\n", join_sci(&[c.x, c.y, c.z])));
+        }
+        out
+    }
+}
+
+/// KITTI's number style: C's `%.12e` (e.g. `7.215377000000e+02`).
+pub fn format_sci(v: f64) -> String {
+    let s = format!("{v:.12e}");
+    let (mantissa, exp) = s.split_once('e').expect("formatted with an exponent");
+    let exp: i32 = exp.parse().expect("integer exponent");
+    let sign = if exp < 0 { '-' } else { '+' };
+    format!("{mantissa}e{sign}{:02}", exp.abs())
+}
+
+fn join_sci(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|&v| format_sci(v))
+        .collect::<Vec<_>>()
+        .join(" ")
+}

@@ -1,0 +1,184 @@
+//! The KITTI object layout: `ROOT/{training,testing}/{image_2,calib,label_2}/NNNNNN.*`.
+
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone)]
+pub struct Split {
+    pub name: String,
+    pub dir: PathBuf,
+    pub has_labels: bool,
+    /// Frame ids (file stems of image_2/*.png), sorted.
+    pub frames: Vec<String>,
+}
+
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    pub root: PathBuf,
+    pub splits: Vec<Split>,
+}
+
+/// One frame to convert.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct FrameRef {
+    pub split: String,
+    pub id: String,
+}
+
+pub const SPLITS: [&str; 2] = ["training", "testing"];
+
+impl Split {
+    pub fn image_path(&self, camera: usize, id: &str) -> PathBuf {
+        self.dir
+            .join(format!("image_{camera}"))
+            .join(format!("{id}.png"))
+    }
+    pub fn calib_path(&self, id: &str) -> PathBuf {
+        self.dir.join("calib").join(format!("{id}.txt"))
+    }
+    pub fn label_path(&self, id: &str) -> PathBuf {
+        self.dir.join("label_2").join(format!("{id}.txt"))
+    }
+}
+
+impl Dataset {
+    /// Finds the splits under `root`; `only` restricts to one split by name.
+    pub fn open(root: &Path, only: Option<&str>) -> Result<Dataset> {
+        if !root.is_dir() {
+            return Err(Error::Setup(format!(
+                "input {} is not a directory",
+                root.display()
+            )));
+        }
+        if let Some(name) = only {
+            if !SPLITS.contains(&name) {
+                return Err(Error::Setup(format!(
+                    "unknown split {name:?}: expected training or testing"
+                )));
+            }
+        }
+        let mut splits = Vec::new();
+        for name in SPLITS {
+            if only.is_some_and(|o| o != name) {
+                continue;
+            }
+            let dir = root.join(name);
+            if !dir.is_dir() {
+                if only.is_some() {
+                    return Err(Error::Setup(format!(
+                        "input has no {} folder",
+                        dir.display()
+                    )));
+                }
+                continue;
+            }
+            let image_dir = dir.join("image_2");
+            let entries = std::fs::read_dir(&image_dir).map_err(|e| {
+                Error::Setup(format!(
+                    "{}: {e} (a KITTI split needs image_2/)",
+                    image_dir.display()
+                ))
+            })?;
+            let mut frames = Vec::new();
+            for entry in entries {
+                let entry = entry.map_err(|e| Error::io(&image_dir, e))?;
+                let name = entry.file_name();
+                let Some(name) = name.to_str() else { continue };
+                if let Some(id) = name.strip_suffix(".png") {
+                    if !id.starts_with('.') {
+                        frames.push(id.to_owned());
+                    }
+                }
+            }
+            frames.sort();
+            let has_labels = name == "training";
+            if has_labels && !dir.join("label_2").is_dir() {
+                return Err(Error::Setup(format!(
+                    "{}: the training split has no label_2/ folder",
+                    dir.display()
+                )));
+            }
+            splits.push(Split {
+                name: name.to_owned(),
+                dir,
+                has_labels,
+                frames,
+            });
+        }
+        if splits.is_empty() {
+            return Err(Error::Setup(format!(
+                "input {} holds neither training/ nor testing/ (expected a KITTI object root)",
+                root.display()
+            )));
+        }
+        Ok(Dataset {
+            root: root.to_path_buf(),
+            splits,
+        })
+    }
+
+    pub fn split(&self, name: &str) -> Option<&Split> {
+        self.splits.iter().find(|s| s.name == name)
+    }
+
+    /// Every frame, or those whose id is in `ids`. Listed ids found in no split come back in
+    /// the second vector, so that they are reported rather than silently skipped.
+    pub fn select(&self, ids: Option<&[String]>) -> (Vec<FrameRef>, Vec<String>) {
+        let mut frames = Vec::new();
+        let mut missing = Vec::new();
+        match ids {
+            None => {
+                for s in &self.splits {
+                    frames.extend(s.frames.iter().map(|id| FrameRef {
+                        split: s.name.clone(),
+                        id: id.clone(),
+                    }));
+                }
+            }
+            Some(ids) => {
+                let mut ids: Vec<&String> = ids.iter().collect();
+                ids.sort();
+                ids.dedup();
+                for id in ids {
+                    let mut found = false;
+                    for s in &self.splits {
+                        if s.frames.binary_search(id).is_ok() {
+                            found = true;
+                            frames.push(FrameRef {
+                                split: s.name.clone(),
+                                id: id.clone(),
+                            });
+                        }
+                    }
+                    if !found {
+                        missing.push(id.clone());
+                    }
+                }
+                frames.sort();
+            }
+        }
+        (frames, missing)
+    }
+}
+
+/// Frame ids from a list file (one per line, `#` comments and blank lines ignored).
+pub fn read_id_list(path: &Path) -> Result<Vec<String>> {
+    let lines = crate::error::read_lines(path)?;
+    let mut ids = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let t = line.split('#').next().unwrap_or("").trim();
+        if t.is_empty() {
+            continue;
+        }
+        if t.contains(|c: char| c.is_whitespace() || c == '/' || c == '\\') {
+            return Err(Error::parse(
+                path,
+                i + 1,
+                "frame id",
+                format!("{t:?} is not a frame id"),
+            ));
+        }
+        ids.push(t.to_owned());
+    }
+    Ok(ids)
+}

@@ -1,0 +1,160 @@
+//! KITTI label files (`label_2/NNNNNN.txt`): 15 fields per object, 16 with a score.
+//!
+//! The original tokens are kept so that the fields panoconv does not change (everything but the
+//! 2D box and the truncation) are written back byte for byte.
+
+use crate::error::{read_lines, Error, Result};
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+
+const FIELD_NAMES: [&str; 16] = [
+    "type",
+    "truncated",
+    "occluded",
+    "alpha",
+    "bbox.left",
+    "bbox.top",
+    "bbox.right",
+    "bbox.bottom",
+    "dimensions.height",
+    "dimensions.width",
+    "dimensions.length",
+    "location.x",
+    "location.y",
+    "location.z",
+    "rotation_y",
+    "score",
+];
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Label {
+    /// The line's tokens as read (15 or 16).
+    pub tokens: Vec<String>,
+    pub kind: String,
+    pub truncated: f64,
+    pub occluded: i32,
+    pub alpha: f64,
+    /// left, top, right, bottom in pixels.
+    pub bbox: [f64; 4],
+    /// height, width, length in metres.
+    pub dimensions: [f64; 3],
+    /// Bottom centre of the 3D box in rect, metres.
+    pub location: Vector3<f64>,
+    pub rotation_y: f64,
+    pub score: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+pub struct LabelFile {
+    pub path: PathBuf,
+    pub labels: Vec<Label>,
+}
+
+impl LabelFile {
+    pub fn read(path: &Path) -> Result<LabelFile> {
+        let lines = read_lines(path)?;
+        let mut labels = Vec::new();
+        for (i, line) in lines.iter().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            labels.push(Label::parse(path, i + 1, line)?);
+        }
+        Ok(LabelFile {
+            path: path.to_path_buf(),
+            labels,
+        })
+    }
+}
+
+impl Label {
+    pub fn parse(path: &Path, line_no: usize, line: &str) -> Result<Label> {
+        let tokens: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
+        if tokens.len() != 15 && tokens.len() != 16 {
+            return Err(Error::parse(
+                path,
+                line_no,
+                "fields",
+                format!("expected 15 fields (16 with score), found {}", tokens.len()),
+            ));
+        }
+        let num = |i: usize| -> Result<f64> {
+            let t = &tokens[i];
+            match t.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                Ok(_) => Err(Error::parse(
+                    path,
+                    line_no,
+                    FIELD_NAMES[i],
+                    format!("{t:?} is not finite"),
+                )),
+                Err(_) => Err(Error::parse(
+                    path,
+                    line_no,
+                    FIELD_NAMES[i],
+                    format!("{t:?} is not a number"),
+                )),
+            }
+        };
+        let occluded = num(2)?;
+        if occluded.fract() != 0.0 {
+            return Err(Error::parse(
+                path,
+                line_no,
+                FIELD_NAMES[2],
+                format!("{:?} is not an integer", tokens[2]),
+            ));
+        }
+        Ok(Label {
+            kind: tokens[0].clone(),
+            truncated: num(1)?,
+            occluded: occluded as i32,
+            alpha: num(3)?,
+            bbox: [num(4)?, num(5)?, num(6)?, num(7)?],
+            dimensions: [num(8)?, num(9)?, num(10)?],
+            location: Vector3::new(num(11)?, num(12)?, num(13)?),
+            rotation_y: num(14)?,
+            score: if tokens.len() == 16 {
+                Some(num(15)?)
+            } else {
+                None
+            },
+            tokens,
+        })
+    }
+
+    /// Whether the object carries a 3D box (DontCare and placeholder rows do not).
+    pub fn has_box_3d(&self) -> bool {
+        self.kind != "DontCare"
+            && self.dimensions.iter().all(|&d| d > 0.0)
+            && self.location.z > -999.0
+    }
+
+    /// The 8 corners of the 3D box in rect: bottom face first (y = location.y), then top.
+    pub fn corners(&self) -> [Vector3<f64>; 8] {
+        let [h, w, l] = self.dimensions;
+        let (s, c) = self.rotation_y.sin_cos();
+        let mut out = [Vector3::zeros(); 8];
+        let xs = [l / 2.0, l / 2.0, -l / 2.0, -l / 2.0];
+        let zs = [w / 2.0, -w / 2.0, -w / 2.0, w / 2.0];
+        for i in 0..8 {
+            let (x, z) = (xs[i % 4], zs[i % 4]);
+            let y = if i < 4 { 0.0 } else { -h };
+            // rotation about y: x' = c x + s z, z' = -s x + c z (KITTI's convention)
+            out[i] = self.location + Vector3::new(c * x + s * z, y, -s * x + c * z);
+        }
+        out
+    }
+
+    /// The label line with a new 2D box and truncation (None keeps it); other tokens verbatim.
+    pub fn to_line_with(&self, bbox: [f64; 4], truncated: Option<f64>) -> String {
+        let mut tokens = self.tokens.clone();
+        if let Some(t) = truncated {
+            tokens[1] = format!("{:.2}", t);
+        }
+        for (i, v) in bbox.iter().enumerate() {
+            tokens[4 + i] = format!("{:.2}", v);
+        }
+        tokens.join(" ")
+    }
+}

@@ -1,0 +1,183 @@
+//! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
+
+use crate::error::{Error, Result};
+use crate::image::RgbImage;
+use std::path::Path;
+
+/// How hard the PNG encoder works: files are smaller or written faster.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Default,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum PngCompression {
+    Fast,
+    #[default]
+    Default,
+    Best,
+}
+
+/// Decodes a PNG, tagging any failure with `path`. Alpha is dropped (KITTI images are opaque);
+/// 16-bit samples are rounded to 8 bits.
+pub fn decode_rgb8(bytes: &[u8], path: &Path) -> Result<RgbImage> {
+    let bad = |e: String| Error::file(path, format!("cannot decode PNG: {e}"));
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
+    let (width, height) = {
+        let info = reader.info();
+        (info.width, info.height)
+    };
+    if width == 0 || height == 0 {
+        return Err(bad("empty image".into()));
+    }
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let frame = reader
+        .next_frame(&mut buf)
+        .map_err(|e| bad(e.to_string()))?;
+    let buf = &buf[..frame.buffer_size()];
+    let channels = frame.color_type.samples();
+    let wide = frame.bit_depth == png::BitDepth::Sixteen;
+    let sample = |i: usize| -> u8 {
+        if wide {
+            let v = u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]) as u32;
+            ((v * 255 + 32767) / 65535) as u8
+        } else {
+            buf[i]
+        }
+    };
+    let n = width as usize * height as usize;
+    let mut out = Vec::with_capacity(n * 3);
+    match channels {
+        1 | 2 => {
+            for p in 0..n {
+                let g = sample(p * channels);
+                out.extend_from_slice(&[g, g, g]);
+            }
+        }
+        3 | 4 => {
+            if channels == 3 && !wide {
+                out.extend_from_slice(buf);
+            } else {
+                for p in 0..n {
+                    out.extend_from_slice(&[
+                        sample(p * channels),
+                        sample(p * channels + 1),
+                        sample(p * channels + 2),
+                    ]);
+                }
+            }
+        }
+        c => return Err(bad(format!("unsupported channel count {c}"))),
+    }
+    RgbImage::from_raw(width, height, out).ok_or_else(|| bad("truncated image data".into()))
+}
+
+/// Reads just the image size from the header.
+pub fn read_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let reader = decoder
+        .read_info()
+        .map_err(|e| Error::file(path, format!("cannot decode PNG: {e}")))?;
+    Ok((reader.info().width, reader.info().height))
+}
+
+fn encoder_settings(
+    c: PngCompression,
+) -> (png::Compression, png::FilterType, png::AdaptiveFilterType) {
+    match c {
+        PngCompression::Fast => (
+            png::Compression::Fast,
+            png::FilterType::Sub,
+            png::AdaptiveFilterType::NonAdaptive,
+        ),
+        PngCompression::Default => (
+            png::Compression::Fast,
+            png::FilterType::Paeth,
+            png::AdaptiveFilterType::Adaptive,
+        ),
+        PngCompression::Best => (
+            png::Compression::Best,
+            png::FilterType::Paeth,
+            png::AdaptiveFilterType::Adaptive,
+        ),
+    }
+}
+
+fn encode(
+    width: u32,
+    height: u32,
+    color: png::ColorType,
+    depth: png::BitDepth,
+    data: &[u8],
+    c: PngCompression,
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, width, height);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        let (comp, filter, adaptive) = encoder_settings(c);
+        enc.set_compression(comp);
+        enc.set_filter(filter);
+        enc.set_adaptive_filter(adaptive);
+        // Writing into a Vec cannot fail for a well-formed header and a buffer of the right size.
+        let mut w = enc.write_header().expect("PNG header for a valid size");
+        w.write_image_data(data)
+            .expect("PNG data of the declared size");
+    }
+    out
+}
+
+pub fn encode_rgb8(img: &RgbImage, c: PngCompression) -> Vec<u8> {
+    encode(
+        img.width(),
+        img.height(),
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        img.as_raw(),
+        c,
+    )
+}
+
+/// 16-bit greyscale (depth maps).
+pub fn encode_gray16(width: u32, height: u32, values: &[u16], c: PngCompression) -> Vec<u8> {
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    encode(
+        width,
+        height,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &bytes,
+        c,
+    )
+}
+
+/// Decodes a 16-bit greyscale PNG (depth maps).
+pub fn decode_gray16(bytes: &[u8], path: &Path) -> Result<(u32, u32, Vec<u16>)> {
+    let bad = |e: String| Error::file(path, format!("cannot decode 16-bit PNG: {e}"));
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let frame = reader
+        .next_frame(&mut buf)
+        .map_err(|e| bad(e.to_string()))?;
+    if frame.color_type != png::ColorType::Grayscale || frame.bit_depth != png::BitDepth::Sixteen {
+        return Err(bad(format!(
+            "expected 16-bit grey, found {:?} {:?}",
+            frame.color_type, frame.bit_depth
+        )));
+    }
+    let values = buf[..frame.buffer_size()]
+        .chunks_exact(2)
+        .map(|c| u16::from_be_bytes([c[0], c[1]]))
+        .collect();
+    Ok((frame.width, frame.height, values))
+}

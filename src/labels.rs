@@ -1,0 +1,290 @@
+//! Labels under a reprojection: 2D boxes recomputed from the exact projection of the 3D box.
+//!
+//! Straight 3D edges become curves in a panoramic image, so a box's extremes can lie inside an
+//! edge rather than at a corner: every face edge is sampled and each extreme refined by a
+//! golden-section search. Inside a face an extreme only occurs where the face meets the camera's
+//! vertical axis (a box above or below the camera); that case is tested exactly. Geometry
+//! behind a one-sided camera is clipped at a near plane first.
+
+use crate::camera::{CameraModel, ProjectionReject};
+use crate::kitti::Label;
+use nalgebra::{Point2, Vector3};
+
+/// Near plane (metres along the camera's front normal) for one-sided cameras.
+const NEAR: f64 = 0.05;
+const EDGE_SAMPLES: usize = 32;
+const REFINE_STEPS: usize = 40;
+
+/// Pixel bounds [left, top, right, bottom]; may extend beyond the image or be infinite.
+pub type Bounds = [f64; 4];
+
+struct Accumulator<'a> {
+    camera: &'a dyn CameraModel,
+    /// Horizontal reference for unwrapping a periodic horizontal coordinate.
+    reference_u: Option<f64>,
+    bounds: Bounds,
+}
+
+impl<'a> Accumulator<'a> {
+    fn new(camera: &'a dyn CameraModel) -> Self {
+        Self {
+            camera,
+            reference_u: None,
+            bounds: [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ],
+        }
+    }
+
+    /// Pixel of a point, unwrapped next to the reference so a seam-crossing box stays whole.
+    fn pixel(&self, p: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let mut px = self.camera.project_point(p)?;
+        if let (Some(period), Some(r)) = (self.camera.horizontal_period(), self.reference_u) {
+            px.x = r + (px.x - r + period / 2.0).rem_euclid(period) - period / 2.0;
+        }
+        Ok(px)
+    }
+
+    fn add(&mut self, px: Point2<f64>) {
+        let b = &mut self.bounds;
+        b[0] = b[0].min(px.x);
+        b[1] = b[1].min(px.y);
+        b[2] = b[2].max(px.x);
+        b[3] = b[3].max(px.y);
+    }
+
+    /// Adds the projection of the segment p→q, with each coordinate's extremes refined.
+    fn add_segment(&mut self, p: &Vector3<f64>, q: &Vector3<f64>) {
+        let at = |t: f64| p + (q - p) * t;
+        let samples: Vec<Option<Point2<f64>>> = (0..=EDGE_SAMPLES)
+            .map(|i| self.pixel(&at(i as f64 / EDGE_SAMPLES as f64)).ok())
+            .collect();
+        for s in samples.iter().flatten() {
+            self.add(*s);
+        }
+        // objective k: 0 → -u, 1 → -v, 2 → u, 3 → v (maximised)
+        for k in 0..4 {
+            let value = |px: &Point2<f64>| match k {
+                0 => -px.x,
+                1 => -px.y,
+                2 => px.x,
+                _ => px.y,
+            };
+            let best = samples
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| s.map(|s| (i, value(&s))))
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((i, _)) = best else { continue };
+            let lo = i.saturating_sub(1) as f64 / EDGE_SAMPLES as f64;
+            let hi = (i + 1).min(EDGE_SAMPLES) as f64 / EDGE_SAMPLES as f64;
+            let f = |t: f64| self.pixel(&at(t)).ok().map(|px| value(&px));
+            if let Some(t) = golden_max(&f, lo, hi) {
+                if let Ok(px) = self.pixel(&at(t)) {
+                    self.add(px);
+                }
+            }
+        }
+    }
+}
+
+/// Maximises f on [lo, hi] (assumed unimodal there); None if f is undefined at the probes.
+fn golden_max(f: &impl Fn(f64) -> Option<f64>, mut lo: f64, mut hi: f64) -> Option<f64> {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut x1 = hi - g * (hi - lo);
+    let mut x2 = lo + g * (hi - lo);
+    let (mut f1, mut f2) = (f(x1)?, f(x2)?);
+    for _ in 0..REFINE_STEPS {
+        if f1 < f2 {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2)?;
+        } else {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1)?;
+        }
+    }
+    Some((lo + hi) / 2.0)
+}
+
+/// Clips a convex polygon to n·p >= d (Sutherland–Hodgman against one plane).
+fn clip_polygon(poly: &[Vector3<f64>], n: &Vector3<f64>, d: f64) -> Vec<Vector3<f64>> {
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (da, db) = (n.dot(&a) - d, n.dot(&b) - d);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            out.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    out
+}
+
+const FACES: [[usize; 4]; 6] = [
+    [0, 1, 2, 3],
+    [4, 5, 6, 7],
+    [0, 1, 5, 4],
+    [1, 2, 6, 5],
+    [2, 3, 7, 6],
+    [3, 0, 4, 7],
+];
+
+/// Where the camera's vertical axis (through the centre, along y) meets a convex planar
+/// polygon, if it does.
+fn vertical_axis_hit(poly: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+    // Work in the x-z plane: the axis is the point (0, 0); test containment, then find y on the plane.
+    let n = (poly[1] - poly[0]).cross(&(poly[2] - poly[0]));
+    if n.y.abs() < 1e-12 * n.norm() {
+        return None;
+    }
+    let mut sign = 0.0;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        let cross = (b.x - a.x) * (-a.z) - (b.z - a.z) * (-a.x);
+        if cross.abs() < 1e-15 {
+            continue;
+        }
+        if sign == 0.0 {
+            sign = cross.signum();
+        } else if cross.signum() != sign {
+            return None;
+        }
+    }
+    // plane: n·(p - poly[0]) = 0 with p = (0, y, 0)
+    let y = n.dot(&poly[0]) / n.y;
+    Some(Vector3::new(0.0, y, 0.0))
+}
+
+/// Unclipped pixel bounds of a 3D box (corners relative to the camera centre, camera axes).
+pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Option<Bounds> {
+    let mut acc = Accumulator::new(camera);
+    let centroid = corners.iter().sum::<Vector3<f64>>() / 8.0;
+    acc.reference_u = camera
+        .project_point(&centroid)
+        .ok()
+        .or_else(|| corners.iter().find_map(|c| camera.project_point(c).ok()))
+        .map(|p| p.x);
+    let front = camera.front_halfspace();
+    for face in FACES {
+        let quad: Vec<Vector3<f64>> = face.iter().map(|&i| corners[i]).collect();
+        let poly = match front {
+            Some(n) => clip_polygon(&quad, &n, NEAR),
+            None => quad,
+        };
+        if poly.len() < 3 {
+            continue;
+        }
+        for i in 0..poly.len() {
+            acc.add_segment(&poly[i], &poly[(i + 1) % poly.len()]);
+        }
+        if front.is_none() {
+            if let Some(hit) = vertical_axis_hit(&poly) {
+                // The box spans every azimuth around the camera's vertical axis.
+                acc.bounds[0] = f64::NEG_INFINITY;
+                acc.bounds[2] = f64::INFINITY;
+                match camera.project_point(&hit) {
+                    Ok(px) => acc.add(px),
+                    Err(_) if hit.y < 0.0 => acc.bounds[1] = f64::NEG_INFINITY,
+                    Err(_) => acc.bounds[3] = f64::INFINITY,
+                }
+            }
+        }
+    }
+    let b = acc.bounds;
+    (b[0] <= b[2] && b[1] <= b[3]).then_some(b)
+}
+
+/// Unclipped bounds of the image of a source-pixel rectangle, mapped through `map` (source
+/// pixel → output pixel), by its boundary.
+pub fn rect_bounds(
+    rect: [f64; 4],
+    map: &dyn Fn(Point2<f64>) -> Option<Point2<f64>>,
+    period: Option<f64>,
+) -> Option<Bounds> {
+    let [l, t, r, b] = rect;
+    let n = 64;
+    let mut pts = Vec::with_capacity(4 * (n + 1));
+    for i in 0..=n {
+        let s = i as f64 / n as f64;
+        pts.push(Point2::new(l + (r - l) * s, t));
+        pts.push(Point2::new(l + (r - l) * s, b));
+        pts.push(Point2::new(l, t + (b - t) * s));
+        pts.push(Point2::new(r, t + (b - t) * s));
+    }
+    let centre = map(Point2::new((l + r) / 2.0, (t + b) / 2.0)).map(|p| p.x);
+    let mut out = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in pts {
+        if let Some(mut q) = map(p) {
+            if let (Some(period), Some(c)) = (period, centre) {
+                q.x = c + (q.x - c + period / 2.0).rem_euclid(period) - period / 2.0;
+            }
+            out[0] = out[0].min(q.x);
+            out[1] = out[1].min(q.y);
+            out[2] = out[2].max(q.x);
+            out[3] = out[3].max(q.y);
+        }
+    }
+    (out[0] <= out[2]).then_some(out)
+}
+
+/// Clips bounds to KITTI's box range [0, w-1] × [0, h-1]; None when nothing is left.
+pub fn clip(b: Bounds, width: u32, height: u32) -> Option<Bounds> {
+    let (wm, hm) = ((width - 1) as f64, (height - 1) as f64);
+    let c = [b[0].max(0.0), b[1].max(0.0), b[2].min(wm), b[3].min(hm)];
+    (b[0] <= wm && b[2] >= 0.0 && b[1] <= hm && b[3] >= 0.0 && c[0] <= c[2] && c[1] <= c[3])
+        .then_some(c)
+}
+
+/// Fraction of the unclipped box's area that clipping removed.
+pub fn clipped_fraction(unclipped: Bounds, clipped: Bounds) -> f64 {
+    let area = |b: Bounds| (b[2] - b[0]).max(0.0) * (b[3] - b[1]).max(0.0);
+    let full = area(unclipped);
+    if !full.is_finite() {
+        return 1.0;
+    }
+    if full <= 0.0 {
+        return 0.0;
+    }
+    (1.0 - area(clipped) / full).clamp(0.0, 1.0)
+}
+
+/// One label in the output camera: its new line, or None when it left the image.
+pub fn transform_label(
+    label: &Label,
+    centre: &Vector3<f64>,
+    source: &dyn CameraModel,
+    output: &dyn CameraModel,
+) -> Option<String> {
+    let size = output.size();
+    let unclipped = if label.has_box_3d() {
+        let corners = label.corners().map(|c| c - centre);
+        box_bounds(&corners, output)?
+    } else {
+        let map = |p: Point2<f64>| -> Option<Point2<f64>> {
+            let d = source.unproject(&p).ok()?;
+            output.project(&d).ok()
+        };
+        rect_bounds(label.bbox, &map, output.horizontal_period())?
+    };
+    let clipped = clip(unclipped, size.width, size.height)?;
+    // DontCare rows carry -1 ("not applicable"), which stays as it is.
+    let truncated =
+        (label.truncated >= 0.0).then(|| label.truncated.max(clipped_fraction(unclipped, clipped)));
+    Some(label.to_line_with(clipped, truncated))
+}

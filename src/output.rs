@@ -1,0 +1,146 @@
+//! Writing outputs: atomic files, the output-folder checks, and the manifest.
+
+use crate::error::{Error, Result};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Component, Path, PathBuf};
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
+/// reader (or a crash) never sees a half-written file.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_data()?;
+        std::fs::rename(&tmp, path)
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })
+}
+
+/// `path` made absolute and free of `.`/`..`, resolving symlinks as far as the path exists.
+fn resolve(path: &Path) -> Result<PathBuf> {
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map_err(|e| Error::io(Path::new("."), e))?
+            .join(path)
+    };
+    let mut existing = abs.clone();
+    let mut rest = Vec::new();
+    while !existing.exists() {
+        match (existing.file_name(), existing.parent()) {
+            (Some(n), Some(p)) => {
+                rest.push(n.to_owned());
+                existing = p.to_path_buf();
+            }
+            _ => break,
+        }
+    }
+    let mut out = existing
+        .canonicalize()
+        .map_err(|e| Error::io(&existing, e))?;
+    for c in rest.iter().rev() {
+        match Path::new(c).components().next() {
+            Some(Component::ParentDir) => {
+                out.pop();
+            }
+            Some(Component::CurDir) | None => {}
+            _ => out.push(c),
+        }
+    }
+    Ok(out)
+}
+
+/// Checks, before anything is written, that the output is usable: not the input, not inside it,
+/// and empty unless `overwrite`.
+pub fn check_output_dir(input: &Path, output: &Path, overwrite: bool) -> Result<()> {
+    let (i, o) = (resolve(input)?, resolve(output)?);
+    if o == i {
+        return Err(Error::Setup(format!(
+            "output {} is the input dataset",
+            output.display()
+        )));
+    }
+    if o.starts_with(&i) {
+        return Err(Error::Setup(format!(
+            "output {} is inside the input dataset {}; panoconv never writes into its input",
+            output.display(),
+            input.display()
+        )));
+    }
+    if output.exists() {
+        if !output.is_dir() {
+            return Err(Error::Setup(format!(
+                "output {} exists and is not a directory",
+                output.display()
+            )));
+        }
+        let mut entries = std::fs::read_dir(output).map_err(|e| Error::io(output, e))?;
+        if entries.next().is_some() && !overwrite {
+            return Err(Error::Setup(format!(
+                "output {} is not empty (use --overwrite to write into it)",
+                output.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+pub fn hash_hex(bytes: &[u8]) -> String {
+    blake3::hash(bytes).to_hex().to_string()
+}
+
+/// The manifest `OUT/panoconv.json`. Deterministic: no times, no absolute output paths,
+/// frames in sorted order.
+#[derive(Debug, Serialize)]
+pub struct Manifest<P: Serialize> {
+    pub tool: &'static str,
+    pub version: &'static str,
+    pub command: String,
+    pub parameters: P,
+    pub summary: ManifestSummary,
+    pub frames: Vec<FrameRecord>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct ManifestSummary {
+    pub frames: usize,
+    pub converted: usize,
+    pub failed: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameRecord {
+    pub split: String,
+    pub id: String,
+    pub status: FrameStatus,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Input file (relative to the input root) → blake3.
+    pub inputs: Vec<(String, String)>,
+    /// Output file (relative to the output root) → blake3.
+    pub outputs: Vec<(String, String)>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameStatus {
+    Ok,
+    Failed,
+}
+
+pub fn write_manifest<P: Serialize>(output: &Path, manifest: &Manifest<P>) -> Result<()> {
+    let mut json = serde_json::to_vec_pretty(manifest).expect("manifest serialises");
+    json.push(b'\n');
+    write_atomic(&output.join("panoconv.json"), &json)
+}

@@ -1,0 +1,283 @@
+//! The KITTI conversion: frames flow through read → (style) → warp → labels/calib → write, in
+//! parallel over frames on one rayon pool (the only owner of threads).
+
+use crate::camera::{ImageSize, LinearCamera};
+use crate::error::{read_file, Error, Result};
+use crate::geometry::{output_camera, OutputSpec};
+use crate::kitti::png_io::{self, PngCompression};
+use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
+use crate::labels::transform_label;
+use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary};
+use crate::warp::{OnceMap, RemapTable, Wrap};
+use nalgebra::Matrix3;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Everything a `kitti` conversion needs; also recorded in the manifest.
+#[derive(Debug, Clone, Serialize)]
+pub struct KittiJob {
+    pub input: PathBuf,
+    #[serde(skip)]
+    pub output: PathBuf,
+    pub output_spec: OutputSpec,
+    pub split: Option<String>,
+    /// Restrict to these frame ids.
+    pub frames: Option<Vec<String>>,
+    #[serde(skip)]
+    pub overwrite: bool,
+    pub png_compression: PngCompression,
+}
+
+/// Reports progress; the CLI passes an indicatif bar, tests a no-op.
+pub trait Progress: Sync {
+    fn start(&self, total: usize);
+    fn frame_done(&self);
+    /// A frame failed: report it (once) without disturbing the bar.
+    fn frame_failed(&self, frame: &FrameRef, error: &Error);
+    fn finish(&self);
+}
+
+/// A progress reporter that says nothing.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn start(&self, _: usize) {}
+    fn frame_done(&self) {}
+    fn frame_failed(&self, _: &FrameRef, _: &Error) {}
+    fn finish(&self) {}
+}
+
+#[derive(Debug)]
+pub struct Summary {
+    pub frames: usize,
+    pub converted: usize,
+    pub failed: usize,
+    pub seconds: f64,
+    /// Distinct (source camera → output camera) mappings built.
+    pub tables_built: usize,
+}
+
+/// The output camera and remap table of one source camera.
+#[derive(Clone)]
+struct Mapping {
+    output: Arc<dyn LinearCamera>,
+    table: Arc<RemapTable>,
+}
+
+type MappingKey = ([u64; 4], ImageSize);
+
+struct Context<'a> {
+    job: &'a KittiJob,
+    dataset: &'a Dataset,
+    mappings: OnceMap<MappingKey, std::result::Result<Mapping, String>>,
+}
+
+struct FrameOutput {
+    record: FrameRecord,
+}
+
+fn relative(root: &Path, path: &Path) -> String {
+    path.strip_prefix(root)
+        .unwrap_or(path)
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+impl Context<'_> {
+    fn mapping(
+        &self,
+        calib_path: &Path,
+        k: crate::camera::Intrinsics,
+        size: ImageSize,
+    ) -> Result<Mapping> {
+        let source = crate::camera::Perspective::new(k, size);
+        self.mappings
+            .get_or_build(&(k.key(), size), || {
+                let output =
+                    output_camera(&self.job.output_spec, k, &source).map_err(|e| e.to_string())?;
+                let table =
+                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                Ok(Mapping {
+                    output: Arc::from(output),
+                    table: Arc::new(table),
+                })
+            })
+            .map_err(|m| Error::file(calib_path, m))
+    }
+
+    fn convert(&self, split: &Split, id: &str) -> Result<FrameOutput> {
+        let root = &self.dataset.root;
+        let mut inputs = Vec::new();
+        let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+
+        let calib_path = split.calib_path(id);
+        let calib_bytes = read_file(&calib_path)?;
+        inputs.push((relative(root, &calib_path), output::hash_hex(&calib_bytes)));
+        let calib = Calib::read(&calib_path)?;
+        let cam2 = calib.camera(2)?;
+
+        let labels = if split.has_labels {
+            let path = split.label_path(id);
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            Some(LabelFile::read(&path)?)
+        } else {
+            None
+        };
+
+        let image_path = split.image_path(2, id);
+        let image_bytes = read_file(&image_path)?;
+        inputs.push((relative(root, &image_path), output::hash_hex(&image_bytes)));
+        let image = png_io::decode_rgb8(&image_bytes, &image_path)?;
+        let size = ImageSize::new(image.width(), image.height());
+
+        let mapping = self.mapping(&calib_path, cam2.k, size)?;
+        let warped = mapping.table.apply(&image);
+        let out_size = mapping.output.size();
+        debug_assert_eq!(
+            (warped.width(), warped.height()),
+            (out_size.width, out_size.height)
+        );
+
+        let out_split = self.job.output.join(&split.name);
+        outputs.push((
+            out_split.join("image_2").join(format!("{id}.png")),
+            png_io::encode_rgb8(&warped, self.job.png_compression),
+        ));
+        if let Some(labels) = labels {
+            let source = cam2.camera(size);
+            let mut text = String::new();
+            for label in &labels.labels {
+                if let Some(line) =
+                    transform_label(label, &cam2.centre, &source, mapping.output.as_ref())
+                {
+                    text.push_str(&line);
+                    text.push('\n');
+                }
+            }
+            outputs.push((
+                out_split.join("label_2").join(format!("{id}.txt")),
+                text.into_bytes(),
+            ));
+        }
+        let k_out = mapping.output.intrinsics();
+        let projection = mapping.output.projection().name();
+        let calib_text = calib.render_output(projection, &[(2, k_out, cam2.centre)]);
+        outputs.push((
+            out_split.join("calib").join(format!("{id}.txt")),
+            calib_text.into_bytes(),
+        ));
+
+        let mut record_outputs = Vec::new();
+        for (path, bytes) in &outputs {
+            output::write_atomic(path, bytes)?;
+            record_outputs.push((relative(&self.job.output, path), output::hash_hex(bytes)));
+        }
+        Ok(FrameOutput {
+            record: FrameRecord {
+                split: split.name.clone(),
+                id: id.to_owned(),
+                status: FrameStatus::Ok,
+                error: None,
+                inputs,
+                outputs: record_outputs,
+            },
+        })
+    }
+}
+
+/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
+/// is reported through `progress`, recorded in the manifest and counted in the summary.
+pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
+    let started = std::time::Instant::now();
+    let dataset = Dataset::open(&job.input, job.split.as_deref())?;
+    output::check_output_dir(&job.input, &job.output, job.overwrite)?;
+    let (frames, missing) = dataset.select(job.frames.as_deref());
+
+    for split in &dataset.splits {
+        let mut dirs = vec!["image_2", "calib"];
+        if split.has_labels {
+            dirs.push("label_2");
+        }
+        for d in dirs {
+            let dir = job.output.join(&split.name).join(d);
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        }
+    }
+
+    let ctx = Context {
+        job,
+        dataset: &dataset,
+        mappings: OnceMap::default(),
+    };
+    progress.start(frames.len() + missing.len());
+    let mut records: Vec<FrameRecord> = frames
+        .par_iter()
+        .map(|f| {
+            let split = dataset
+                .split(&f.split)
+                .expect("selected frames come from the dataset's splits");
+            match ctx.convert(split, &f.id) {
+                Ok(out) => {
+                    progress.frame_done();
+                    out.record
+                }
+                Err(e) => {
+                    progress.frame_failed(f, &e);
+                    failed_record(f, &e)
+                }
+            }
+        })
+        .collect();
+    for id in missing {
+        let f = FrameRef {
+            split: String::new(),
+            id: id.clone(),
+        };
+        let e = Error::Setup(format!(
+            "frame {id} was asked for but is in no selected split"
+        ));
+        progress.frame_failed(&f, &e);
+        records.push(failed_record(&f, &e));
+    }
+    progress.finish();
+
+    let failed = records
+        .iter()
+        .filter(|r| r.status == FrameStatus::Failed)
+        .count();
+    let summary = Summary {
+        frames: records.len(),
+        converted: records.len() - failed,
+        failed,
+        seconds: started.elapsed().as_secs_f64(),
+        tables_built: ctx.mappings.len(),
+    };
+    let manifest = Manifest {
+        tool: "panoconv",
+        version: env!("CARGO_PKG_VERSION"),
+        command: "kitti".into(),
+        parameters: job,
+        summary: ManifestSummary {
+            frames: summary.frames,
+            converted: summary.converted,
+            failed: summary.failed,
+        },
+        frames: records,
+    };
+    output::write_manifest(&job.output, &manifest)?;
+    Ok(summary)
+}
+
+fn failed_record(f: &FrameRef, e: &Error) -> FrameRecord {
+    FrameRecord {
+        split: f.split.clone(),
+        id: f.id.clone(),
+        status: FrameStatus::Failed,
+        error: Some(e.to_string()),
+        inputs: Vec::new(),
+        outputs: Vec::new(),
+    }
+}

@@ -1,0 +1,8 @@
+//! Image reprojection: a remap table built once per (source camera, output camera) and applied
+//! to every frame that shares them.
+
+mod cache;
+mod table;
+
+pub use cache::OnceMap;
+pub use table::{RemapTable, Wrap};
