@@ -133,15 +133,16 @@ impl Scene {
     }
 
     /// Renders through `camera` placed at `centre` (rect axes), integrating each pixel over a
-    /// Gaussian footprint (σ = 0.5 px, 4×4 samples). Pixels without a ray stay black.
+    /// Gaussian footprint (σ = 0.55 px, 6×6 samples over ±1.5 px). Pixels without a ray stay black.
     pub fn render(&self, camera: &dyn CameraModel, centre: &Vector3<f64>) -> RgbImage {
-        const N: usize = 4;
-        const SIGMA: f64 = 0.5;
+        const N: usize = 6;
+        const SIGMA: f64 = 0.55;
+        const REACH: f64 = 1.5;
         let offsets: Vec<(f64, f64, f64)> = (0..N * N)
             .map(|k| {
                 let (i, j) = (k % N, k / N);
-                let du = (i as f64 + 0.5) / N as f64 * 2.0 - 1.0;
-                let dv = (j as f64 + 0.5) / N as f64 * 2.0 - 1.0;
+                let du = ((i as f64 + 0.5) / N as f64 * 2.0 - 1.0) * REACH;
+                let dv = ((j as f64 + 0.5) / N as f64 * 2.0 - 1.0) * REACH;
                 (du, dv, (-(du * du + dv * dv) / (2.0 * SIGMA * SIGMA)).exp())
             })
             .collect();
@@ -177,30 +178,20 @@ impl Scene {
     }
 }
 
-/// A KITTI calibration for the synthetic frames.
+/// A synthetic camera 2: its true intrinsics and optical centre, from which P2 is made.
 pub struct SynthCalib {
-    pub p2: [f64; 12],
+    pub k: Intrinsics,
+    /// Camera 2's optical centre in rect (the ground truth `C2:` must reproduce).
+    pub centre: Vector3<f64>,
     pub size: ImageSize,
 }
 
 impl SynthCalib {
-    /// KITTI's most common calibration (1242x375, f = 721.5377).
+    /// KITTI's most common calibration (1242x375, f = 721.5377), camera 2 six cm left of camera 0.
     pub fn standard() -> Self {
         Self {
-            p2: [
-                721.5377,
-                0.0,
-                609.5593,
-                44.85728,
-                0.0,
-                721.5377,
-                172.854,
-                0.2163791,
-                0.0,
-                0.0,
-                1.0,
-                0.002745884,
-            ],
+            k: Intrinsics::new(721.5377, 721.5377, 609.5593, 172.854),
+            centre: Vector3::new(-0.0598, 0.0004, -0.0027),
             size: ImageSize::new(1242, 375),
         }
     }
@@ -208,80 +199,60 @@ impl SynthCalib {
     /// A second KITTI calibration (1224x370, f = 707.0493).
     pub fn narrow() -> Self {
         Self {
-            p2: [
-                707.0493,
-                0.0,
-                604.0814,
-                45.75831,
-                0.0,
-                707.0493,
-                180.5066,
-                -0.3454157,
-                0.0,
-                0.0,
-                1.0,
-                0.004981016,
-            ],
+            k: Intrinsics::new(707.0493, 707.0493, 604.0814, 180.5066),
+            centre: Vector3::new(-0.0612, 0.0009, -0.0050),
             size: ImageSize::new(1224, 370),
         }
     }
 
     pub fn intrinsics(&self) -> Intrinsics {
-        Intrinsics::new(self.p2[0], self.p2[5], self.p2[2], self.p2[6])
+        self.k
     }
 
-    /// Camera 2's optical centre in rect: C = -K⁻¹ P2[:, 3].
+    /// P = K [I | -C], row-major.
+    pub fn p(&self, centre: &Vector3<f64>) -> [f64; 12] {
+        let k = self.k;
+        let t = -centre;
+        [
+            k.fu,
+            0.0,
+            k.cu,
+            k.fu * t.x + k.cu * t.z,
+            0.0,
+            k.fv,
+            k.cv,
+            k.fv * t.y + k.cv * t.z,
+            0.0,
+            0.0,
+            1.0,
+            t.z,
+        ]
+    }
+
+    pub fn p2(&self) -> [f64; 12] {
+        self.p(&self.centre)
+    }
+
     pub fn centre(&self) -> Vector3<f64> {
-        let k = self.intrinsics();
-        let tz = self.p2[11];
-        let ty = (self.p2[7] - k.cv * tz) / k.fv;
-        let tx = (self.p2[3] - k.cu * tz) / k.fu;
-        -Vector3::new(tx, ty, tz)
+        self.centre
     }
 
     pub fn text(&self) -> String {
-        let k = self.intrinsics();
         let row = |v: &[f64]| {
             v.iter()
                 .map(|&x| format_sci(x))
                 .collect::<Vec<_>>()
                 .join(" ")
         };
-        let p = |tx: f64| {
-            [
-                k.fu,
-                0.0,
-                k.cu,
-                tx * k.fu,
-                0.0,
-                k.fv,
-                k.cv,
-                0.0,
-                0.0,
-                0.0,
-                1.0,
-                0.0,
-            ]
-        };
+        let c0 = Vector3::zeros();
+        let c1 = Vector3::new(0.537, 0.0, 0.0);
+        let c3 = self.centre + Vector3::new(0.537, 0.0, 0.0);
         format!(
             "P0: {}\nP1: {}\nP2: {}\nP3: {}\nR0_rect: {}\nTr_velo_to_cam: {}\nTr_imu_to_velo: {}\n",
-            row(&p(0.0)),
-            row(&p(-0.537)),
-            row(&self.p2),
-            row(&[
-                k.fu,
-                0.0,
-                k.cu,
-                -0.4775 * k.fu,
-                0.0,
-                k.fv,
-                k.cv,
-                0.0,
-                0.0,
-                0.0,
-                1.0,
-                0.0
-            ]),
+            row(&self.p(&c0)),
+            row(&self.p(&c1)),
+            row(&self.p2()),
+            row(&self.p(&c3)),
             row(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]),
             row(&[0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, -0.08, 1.0, 0.0, 0.0, -0.27]),
             row(&[1.0, 0.0, 0.0, -0.81, 0.0, 1.0, 0.0, 0.32, 0.0, 0.0, 1.0, -0.8]),

@@ -62,9 +62,11 @@ impl LinearCamera for Equirect {
     }
 
     fn from_ab(&self, lon: f64, lat: f64) -> Result<Vector3<f64>, ProjectionReject> {
-        if !(lon.is_finite() && lat.is_finite()) || lat.abs() > FRAC_PI_2 {
+        // A pole pixel computed in floating point may land a rounding error beyond π/2.
+        if !(lon.is_finite() && lat.is_finite()) || lat.abs() > FRAC_PI_2 + 1e-12 {
             return Err(ProjectionReject::OutsideDomain);
         }
+        let lat = lat.clamp(-FRAC_PI_2, FRAC_PI_2);
         let (sl, cl) = lat.sin_cos();
         let (so, co) = lon.sin_cos();
         Ok(Vector3::new(cl * so, sl, cl * co))

@@ -56,6 +56,18 @@ impl RemapTable {
         src_from_dst: &Matrix3<f64>,
         wrap: Wrap,
     ) -> RemapTable {
+        Self::build_with(dst, src, src_from_dst, wrap, MAX_SUPERSAMPLE)
+    }
+
+    /// As [`RemapTable::build`], with at most `max_supersample`² samples per output pixel
+    /// (1 turns the antialiasing off).
+    pub fn build_with(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+    ) -> RemapTable {
         let size = dst.size();
         let source_size = src.size();
         let (sw, sh) = (source_size.width as f64, source_size.height as f64);
@@ -115,7 +127,7 @@ impl RemapTable {
                 let mut taps = Vec::with_capacity(size.width as usize);
                 for u in 0..size.width {
                     let (uf, vf) = (u as f64, v as f64);
-                    let n = supersampling(uf, vf, &to_src);
+                    let n = supersampling(uf, vf, &to_src).min(max_supersample.max(1));
                     for j in 0..n {
                         for i in 0..n {
                             let du = (i as f64 + 0.5) / n as f64 - 0.5;
