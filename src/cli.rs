@@ -39,6 +39,9 @@ enum Command {
     /// Convert a KITTI object dataset (images, labels, calib) to another projection.
     #[command(after_help = KITTI_EXAMPLES)]
     Kitti(KittiArgs),
+    /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
+    #[command(after_help = "Examples:\n  panoconv preview /data/kitti_equi --frame 000123 --output preview.png\n  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png")]
+    Preview(PreviewArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
     Synth(SynthArgs),
@@ -114,6 +117,20 @@ struct KittiArgs {
     /// No progress bar and no summary line.
     #[arg(long, short = 'q')]
     quiet: bool,
+}
+
+#[derive(Args)]
+struct PreviewArgs {
+    /// A dataset written by `panoconv kitti` (or any KITTI root, drawn as perspective).
+    dataset: PathBuf,
+    /// Frame id.
+    #[arg(long)]
+    frame: String,
+    #[arg(long, default_value = "training")]
+    split: String,
+    /// PNG to write.
+    #[arg(long, short = 'o')]
+    output: PathBuf,
 }
 
 #[derive(Args)]
@@ -270,10 +287,36 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn preview(args: PreviewArgs) -> Result<ExitCode> {
+    use panoconv::camera::{ImageSize, LinearCamera};
+    use panoconv::kitti::{png_io, Calib, LabelFile};
+    let split = args.dataset.join(&args.split);
+    let image_path = split.join("image_2").join(format!("{}.png", args.frame));
+    let calib_path = split.join("calib").join(format!("{}.txt", args.frame));
+    let label_path = split.join("label_2").join(format!("{}.txt", args.frame));
+    let mut image = png_io::decode_rgb8(&panoconv::error::read_file(&image_path)?, &image_path)?;
+    let calib = Calib::read(&calib_path)?;
+    let size = ImageSize::new(image.width(), image.height());
+    let (camera, centre): (Box<dyn LinearCamera>, _) = if calib.projection.is_some() {
+        calib.output_camera(2, size)?
+    } else {
+        let c = calib.camera(2)?;
+        (Box::new(c.camera(size)), c.centre)
+    };
+    if label_path.exists() {
+        for label in LabelFile::read(&label_path)?.labels {
+            panoconv::preview::draw_label(&mut image, &label, camera.as_ref(), &centre);
+        }
+    }
+    panoconv::output::write_atomic(&args.output, &png_io::encode_rgb8(&image, PngCompression::Default))?;
+    Ok(ExitCode::SUCCESS)
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
         Command::Kitti(a) => kitti(a),
+        Command::Preview(a) => preview(a),
         Command::Synth(a) => synth(a),
     }
 }

@@ -10,6 +10,7 @@ pub mod kitti;
 pub mod labels;
 pub mod output;
 pub mod pipeline;
+pub mod preview;
 pub mod style;
 pub mod synth;
 pub mod warp;

@@ -116,6 +116,12 @@ impl Context<'_> {
         let calib_bytes = read_file(&calib_path)?;
         inputs.push((relative(root, &calib_path), output::hash_hex(&calib_bytes)));
         let calib = Calib::read(&calib_path)?;
+        if calib.projection.is_some() {
+            return Err(Error::file(
+                &calib_path,
+                "this calib was written by panoconv (it has a projection: line): convert the original dataset",
+            ));
+        }
         let cam2 = calib.camera(2)?;
 
         let labels = if split.has_labels {

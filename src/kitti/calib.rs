@@ -4,7 +4,7 @@
 //! the known matrices are parsed and checked. KITTI tracking's spellings (`R_rect`,
 //! `Tr_velo_cam`, `Tr_imu_velo`, with or without a colon) are accepted as aliases.
 
-use crate::camera::{ImageSize, Intrinsics, Perspective};
+use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
 use crate::error::{read_lines, Error, Result};
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use std::path::{Path, PathBuf};
@@ -19,6 +19,10 @@ pub struct Calib {
     pub r0_rect: Option<Matrix3<f64>>,
     pub tr_velo_to_cam: Option<Matrix3x4<f64>>,
     pub tr_imu_to_velo: Option<Matrix3x4<f64>>,
+    /// Lines panoconv adds (present when the file describes a converted image).
+    pub projection: Option<Projection>,
+    pub k_out: [Option<Intrinsics>; 4],
+    pub c_out: [Option<Vector3<f64>>; 4],
 }
 
 /// A rectified camera of the dataset: intrinsics and optical centre in rect.
@@ -33,6 +37,16 @@ impl SourceCamera {
     pub fn camera(&self, size: ImageSize) -> Perspective {
         Perspective::new(self.k, size)
     }
+}
+
+/// `K2`, `C3`, ...: the output-camera lines panoconv writes.
+fn output_key(name: &str, letter: char) -> Option<usize> {
+    let mut chars = name.chars();
+    if chars.next() != Some(letter) {
+        return None;
+    }
+    let n = chars.as_str().parse::<usize>().ok()?;
+    (n < 4).then_some(n)
 }
 
 enum Key {
@@ -106,6 +120,9 @@ impl Calib {
             r0_rect: None,
             tr_velo_to_cam: None,
             tr_imu_to_velo: None,
+            projection: None,
+            k_out: [None; 4],
+            c_out: [None; 4],
         };
         for (i, line) in lines.iter().enumerate() {
             let line_no = i + 1;
@@ -117,16 +134,29 @@ impl Calib {
                 Some((n, r)) => (n.trim(), r),
                 None => (trimmed, ""),
             };
+            let rest = rest.trim_start_matches(':');
             if name == "projection" {
-                return Err(Error::parse(
-                    path,
-                    line_no,
-                    "projection",
-                    "this calib was written by panoconv: its image is no longer rectilinear, convert the original dataset",
-                ));
+                calib.projection = Some(match rest.trim() {
+                    "perspective" => Projection::Perspective,
+                    "equirect" => Projection::Equirect,
+                    "cylindrical" => Projection::Cylindrical,
+                    other => {
+                        return Err(Error::parse(path, line_no, "projection", format!("unknown projection {other:?}")));
+                    }
+                });
+                continue;
+            }
+            if let Some(n) = output_key(name, 'K') {
+                let v = parse_numbers(path, line_no, name, rest, 9)?;
+                calib.k_out[n] = Some(Intrinsics::new(v[0], v[4], v[2], v[5]));
+                continue;
+            }
+            if let Some(n) = output_key(name, 'C') {
+                let v = parse_numbers(path, line_no, name, rest, 3)?;
+                calib.c_out[n] = Some(Vector3::new(v[0], v[1], v[2]));
+                continue;
             }
             let Some(key) = known_key(name) else { continue };
-            let rest = rest.trim_start_matches(':');
             match key {
                 Key::P(n) => {
                     let v = parse_numbers(path, line_no, name, rest, 12)?;
@@ -177,6 +207,15 @@ impl Calib {
         let t = km.try_inverse().ok_or_else(|| bad("singular K"))?
             * Vector3::new(p[(0, 3)], p[(1, 3)], p[(2, 3)]);
         Ok(SourceCamera { k, centre: -t })
+    }
+
+    /// The camera `n` a converted image was written with (`projection:`, `Kn:`, `Cn:` lines).
+    pub fn output_camera(&self, n: usize, size: ImageSize) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+        let missing = |what: &str| Error::file(&self.path, format!("no {what} line: not a calib written by panoconv"));
+        let projection = self.projection.ok_or_else(|| missing("projection:"))?;
+        let k = self.k_out[n].ok_or_else(|| missing(&format!("K{n}:")))?;
+        let c = self.c_out[n].ok_or_else(|| missing(&format!("C{n}:")))?;
+        Ok((projection.camera(k, size), c))
     }
 
     /// The output calib: every input line verbatim, then the description of the output camera.
