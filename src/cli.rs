@@ -40,7 +40,9 @@ enum Command {
     #[command(after_help = KITTI_EXAMPLES)]
     Kitti(KittiArgs),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
-    #[command(after_help = "Examples:\n  panoconv preview /data/kitti_equi --frame 000123 --output preview.png\n  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png")]
+    #[command(
+        after_help = "Examples:\n  panoconv preview /data/kitti_equi --frame 000123 --output preview.png\n  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png"
+    )]
     Preview(PreviewArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
@@ -217,7 +219,7 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
         To::Perspective => Projection::Perspective,
     };
     let scale = match (args.pano_width, args.px_per_deg) {
-        (Some(w), _) if w == 0 => bail!(Error::Setup("--pano-width must be positive".into())),
+        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
         (Some(w), _) => Scale::PanoWidth(w),
         (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
             bail!(Error::Setup("--px-per-deg must be positive".into()))
@@ -308,7 +310,10 @@ fn preview(args: PreviewArgs) -> Result<ExitCode> {
             panoconv::preview::draw_label(&mut image, &label, camera.as_ref(), &centre);
         }
     }
-    panoconv::output::write_atomic(&args.output, &png_io::encode_rgb8(&image, PngCompression::Default))?;
+    panoconv::output::write_atomic(
+        &args.output,
+        &png_io::encode_rgb8(&image, PngCompression::Default),
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 

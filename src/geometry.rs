@@ -74,7 +74,7 @@ fn fov_bounds(target: &dyn LinearCamera, source: &dyn CameraModel) -> Result<[f6
     ];
     let mut add = |x: f64, y: f64| {
         if let Ok(d) = source.unproject(&nalgebra::Point2::new(x, y)) {
-            if let Ok((a, bb)) = target.to_ab(&d) {
+            if let Ok((a, bb)) = target.bearing_to_ab(&d) {
                 b[0] = b[0].min(a);
                 b[1] = b[1].min(bb);
                 b[2] = b[2].max(a);

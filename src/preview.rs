@@ -51,7 +51,12 @@ pub fn draw_segment(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), c: [u8; 3]
 
 /// Draws one label: its 3D box (when it has one) projected by `camera` from `centre`, and its
 /// 2D box.
-pub fn draw_label(img: &mut RgbImage, label: &Label, camera: &dyn CameraModel, centre: &Vector3<f64>) {
+pub fn draw_label(
+    img: &mut RgbImage,
+    label: &Label,
+    camera: &dyn CameraModel,
+    centre: &Vector3<f64>,
+) {
     let colour = class_colour(&label.kind);
     let half_turn = camera.horizontal_period().map(|p| p / 2.0);
     if label.has_box_3d() {
@@ -61,7 +66,11 @@ pub fn draw_label(img: &mut RgbImage, label: &Label, camera: &dyn CameraModel, c
             for k in 0..=EDGE_SAMPLES {
                 let p = corners[i] + (corners[j] - corners[i]) * (k as f64 / EDGE_SAMPLES as f64);
                 let visible = camera.front_halfspace().is_none_or(|n| n.dot(&p) > 0.05);
-                let px = if visible { camera.project_point(&p).ok() } else { None };
+                let px = if visible {
+                    camera.project_point(&p).ok()
+                } else {
+                    None
+                };
                 let Some(px) = px else {
                     last = None;
                     continue;

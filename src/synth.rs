@@ -270,64 +270,67 @@ fn car(x: f64, z: f64, ry: f64, colour: [f64; 3]) -> SceneBox {
     }
 }
 
-/// The synthetic frames: (split, id, calibration, scene, a DontCare rectangle if any).
-pub fn frames() -> Vec<(
-    &'static str,
-    &'static str,
-    SynthCalib,
-    Scene,
-    Option<[f64; 4]>,
-)> {
+/// One synthetic frame.
+pub struct SynthFrame {
+    pub split: &'static str,
+    pub id: &'static str,
+    pub calib: SynthCalib,
+    pub scene: Scene,
+    /// A DontCare rectangle in the source image, if any.
+    pub dont_care: Option<[f64; 4]>,
+}
+
+/// The synthetic frames.
+pub fn frames() -> Vec<SynthFrame> {
     let mut pedestrian = car(-3.2, 9.0, 0.3, [90.0, 140.0, 90.0]);
     pedestrian.kind = "Pedestrian";
     pedestrian.dimensions = [1.75, 0.6, 0.8];
     let mut van = car(4.8, 16.0, -1.2, [70.0, 90.0, 160.0]);
     van.kind = "Van";
     van.dimensions = [2.1, 1.9, 4.8];
+    let frame = |split, id, calib, boxes, dont_care| SynthFrame {
+        split,
+        id,
+        calib,
+        scene: Scene { boxes },
+        dont_care,
+    };
     vec![
-        (
+        frame(
             "training",
             "000000",
             SynthCalib::standard(),
-            Scene {
-                boxes: vec![
-                    car(-4.5, 6.5, 1.45, [170.0, 60.0, 60.0]),
-                    car(2.5, 11.0, -1.65, [60.0, 70.0, 170.0]),
-                    car(-1.2, 24.0, 1.57, [200.0, 200.0, 80.0]),
-                    car(6.3, 4.2, 0.2, [150.0, 90.0, 40.0]),
-                ],
-            },
+            vec![
+                car(-4.5, 6.5, 1.45, [170.0, 60.0, 60.0]),
+                car(2.5, 11.0, -1.65, [60.0, 70.0, 170.0]),
+                car(-1.2, 24.0, 1.57, [200.0, 200.0, 80.0]),
+                car(6.3, 4.2, 0.2, [150.0, 90.0, 40.0]),
+            ],
             None,
         ),
-        (
+        frame(
             "training",
             "000001",
             SynthCalib::narrow(),
-            Scene {
-                boxes: vec![car(3.8, 8.0, 0.8, [60.0, 160.0, 160.0]), pedestrian, van],
-            },
+            vec![car(3.8, 8.0, 0.8, [60.0, 160.0, 160.0]), pedestrian, van],
             Some([880.0, 150.0, 1000.0, 200.0]),
         ),
-        (
+        frame(
             "training",
             "000002",
             SynthCalib::standard(),
-            Scene {
-                boxes: vec![
-                    car(0.4, 8.5, -1.52, [180.0, 180.0, 190.0]),
-                    car(-7.5, 14.0, 0.05, [120.0, 50.0, 140.0]),
-                    car(-3.0, 3.0, -1.60, [60.0, 150.0, 60.0]),
-                ],
-            },
+            vec![
+                car(0.4, 8.5, -1.52, [180.0, 180.0, 190.0]),
+                car(-7.5, 14.0, 0.05, [120.0, 50.0, 140.0]),
+                car(-3.0, 3.0, -1.60, [60.0, 150.0, 60.0]),
+            ],
             None,
         ),
-        (
+        frame(
             "testing",
             "000003",
             SynthCalib::standard(),
-            Scene {
-                boxes: vec![car(1.5, 12.0, 0.9, [160.0, 110.0, 60.0])],
-            },
+            vec![car(1.5, 12.0, 0.9, [160.0, 110.0, 60.0])],
             None,
         ),
     ]
@@ -405,7 +408,14 @@ pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
             root.display()
         )));
     }
-    for (split, id, calib, scene, dont_care) in frames() {
+    for SynthFrame {
+        split,
+        id,
+        calib,
+        scene,
+        dont_care,
+    } in frames()
+    {
         let dir = root.join(split);
         let mut subdirs = vec!["image_2", "calib"];
         if split == "training" {

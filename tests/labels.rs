@@ -5,7 +5,7 @@ use panoconv::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspec
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::kitti::{Calib, Label};
 use panoconv::labels::{box_bounds, clip, Bounds};
-use panoconv::synth::{frames, label_lines, SynthCalib};
+use panoconv::synth::{frames, label_lines, SynthCalib, SynthFrame};
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -105,7 +105,10 @@ fn outputs(calib: &SynthCalib) -> Vec<Box<dyn LinearCamera>> {
 fn synthetic_boxes_match_the_dense_projection() {
     let mut worst = 1.0f64;
     let mut worst_corners = 1.0f64;
-    for (_, id, calib, scene, _) in frames() {
+    for SynthFrame {
+        id, calib, scene, ..
+    } in frames()
+    {
         for cam in outputs(&calib) {
             let size = cam.size();
             for b in &scene.boxes {
@@ -239,7 +242,13 @@ fn camera_centre_is_recovered_within_a_millimetre() {
 /// Labels written by the synthetic generator are exact: re-deriving them gives the same text.
 #[test]
 fn synthetic_labels_are_the_exact_projection() {
-    for (_, _, calib, scene, dc) in frames() {
+    for SynthFrame {
+        calib,
+        scene,
+        dont_care: dc,
+        ..
+    } in frames()
+    {
         let text = label_lines(&calib, &scene, dc);
         let cam = Perspective::new(calib.intrinsics(), calib.size);
         for (line, b) in text.lines().zip(&scene.boxes) {
@@ -259,7 +268,13 @@ fn synthetic_labels_are_the_exact_projection() {
 
 #[test]
 fn pano_scale_canvas_keeps_every_synthetic_object() {
-    for (_, _, calib, scene, dc) in frames() {
+    for SynthFrame {
+        calib,
+        scene,
+        dont_care: dc,
+        ..
+    } in frames()
+    {
         let src = Perspective::new(calib.intrinsics(), calib.size);
         let spec = OutputSpec {
             projection: Projection::Equirect,

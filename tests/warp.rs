@@ -44,7 +44,7 @@ fn in_view<'a>(
 }
 
 fn check(spec: OutputSpec, calib: &SynthCalib, frame: usize) -> f64 {
-    let scene = &frames()[frame].3;
+    let scene = &frames()[frame].scene;
     let src = Perspective::new(calib.intrinsics(), calib.size);
     let source_image = scene.render(&src, &calib.centre());
     let out = output_camera(&spec, calib.intrinsics(), &src).unwrap();
@@ -113,7 +113,7 @@ fn perspective_at_other_intrinsics_matches() {
 fn perspective_identity_is_exact() {
     let calib = SynthCalib::standard();
     let src = Perspective::new(calib.intrinsics(), calib.size);
-    let image = frames()[0].3.render(&src, &calib.centre());
+    let image = frames()[0].scene.render(&src, &calib.centre());
     let out = output_camera(
         &OutputSpec::new(Projection::Perspective),
         calib.intrinsics(),

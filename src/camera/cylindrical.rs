@@ -22,14 +22,14 @@ impl Cylindrical {
 
 impl CameraModel for Cylindrical {
     fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let (a, b) = self.to_ab(bearing)?;
+        let (a, b) = self.bearing_to_ab(bearing)?;
         let (u, v) = self.k.to_pixel(a, b);
         Ok(Point2::new(u, v))
     }
 
     fn unproject(&self, pixel: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
         let (a, b) = self.k.from_pixel(pixel.x, pixel.y);
-        self.from_ab(a, b)
+        self.ab_to_bearing(a, b)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {
@@ -54,7 +54,7 @@ impl LinearCamera for Cylindrical {
         self.k
     }
 
-    fn to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
+    fn bearing_to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         let rho = d.x.hypot(d.z);
         if !(rho > MIN_RHO * d.norm()) {
             return Err(ProjectionReject::Singular);
@@ -62,7 +62,7 @@ impl LinearCamera for Cylindrical {
         Ok((d.x.atan2(d.z), d.y / rho))
     }
 
-    fn from_ab(&self, phi: f64, h: f64) -> Result<Vector3<f64>, ProjectionReject> {
+    fn ab_to_bearing(&self, phi: f64, h: f64) -> Result<Vector3<f64>, ProjectionReject> {
         if !(phi.is_finite() && h.is_finite()) {
             return Err(ProjectionReject::OutsideDomain);
         }

@@ -20,14 +20,14 @@ impl Equirect {
 
 impl CameraModel for Equirect {
     fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let (a, b) = self.to_ab(bearing)?;
+        let (a, b) = self.bearing_to_ab(bearing)?;
         let (u, v) = self.k.to_pixel(a, b);
         Ok(Point2::new(u, v))
     }
 
     fn unproject(&self, pixel: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
         let (a, b) = self.k.from_pixel(pixel.x, pixel.y);
-        self.from_ab(a, b)
+        self.ab_to_bearing(a, b)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {
@@ -52,7 +52,7 @@ impl LinearCamera for Equirect {
         self.k
     }
 
-    fn to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
+    fn bearing_to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         let n = d.norm();
         if !(n > 0.0) || !n.is_finite() {
             return Err(ProjectionReject::Singular);
@@ -61,7 +61,7 @@ impl LinearCamera for Equirect {
         Ok((d.x.atan2(d.z), lat))
     }
 
-    fn from_ab(&self, lon: f64, lat: f64) -> Result<Vector3<f64>, ProjectionReject> {
+    fn ab_to_bearing(&self, lon: f64, lat: f64) -> Result<Vector3<f64>, ProjectionReject> {
         // A pole pixel computed in floating point may land a rounding error beyond π/2.
         if !(lon.is_finite() && lat.is_finite()) || lat.abs() > FRAC_PI_2 + 1e-12 {
             return Err(ProjectionReject::OutsideDomain);

@@ -114,9 +114,9 @@ pub trait LinearCamera: CameraModel {
     fn projection(&self) -> Projection;
     fn intrinsics(&self) -> Intrinsics;
     /// Projection coordinates (a, b) of a bearing, before K (see the table in docs/geometry.md).
-    fn to_ab(&self, bearing: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
+    fn bearing_to_ab(&self, bearing: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
     /// Bearing of projection coordinates (a, b).
-    fn from_ab(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
+    fn ab_to_bearing(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
     /// A boxed copy, for sharing an output camera between frames.
     fn boxed_clone(&self) -> Box<dyn LinearCamera>;
 }

@@ -20,14 +20,14 @@ impl Perspective {
 
 impl CameraModel for Perspective {
     fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let (a, b) = self.to_ab(bearing)?;
+        let (a, b) = self.bearing_to_ab(bearing)?;
         let (u, v) = self.k.to_pixel(a, b);
         Ok(Point2::new(u, v))
     }
 
     fn unproject(&self, pixel: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
         let (a, b) = self.k.from_pixel(pixel.x, pixel.y);
-        self.from_ab(a, b)
+        self.ab_to_bearing(a, b)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {
@@ -52,14 +52,14 @@ impl LinearCamera for Perspective {
         self.k
     }
 
-    fn to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
+    fn bearing_to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         if !(d.z > MIN_FORWARD * d.norm()) {
             return Err(ProjectionReject::BehindCamera);
         }
         Ok((d.x / d.z, d.y / d.z))
     }
 
-    fn from_ab(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject> {
+    fn ab_to_bearing(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject> {
         if !(a.is_finite() && b.is_finite()) {
             return Err(ProjectionReject::OutsideDomain);
         }

@@ -141,7 +141,12 @@ impl Calib {
                     "equirect" => Projection::Equirect,
                     "cylindrical" => Projection::Cylindrical,
                     other => {
-                        return Err(Error::parse(path, line_no, "projection", format!("unknown projection {other:?}")));
+                        return Err(Error::parse(
+                            path,
+                            line_no,
+                            "projection",
+                            format!("unknown projection {other:?}"),
+                        ));
                     }
                 });
                 continue;
@@ -210,8 +215,17 @@ impl Calib {
     }
 
     /// The camera `n` a converted image was written with (`projection:`, `Kn:`, `Cn:` lines).
-    pub fn output_camera(&self, n: usize, size: ImageSize) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
-        let missing = |what: &str| Error::file(&self.path, format!("no {what} line: not a calib written by panoconv"));
+    pub fn output_camera(
+        &self,
+        n: usize,
+        size: ImageSize,
+    ) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+        let missing = |what: &str| {
+            Error::file(
+                &self.path,
+                format!("no {what} line: not a calib written by panoconv"),
+            )
+        };
         let projection = self.projection.ok_or_else(|| missing("projection:"))?;
         let k = self.k_out[n].ok_or_else(|| missing(&format!("K{n}:")))?;
         let c = self.c_out[n].ok_or_else(|| missing(&format!("C{n}:")))?;
