@@ -288,3 +288,113 @@ fn join_sci(values: &[f64]) -> String {
         .collect::<Vec<_>>()
         .join(" ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn standard() -> Calib {
+        let text = crate::synth::SynthCalib::standard().text();
+        Calib::parse(
+            Path::new("c.txt"),
+            text.lines().map(str::to_owned).collect(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn scientific_format_is_kittis() {
+        assert_eq!(format_sci(721.5377), "7.215377000000e+02");
+        assert_eq!(format_sci(-0.0027), "-2.700000000000e-03");
+        assert_eq!(format_sci(0.0), "0.000000000000e+00");
+    }
+
+    #[test]
+    fn written_lines_read_back_exactly() {
+        let calib = standard();
+        let k = Intrinsics::new(325.949, 325.949, 230.5, 80.25);
+        let c = calib.camera(2).unwrap().centre;
+        let text = calib.render_output("equirect", &[(2, k, c)]);
+        // every input line first, verbatim
+        assert!(text.starts_with(&(calib.lines.join("\n") + "\n")));
+        let back = Calib::parse(
+            Path::new("o.txt"),
+            text.lines().map(str::to_owned).collect(),
+        )
+        .unwrap();
+        assert_eq!(back.projection, Some(Projection::Equirect));
+        let k2 = back.k_out[2].unwrap();
+        assert!((k2.fu - k.fu).abs() < 1e-9 && (k2.cv - k.cv).abs() < 1e-9);
+        assert!((back.c_out[2].unwrap() - c).norm() < 1e-12);
+        // P2 still describes the source camera
+        assert_eq!(back.p[2], calib.p[2]);
+    }
+
+    #[test]
+    fn perspective_output_rewrites_p2_as_k_out_i_minus_c() {
+        let calib = standard();
+        let src = calib.camera(2).unwrap();
+        let k = Intrinsics::new(600.0, 600.0, 700.0, 200.0);
+        let text = calib.render_output("perspective", &[(2, k, src.centre)]);
+        let back = Calib::parse(
+            Path::new("o.txt"),
+            text.lines().map(str::to_owned).collect(),
+        )
+        .unwrap();
+        let cam = back.camera(2).unwrap();
+        assert!((cam.k.fu - 600.0).abs() < 1e-9 && (cam.k.cu - 700.0).abs() < 1e-9);
+        assert!(
+            (cam.centre - src.centre).norm() < 1e-9,
+            "{:?} vs {:?}",
+            cam.centre,
+            src.centre
+        );
+        assert_eq!(
+            back.p[3], calib.p[3],
+            "P3 is untouched when image_3 is not converted"
+        );
+    }
+
+    #[test]
+    fn malformed_numbers_name_the_line_and_field() {
+        let lines = vec![
+            "P0: 1 2 3".to_owned(),
+            String::new(),
+            "P2: 1 0 0 0 0 1 0 0 0 0 x 0".to_owned(),
+        ];
+        let err = Calib::parse(Path::new("calib/000001.txt"), lines)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, "calib/000001.txt:1: P0: expected 12 numbers, found 3");
+        let lines = vec!["P2: 1 0 0 0 0 1 0 0 0 0 x 0".to_owned()];
+        let err = Calib::parse(Path::new("c.txt"), lines)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, "c.txt:1: P2[10]: \"x\" is not a number");
+        let lines = vec!["P2: 1 0 0 0 0 1 0 0 0 0 inf 0".to_owned()];
+        let err = Calib::parse(Path::new("c.txt"), lines)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, "c.txt:1: P2[10]: \"inf\" is not finite");
+    }
+
+    #[test]
+    fn singular_or_missing_p2_is_refused() {
+        let c = Calib::parse(
+            Path::new("c.txt"),
+            vec!["P0: 1 0 0 0 0 1 0 0 0 0 1 0".into()],
+        )
+        .unwrap();
+        assert_eq!(c.camera(2).unwrap_err().to_string(), "c.txt: no P2 line");
+        let c = Calib::parse(
+            Path::new("c.txt"),
+            vec!["P2: 0 0 0 0 0 0 0 0 0 0 1 0".into()],
+        )
+        .unwrap();
+        assert!(c
+            .camera(2)
+            .unwrap_err()
+            .to_string()
+            .contains("focal lengths must be positive"));
+    }
+}
