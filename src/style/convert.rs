@@ -44,8 +44,12 @@ pub fn to_unit(v: u8) -> f32 {
 #[inline]
 pub fn from_unit(y: f32) -> u8 {
     let v = (y + 1.0) * 127.5;
-    // `clamp` keeps NaN; `max` first turns it into 0.
-    v.max(0.0).min(255.0).round() as u8
+    // NaN fails `v >= 0.0` and becomes 0 (`clamp` would keep it).
+    let v = if v >= 0.0 { v.min(255.0) } else { 0.0 };
+    // Round half away from zero without a libm call: `as` truncates (= floor for v >= 0), and
+    // `v - t` is exact, so this equals `v.round()` (and the Python reference) bit for bit.
+    let t = v as u8;
+    t + (v - t as f32 >= 0.5) as u8
 }
 
 /// Writes the `w x h` window of `img` whose top-left corner is `(x0, y0)` into `dst` as one
@@ -201,28 +205,21 @@ impl Blender {
         }
     }
 
-    /// Adds one tile output (`3 x th x tw` planar) whose top-left corner sits at `(x0, y0)`,
-    /// weighted by `wx[x] * wy[y]`. Parts of the tile outside the image (padding) are dropped.
-    pub fn add(
-        &mut self,
-        tile: &[f32],
-        tw: u32,
-        th: u32,
-        x0: u32,
-        y0: u32,
-        wx: &[f32],
-        wy: &[f32],
-    ) {
-        let tplane = tw as usize * th as usize;
+    /// Adds one tile output (`3 x th x tw` planar, `tw = wx.len()`, `th = wy.len()`) whose
+    /// top-left corner sits at `(x0, y0)`, weighted by `wx[x] * wy[y]`. Parts of the tile
+    /// outside the image (padding) are dropped.
+    pub fn add(&mut self, tile: &[f32], (x0, y0): (u32, u32), wx: &[f32], wy: &[f32]) {
+        let (tw, th) = (wx.len(), wy.len());
+        let tplane = tw * th;
         assert_eq!(tile.len(), 3 * tplane);
         let plane = self.w as usize * self.h as usize;
-        let xs = tw.min(self.w.saturating_sub(x0)) as usize;
-        let ys = th.min(self.h.saturating_sub(y0)) as usize;
-        for ty in 0..ys {
+        let xs = tw.min(self.w.saturating_sub(x0) as usize);
+        let ys = th.min(self.h.saturating_sub(y0) as usize);
+        for (ty, &wyv) in wy.iter().enumerate().take(ys) {
             let oy = (y0 as usize + ty) * self.w as usize + x0 as usize;
-            let sy = ty * tw as usize;
-            for tx in 0..xs {
-                let wgt = wx[tx] * wy[ty];
+            let sy = ty * tw;
+            for (tx, &wxv) in wx.iter().enumerate().take(xs) {
+                let wgt = wxv * wyv;
                 let o = oy + tx;
                 self.wsum[o] += wgt;
                 for c in 0..3 {
@@ -279,6 +276,18 @@ mod tests {
         assert_eq!(from_unit(-3.0), 0);
         assert_eq!(from_unit(3.0), 255);
         assert_eq!(from_unit(f32::NAN), 0);
+        // Same as f32::round on a dense sweep of the range, ties included.
+        for i in 0..=(256 * 64) {
+            let v = i as f32 / 64.0 - 0.5;
+            let y = v / 127.5 - 1.0;
+            let w = ((y + 1.0) * 127.5).clamp(0.0, 255.0);
+            assert_eq!(from_unit(y), w.round() as u8, "v={v}");
+        }
+        let below_half = 0.5f32 - f32::EPSILON / 4.0;
+        assert_eq!(
+            from_unit(below_half / 127.5 - 1.0),
+            (((below_half / 127.5 - 1.0) + 1.0) * 127.5).round() as u8
+        );
     }
 
     #[test]
@@ -314,7 +323,7 @@ mod tests {
         let tile = vec![to_unit(77); 3 * 64 * 64];
         for (j, &y0) in py.starts.iter().enumerate() {
             for (i, &x0) in px.starts.iter().enumerate() {
-                b.add(&tile, 64, 64, x0, y0, &px.weights(i), &py.weights(j));
+                b.add(&tile, (x0, y0), &px.weights(i), &py.weights(j));
             }
         }
         let img = b.finish();

@@ -376,7 +376,7 @@ impl StyleModel {
             let shape = [chunk.len() as i64, 3, th as i64, tw as i64];
             self.run(&data, shape, |o| {
                 for (s, &(i, j)) in o.chunks(per).zip(chunk) {
-                    blend.add(s, tw, th, xs.starts[i], ys.starts[j], &wx[i], &wy[j]);
+                    blend.add(s, (xs.starts[i], ys.starts[j]), &wx[i], &wy[j]);
                 }
             })?;
         }
