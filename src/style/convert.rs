@@ -104,8 +104,8 @@ pub fn chw_to_image(src: &[f32], pw: u32, ph: u32, w: u32, h: u32) -> RgbImage {
     RgbImage::from_raw(w, h, out).expect("size computed above")
 }
 
-/// Tiles along one axis: start offsets, the common tile length, and for each tile the length of
-/// its overlap with the previous and the next tile (the blending ramps).
+/// Tiles along one axis: the common tile length and the start offsets (increasing; neighbours
+/// overlap, and [`AxisTiles::weights`] ramps across each overlap).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AxisTiles {
     pub tile: u32,
