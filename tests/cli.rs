@@ -965,6 +965,40 @@ fn png_grey_input() {
 }
 
 #[test]
+fn png_palette_input() {
+    png_variant_converts_like(|p| {
+        let (palette, rgb) = p.to_palette_grey();
+        (palette, Some(rgb))
+    });
+}
+
+#[test]
+fn relative_paths() {
+    let s = Scratch::synth();
+    let cwd = s.dir.path();
+    let args = |out: &str| {
+        [
+            "kitti", "--to", "equirect", "--input", "in", "--output", out, "--frames", "000003",
+        ]
+        .map(String::from)
+    };
+    // `in/../out` is beside the input, not inside it
+    let run = panoconv_in(cwd, args("in/../out"));
+    assert_success(&run);
+    assert_eq!(
+        tree_files(&s.output),
+        expected_files(&[("testing", "000003")])
+    );
+    let m = check_manifest(&s.input, &s.output, 1, 0);
+    assert_eq!(m["parameters"]["input"], "in");
+    // `./in/sub` is inside
+    let before = tree_hashes(&s.input);
+    let run = panoconv_in(cwd, args("./in/sub"));
+    assert_setup_error(&run, "is inside the input dataset", &s.input.join("sub"));
+    assert_eq!(before, tree_hashes(&s.input));
+}
+
+#[test]
 fn label_with_score_and_empty_label_file() {
     let s = Scratch::synth();
     let base = convert_ok(&s, "base", &[]);

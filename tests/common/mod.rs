@@ -39,7 +39,17 @@ where
     I: IntoIterator<Item = S>,
     S: AsRef<OsStr>,
 {
+    panoconv_in(Path::new("."), args)
+}
+
+/// Runs the binary with working directory `cwd`.
+pub fn panoconv_in<I, S>(cwd: &Path, args: I) -> Run
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
     let out = Command::new(BIN)
+        .current_dir(cwd)
         .args(args)
         .output()
         .expect("cannot start the panoconv binary");
@@ -284,6 +294,10 @@ pub fn write_png(path: &Path, img: &Png) {
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), img.width, img.height);
     enc.set_color(img.color);
     enc.set_depth(img.depth);
+    if img.color == png::ColorType::Indexed {
+        let palette: Vec<u8> = (0..=255u8).flat_map(|i| [i, i, i]).collect();
+        enc.set_palette(palette);
+    }
     let mut w = enc.write_header().unwrap();
     w.write_image_data(&img.data).unwrap();
     w.finish().unwrap();
@@ -317,6 +331,18 @@ impl Png {
             color: png::ColorType::Rgba,
             ..self.clone()
         }
+    }
+
+    /// An 8-bit palette image of greys (index i is grey i) and the same image as RGB.
+    pub fn to_palette_grey(&self) -> (Png, Png) {
+        let (grey, rgb) = self.to_grey8();
+        (
+            Png {
+                color: png::ColorType::Indexed,
+                ..grey
+            },
+            rgb,
+        )
     }
 
     /// Luma of an 8-bit RGB image: (8-bit greyscale, the same grey as RGB).
