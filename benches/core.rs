@@ -1,1 +1,127 @@
-fn main() {}
+//! Criterion benchmarks of the core stages on a KITTI-sized synthetic frame.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use nalgebra::Matrix3;
+use panoconv::camera::{Perspective, Projection};
+use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
+use panoconv::kitti::png_io::{decode_rgb8, encode_rgb8, PngCompression};
+use panoconv::kitti::Label;
+use panoconv::labels::transform_label;
+use panoconv::synth::{frames, label_lines};
+use panoconv::warp::{RemapTable, Wrap};
+use std::hint::black_box;
+use std::path::Path;
+
+fn setup() -> (
+    Perspective,
+    panoconv::image::RgbImage,
+    panoconv::synth::SynthFrame,
+) {
+    let frame = frames().into_iter().next().unwrap();
+    let src = Perspective::new(frame.calib.intrinsics(), frame.calib.size);
+    let image = frame.scene.render(&src, &frame.calib.centre());
+    (src, image, frame)
+}
+
+fn specs() -> Vec<(&'static str, OutputSpec)> {
+    vec![
+        ("equirect", OutputSpec::new(Projection::Equirect)),
+        ("cylindrical", OutputSpec::new(Projection::Cylindrical)),
+        (
+            "equirect_2048_antialiased",
+            OutputSpec {
+                projection: Projection::Equirect,
+                scale: Scale::PanoWidth(2048),
+                canvas: Canvas::Tight,
+            },
+        ),
+    ]
+}
+
+fn bench(c: &mut Criterion) {
+    let (src, image, frame) = setup();
+    let k = frame.calib.intrinsics();
+
+    let mut g = c.benchmark_group("table_build");
+    g.sample_size(10);
+    for (name, spec) in specs() {
+        let out = output_camera(&spec, k, &src).unwrap();
+        g.bench_function(name, |b| {
+            b.iter(|| RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None))
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("remap");
+    for (name, spec) in specs() {
+        let out = output_camera(&spec, k, &src).unwrap();
+        let table = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None);
+        let s = out.size();
+        g.throughput(Throughput::Elements(s.width as u64 * s.height as u64));
+        g.bench_function(
+            BenchmarkId::new(name, format!("{}x{}", s.width, s.height)),
+            |b| b.iter(|| table.apply(black_box(&image))),
+        );
+    }
+    g.finish();
+
+    let labels: Vec<Label> = label_lines(&frame.calib, &frame.scene, None)
+        .lines()
+        .map(|l| Label::parse(Path::new("bench"), 1, l).unwrap())
+        .collect();
+    let mut g = c.benchmark_group("labels");
+    for (name, spec) in specs() {
+        let out = output_camera(&spec, k, &src).unwrap();
+        g.throughput(Throughput::Elements(labels.len() as u64));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                for l in &labels {
+                    black_box(transform_label(
+                        l,
+                        &frame.calib.centre(),
+                        &src,
+                        out.as_ref(),
+                    ));
+                }
+            })
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("png");
+    g.sample_size(20);
+    let out = output_camera(&OutputSpec::new(Projection::Equirect), k, &src).unwrap();
+    let warped =
+        RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None).apply(&image);
+    let pano = output_camera(
+        &OutputSpec {
+            projection: Projection::Equirect,
+            scale: Scale::PanoWidth(2048),
+            canvas: Canvas::Full360,
+        },
+        k,
+        &src,
+    )
+    .unwrap();
+    let pano_img =
+        RemapTable::build(pano.as_ref(), &src, &Matrix3::identity(), Wrap::None).apply(&image);
+    for (name, img) in [
+        ("kitti_1242x375", &image),
+        ("equirect_kitti", &warped),
+        ("pano_2048x1024", &pano_img),
+    ] {
+        let encoded = encode_rgb8(img, PngCompression::Default);
+        g.bench_function(BenchmarkId::new("decode", name), |b| {
+            b.iter(|| decode_rgb8(black_box(&encoded), Path::new("bench")).unwrap())
+        });
+        for comp in [PngCompression::Fast, PngCompression::Default] {
+            g.bench_function(BenchmarkId::new(format!("encode_{comp:?}"), name), |b| {
+                b.iter(|| encode_rgb8(black_box(img), comp))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
