@@ -16,11 +16,11 @@ pub enum Error {
     /// A file that is unusable as a whole (missing, empty, undecodable, inconsistent).
     #[error("{}: {message}", path.display())]
     File { path: PathBuf, message: String },
-    #[error("{}: {source}", path.display())]
+    /// The OS error is part of the message, not a separate cause, so that it is printed once.
+    #[error("{}: {cause}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// A problem with the run's set-up (paths, options); nothing has been written.
     #[error("{0}")]
@@ -51,10 +51,10 @@ impl Error {
         }
     }
 
-    pub fn io(path: &Path, source: std::io::Error) -> Self {
+    pub fn io(path: &Path, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         }
     }
 }

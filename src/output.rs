@@ -28,13 +28,24 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// `path` made absolute and free of `.`/`..`, resolving symlinks as far as the path exists.
 fn resolve(path: &Path) -> Result<PathBuf> {
-    let abs = if path.is_absolute() {
+    let joined = if path.is_absolute() {
         path.to_path_buf()
     } else {
         std::env::current_dir()
             .map_err(|e| Error::io(Path::new("."), e))?
             .join(path)
     };
+    // `..` after a folder that does not exist yet can only be resolved lexically.
+    let mut abs = PathBuf::new();
+    for c in joined.components() {
+        match c {
+            Component::ParentDir if !abs.exists() => {
+                abs.pop();
+            }
+            Component::CurDir => {}
+            c => abs.push(c),
+        }
+    }
     let mut existing = abs.clone();
     let mut rest = Vec::new();
     while !existing.exists() {

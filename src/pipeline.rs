@@ -107,6 +107,22 @@ impl Context<'_> {
             .map_err(|m| Error::file(calib_path, m))
     }
 
+    /// Every file `convert` may write for a frame.
+    fn output_paths(&self, split: &Split, id: &str) -> Vec<PathBuf> {
+        let dir = self.job.output.join(&split.name);
+        vec![
+            dir.join("image_2").join(format!("{id}.png")),
+            dir.join("label_2").join(format!("{id}.txt")),
+            dir.join("calib").join(format!("{id}.txt")),
+        ]
+    }
+
+    fn remove_outputs(&self, split: &Split, id: &str) {
+        for path in self.output_paths(split, id) {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+
     fn convert(&self, split: &Split, id: &str) -> Result<FrameOutput> {
         let root = &self.dataset.root;
         let mut inputs = Vec::new();
@@ -232,6 +248,9 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
                 }
                 Err(e) => {
                     progress.frame_failed(f, &e);
+                    // A failed frame leaves no output behind, not even one from an earlier
+                    // run into the same folder (--overwrite), which loaders would pick up.
+                    ctx.remove_outputs(split, &f.id);
                     failed_record(f, &e)
                 }
             }

@@ -333,7 +333,6 @@ fn setup_error_output_inside_input() {
 }
 
 #[test]
-#[ignore = "BUG: output::resolve stops at a `..` component (Path::file_name is None) and canonicalize fails, so the user gets `IN/training/nothing/..: No such file or directory` instead of `output ... is inside the input dataset`"]
 fn output_inside_input_through_missing_dotdot_is_named() {
     let s = Scratch::synth();
     let sneaky = s.input.join("training/nothing/../converted");
@@ -346,7 +345,6 @@ fn output_inside_input_through_missing_dotdot_is_named() {
 }
 
 #[test]
-#[ignore = "BUG: set-up I/O errors print the OS message twice (`Error::Io` displays its source and also returns it from `source()`, and main prints the chain with {:#})"]
 fn setup_io_error_is_reported_once() {
     let s = Scratch::synth();
     let list = s.path("no-such-list.txt");
@@ -842,7 +840,6 @@ fn frame_selection_options() {
 }
 
 #[test]
-#[ignore = "BUG: with --overwrite, a frame that fails keeps the previous run's outputs in the output tree (the manifest says failed, image_2/label_2/calib still hold stale files)"]
 fn overwrite_does_not_leave_stale_outputs_of_a_failed_frame() {
     let s = Scratch::synth();
     assert_success(&kitti("equirect", &s.input, &s.output, &[]));
