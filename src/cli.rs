@@ -12,7 +12,8 @@ use panoconv::geometry::{Canvas, OutputSpec, Scale};
 use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::png_io::PngCompression;
 use panoconv::kitti::FrameRef;
-use panoconv::pipeline::{run_kitti, KittiJob, Progress};
+use panoconv::pipeline::{run_kitti, KittiJob, Progress, StyleJob};
+use panoconv::style::{Device, StyleOptions};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -55,6 +56,7 @@ const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --pano-width 2048 --input /data/kitti --output /data/kitti_2048
   panoconv kitti --to equirect --split training --image-set val --input K --output O
   panoconv kitti --to perspective --frames 000001,000042 --input K --output O
+  panoconv kitti --to equirect --style miami_BtoA.onnx --input K --output O_miami
 
 Output: OUT/<split>/{image_2,label_2,calib}/NNNNNN.* in KITTI's format, and OUT/panoconv.json.
 The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README).";
@@ -119,6 +121,24 @@ struct KittiArgs {
     /// No progress bar and no summary line.
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// CycleGAN generator (ONNX) giving each image the target domain's look, before the warp.
+    #[arg(long, value_name = "MODEL.onnx")]
+    style: Option<PathBuf>,
+    /// Apply the style model to the warped image instead of the source.
+    #[arg(long, requires = "style")]
+    style_after_warp: bool,
+    /// ONNX Runtime library (libonnxruntime.so); else $ORT_DYLIB_PATH, else beside the binary.
+    #[arg(long, value_name = "PATH", requires = "style")]
+    ort_lib: Option<PathBuf>,
+    /// Where the style model runs.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu, requires = "style")]
+    device: DeviceArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum DeviceArg {
+    Cpu,
+    Cuda,
 }
 
 #[derive(Args)]
@@ -260,6 +280,18 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
         frames,
         overwrite: args.overwrite,
         png_compression: args.png_compression,
+        style: args.style.map(|model| StyleJob {
+            options: StyleOptions {
+                model,
+                ort_lib: args.ort_lib,
+                device: match args.device {
+                    DeviceArg::Cpu => Device::Cpu,
+                    DeviceArg::Cuda => Device::Cuda,
+                },
+                intra_threads: 1,
+            },
+            after_warp: args.style_after_warp,
+        }),
     };
     let bar = Bar::new(args.quiet);
     let summary = with_pool(args.jobs, || run_kitti(&job, &bar))??;

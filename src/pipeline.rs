@@ -8,6 +8,7 @@ use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
 use crate::labels::transform_label;
 use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary};
+use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use crate::warp::{OnceMap, RemapTable, Wrap};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
@@ -28,6 +29,32 @@ pub struct KittiJob {
     #[serde(skip)]
     pub overwrite: bool,
     pub png_compression: PngCompression,
+    /// The CycleGAN style pass, if any.
+    #[serde(skip)]
+    pub style: Option<StyleJob>,
+}
+
+/// The style pass of a conversion.
+#[derive(Debug, Clone)]
+pub struct StyleJob {
+    pub options: StyleOptions,
+    /// Style the warped image instead of the source (the paper styles before the warp).
+    pub after_warp: bool,
+}
+
+/// What the manifest records of the style pass.
+#[derive(Debug, Serialize)]
+struct StyleRecord<'a> {
+    model: &'a StyleInfo,
+    order: &'static str,
+}
+
+/// The manifest's parameters: the job and the style model that was actually loaded.
+#[derive(Debug, Serialize)]
+struct Parameters<'a> {
+    #[serde(flatten)]
+    job: &'a KittiJob,
+    style: Option<StyleRecord<'a>>,
 }
 
 /// Reports progress; the CLI passes an indicatif bar, tests a no-op.
@@ -70,6 +97,7 @@ type MappingKey = ([u64; 4], ImageSize);
 
 struct Context<'a> {
     job: &'a KittiJob,
+    style: Option<&'a StyleModel>,
     dataset: &'a Dataset,
     mappings: OnceMap<MappingKey, std::result::Result<Mapping, String>>,
 }
@@ -152,11 +180,18 @@ impl Context<'_> {
         let image_path = split.image_path(2, id);
         let image_bytes = read_file(&image_path)?;
         inputs.push((relative(root, &image_path), output::hash_hex(&image_bytes)));
-        let image = png_io::decode_rgb8(&image_bytes, &image_path)?;
+        let mut image = png_io::decode_rgb8(&image_bytes, &image_path)?;
+        let after_warp = self.job.style.as_ref().is_some_and(|s| s.after_warp);
+        if let (Some(model), false) = (self.style, after_warp) {
+            image = model.stylize(&image)?;
+        }
         let size = ImageSize::new(image.width(), image.height());
 
         let mapping = self.mapping(&calib_path, cam2.k, size)?;
-        let warped = mapping.table.apply(&image);
+        let mut warped = mapping.table.apply(&image);
+        if let (Some(model), true) = (self.style, after_warp) {
+            warped = model.stylize(&warped)?;
+        }
         let out_size = mapping.output.size();
         debug_assert_eq!(
             (warped.width(), warped.height()),
@@ -217,6 +252,21 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
     let dataset = Dataset::open(&job.input, job.split.as_deref())?;
     output::check_output_dir(&job.input, &job.output, job.overwrite)?;
     let (frames, missing) = dataset.select(job.frames.as_deref());
+    // Loaded before anything is written: a missing library or a bad model is a set-up error.
+    // One session per worker with one thread each, so --jobs alone sets the core count.
+    let style = match &job.style {
+        Some(s) => {
+            let options = StyleOptions {
+                intra_threads: 1,
+                ..s.options.clone()
+            };
+            Some(StyleModel::load_pool(
+                &options,
+                rayon::current_num_threads(),
+            )?)
+        }
+        None => None,
+    };
 
     for split in &dataset.splits {
         let mut dirs = vec!["image_2", "calib"];
@@ -231,6 +281,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
 
     let ctx = Context {
         job,
+        style: style.as_ref(),
         dataset: &dataset,
         mappings: OnceMap::default(),
     };
@@ -284,7 +335,17 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
         tool: "panoconv",
         version: env!("CARGO_PKG_VERSION"),
         command: "kitti".into(),
-        parameters: job,
+        parameters: Parameters {
+            job,
+            style: style.as_ref().map(|m| StyleRecord {
+                model: m.info(),
+                order: if job.style.as_ref().is_some_and(|s| s.after_warp) {
+                    "after_warp"
+                } else {
+                    "before_warp"
+                },
+            }),
+        },
         summary: ManifestSummary {
             frames: summary.frames,
             converted: summary.converted,
