@@ -33,6 +33,7 @@ fn specs() -> Vec<(&'static str, OutputSpec)> {
                 projection: Projection::Equirect,
                 scale: Scale::PanoWidth(2048),
                 canvas: Canvas::Tight,
+                ..OutputSpec::new(Projection::Equirect)
             },
         ),
     ]
@@ -98,6 +99,7 @@ fn bench(c: &mut Criterion) {
             projection: Projection::Equirect,
             scale: Scale::PanoWidth(2048),
             canvas: Canvas::Full360,
+            ..OutputSpec::new(Projection::Equirect)
         },
         k,
         &src,

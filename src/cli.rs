@@ -6,9 +6,10 @@
 use anyhow::{bail, Context as _, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use panoconv::augment::Augment;
 use panoconv::camera::{ImageSize, Projection};
 use panoconv::error::Error;
-use panoconv::geometry::{Canvas, OutputSpec, Scale};
+use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
 use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::png_io::PngCompression;
 use panoconv::kitti::FrameRef;
@@ -39,12 +40,22 @@ struct Cli {
 enum Command {
     /// Convert a KITTI object dataset (images, labels, calib) to another projection.
     #[command(after_help = KITTI_EXAMPLES)]
-    Kitti(KittiArgs),
+    Kitti(Box<KittiArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(
         after_help = "Examples:\n  panoconv preview /data/kitti_equi --frame 000123 --output preview.png\n  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png"
     )]
     Preview(PreviewArgs),
+    /// Turn a converted dataset's labels into pixel objects (u, v, distance, ...) to train on.
+    #[command(
+        after_help = "Examples:\n  panoconv labels-to-pixels --input /data/kitti_equi --output /data/kitti_equi/training/pixels\n\nFormat (one object per line): type u v distance height width length alpha score\n(u, v) = pixel of the 3D box centre; distance = z, range or rho by projection."
+    )]
+    LabelsToPixels(LabelsToPixelsArgs),
+    /// Turn pixel-object predictions made in converted images back into KITTI 3D results.
+    #[command(
+        after_help = "Examples:\n  panoconv unproject --calib O/training/calib --input preds/ --output preds_kitti/\n  panoconv unproject --calib O/training/calib --input preds/ --output out/ --trained-focal 721.5377\n\nImages are read from CALIB/../image_2 (for their size) unless --images is given."
+    )]
+    Unproject(UnprojectArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
     Synth(SynthArgs),
@@ -57,6 +68,9 @@ const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --split training --image-set val --input K --output O
   panoconv kitti --to perspective --frames 000001,000042 --input K --output O
   panoconv kitti --to equirect --style miami_BtoA.onnx --input K --output O_miami
+  panoconv kitti --to equirect --pano-width 2048 --crop 0,20,469,128 --input K --output O
+  panoconv kitti --to cylindrical --resize 620x200 --input K --output O
+  panoconv kitti --to equirect --augment 4 --seed 7 --scale-range 0.8,1.25 --crop-size 448x128 --input K --output O
 
 Output: OUT/<split>/{image_2,label_2,calib}/NNNNNN.* in KITTI's format, and OUT/panoconv.json.
 The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README).";
@@ -109,6 +123,25 @@ struct KittiArgs {
     /// Explicit output size, centred on the source field of view.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<ImageSize>,
+    /// Crop the output canvas to this window (in canvas pixels; may reach beyond it). K, boxes
+    /// and truncation follow; the image is still resampled once.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<Crop>,
+    /// Resize the (cropped) output to this size: fu' = s·fu, cu' = s(cu + 0.5) − 0.5.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    resize: Option<ImageSize>,
+    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
+    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+    augment: Option<u32>,
+    /// Seed of --augment (same seed, same views, whatever --jobs).
+    #[arg(long, default_value_t = 0, requires = "augment")]
+    seed: u64,
+    /// Range of the --augment scale factor, drawn uniformly.
+    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
+    scale_range: (f64, f64),
+    /// Size of every --augment view.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
+    crop_size: Option<ImageSize>,
     /// Worker threads (default: all cores).
     #[arg(long, short = 'j', value_name = "N")]
     jobs: Option<usize>,
@@ -156,12 +189,79 @@ struct PreviewArgs {
 }
 
 #[derive(Args)]
+struct LabelsToPixelsArgs {
+    /// A dataset written by `panoconv kitti`.
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Folder for the pixel-object files (one per frame).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    #[arg(long, default_value = "training")]
+    split: String,
+}
+
+#[derive(Args)]
+struct UnprojectArgs {
+    /// The converted dataset's calib folder (e.g. O/training/calib).
+    #[arg(long)]
+    calib: PathBuf,
+    /// Its images, for their sizes (default: CALIB/../image_2).
+    #[arg(long)]
+    images: Option<PathBuf>,
+    /// Folder of pixel-object predictions, one NNNNNN.txt per frame.
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Folder for the KITTI result files.
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// The detector was trained on perspective images of this vertical focal length (px):
+    /// distances are rescaled to the output camera (Z at f becomes rho at f_y).
+    #[arg(long, value_name = "PX")]
+    trained_focal: Option<f64>,
+}
+
+#[derive(Args)]
 struct SynthArgs {
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
     #[arg(long)]
     overwrite: bool,
+}
+
+fn parse_crop(s: &str) -> std::result::Result<Crop, String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [x, y, w, h] = v[..] else {
+        return Err("expected X,Y,WIDTH,HEIGHT, e.g. 0,20,469,128".into());
+    };
+    let int = |t: &str| {
+        t.parse::<i64>()
+            .map_err(|_| format!("{t:?} is not an integer"))
+    };
+    let (width, height) = (int(w)?, int(h)?);
+    if width <= 0 || height <= 0 || width > 65535 || height > 65535 {
+        return Err("crop width and height must be between 1 and 65535".into());
+    }
+    Ok(Crop {
+        x: int(x)?,
+        y: int(y)?,
+        width: width as u32,
+        height: height as u32,
+    })
+}
+
+fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX, e.g. 0.8,1.25")?;
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{t:?} is not a number"))
+    };
+    let (a, b) = (num(a)?, num(b)?);
+    if !(a > 0.0 && b >= a && b.is_finite()) {
+        return Err("expected 0 < MIN <= MAX".into());
+    }
+    Ok((a, b))
 }
 
 fn parse_size(s: &str) -> std::result::Result<ImageSize, String> {
@@ -275,11 +375,21 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
             projection,
             scale,
             canvas,
+            crop: args.crop,
+            resize: args.resize,
         },
         split: args.split,
         frames,
         overwrite: args.overwrite,
         png_compression: args.png_compression,
+        augment: args.augment.map(|count| Augment {
+            count,
+            seed: args.seed,
+            scale_range: args.scale_range,
+            crop_size: args
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+        }),
         style: args.style.map(|model| StyleJob {
             options: StyleOptions {
                 model,
@@ -349,11 +459,53 @@ fn preview(args: PreviewArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn folder_exit(
+    summary: panoconv::predictions::FolderSummary,
+    output: &std::path::Path,
+) -> ExitCode {
+    for (id, e) in &summary.failed {
+        eprintln!("panoconv: frame {id} failed: {e}");
+    }
+    eprintln!(
+        "panoconv: {} frames written, {} failed -> {}",
+        summary.done,
+        summary.failed.len(),
+        output.display()
+    );
+    if summary.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    }
+}
+
+fn labels_to_pixels(a: LabelsToPixelsArgs) -> Result<ExitCode> {
+    let summary = panoconv::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
+    Ok(folder_exit(summary, &a.output))
+}
+
+fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
+    if let Some(f) = a.trained_focal {
+        if !(f > 0.0 && f.is_finite()) {
+            bail!(Error::Setup("--trained-focal must be positive".into()));
+        }
+    }
+    let images = a
+        .images
+        .clone()
+        .unwrap_or_else(|| panoconv::predictions::default_images_dir(&a.calib));
+    let summary =
+        panoconv::predictions::unproject(&a.calib, &images, &a.input, &a.output, a.trained_focal)?;
+    Ok(folder_exit(summary, &a.output))
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Kitti(a) => kitti(a),
+        Command::Kitti(a) => kitti(*a),
         Command::Preview(a) => preview(a),
+        Command::LabelsToPixels(a) => labels_to_pixels(a),
+        Command::Unproject(a) => unproject(a),
         Command::Synth(a) => synth(a),
     }
 }

@@ -32,11 +32,27 @@ pub enum Canvas {
     Size(ImageSize),
 }
 
+/// A window of the output canvas, in its pixels (before any resize).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Crop {
+    pub x: i64,
+    pub y: i64,
+    pub width: u32,
+    pub height: u32,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct OutputSpec {
     pub projection: Projection,
     pub scale: Scale,
     pub canvas: Canvas,
+    /// Applied to the canvas first; may reach beyond it (black there).
+    #[serde(default)]
+    pub crop: Option<Crop>,
+    /// Then the (cropped) image is resized to this size. Both only change K and the size: the
+    /// image is resampled once, straight from the source.
+    #[serde(default)]
+    pub resize: Option<ImageSize>,
 }
 
 impl OutputSpec {
@@ -45,6 +61,8 @@ impl OutputSpec {
             projection,
             scale: Scale::SourceFocal,
             canvas: Canvas::Tight,
+            crop: None,
+            resize: None,
         }
     }
 
@@ -108,15 +126,67 @@ fn fov_bounds(target: &dyn LinearCamera, source: &dyn CameraModel) -> Result<[f6
     Ok(b)
 }
 
+/// Intrinsics and size after cropping the window `crop` out of an image.
+pub fn crop_intrinsics(k: Intrinsics, crop: &Crop) -> (Intrinsics, ImageSize) {
+    (
+        Intrinsics::new(k.fu, k.fv, k.cu - crop.x as f64, k.cv - crop.y as f64),
+        ImageSize::new(crop.width, crop.height),
+    )
+}
+
+/// Intrinsics after resizing an image of `from` pixels to `to` pixels. Pixel centres are at
+/// integers, so a point at u maps to s(u + 0.5) − 0.5: fu' = s·fu, cu' = s(cu + 0.5) − 0.5.
+pub fn resize_intrinsics(k: Intrinsics, from: ImageSize, to: ImageSize) -> Intrinsics {
+    let sx = to.width as f64 / from.width as f64;
+    let sy = to.height as f64 / from.height as f64;
+    Intrinsics::new(
+        k.fu * sx,
+        k.fv * sy,
+        sx * (k.cu + 0.5) - 0.5,
+        sy * (k.cv + 0.5) - 0.5,
+    )
+}
+
 /// The output camera for a source camera (intrinsics `src_k` of a perspective source for the
-/// default scale; `source` for the field of view).
+/// default scale; `source` for the field of view), after the spec's crop and resize.
 pub fn output_camera(
     spec: &OutputSpec,
     src_k: Intrinsics,
     source: &dyn CameraModel,
 ) -> Result<Box<dyn LinearCamera>> {
+    let canvas = canvas_camera(spec, src_k, source)?;
+    let (mut k, mut size) = (canvas.intrinsics(), canvas.size());
+    if let Some(c) = &spec.crop {
+        if c.width == 0 || c.height == 0 {
+            return Err(Error::Setup(
+                "crop width and height must be positive".into(),
+            ));
+        }
+        (k, size) = crop_intrinsics(k, c);
+    }
+    if let Some(to) = spec.resize {
+        if to.width == 0 || to.height == 0 {
+            return Err(Error::Setup(
+                "resize width and height must be positive".into(),
+            ));
+        }
+        k = resize_intrinsics(k, size, to);
+        size = to;
+    }
+    Ok(spec.projection.camera(k, size))
+}
+
+/// The output camera before crop and resize.
+fn canvas_camera(
+    spec: &OutputSpec,
+    src_k: Intrinsics,
+    source: &dyn CameraModel,
+) -> Result<Box<dyn LinearCamera>> {
     let proj = spec.projection;
-    if spec.is_identity() {
+    if proj == Projection::Perspective
+        && spec.scale == Scale::SourceFocal
+        && spec.canvas == Canvas::Tight
+    {
         return Ok(proj.camera(src_k, source.size()));
     }
     let fu = match spec.scale {

@@ -5,6 +5,7 @@
 // `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod augment;
 pub mod camera;
 pub mod error;
 pub mod geometry;
@@ -13,7 +14,9 @@ pub mod kitti;
 pub mod labels;
 pub mod output;
 pub mod pipeline;
+pub mod predictions;
 pub mod preview;
 pub mod style;
 pub mod synth;
+pub mod unproject;
 pub mod warp;

@@ -141,6 +141,16 @@ pub struct FrameRecord {
     pub inputs: Vec<(String, String)>,
     /// Output file (relative to the output root) → blake3.
     pub outputs: Vec<(String, String)>,
+    /// With --augment: each view's output id and how it was drawn.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub views: Vec<ViewRecord>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewRecord {
+    pub id: String,
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub view: Option<crate::augment::View>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

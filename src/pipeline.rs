@@ -1,13 +1,14 @@
 //! The KITTI conversion: frames flow through read → (style) → warp → labels/calib → write, in
 //! parallel over frames on one rayon pool (the only owner of threads).
 
-use crate::camera::{ImageSize, LinearCamera};
+use crate::augment::{view_id, Augment, View};
+use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::error::{read_file, Error, Result};
 use crate::geometry::{output_camera, OutputSpec};
 use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
 use crate::labels::transform_label;
-use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary};
+use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary, ViewRecord};
 use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use crate::warp::{OnceMap, RemapTable, Wrap};
 use nalgebra::Matrix3;
@@ -32,6 +33,8 @@ pub struct KittiJob {
     /// The CycleGAN style pass, if any.
     #[serde(skip)]
     pub style: Option<StyleJob>,
+    /// Random scale-and-crop views instead of the whole frame.
+    pub augment: Option<Augment>,
 }
 
 /// The style pass of a conversion.
@@ -114,13 +117,8 @@ fn relative(root: &Path, path: &Path) -> String {
 }
 
 impl Context<'_> {
-    fn mapping(
-        &self,
-        calib_path: &Path,
-        k: crate::camera::Intrinsics,
-        size: ImageSize,
-    ) -> Result<Mapping> {
-        let source = crate::camera::Perspective::new(k, size);
+    fn mapping(&self, calib_path: &Path, k: Intrinsics, size: ImageSize) -> Result<Mapping> {
+        let source = Perspective::new(k, size);
         self.mappings
             .get_or_build(&(k.key(), size), || {
                 let output =
@@ -138,11 +136,21 @@ impl Context<'_> {
     /// Every file `convert` may write for a frame.
     fn output_paths(&self, split: &Split, id: &str) -> Vec<PathBuf> {
         let dir = self.job.output.join(&split.name);
-        vec![
-            dir.join("image_2").join(format!("{id}.png")),
-            dir.join("label_2").join(format!("{id}.txt")),
-            dir.join("calib").join(format!("{id}.txt")),
-        ]
+        let ids: Vec<String> = match &self.job.augment {
+            Some(a) => (0..a.count)
+                .filter_map(|i| view_id(id, a.count, i))
+                .collect(),
+            None => vec![id.to_owned()],
+        };
+        ids.iter()
+            .flat_map(|v| {
+                [
+                    dir.join("image_2").join(format!("{v}.png")),
+                    dir.join("label_2").join(format!("{v}.txt")),
+                    dir.join("calib").join(format!("{v}.txt")),
+                ]
+            })
+            .collect()
     }
 
     fn remove_outputs(&self, split: &Split, id: &str) {
@@ -187,45 +195,42 @@ impl Context<'_> {
         }
         let size = ImageSize::new(image.width(), image.height());
 
-        let mapping = self.mapping(&calib_path, cam2.k, size)?;
-        let mut warped = mapping.table.apply(&image);
-        if let (Some(model), true) = (self.style, after_warp) {
-            warped = model.stylize(&warped)?;
-        }
-        let out_size = mapping.output.size();
-        debug_assert_eq!(
-            (warped.width(), warped.height()),
-            (out_size.width, out_size.height)
-        );
-
         let out_split = self.job.output.join(&split.name);
-        outputs.push((
-            out_split.join("image_2").join(format!("{id}.png")),
-            png_io::encode_rgb8(&warped, self.job.png_compression),
-        ));
-        if let Some(labels) = labels {
-            let source = cam2.camera(size);
-            let mut text = String::new();
-            for label in &labels.labels {
-                if let Some(line) =
-                    transform_label(label, &cam2.centre, &source, mapping.output.as_ref())
-                {
-                    text.push_str(&line);
-                    text.push('\n');
-                }
+        let mut views = Vec::new();
+        for (view_id, mapping, view) in self.views(split, id, &calib_path, cam2.k, size)? {
+            let mut warped = mapping.table.apply(&image);
+            if let (Some(model), true) = (self.style, after_warp) {
+                warped = model.stylize(&warped)?;
             }
             outputs.push((
-                out_split.join("label_2").join(format!("{id}.txt")),
-                text.into_bytes(),
+                out_split.join("image_2").join(format!("{view_id}.png")),
+                png_io::encode_rgb8(&warped, self.job.png_compression),
             ));
+            if let Some(labels) = &labels {
+                let source = cam2.camera(size);
+                let mut text = String::new();
+                for label in &labels.labels {
+                    if let Some(line) =
+                        transform_label(label, &cam2.centre, &source, mapping.output.as_ref())
+                    {
+                        text.push_str(&line);
+                        text.push('\n');
+                    }
+                }
+                outputs.push((
+                    out_split.join("label_2").join(format!("{view_id}.txt")),
+                    text.into_bytes(),
+                ));
+            }
+            let k_out = mapping.output.intrinsics();
+            let projection = mapping.output.projection().name();
+            let calib_text = calib.render_output(projection, &[(2, k_out, cam2.centre)]);
+            outputs.push((
+                out_split.join("calib").join(format!("{view_id}.txt")),
+                calib_text.into_bytes(),
+            ));
+            views.push(ViewRecord { id: view_id, view });
         }
-        let k_out = mapping.output.intrinsics();
-        let projection = mapping.output.projection().name();
-        let calib_text = calib.render_output(projection, &[(2, k_out, cam2.centre)]);
-        outputs.push((
-            out_split.join("calib").join(format!("{id}.txt")),
-            calib_text.into_bytes(),
-        ));
 
         let mut record_outputs = Vec::new();
         for (path, bytes) in &outputs {
@@ -240,8 +245,51 @@ impl Context<'_> {
                 error: None,
                 inputs,
                 outputs: record_outputs,
+                views,
             },
         })
+    }
+
+    /// The output views of a frame: the frame itself, or its augmented views.
+    fn views(
+        &self,
+        split: &Split,
+        id: &str,
+        calib_path: &Path,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<Vec<(String, Mapping, Option<View>)>> {
+        let Some(aug) = &self.job.augment else {
+            return Ok(vec![(
+                id.to_owned(),
+                self.mapping(calib_path, k, size)?,
+                None,
+            )]);
+        };
+        let source = Perspective::new(k, size);
+        let canvas = output_camera(&self.job.output_spec, k, &source)
+            .map_err(|e| Error::file(calib_path, e.to_string()))?;
+        (0..aug.count)
+            .map(|i| {
+                let view_id = view_id(id, aug.count, i).ok_or_else(|| {
+                    Error::file(
+                        &split.image_path(2, id),
+                        "--augment needs numeric frame ids (e.g. 000123)",
+                    )
+                })?;
+                let view = aug.view(&split.name, id, i, canvas.size());
+                let (kv, sv) = Augment::view_camera(&view, canvas.intrinsics(), canvas.size());
+                let output = self.job.output_spec.projection.camera(kv, sv);
+                // Every view has its own camera, so its table is not shared.
+                let table =
+                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                let mapping = Mapping {
+                    output: Arc::from(output),
+                    table: Arc::new(table),
+                };
+                Ok((view_id, mapping, Some(view)))
+            })
+            .collect()
     }
 }
 
@@ -320,6 +368,10 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
     }
     progress.finish();
 
+    if job.augment.is_some() {
+        // augmented ids are new: list them so KITTI loaders find the views
+        write_image_sets(&job.output, &dataset, &records)?;
+    }
     let failed = records
         .iter()
         .filter(|r| r.status == FrameStatus::Failed)
@@ -357,6 +409,29 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
     Ok(summary)
 }
 
+/// `OUT/ImageSets/<split>.txt`: the view ids written per split.
+fn write_image_sets(output: &Path, dataset: &Dataset, records: &[FrameRecord]) -> Result<()> {
+    let dir = output.join("ImageSets");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    for split in &dataset.splits {
+        let mut ids: Vec<&str> = records
+            .iter()
+            .filter(|r| r.split == split.name && r.status == FrameStatus::Ok)
+            .flat_map(|r| {
+                if r.views.iter().any(|v| v.view.is_some()) {
+                    r.views.iter().map(|v| v.id.as_str()).collect()
+                } else {
+                    vec![r.id.as_str()]
+                }
+            })
+            .collect();
+        ids.sort_unstable();
+        let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
+        output::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
+    }
+    Ok(())
+}
+
 fn failed_record(f: &FrameRef, e: &Error) -> FrameRecord {
     FrameRecord {
         split: f.split.clone(),
@@ -365,5 +440,6 @@ fn failed_record(f: &FrameRef, e: &Error) -> FrameRecord {
         error: Some(e.to_string()),
         inputs: Vec::new(),
         outputs: Vec::new(),
+        views: Vec::new(),
     }
 }

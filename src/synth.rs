@@ -135,15 +135,33 @@ impl Scene {
     /// Renders through `camera` placed at `centre` (rect axes), integrating each pixel over a
     /// Gaussian footprint (σ = 0.55 px, 6×6 samples over ±1.5 px). Pixels without a ray stay black.
     pub fn render(&self, camera: &dyn CameraModel, centre: &Vector3<f64>) -> RgbImage {
-        const N: usize = 6;
-        const SIGMA: f64 = 0.55;
-        const REACH: f64 = 1.5;
-        let offsets: Vec<(f64, f64, f64)> = (0..N * N)
+        self.render_with(camera, centre, 0.55, 6)
+    }
+
+    /// As [`Scene::render`] with a footprint of `sigma` pixels sampled on an n×n grid over
+    /// ±2.73σ: a reference for an image resized by s uses σ = 0.55·s, the source's blur.
+    pub fn render_with(
+        &self,
+        camera: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        sigma: f64,
+        n: usize,
+    ) -> RgbImage {
+        const BASE_SIGMA: f64 = 0.55;
+        const BASE_REACH: f64 = 1.5;
+        let (n_samples, sig) = (n, sigma);
+        // the default footprint keeps its exact sample positions (the shipped sample depends on them)
+        let reach = if sigma == BASE_SIGMA {
+            BASE_REACH
+        } else {
+            BASE_REACH * sigma / BASE_SIGMA
+        };
+        let offsets: Vec<(f64, f64, f64)> = (0..n_samples * n_samples)
             .map(|k| {
-                let (i, j) = (k % N, k / N);
-                let du = ((i as f64 + 0.5) / N as f64 * 2.0 - 1.0) * REACH;
-                let dv = ((j as f64 + 0.5) / N as f64 * 2.0 - 1.0) * REACH;
-                (du, dv, (-(du * du + dv * dv) / (2.0 * SIGMA * SIGMA)).exp())
+                let (i, j) = (k % n_samples, k / n_samples);
+                let du = ((i as f64 + 0.5) / n_samples as f64 * 2.0 - 1.0) * reach;
+                let dv = ((j as f64 + 0.5) / n_samples as f64 * 2.0 - 1.0) * reach;
+                (du, dv, (-(du * du + dv * dv) / (2.0 * sig * sig)).exp())
             })
             .collect();
         let size = camera.size();

@@ -283,6 +283,7 @@ fn pano_scale_canvas_keeps_every_synthetic_object() {
             projection: Projection::Equirect,
             scale: Scale::PanoWidth(2048),
             canvas: Canvas::Tight,
+            ..OutputSpec::new(Projection::Equirect)
         };
         let out = output_camera(&spec, calib.intrinsics(), &src).unwrap();
         let text = label_lines(&calib, &scene, dc);

@@ -105,6 +105,7 @@ fn perspective_at_other_intrinsics_matches() {
         projection: Projection::Perspective,
         scale: Scale::PixelsPerDegree(14.0),
         canvas: Canvas::Tight,
+        ..OutputSpec::new(Projection::Perspective)
     };
     check(spec, &SynthCalib::standard(), 0);
 }
@@ -147,6 +148,7 @@ fn coarse_output_does_not_alias() {
         projection: Projection::Equirect,
         scale: Scale::PanoWidth(2048),
         canvas: Canvas::Tight,
+        ..OutputSpec::new(Projection::Equirect)
     };
     let out = output_camera(&spec, calib.intrinsics(), &src).unwrap();
     let k: Intrinsics = out.intrinsics();

@@ -1,0 +1,128 @@
+//! Folder commands around the pixel-object format (see [`crate::unproject`]):
+//! `labels-to-pixels` (training targets from a converted dataset) and `unproject` (detector
+//! outputs back to KITTI 3D results). Each frame needs the calib panoconv wrote and the image
+//! beside it (for its size).
+
+use crate::camera::{ImageSize, LinearCamera};
+use crate::error::{read_file, read_lines, Error, Result};
+use crate::kitti::{png_io, Calib, LabelFile};
+use crate::output::write_atomic;
+use crate::unproject::{
+    format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale,
+};
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+
+/// Per-frame outcome of a folder command.
+#[derive(Debug, Default)]
+pub struct FolderSummary {
+    pub done: usize,
+    pub failed: Vec<(String, Error)>,
+}
+
+fn txt_ids(dir: &Path) -> Result<Vec<String>> {
+    let entries =
+        std::fs::read_dir(dir).map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))?;
+    let mut ids: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            e.file_name()
+                .to_str()
+                .and_then(|n| n.strip_suffix(".txt"))
+                .map(str::to_owned)
+        })
+        .filter(|id| !id.starts_with('.'))
+        .collect();
+    ids.sort();
+    Ok(ids)
+}
+
+/// The output camera of a converted frame: its written calib and its image's size.
+fn frame_camera(
+    calib_dir: &Path,
+    images_dir: &Path,
+    id: &str,
+) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+    let calib = Calib::read(&calib_dir.join(format!("{id}.txt")))?;
+    let image = images_dir.join(format!("{id}.png"));
+    let (w, h) = png_io::read_size(&read_file(&image)?, &image)?;
+    calib.output_camera(2, ImageSize::new(w, h))
+}
+
+fn prepare_output(output: &Path) -> Result<()> {
+    std::fs::create_dir_all(output).map_err(|e| Error::Setup(format!("{}: {e}", output.display())))
+}
+
+/// `SPLIT/label_2/*.txt` of a converted dataset split → `output/*.txt` in the pixel format.
+pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary> {
+    let label_dir = split_dir.join("label_2");
+    let ids = txt_ids(&label_dir)?;
+    prepare_output(output)?;
+    let mut summary = FolderSummary::default();
+    for id in ids {
+        let run = || -> Result<()> {
+            let (camera, centre) =
+                frame_camera(&split_dir.join("calib"), &split_dir.join("image_2"), &id)?;
+            let labels = LabelFile::read(&label_dir.join(format!("{id}.txt")))?;
+            let mut text = String::from("# type u v distance height width length alpha score\n");
+            for l in &labels.labels {
+                if let Some(o) = label_to_pixel(l, camera.as_ref(), &centre) {
+                    text.push_str(&format_pixel_line(&o));
+                    text.push('\n');
+                }
+            }
+            write_atomic(&output.join(format!("{id}.txt")), text.as_bytes())
+        };
+        match run() {
+            Ok(()) => summary.done += 1,
+            Err(e) => summary.failed.push((id, e)),
+        }
+    }
+    Ok(summary)
+}
+
+/// Pixel-format predictions `input/*.txt` → KITTI result lines `output/*.txt`, using the calib
+/// (and image size) of each frame. `trained_fv`: rescale distances from a detector trained on
+/// perspective images of that vertical focal length.
+pub fn unproject(
+    calib_dir: &Path,
+    images_dir: &Path,
+    input: &Path,
+    output: &Path,
+    trained_fv: Option<f64>,
+) -> Result<FolderSummary> {
+    let ids = txt_ids(input)?;
+    prepare_output(output)?;
+    let mut summary = FolderSummary::default();
+    for id in ids {
+        let run = || -> Result<()> {
+            let (camera, centre) = frame_camera(calib_dir, images_dir, &id)?;
+            let scale = trained_fv.map_or(1.0, |f| trained_focal_scale(camera.as_ref(), f));
+            let path = input.join(format!("{id}.txt"));
+            let mut text = String::new();
+            for (i, line) in read_lines(&path)?.iter().enumerate() {
+                let t = line.trim();
+                if t.is_empty() || t.starts_with('#') {
+                    continue;
+                }
+                let obj = parse_pixel_line(&path, i + 1, t)?;
+                let line = result_line(&obj, camera.as_ref(), &centre, scale).ok_or_else(|| {
+                    Error::parse(&path, i + 1, "u", "the pixel has no ray in this camera")
+                })?;
+                text.push_str(&line);
+                text.push('\n');
+            }
+            write_atomic(&output.join(format!("{id}.txt")), text.as_bytes())
+        };
+        match run() {
+            Ok(()) => summary.done += 1,
+            Err(e) => summary.failed.push((id, e)),
+        }
+    }
+    Ok(summary)
+}
+
+/// The default image folder of a calib folder: `calib/../image_2`.
+pub fn default_images_dir(calib_dir: &Path) -> PathBuf {
+    calib_dir.parent().unwrap_or(Path::new(".")).join("image_2")
+}
