@@ -4,6 +4,7 @@ pub mod calib;
 pub mod dataset;
 pub mod label;
 pub mod png_io;
+pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};
 pub use dataset::{Dataset, FrameRef, Split};

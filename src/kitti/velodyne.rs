@@ -1,0 +1,57 @@
+//! KITTI velodyne scans (`velodyne/NNNNNN.bin`): little-endian float32 x, y, z, reflectance per
+//! point, in the LiDAR frame (x forward, y left, z up), metres.
+
+use crate::error::{Error, Result};
+use nalgebra::Vector3;
+use std::path::Path;
+
+const POINT_BYTES: usize = 16;
+
+#[derive(Debug, Clone, Default)]
+pub struct Scan {
+    pub points: Vec<Vector3<f64>>,
+    pub reflectance: Vec<f32>,
+    /// Points with a NaN or infinite coordinate, dropped and counted.
+    pub dropped_non_finite: usize,
+}
+
+/// Parses a scan; a size that is not a whole number of points is a broken file.
+pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
+    if bytes.len() % POINT_BYTES != 0 {
+        return Err(Error::file(
+            path,
+            format!(
+                "{} bytes is not a whole number of 16-byte points (x, y, z, reflectance as float32): truncated or not a velodyne scan",
+                bytes.len()
+            ),
+        ));
+    }
+    let mut scan = Scan::default();
+    scan.points.reserve(bytes.len() / POINT_BYTES);
+    for chunk in bytes.chunks_exact(POINT_BYTES) {
+        let f = |i: usize| f32::from_le_bytes([chunk[i], chunk[i + 1], chunk[i + 2], chunk[i + 3]]);
+        let (x, y, z, r) = (f(0), f(4), f(8), f(12));
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+            scan.dropped_non_finite += 1;
+            continue;
+        }
+        scan.points.push(Vector3::new(x as f64, y as f64, z as f64));
+        scan.reflectance.push(r);
+    }
+    Ok(scan)
+}
+
+pub fn read(path: &Path) -> Result<Scan> {
+    parse(&crate::error::read_file(path)?, path)
+}
+
+/// Encodes points (for synthetic scans and tests).
+pub fn encode(points: &[(Vector3<f64>, f32)]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(points.len() * POINT_BYTES);
+    for (p, r) in points {
+        for v in [p.x as f32, p.y as f32, p.z as f32, *r] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
