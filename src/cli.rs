@@ -8,12 +8,13 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use panoconv::augment::Augment;
 use panoconv::camera::{ImageSize, Projection};
+use panoconv::depth::OcclusionFilter;
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
 use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::png_io::PngCompression;
 use panoconv::kitti::FrameRef;
-use panoconv::pipeline::{run_kitti, KittiJob, Progress, StyleJob};
+use panoconv::pipeline::{run_kitti, DepthJob, KittiJob, Progress, StyleJob};
 use panoconv::style::{Device, StyleOptions};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -64,6 +65,8 @@ enum Command {
 const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --input /data/kitti --output /data/kitti_equi
   panoconv kitti --to cylindrical --input /data/kitti --output /data/kitti_cyl --jobs 8
+  panoconv kitti --to cylindrical --depth --input /data/kitti --output /data/kitti_cyl
+  panoconv kitti --to equirect --cameras 2,3 --input /data/kitti --output /data/kitti_equi
   panoconv kitti --to equirect --pano-width 2048 --input /data/kitti --output /data/kitti_2048
   panoconv kitti --to equirect --split training --image-set val --input K --output O
   panoconv kitti --to perspective --frames 000001,000042 --input K --output O
@@ -142,6 +145,15 @@ struct KittiArgs {
     /// Size of every --augment view.
     #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
     crop_size: Option<ImageSize>,
+    /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
+    #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
+    cameras: Vec<usize>,
+    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/.
+    #[arg(long)]
+    depth: bool,
+    /// Keep LiDAR points the camera cannot see (the occlusion correction is on by default).
+    #[arg(long, requires = "depth")]
+    no_occlusion_filter: bool,
     /// Worker threads (default: all cores).
     #[arg(long, short = 'j', value_name = "N")]
     jobs: Option<usize>,
@@ -227,6 +239,16 @@ struct SynthArgs {
     output: PathBuf,
     #[arg(long)]
     overwrite: bool,
+}
+
+fn parse_camera(s: &str) -> std::result::Result<usize, String> {
+    match s.trim() {
+        "2" => Ok(2),
+        "3" => Ok(3),
+        other => Err(format!(
+            "camera {other:?}: expected 2 or 3 (KITTI's colour cameras)"
+        )),
+    }
 }
 
 fn parse_crop(s: &str) -> std::result::Result<Crop, String> {
@@ -382,6 +404,20 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
         frames,
         overwrite: args.overwrite,
         png_compression: args.png_compression,
+        cameras: {
+            let mut c = args.cameras.clone();
+            c.sort_unstable();
+            c.dedup();
+            if !c.contains(&2) {
+                bail!(Error::Setup(
+                    "--cameras must include 2 (labels and depth belong to camera 2)".into()
+                ));
+            }
+            c
+        },
+        depth: args.depth.then(|| DepthJob {
+            occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
+        }),
         augment: args.augment.map(|count| Augment {
             count,
             seed: args.seed,

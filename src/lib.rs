@@ -7,6 +7,7 @@
 
 pub mod augment;
 pub mod camera;
+pub mod depth;
 pub mod error;
 pub mod geometry;
 pub mod image;

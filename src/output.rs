@@ -144,6 +144,17 @@ pub struct FrameRecord {
     /// With --augment: each view's output id and how it was drawn.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub views: Vec<ViewRecord>,
+    /// With --depth: what happened to the LiDAR points (of the last view).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lidar: Option<LidarRecord>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct LidarRecord {
+    pub points: usize,
+    pub dropped_non_finite: usize,
+    pub dropped_occluded: usize,
+    pub depth_pixels: usize,
 }
 
 #[derive(Debug, Clone, Serialize)]

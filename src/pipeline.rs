@@ -3,11 +3,14 @@
 
 use crate::augment::{view_id, Augment, View};
 use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
+use crate::depth::{depth_map, rect_from_velo, OcclusionFilter};
 use crate::error::{read_file, Error, Result};
 use crate::geometry::{output_camera, OutputSpec};
 use crate::kitti::png_io::{self, PngCompression};
+use crate::kitti::velodyne;
 use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
 use crate::labels::transform_label;
+use crate::output::LidarRecord;
 use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary, ViewRecord};
 use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use crate::warp::{OnceMap, RemapTable, Wrap};
@@ -35,6 +38,17 @@ pub struct KittiJob {
     pub style: Option<StyleJob>,
     /// Random scale-and-crop views instead of the whole frame.
     pub augment: Option<Augment>,
+    /// Cameras to convert: 2 (left colour), and 3 (right colour) for stereo pairs.
+    pub cameras: Vec<usize>,
+    /// LiDAR depth maps (`depth_2/`), if asked for.
+    pub depth: Option<DepthJob>,
+}
+
+/// The depth output of a conversion.
+#[derive(Debug, Clone, Serialize)]
+pub struct DepthJob {
+    /// None turns the occlusion correction off.
+    pub occlusion_filter: Option<OcclusionFilter>,
 }
 
 /// The style pass of a conversion.
@@ -146,6 +160,8 @@ impl Context<'_> {
             .flat_map(|v| {
                 [
                     dir.join("image_2").join(format!("{v}.png")),
+                    dir.join("image_3").join(format!("{v}.png")),
+                    dir.join("depth_2").join(format!("{v}.png")),
                     dir.join("label_2").join(format!("{v}.txt")),
                     dir.join("calib").join(format!("{v}.txt")),
                 ]
@@ -195,9 +211,47 @@ impl Context<'_> {
         }
         let size = ImageSize::new(image.width(), image.height());
 
+        // The right camera, converted about its own centre C3 (labels stay with camera 2).
+        let right = if self.job.cameras.contains(&3) {
+            let cam3 = calib.camera(3)?;
+            let path = split.image_path(3, id);
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            let mut img = png_io::decode_rgb8(&bytes, &path)?;
+            if let (Some(model), false) = (self.style, after_warp) {
+                img = model.stylize(&img)?;
+            }
+            let size3 = ImageSize::new(img.width(), img.height());
+            let views3 = self.views(split, id, &calib_path, cam3.k, size3)?;
+            Some((cam3, img, views3))
+        } else {
+            None
+        };
+
+        let lidar = if self.job.depth.is_some() {
+            let path = split.dir.join("velodyne").join(format!("{id}.bin"));
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            let scan = velodyne::parse(&bytes, &path)?;
+            let r0 = calib
+                .r0_rect
+                .ok_or_else(|| Error::file(&calib_path, "no R0_rect line (needed for --depth)"))?;
+            let tr = calib.tr_velo_to_cam.ok_or_else(|| {
+                Error::file(&calib_path, "no Tr_velo_to_cam line (needed for --depth)")
+            })?;
+            Some((
+                rect_from_velo(&scan.points, &r0, &tr),
+                scan.dropped_non_finite,
+            ))
+        } else {
+            None
+        };
+
         let out_split = self.job.output.join(&split.name);
         let mut views = Vec::new();
-        for (view_id, mapping, view) in self.views(split, id, &calib_path, cam2.k, size)? {
+        let mut lidar_record = None;
+        let views2 = self.views(split, id, &calib_path, cam2.k, size)?;
+        for (i, (view_id, mapping, view)) in views2.into_iter().enumerate() {
             let mut warped = mapping.table.apply(&image);
             if let (Some(model), true) = (self.style, after_warp) {
                 warped = model.stylize(&warped)?;
@@ -206,8 +260,8 @@ impl Context<'_> {
                 out_split.join("image_2").join(format!("{view_id}.png")),
                 png_io::encode_rgb8(&warped, self.job.png_compression),
             ));
+            let source = cam2.camera(size);
             if let Some(labels) = &labels {
-                let source = cam2.camera(size);
                 let mut text = String::new();
                 for label in &labels.labels {
                     if let Some(line) =
@@ -222,9 +276,47 @@ impl Context<'_> {
                     text.into_bytes(),
                 ));
             }
-            let k_out = mapping.output.intrinsics();
+            if let (Some((points, non_finite)), Some(depth)) = (&lidar, &self.job.depth) {
+                let filter = depth.occlusion_filter.as_ref();
+                // Projected straight into the final camera: crops and resizes never resample it.
+                let (map, occluded) = depth_map(
+                    points,
+                    &cam2.centre,
+                    mapping.output.as_ref(),
+                    &source,
+                    filter,
+                );
+                lidar_record = Some(LidarRecord {
+                    points: points.len() + non_finite,
+                    dropped_non_finite: *non_finite,
+                    dropped_occluded: occluded,
+                    depth_pixels: map.valid(),
+                });
+                outputs.push((
+                    out_split.join("depth_2").join(format!("{view_id}.png")),
+                    png_io::encode_gray16(
+                        map.width,
+                        map.height,
+                        &map.to_u16(),
+                        self.job.png_compression,
+                    ),
+                ));
+            }
+            let mut cameras = vec![(2, mapping.output.intrinsics(), cam2.centre)];
+            if let Some((cam3, img3, views3)) = &right {
+                let mapping3 = &views3[i].1;
+                let mut warped3 = mapping3.table.apply(img3);
+                if let (Some(model), true) = (self.style, after_warp) {
+                    warped3 = model.stylize(&warped3)?;
+                }
+                outputs.push((
+                    out_split.join("image_3").join(format!("{view_id}.png")),
+                    png_io::encode_rgb8(&warped3, self.job.png_compression),
+                ));
+                cameras.push((3, mapping3.output.intrinsics(), cam3.centre));
+            }
             let projection = mapping.output.projection().name();
-            let calib_text = calib.render_output(projection, &[(2, k_out, cam2.centre)]);
+            let calib_text = calib.render_output(projection, &cameras);
             outputs.push((
                 out_split.join("calib").join(format!("{view_id}.txt")),
                 calib_text.into_bytes(),
@@ -246,6 +338,7 @@ impl Context<'_> {
                 inputs,
                 outputs: record_outputs,
                 views,
+                lidar: lidar_record,
             },
         })
     }
@@ -320,6 +413,12 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
         let mut dirs = vec!["image_2", "calib"];
         if split.has_labels {
             dirs.push("label_2");
+        }
+        if job.cameras.contains(&3) {
+            dirs.push("image_3");
+        }
+        if job.depth.is_some() {
+            dirs.push("depth_2");
         }
         for d in dirs {
             let dir = job.output.join(&split.name).join(d);
@@ -441,5 +540,6 @@ fn failed_record(f: &FrameRef, e: &Error) -> FrameRecord {
         inputs: Vec::new(),
         outputs: Vec::new(),
         views: Vec::new(),
+        lidar: None,
     }
 }

@@ -114,6 +114,13 @@ impl SceneBox {
 impl Scene {
     /// Colour seen along a ray from `origin` with unit direction `d`.
     pub fn trace(&self, origin: &Vector3<f64>, d: &Vector3<f64>) -> [f64; 3] {
+        self.first_hit(origin, d)
+            .map(|(_, c)| c)
+            .unwrap_or_else(|| sky_colour(d))
+    }
+
+    /// Distance along the unit ray to the first surface, and its colour; None for the sky.
+    pub fn first_hit(&self, origin: &Vector3<f64>, d: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
         let mut best: Option<(f64, [f64; 3])> = None;
         if d.y > 1e-12 {
             let t = (GROUND_Y - origin.y) / d.y;
@@ -129,7 +136,37 @@ impl Scene {
                 }
             }
         }
-        best.map(|(_, c)| c).unwrap_or_else(|| sky_colour(d))
+        best
+    }
+
+    /// A LiDAR scan like KITTI's HDL-64E (64 beams from +2° to −24.8°, 0.1° azimuth steps,
+    /// ±45° around the forward direction, 80 m range) from a sensor whose frame maps to rect by
+    /// `rect_from_velo` = (R, t). Points are in the LiDAR frame (x forward, y left, z up).
+    pub fn lidar_scan(
+        &self,
+        rect_from_velo: &(nalgebra::Matrix3<f64>, Vector3<f64>),
+    ) -> Vec<(Vector3<f64>, f32)> {
+        let (r, t) = rect_from_velo;
+        let mut points = Vec::new();
+        for beam in 0..64 {
+            let elevation = (2.0 - 26.8 * beam as f64 / 63.0).to_radians();
+            let mut az = -45.0f64;
+            while az <= 45.0 {
+                let a = az.to_radians();
+                let d_velo = Vector3::new(
+                    elevation.cos() * a.cos(),
+                    elevation.cos() * a.sin(),
+                    elevation.sin(),
+                );
+                if let Some((dist, c)) = self.first_hit(t, &(r * d_velo)) {
+                    if dist < 80.0 {
+                        points.push((d_velo * dist, (c[0] / 255.0) as f32));
+                    }
+                }
+                az += 0.1;
+            }
+        }
+        points
     }
 
     /// Renders through `camera` placed at `centre` (rect axes), integrating each pixel over a
@@ -255,6 +292,19 @@ impl SynthCalib {
         self.centre
     }
 
+    /// Camera 3 (the right colour camera), 0.537 m right of camera 2.
+    pub fn centre3(&self) -> Vector3<f64> {
+        self.centre + Vector3::new(0.537, 0.0, 0.0)
+    }
+
+    /// KITTI's LiDAR mounting: 8 cm above and 27 cm behind camera 0; rect = R·velo + t.
+    pub fn rect_from_velo() -> (nalgebra::Matrix3<f64>, Vector3<f64>) {
+        (
+            nalgebra::Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0),
+            Vector3::new(0.0, -0.08, -0.27),
+        )
+    }
+
     pub fn text(&self) -> String {
         let row = |v: &[f64]| {
             v.iter()
@@ -264,7 +314,7 @@ impl SynthCalib {
         };
         let c0 = Vector3::zeros();
         let c1 = Vector3::new(0.537, 0.0, 0.0);
-        let c3 = self.centre + Vector3::new(0.537, 0.0, 0.0);
+        let c3 = self.centre3();
         format!(
             "P0: {}\nP1: {}\nP2: {}\nP3: {}\nR0_rect: {}\nTr_velo_to_cam: {}\nTr_imu_to_velo: {}\n",
             row(&self.p(&c0)),
@@ -435,7 +485,7 @@ pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
     } in frames()
     {
         let dir = root.join(split);
-        let mut subdirs = vec!["image_2", "calib"];
+        let mut subdirs = vec!["image_2", "image_3", "calib", "velodyne"];
         if split == "training" {
             subdirs.push("label_2");
         }
@@ -447,6 +497,16 @@ pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
         write_atomic(
             &dir.join("image_2").join(format!("{id}.png")),
             &encode_rgb8(&image, PngCompression::Best),
+        )?;
+        let right = scene.render(&camera, &calib.centre3());
+        write_atomic(
+            &dir.join("image_3").join(format!("{id}.png")),
+            &encode_rgb8(&right, PngCompression::Best),
+        )?;
+        let scan = scene.lidar_scan(&SynthCalib::rect_from_velo());
+        write_atomic(
+            &dir.join("velodyne").join(format!("{id}.bin")),
+            &crate::kitti::velodyne::encode(&scan),
         )?;
         write_atomic(
             &dir.join("calib").join(format!("{id}.txt")),

@@ -34,7 +34,11 @@ fn shipped_sample_is_regenerated_byte_for_byte() {
     assert!(status.success());
     let (a, b) = (files(&shipped), files(&fresh));
     assert_eq!(a, b, "file lists differ");
-    assert_eq!(a.len(), 11);
+    assert_eq!(
+        a.len(),
+        19,
+        "4 frames: image_2, image_3, velodyne, calib; 3 labels"
+    );
     for f in &a {
         assert!(
             std::fs::read(shipped.join(f)).unwrap() == std::fs::read(fresh.join(f)).unwrap(),
