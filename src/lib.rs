@@ -7,11 +7,13 @@
 
 pub mod camera;
 pub mod error;
+pub mod folder;
 pub mod geometry;
 pub mod image;
 pub mod kitti;
 pub mod labels;
 pub mod output;
+pub mod pano;
 pub mod pipeline;
 pub mod preview;
 pub mod style;
