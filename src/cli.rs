@@ -575,7 +575,7 @@ fn pano(args: PanoArgs) -> Result<ExitCode> {
         .iter()
         .map(|d| d.to_radians())
         .collect();
-    if !yaws.iter().all(|y| y.is_finite()) || !(args.pitch.abs() <= 90.0) {
+    if !yaws.iter().all(|y| y.is_finite()) || args.pitch.is_nan() || args.pitch.abs() > 90.0 {
         bail!(Error::Setup(
             "--yaw must be finite and --pitch within [-90, 90] degrees".into()
         ));

@@ -229,7 +229,9 @@ impl Fisheye {
             let t = max_theta * i as f64 / MONOTONIC_SAMPLES as f64;
             let r = model.radius(t);
             let d = model.derivative(t);
-            let bad_slope = !(d > 0.0) && !(i == MONOTONIC_SAMPLES && d >= 0.0 && d.abs() < 1e-12);
+            // A zero slope is allowed only at the very edge (orthographic at 180°).
+            let edge_flat = i == MONOTONIC_SAMPLES && (0.0..1e-12).contains(&d);
+            let bad_slope = !(d > 0.0 || edge_flat);
             if bad_slope || (i > 0 && !(r > prev)) || !r.is_finite() {
                 return Err(FisheyeError::NotMonotonic(format!(
                     "the {} radial function r(θ) is not strictly increasing over the requested field of view: \
