@@ -8,14 +8,19 @@
 //! the output-geometry search only talk to the trait, so a new model is one new file.
 
 mod cylindrical;
+pub mod description;
 mod equirect;
+pub mod fisheye;
 mod intrinsics;
 mod perspective;
+pub mod rotated;
 
 pub use cylindrical::Cylindrical;
 pub use equirect::Equirect;
+pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
 pub use perspective::Perspective;
+pub use rotated::{rotation_ypr, Rotated};
 
 use nalgebra::{Point2, Vector3};
 

@@ -1,0 +1,310 @@
+//! Camera description files (JSON, `"version": 1`): a fisheye model, its intrinsics, image size,
+//! maximum field of view and its rotation relative to the output frame. See docs/fisheye.md.
+//!
+//! Errors name the file, the field and the line (and column, in the message).
+
+use super::fisheye::{Fisheye, FisheyeError, RadialModel};
+use super::rotated::{is_rotation, rotation_ypr};
+use super::{ImageSize, Intrinsics};
+use crate::error::{Error, Result};
+use nalgebra::Matrix3;
+use serde::Deserialize;
+use std::path::Path;
+
+/// The format version this build reads.
+pub const VERSION: u32 = 1;
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+enum ModelName {
+    Equidistant,
+    Equisolid,
+    Stereographic,
+    Orthographic,
+    #[serde(alias = "opencv_fisheye")]
+    KannalaBrandt,
+    Woodscape,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RotationFile {
+    yaw_deg: Option<f64>,
+    pitch_deg: Option<f64>,
+    roll_deg: Option<f64>,
+    matrix: Option<[[f64; 3]; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    version: u32,
+    model: ModelName,
+    width: u32,
+    height: u32,
+    max_fov_deg: f64,
+    fx: Option<f64>,
+    fy: Option<f64>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    k: Option<Vec<f64>>,
+    aspect_ratio: Option<f64>,
+    cx_offset: Option<f64>,
+    cy_offset: Option<f64>,
+    rotation: Option<RotationFile>,
+    /// Free text, ignored.
+    #[allow(dead_code)]
+    comment: Option<String>,
+}
+
+/// A loaded camera description.
+#[derive(Debug, Clone)]
+pub struct CameraDescription {
+    pub camera: Fisheye,
+    /// The camera's axes in the output frame: a camera bearing d is `output_from_camera · d`.
+    pub output_from_camera: Matrix3<f64>,
+}
+
+/// 1-based line and column of byte offset `at` in `text`.
+fn line_col(text: &str, at: usize) -> (usize, usize) {
+    let before = &text[..at.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, col)
+}
+
+/// Byte offset of line/column (1-based).
+fn offset_of(text: &str, line: usize, col: usize) -> usize {
+    let mut at = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            return (at + col.saturating_sub(1)).min(text.len());
+        }
+        at += l.len();
+    }
+    text.len()
+}
+
+/// The last `"key":` that starts before byte `at`: the field a serde error position is in.
+fn field_before(text: &str, at: usize) -> Option<String> {
+    let head = &text[..at.min(text.len())];
+    let mut best = None;
+    let mut search = 0;
+    while let Some(q) = head[search..].find('"') {
+        let start = search + q + 1;
+        let Some(len) = head[start..].find('"') else {
+            break;
+        };
+        let key = &head[start..start + len];
+        let after = head[start + len + 1..].trim_start();
+        if after.starts_with(':') {
+            best = Some(key.to_owned());
+        }
+        search = start + len + 1;
+    }
+    best
+}
+
+/// The line of the first occurrence of `"key"` (1 when absent).
+fn line_of_key(text: &str, key: &str) -> usize {
+    text.find(&format!("\"{key}\""))
+        .map_or(1, |at| line_col(text, at).0)
+}
+
+impl CameraDescription {
+    /// Reads and validates a camera description file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let bytes = crate::error::read_file(path)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| Error::file(path, "camera description is not valid UTF-8"))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses the text of a camera description; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let file: CameraFile = serde_json::from_str(text).map_err(|e| {
+            let (line, col) = (e.line(), e.column());
+            let message = e.to_string();
+            // serde_json names the field for missing/unknown ones; otherwise find the key the
+            // error position is in.
+            let field = ["missing field `", "unknown field `"]
+                .iter()
+                .find_map(|p| {
+                    message
+                        .strip_prefix(p)
+                        .and_then(|r| r.split('`').next())
+                        .map(str::to_owned)
+                })
+                .or_else(|| {
+                    matches!(e.classify(), serde_json::error::Category::Data)
+                        .then(|| field_before(text, offset_of(text, line, col)))
+                        .flatten()
+                })
+                .unwrap_or_else(|| "json".to_owned());
+            // serde_json's message ends with "at line L column C".
+            Error::parse(path, line, field, message)
+        })?;
+        let bad = |field: &str, message: String| {
+            Error::parse(path, line_of_key(text, field), field, message)
+        };
+        if file.version != VERSION {
+            return Err(bad(
+                "version",
+                format!(
+                    "unsupported camera description version {} (this panoconv reads version {VERSION})",
+                    file.version
+                ),
+            ));
+        }
+        let need = |v: Option<f64>, field: &str| -> Result<f64> {
+            let v = v.ok_or_else(|| {
+                bad(
+                    "model",
+                    format!("model {:?} needs the field `{field}`", file.model),
+                )
+            })?;
+            if !v.is_finite() {
+                return Err(bad(field, "must be a finite number".into()));
+            }
+            Ok(v)
+        };
+        let forbid = |present: bool, field: &str| -> Result<()> {
+            if present {
+                return Err(bad(
+                    field,
+                    format!("not used by model {:?}: remove it", file.model),
+                ));
+            }
+            Ok(())
+        };
+        let coefficients = |field: &str| -> Result<[f64; 4]> {
+            let k = file.k.clone().unwrap_or_default();
+            if k.len() > 4 {
+                return Err(bad(
+                    field,
+                    format!("expected at most 4 coefficients, found {}", k.len()),
+                ));
+            }
+            Ok(std::array::from_fn(|i| k.get(i).copied().unwrap_or(0.0)))
+        };
+        let size = ImageSize::new(file.width, file.height);
+        if file.width == 0 || file.height == 0 {
+            return Err(bad("width", format!("image size {size} must be positive")));
+        }
+        let (model, k) = match file.model {
+            ModelName::Woodscape => {
+                for (present, f) in [
+                    (file.fx.is_some(), "fx"),
+                    (file.fy.is_some(), "fy"),
+                    (file.cx.is_some(), "cx"),
+                    (file.cy.is_some(), "cy"),
+                ] {
+                    forbid(present, f)?;
+                }
+                if file.k.is_none() {
+                    return Err(bad("model", "model woodscape needs the field `k`".into()));
+                }
+                let k = coefficients("k")?;
+                let aspect = file.aspect_ratio.unwrap_or(1.0);
+                if !(aspect > 0.0 && aspect.is_finite()) {
+                    return Err(bad(
+                        "aspect_ratio",
+                        format!("must be positive, not {aspect}"),
+                    ));
+                }
+                // WoodScape: principal point = offset + image centre (pixel centres at integers).
+                let cu = file.width as f64 / 2.0 - 0.5 + file.cx_offset.unwrap_or(0.0);
+                let cv = file.height as f64 / 2.0 - 0.5 + file.cy_offset.unwrap_or(0.0);
+                (
+                    RadialModel::Polynomial(k),
+                    Intrinsics::new(1.0, aspect, cu, cv),
+                )
+            }
+            m => {
+                for (present, f) in [
+                    (file.aspect_ratio.is_some(), "aspect_ratio"),
+                    (file.cx_offset.is_some(), "cx_offset"),
+                    (file.cy_offset.is_some(), "cy_offset"),
+                ] {
+                    forbid(present, f)?;
+                }
+                let fx = need(file.fx, "fx")?;
+                let fy = need(file.fy.or(file.fx), "fy")?;
+                let cx = need(file.cx, "cx")?;
+                let cy = need(file.cy, "cy")?;
+                for (v, f) in [(fx, "fx"), (fy, "fy")] {
+                    if !(v > 0.0) {
+                        return Err(bad(f, format!("focal length must be positive, not {v}")));
+                    }
+                }
+                let model = match m {
+                    ModelName::Equidistant => RadialModel::Equidistant,
+                    ModelName::Equisolid => RadialModel::Equisolid,
+                    ModelName::Stereographic => RadialModel::Stereographic,
+                    ModelName::Orthographic => RadialModel::Orthographic,
+                    ModelName::KannalaBrandt => RadialModel::KannalaBrandt(coefficients("k")?),
+                    ModelName::Woodscape => unreachable!("handled above"),
+                };
+                if !matches!(model, RadialModel::KannalaBrandt(_)) {
+                    forbid(file.k.is_some(), "k")?;
+                }
+                (model, Intrinsics::new(fx, fy, cx, cy))
+            }
+        };
+        let fov = file.max_fov_deg;
+        if !(fov > 0.0 && fov < 360.0) {
+            return Err(bad(
+                "max_fov_deg",
+                format!("must be in (0, 360) degrees, not {fov}"),
+            ));
+        }
+        let camera = Fisheye::new(model, k, size, fov.to_radians()).map_err(|e| {
+            let field = match (&e, file.model) {
+                (
+                    FisheyeError::NotMonotonic(_),
+                    ModelName::KannalaBrandt | ModelName::Woodscape,
+                ) => "k",
+                (FisheyeError::Intrinsics(_), _) => "model",
+                _ => "max_fov_deg",
+            };
+            bad(field, e.to_string())
+        })?;
+        let output_from_camera = match &file.rotation {
+            None => Matrix3::identity(),
+            Some(r) => {
+                let angles = [r.yaw_deg, r.pitch_deg, r.roll_deg];
+                match (&r.matrix, angles.iter().any(Option::is_some)) {
+                    (Some(_), true) => {
+                        return Err(bad(
+                            "rotation",
+                            "give either `matrix` or yaw_deg/pitch_deg/roll_deg, not both".into(),
+                        ))
+                    }
+                    (Some(m), false) => {
+                        let m = Matrix3::from_fn(|i, j| m[i][j]);
+                        if !is_rotation(&m, 1e-6) {
+                            return Err(bad(
+                                "matrix",
+                                "rotation.matrix is not a rotation (orthonormal, determinant +1 within 1e-6)"
+                                    .into(),
+                            ));
+                        }
+                        // Re-orthonormalise so that round trips stay exact.
+                        nalgebra::Rotation3::from_matrix(&m).into_inner()
+                    }
+                    (None, _) => {
+                        let [y, p, ro] = angles.map(|a| a.unwrap_or(0.0));
+                        if ![y, p, ro].iter().all(|a| a.is_finite()) {
+                            return Err(bad("rotation", "angles must be finite".into()));
+                        }
+                        rotation_ypr(y.to_radians(), p.to_radians(), ro.to_radians())
+                    }
+                }
+            }
+        };
+        Ok(Self {
+            camera,
+            output_from_camera,
+        })
+    }
+}

@@ -1,0 +1,318 @@
+//! Folder batch conversion (`panoconv pano`, `panoconv fisheye`): every PNG image of a folder is
+//! warped into one or more views, each written as `NAME[SUFFIX].png` with its camera beside it
+//! in `NAME[SUFFIX].txt` (`projection:`, `K:`, `R:`). The views (output cameras and remap
+//! tables) are built once per source image size and shared by every image of that size.
+//!
+//! Same rules as the KITTI conversion: set-up problems fail before anything is written; a bad
+//! image is reported with its path, leaves no output, and the others are converted.
+
+use crate::camera::{ImageSize, Intrinsics, LinearCamera, Projection};
+use crate::error::{read_file, Error, Result};
+use crate::kitti::calib::format_sci;
+use crate::kitti::png_io::{self, PngCompression};
+use crate::kitti::FrameRef;
+use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary};
+use crate::pipeline::{Progress, Summary};
+use crate::warp::{OnceMap, RemapTable};
+use nalgebra::Matrix3;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// One output of each source image.
+#[derive(Clone)]
+pub struct View {
+    /// Appended to the input's file stem ("" for a single view).
+    pub suffix: String,
+    pub camera: Arc<dyn LinearCamera>,
+    /// Rotation from the output camera's axes to the source camera's: d_src = R · d_out.
+    pub source_from_output: Matrix3<f64>,
+    pub table: Arc<RemapTable>,
+}
+
+/// Builds the views of a source image of the given size (an error fails that image).
+pub type Planner<'a> = dyn Fn(ImageSize) -> Result<Vec<View>> + Sync + 'a;
+
+/// A folder conversion.
+pub struct FolderJob {
+    /// Subcommand name, recorded in the manifest.
+    pub command: &'static str,
+    pub input: PathBuf,
+    pub output: PathBuf,
+    pub overwrite: bool,
+    pub png_compression: PngCompression,
+    /// Recorded in the manifest as `parameters`.
+    pub parameters: serde_json::Value,
+}
+
+/// Rounds up, forgiving floating-point noise so that an exact fit is not one pixel wider.
+fn ceil_px(x: f64) -> u32 {
+    (x - 1e-6).ceil().max(1.0) as u32
+}
+
+/// The output camera of a view centred on its own optical axis: `hfov`/`vfov` in radians,
+/// `fu`/`fv` in pixels per radian at the centre (per unit of tangent for perspective and for
+/// the cylindrical height). A 360° cylindrical or equirect view gets a width of exactly 2π·fu
+/// (fu rounded to fit) so that it wraps without a seam; an equirect view of 360°×180° is 2:1.
+pub fn view_camera(
+    projection: Projection,
+    fu: f64,
+    fv: f64,
+    hfov: f64,
+    vfov: f64,
+) -> Result<Box<dyn LinearCamera>> {
+    if !(fu > 0.0 && fu.is_finite() && fv > 0.0 && fv.is_finite()) {
+        return Err(Error::Setup(format!(
+            "invalid output scale {fu}x{fv} px/rad"
+        )));
+    }
+    let full = (hfov - 2.0 * PI).abs() < 1e-9;
+    let (max_h, max_v) = match projection {
+        Projection::Perspective => (PI, PI),
+        Projection::Cylindrical => (2.0 * PI, PI),
+        Projection::Equirect => (2.0 * PI, PI),
+    };
+    let h_ok = hfov > 0.0 && (hfov < max_h || (full && projection != Projection::Perspective));
+    let v_ok = vfov > 0.0
+        && (vfov < max_v || (projection == Projection::Equirect && (vfov - PI).abs() < 1e-9));
+    if !h_ok || !v_ok {
+        return Err(Error::Setup(format!(
+            "a {projection} view cannot cover {:.3}°x{:.3}° (perspective: both below 180°; \
+             cylindrical: up to 360° wide and below 180° tall; equirect: up to 360°x180°)",
+            hfov.to_degrees(),
+            vfov.to_degrees()
+        )));
+    }
+    let (a_half, b_half) = match projection {
+        Projection::Perspective => ((hfov / 2.0).tan(), (vfov / 2.0).tan()),
+        Projection::Cylindrical => (hfov / 2.0, (vfov / 2.0).tan()),
+        Projection::Equirect => (hfov / 2.0, (vfov / 2.0).min(PI / 2.0)),
+    };
+    let (width, fu, cu) = if full {
+        let w = (2.0 * PI * fu).round().max(1.0) as u32;
+        (w, w as f64 / (2.0 * PI), w as f64 / 2.0 - 0.5)
+    } else {
+        let w = ceil_px(2.0 * a_half * fu);
+        (w, fu, (w as f64 - 1.0) / 2.0)
+    };
+    let (height, fv) = if projection == Projection::Equirect && full && vfov >= PI - 1e-9 {
+        let h = width.div_ceil(2);
+        (h, h as f64 / PI)
+    } else {
+        (ceil_px(2.0 * b_half * fv), fv)
+    };
+    if width > 65535 || height > 65535 {
+        return Err(Error::Setup(format!(
+            "output of {width}x{height} pixels is too large"
+        )));
+    }
+    let cv = (height as f64 - 1.0) / 2.0;
+    Ok(projection.camera(
+        Intrinsics::new(fu, fv, cu, cv),
+        ImageSize::new(width, height),
+    ))
+}
+
+/// The text written beside each output image.
+pub fn camera_text(view: &View) -> String {
+    let join = |v: &[f64]| {
+        v.iter()
+            .map(|&x| format_sci(x))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let r = &view.source_from_output;
+    let r_rows: Vec<f64> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| r[(i, j)]))
+        .collect();
+    format!(
+        "projection: {}\nK: {}\nR: {}\n",
+        view.camera.projection().name(),
+        join(&view.camera.intrinsics().matrix()),
+        join(&r_rows)
+    )
+}
+
+/// An input file and whether it can be read.
+struct Input {
+    path: PathBuf,
+    name: String,
+    stem: String,
+    supported: bool,
+}
+
+fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
+    if !dir.is_dir() {
+        return Err(Error::Setup(format!(
+            "input {} is not a directory",
+            dir.display()
+        )));
+    }
+    let mut inputs = Vec::new();
+    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let e = e.map_err(|e| Error::io(dir, e))?;
+        let path = e.path();
+        if !path.is_file() {
+            continue;
+        }
+        let name = e.file_name().to_string_lossy().into_owned();
+        let ext = path
+            .extension()
+            .map(|x| x.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let supported = match ext.as_str() {
+            "png" => true,
+            "jpg" | "jpeg" => false,
+            _ => continue,
+        };
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        inputs.push(Input {
+            path,
+            name,
+            stem,
+            supported,
+        });
+    }
+    inputs.sort_by(|a, b| a.name.cmp(&b.name));
+    if inputs.is_empty() {
+        return Err(Error::Setup(format!(
+            "input {} holds no PNG images",
+            dir.display()
+        )));
+    }
+    Ok(inputs)
+}
+
+struct Ctx<'a> {
+    job: &'a FolderJob,
+    planner: &'a Planner<'a>,
+    views: OnceMap<ImageSize, std::result::Result<Arc<Vec<View>>, String>>,
+}
+
+impl Ctx<'_> {
+    fn convert(&self, input: &Input, written: &mut Vec<PathBuf>) -> Result<FrameRecord> {
+        if !input.supported {
+            return Err(Error::file(
+                &input.path,
+                "only PNG images are read (this build has no JPEG decoder): convert it to PNG",
+            ));
+        }
+        let bytes = read_file(&input.path)?;
+        let image = png_io::decode_rgb8(&bytes, &input.path)?;
+        let size = ImageSize::new(image.width(), image.height());
+        let views = self
+            .views
+            .get_or_build(&size, || {
+                (self.planner)(size)
+                    .map(Arc::new)
+                    .map_err(|e| e.to_string())
+            })
+            .map_err(|m| Error::file(&input.path, m))?;
+        let mut outputs = Vec::new();
+        for view in views.iter() {
+            let warped = view.table.apply(&image);
+            let png = png_io::encode_rgb8(&warped, self.job.png_compression);
+            let txt = camera_text(view);
+            for (ext, data) in [("png", png), ("txt", txt.into_bytes())] {
+                let name = format!("{}{}.{ext}", input.stem, view.suffix);
+                let path = self.job.output.join(&name);
+                written.push(path.clone());
+                output::write_atomic(&path, &data)?;
+                outputs.push((name, output::hash_hex(&data)));
+            }
+        }
+        Ok(FrameRecord {
+            split: String::new(),
+            id: input.name.clone(),
+            status: FrameStatus::Ok,
+            error: None,
+            inputs: vec![(input.name.clone(), output::hash_hex(&bytes))],
+            outputs,
+        })
+    }
+}
+
+/// Converts every image of `job.input`. Set-up problems return `Err` before anything is
+/// written; a bad image is reported through `progress` and counted in the summary.
+/// Must run inside the caller's rayon pool.
+pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -> Result<Summary> {
+    let started = std::time::Instant::now();
+    let inputs = list_inputs(&job.input)?;
+    output::check_output_dir(&job.input, &job.output, job.overwrite)?;
+    // Two stems with different extensions would write the same outputs.
+    let mut stems: Vec<&str> = inputs.iter().map(|i| i.stem.as_str()).collect();
+    stems.sort_unstable();
+    if let Some(w) = stems.windows(2).find(|w| w[0] == w[1]) {
+        return Err(Error::Setup(format!(
+            "two input images are named {:?} (with different extensions); their outputs would collide",
+            w[0]
+        )));
+    }
+    std::fs::create_dir_all(&job.output).map_err(|e| Error::io(&job.output, e))?;
+    let ctx = Ctx {
+        job,
+        planner,
+        views: OnceMap::default(),
+    };
+    progress.start(inputs.len());
+    let records: Vec<FrameRecord> = inputs
+        .par_iter()
+        .map(|input| {
+            let mut written = Vec::new();
+            match ctx.convert(input, &mut written) {
+                Ok(record) => {
+                    progress.frame_done();
+                    record
+                }
+                Err(e) => {
+                    let f = FrameRef {
+                        split: String::new(),
+                        id: input.name.clone(),
+                    };
+                    progress.frame_failed(&f, &e);
+                    for p in written {
+                        let _ = std::fs::remove_file(p);
+                    }
+                    FrameRecord {
+                        split: String::new(),
+                        id: input.name.clone(),
+                        status: FrameStatus::Failed,
+                        error: Some(e.to_string()),
+                        inputs: Vec::new(),
+                        outputs: Vec::new(),
+                    }
+                }
+            }
+        })
+        .collect();
+    progress.finish();
+    let failed = records
+        .iter()
+        .filter(|r| r.status == FrameStatus::Failed)
+        .count();
+    let summary = Summary {
+        frames: records.len(),
+        converted: records.len() - failed,
+        failed,
+        seconds: started.elapsed().as_secs_f64(),
+        tables_built: ctx.views.len(),
+    };
+    let manifest = Manifest {
+        tool: "panoconv",
+        version: env!("CARGO_PKG_VERSION"),
+        command: job.command.into(),
+        parameters: &job.parameters,
+        summary: ManifestSummary {
+            frames: summary.frames,
+            converted: summary.converted,
+            failed: summary.failed,
+        },
+        frames: records,
+    };
+    output::write_manifest(&job.output, &manifest)?;
+    Ok(summary)
+}

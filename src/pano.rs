@@ -1,0 +1,206 @@
+//! Views of equirect panoramas and of fisheye cameras: the planners `panoconv pano` and
+//! `panoconv fisheye` hand to [`crate::folder::run_folder`].
+
+use crate::camera::description::CameraDescription;
+use crate::camera::rotated::rotation_ypr;
+use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, ProjectionReject};
+use crate::error::{Error, Result};
+use crate::folder::{view_camera, View};
+use crate::warp::{RemapTable, Wrap};
+use nalgebra::{Matrix3, Point2, Vector3};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+/// A full 360°×180° equirect panorama as a source camera: longitude wraps (the table's
+/// [`Wrap::Horizontal`]) and latitude clamps at the poles: the pole rows are repeated, never
+/// wrapped, and a ray exactly at the pole reads the last row instead of falling off the image.
+#[derive(Debug, Clone)]
+pub struct PanoSource {
+    pub equirect: Equirect,
+}
+
+impl PanoSource {
+    /// The panorama camera of a `width`×`height` (2:1) image: fu = W/2π, fv = H/π, longitude 0
+    /// at the centre column.
+    pub fn new(size: ImageSize) -> Self {
+        let (w, h) = (size.width as f64, size.height as f64);
+        Self {
+            equirect: Equirect::new(
+                Intrinsics::new(w / (2.0 * PI), h / PI, w / 2.0 - 0.5, h / 2.0 - 0.5),
+                size,
+            ),
+        }
+    }
+}
+
+impl CameraModel for PanoSource {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let p = self.equirect.project(d)?;
+        let h = self.equirect.size.height as f64;
+        Ok(Point2::new(p.x, p.y.clamp(-0.5, h - 1.0)))
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        self.equirect.unproject(p)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        p.norm()
+    }
+
+    fn size(&self) -> ImageSize {
+        self.equirect.size
+    }
+
+    fn horizontal_period(&self) -> Option<f64> {
+        self.equirect.horizontal_period()
+    }
+}
+
+/// Output scale: pixels per radian at the view centre.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViewScale {
+    /// The source's own resolution at its centre.
+    Source,
+    /// The width of a full 360° at this scale.
+    PanoWidth(u32),
+    PixelsPerDegree(f64),
+}
+
+impl ViewScale {
+    fn px_per_rad(self, source: f64) -> f64 {
+        match self {
+            ViewScale::Source => source,
+            ViewScale::PanoWidth(w) => w as f64 / (2.0 * PI),
+            ViewScale::PixelsPerDegree(d) => d * 180.0 / PI,
+        }
+    }
+}
+
+/// What `panoconv pano` makes of each panorama.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PanoViews {
+    pub projection: Projection,
+    /// View centres (radians): one output per yaw, right positive.
+    pub yaws: Vec<f64>,
+    /// Up positive (radians).
+    pub pitch: f64,
+    pub hfov: f64,
+    pub vfov: f64,
+    pub scale: ViewScale,
+}
+
+/// `_yaw90`, `_yaw-45`, `_yaw22.5` (degrees as given) when there are several views.
+fn yaw_suffix(yaws: &[f64], yaw: f64) -> String {
+    if yaws.len() <= 1 {
+        String::new()
+    } else {
+        let deg = (yaw.to_degrees() * 1e6).round() / 1e6;
+        format!("_yaw{deg}")
+    }
+}
+
+impl PanoViews {
+    /// Checks the view geometry (set-up errors) on a nominal panorama.
+    pub fn validate(&self) -> Result<()> {
+        if self.yaws.is_empty() {
+            return Err(Error::Setup("--yaw needs at least one angle".into()));
+        }
+        let f = self.scale.px_per_rad(2048.0 / (2.0 * PI));
+        view_camera(self.projection, f, f, self.hfov, self.vfov).map(|_| ())
+    }
+
+    /// The views of a panorama of `size` (which must be 2:1).
+    pub fn plan(&self, size: ImageSize) -> Result<Vec<View>> {
+        if size.width != 2 * size.height {
+            return Err(Error::Setup(format!(
+                "image is {size}, not a 2:1 equirect panorama"
+            )));
+        }
+        let source = PanoSource::new(size);
+        let f = self.scale.px_per_rad(source.equirect.k.fu);
+        let camera: Arc<dyn crate::camera::LinearCamera> =
+            Arc::from(view_camera(self.projection, f, f, self.hfov, self.vfov)?);
+        Ok(self
+            .yaws
+            .iter()
+            .map(|&yaw| {
+                let source_from_output = rotation_ypr(yaw, self.pitch, 0.0);
+                let table = RemapTable::build(
+                    camera.as_ref(),
+                    &source,
+                    &source_from_output,
+                    Wrap::Horizontal,
+                );
+                View {
+                    suffix: yaw_suffix(&self.yaws, yaw),
+                    camera: camera.clone(),
+                    source_from_output,
+                    table: Arc::new(table),
+                }
+            })
+            .collect())
+    }
+}
+
+/// What `panoconv fisheye` makes of each fisheye image.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct FisheyeView {
+    pub projection: Projection,
+    /// Radians; None: the camera's own (horizontal up to 360°, vertical capped for the
+    /// projection).
+    pub hfov: Option<f64>,
+    pub vfov: Option<f64>,
+    pub scale: ViewScale,
+}
+
+impl FisheyeView {
+    /// The output frame of a camera: level (the description's rotation undone but for the
+    /// heading), turned to the camera's heading. Returns `source_from_output`.
+    pub fn source_from_output(desc: &CameraDescription) -> Matrix3<f64> {
+        let forward = desc.output_from_camera * Vector3::z();
+        let heading = forward.x.atan2(forward.z);
+        desc.output_from_camera.transpose() * rotation_ypr(heading, 0.0, 0.0)
+    }
+
+    /// The field of view (radians) used for `desc`.
+    pub fn fov(&self, desc: &CameraDescription) -> (f64, f64) {
+        let full = 2.0 * desc.camera.max_theta;
+        let hfov = self.hfov.unwrap_or(match self.projection {
+            Projection::Perspective => full.min(120f64.to_radians()),
+            _ => full.min(2.0 * PI),
+        });
+        let vfov = self.vfov.unwrap_or(match self.projection {
+            Projection::Equirect => full.min(PI),
+            _ => full.min(120f64.to_radians()),
+        });
+        (hfov, vfov)
+    }
+
+    /// The single view of every image of the camera (built at set-up: errors are set-up errors).
+    pub fn plan(&self, desc: &CameraDescription) -> Result<View> {
+        let centre = desc.camera.centre_intrinsics();
+        let fu = self.scale.px_per_rad(centre.fu);
+        let fv = match self.projection {
+            Projection::Equirect => fu,
+            _ => fu * centre.fv / centre.fu,
+        };
+        let (hfov, vfov) = self.fov(desc);
+        let camera: Arc<dyn crate::camera::LinearCamera> =
+            Arc::from(view_camera(self.projection, fu, fv, hfov, vfov)?);
+        let source_from_output = Self::source_from_output(desc);
+        let table = RemapTable::build(
+            camera.as_ref(),
+            &desc.camera,
+            &source_from_output,
+            Wrap::None,
+        );
+        Ok(View {
+            suffix: String::new(),
+            camera,
+            source_from_output,
+            table: Arc::new(table),
+        })
+    }
+}
