@@ -232,6 +232,8 @@ impl Ctx<'_> {
             error: None,
             inputs: vec![(input.name.clone(), output::hash_hex(&bytes))],
             outputs,
+            views: Vec::new(),
+            lidar: None,
         })
     }
 }
@@ -284,6 +286,8 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
                         error: Some(e.to_string()),
                         inputs: Vec::new(),
                         outputs: Vec::new(),
+                        views: Vec::new(),
+                        lidar: None,
                     }
                 }
             }

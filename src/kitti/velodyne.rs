@@ -17,7 +17,7 @@ pub struct Scan {
 
 /// Parses a scan; a size that is not a whole number of points is a broken file.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
-    if bytes.len() % POINT_BYTES != 0 {
+    if !bytes.len().is_multiple_of(POINT_BYTES) {
         return Err(Error::file(
             path,
             format!(
