@@ -175,7 +175,7 @@ fn convert(input: &Path, output: &Path, extra: &[&str]) -> Output {
         "-o".as_ref(),
         output.as_os_str(),
     ];
-    args.extend(extra.iter().map(|s| std::ffi::OsStr::new(s)));
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
     bin(&args)
 }
 
