@@ -57,6 +57,11 @@ enum Command {
         after_help = "Examples:\n  panoconv unproject --calib O/training/calib --input preds/ --output preds_kitti/\n  panoconv unproject --calib O/training/calib --input preds/ --output out/ --trained-focal 721.5377\n\nImages are read from CALIB/../image_2 (for their size) unless --images is given."
     )]
     Unproject(UnprojectArgs),
+    /// Depth metrics (abs rel, sq rel, RMSE, RMSE log, δ<1.25ᵏ) of predicted depth maps.
+    #[command(
+        after_help = "Examples:\n  panoconv eval-depth --pred preds/depth --gt /data/kitti_cyl/training/depth_2\n  panoconv eval-depth --pred P --gt G --max-depth 80 --json\n\nBoth folders hold 16-bit PNGs (round(d*256), 0 = none) with the same names. Ground truth outside\n(min, max) is discarded, predictions are clamped to [min, max], metrics are averaged per image."
+    )]
+    EvalDepth(EvalDepthArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
     Synth(SynthArgs),
@@ -236,6 +241,25 @@ struct UnprojectArgs {
     /// distances are rescaled to the output camera (Z at f becomes rho at f_y).
     #[arg(long, value_name = "PX")]
     trained_focal: Option<f64>,
+}
+
+#[derive(Args)]
+struct EvalDepthArgs {
+    /// Predicted depth maps.
+    #[arg(long)]
+    pred: PathBuf,
+    /// Ground-truth depth maps (e.g. OUT/training/depth_2).
+    #[arg(long)]
+    gt: PathBuf,
+    /// Metres.
+    #[arg(long, default_value_t = 1e-3)]
+    min_depth: f64,
+    /// Metres.
+    #[arg(long, default_value_t = 50.0)]
+    max_depth: f64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args)]
@@ -541,6 +565,38 @@ fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
     Ok(folder_exit(summary, &a.output))
 }
 
+fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
+    let e = panoconv::eval::evaluate(&a.pred, &a.gt, a.min_depth, a.max_depth)?;
+    for (name, err) in &e.failed {
+        eprintln!("panoconv: {name} not evaluated: {err}");
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&e).context("serialising the metrics")?
+        );
+    } else {
+        let m = &e.mean;
+        println!(
+            "{} images, {} pixels, depth range {}..{} m",
+            e.images, m.pixels, e.min_depth, e.max_depth
+        );
+        println!(
+            "{:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+            "abs_rel", "sq_rel", "rmse", "rmse_log", "d<1.25", "d<1.25^2", "d<1.25^3"
+        );
+        println!(
+            "{:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
+            m.abs_rel, m.sq_rel, m.rmse, m.rmse_log, m.delta_1, m.delta_2, m.delta_3
+        );
+    }
+    Ok(if e.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
@@ -548,6 +604,7 @@ fn run() -> Result<ExitCode> {
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),
+        Command::EvalDepth(a) => eval_depth(a),
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),

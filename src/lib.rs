@@ -9,6 +9,7 @@ pub mod augment;
 pub mod camera;
 pub mod depth;
 pub mod error;
+pub mod eval;
 pub mod folder;
 pub mod geometry;
 pub mod image;
