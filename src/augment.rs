@@ -18,7 +18,7 @@ pub struct Augment {
 }
 
 /// One drawn view: the canvas resized to `scaled`, then the window `crop` of it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct View {
     pub index: u32,
     pub scale: f64,

@@ -11,6 +11,7 @@ use panoconv::camera::{ImageSize, Projection};
 use panoconv::depth::OcclusionFilter;
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
+use panoconv::journal::Shard;
 use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::png_io::PngCompression;
 use panoconv::kitti::FrameRef;
@@ -19,9 +20,11 @@ use panoconv::style::{Device, StyleOptions};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 const EXIT_FRAMES_FAILED: u8 = 1;
 const EXIT_SETUP: u8 = 2;
+const EXIT_INTERRUPTED: u8 = 130;
 
 #[derive(Parser)]
 #[command(
@@ -30,7 +33,7 @@ const EXIT_SETUP: u8 = 2;
     about = "Adapt KITTI datasets to panoramic, cylindrical and fisheye cameras: images, labels and calibration reprojected exactly."
 )]
 #[command(
-    after_help = "Exit codes: 0 success; 1 some frames failed (each is reported); 2 usage or set-up error (nothing written).\n\nRun `panoconv kitti --help` for examples."
+    after_help = "Exit codes: 0 success; 1 some frames failed (each is reported); 2 usage or set-up error (nothing written); 130 interrupted (SIGINT/SIGTERM; finished frames are in the manifest, continue with --resume).\n\nRun `panoconv kitti --help` for examples."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -62,6 +65,11 @@ enum Command {
         after_help = "Examples:\n  panoconv eval-depth --pred preds/depth --gt /data/kitti_cyl/training/depth_2\n  panoconv eval-depth --pred P --gt G --max-depth 80 --json\n\nBoth folders hold 16-bit PNGs (round(d*256), 0 = none) with the same names. Ground truth outside\n(min, max) is discarded, predictions are clamped to [min, max], metrics are averaged per image."
     )]
     EvalDepth(EvalDepthArgs),
+    /// Join the manifests of a sharded conversion (--shard K/N) into OUT/panoconv.json.
+    #[command(
+        after_help = "Examples:\n  panoconv kitti --to equirect --input K --output O --shard 0/4   # ... one per machine, 0..3\n  panoconv merge O\n\nChecks every shard is present once, with the same parameters, and no frame is doubled."
+    )]
+    Merge(MergeArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
     Synth(SynthArgs),
@@ -165,6 +173,13 @@ struct KittiArgs {
     /// Keep LiDAR points the camera cannot see (the occlusion correction is on by default).
     #[arg(long, requires = "depth")]
     no_occlusion_filter: bool,
+    /// Continue a killed or interrupted run: frames whose outputs match the manifest are kept.
+    #[arg(long)]
+    resume: bool,
+    /// Convert only shard K of N (K from 0), writing panoconv.shard-K-of-N.json; join the
+    /// shards with `panoconv merge OUT`.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
     /// Worker threads (default: all cores).
     #[arg(long, short = 'j', value_name = "N")]
     jobs: Option<usize>,
@@ -263,12 +278,36 @@ struct EvalDepthArgs {
 }
 
 #[derive(Args)]
+struct MergeArgs {
+    /// The shared output folder of the shards.
+    output: PathBuf,
+}
+
+#[derive(Args)]
 struct SynthArgs {
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
     #[arg(long)]
     overwrite: bool,
+}
+
+fn parse_shard(s: &str) -> std::result::Result<Shard, String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or("expected K/N, e.g. 3/16 (K from 0)")?;
+    let k: u32 = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad shard index {k:?}"))?;
+    let n: u32 = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad shard count {n:?}"))?;
+    if n == 0 || k >= n {
+        return Err(format!("shard {k}/{n}: need 0 <= K < N"));
+    }
+    Ok(Shard { index: k, count: n })
 }
 
 fn parse_camera(s: &str) -> std::result::Result<usize, String> {
@@ -445,6 +484,8 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
             }
             c
         },
+        shard: args.shard,
+        resume: args.resume,
         depth: args.depth.then(|| DepthJob {
             occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
         }),
@@ -469,23 +510,55 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
             after_warp: args.style_after_warp,
         }),
     };
+    install_stop_handler();
     let bar = Bar::new(args.quiet);
-    let summary = with_pool(args.jobs, || run_kitti(&job, &bar))??;
+    let summary = with_pool(args.jobs, || run_kitti(&job, &bar, &STOP))??;
     if !args.quiet {
+        let resumed = if summary.resumed > 0 {
+            format!(" ({} kept from the previous run)", summary.resumed)
+        } else {
+            String::new()
+        };
         eprintln!(
-            "panoconv: {} frames converted, {} failed in {:.2} s ({:.1} frames/s) -> {}",
+            "panoconv: {} frames converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
             summary.converted,
             summary.failed,
             summary.seconds,
-            summary.converted as f64 / summary.seconds.max(1e-9),
+            (summary.converted - summary.resumed) as f64 / summary.seconds.max(1e-9),
             job.output.display()
         );
+    }
+    if summary.interrupted {
+        eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
+        return Ok(ExitCode::from(EXIT_INTERRUPTED));
     }
     Ok(if summary.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// Set by SIGINT/SIGTERM: the conversion takes no new frame, finishes those in flight and
+/// writes its manifest.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+fn install_stop_handler() {
+    // ctrlc replaces the default handlers, so a second signal while stopping exits at once.
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+}
+
+fn merge(a: MergeArgs) -> Result<ExitCode> {
+    let n = panoconv::journal::merge(&a.output)?;
+    eprintln!(
+        "panoconv: merged {n} frames into {}",
+        a.output.join(panoconv::journal::MANIFEST).display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn synth(args: SynthArgs) -> Result<ExitCode> {
@@ -605,6 +678,7 @@ fn run() -> Result<ExitCode> {
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),
         Command::EvalDepth(a) => eval_depth(a),
+        Command::Merge(a) => merge(a),
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),

@@ -302,6 +302,8 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         frames: records.len(),
         converted: records.len() - failed,
         failed,
+        resumed: 0,
+        interrupted: false,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
     };

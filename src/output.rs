@@ -130,7 +130,7 @@ pub struct ManifestSummary {
     pub failed: usize,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct FrameRecord {
     pub split: String,
     pub id: String,
@@ -149,7 +149,7 @@ pub struct FrameRecord {
     pub lidar: Option<LidarRecord>,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct LidarRecord {
     pub points: usize,
     pub dropped_non_finite: usize,
@@ -157,14 +157,14 @@ pub struct LidarRecord {
     pub depth_pixels: usize,
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct ViewRecord {
     pub id: String,
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
     pub view: Option<crate::augment::View>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FrameStatus {
     Ok,

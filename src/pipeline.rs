@@ -6,18 +6,21 @@ use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo, OcclusionFilter};
 use crate::error::{read_file, Error, Result};
 use crate::geometry::{output_camera, OutputSpec};
+use crate::journal::{self, Journal, Shard};
 use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::velodyne;
 use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
 use crate::labels::transform_label;
 use crate::output::LidarRecord;
-use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary, ViewRecord};
+use crate::output::{self, FrameRecord, FrameStatus, ViewRecord};
 use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use crate::warp::{OnceMap, RemapTable, Wrap};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 use serde::Serialize;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Everything a `kitti` conversion needs; also recorded in the manifest.
@@ -42,6 +45,11 @@ pub struct KittiJob {
     pub cameras: Vec<usize>,
     /// LiDAR depth maps (`depth_2/`), if asked for.
     pub depth: Option<DepthJob>,
+    /// This process converts one shard of the frames.
+    pub shard: Option<Shard>,
+    /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
+    #[serde(skip)]
+    pub resume: bool,
 }
 
 /// The depth output of a conversion.
@@ -98,6 +106,10 @@ pub struct Summary {
     pub frames: usize,
     pub converted: usize,
     pub failed: usize,
+    /// Frames a previous run had completed (--resume).
+    pub resumed: usize,
+    /// Stopped by SIGINT/SIGTERM before every frame was taken.
+    pub interrupted: bool,
     pub seconds: f64,
     /// Distinct (source camera → output camera) mappings built.
     pub tables_built: usize,
@@ -388,11 +400,20 @@ impl Context<'_> {
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
-pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
+pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> Result<Summary> {
     let started = std::time::Instant::now();
     let dataset = Dataset::open(&job.input, job.split.as_deref())?;
-    output::check_output_dir(&job.input, &job.output, job.overwrite)?;
-    let (frames, missing) = dataset.select(job.frames.as_deref());
+    // Resumed runs and shards write into a folder that already holds outputs.
+    output::check_output_dir(
+        &job.input,
+        &job.output,
+        job.overwrite || job.resume || job.shard.is_some(),
+    )?;
+    let (mut frames, mut missing) = dataset.select(job.frames.as_deref());
+    if let Some(shard) = job.shard {
+        frames.retain(|f| shard.owns(&f.split, &f.id));
+        missing.retain(|id| shard.owns("", id));
+    }
     // Loaded before anything is written: a missing library or a bad model is a set-up error.
     // One session per worker with one thread each, so --jobs alone sets the core count.
     let style = match &job.style {
@@ -407,6 +428,23 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
             )?)
         }
         None => None,
+    };
+    let parameters = serde_json::to_value(Parameters {
+        job,
+        style: style.as_ref().map(|m| StyleRecord {
+            model: m.info(),
+            order: if job.style.as_ref().is_some_and(|s| s.after_warp) {
+                "after_warp"
+            } else {
+                "before_warp"
+            },
+        }),
+    })
+    .expect("parameters serialise");
+    let previous = if job.resume {
+        journal::load_previous(&job.output, job.shard, &parameters)?
+    } else {
+        HashMap::new()
     };
 
     for split in &dataset.splits {
@@ -425,6 +463,9 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
             std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         }
     }
+    if job.resume {
+        journal::remove_stale_temporaries(&job.output);
+    }
 
     let ctx = Context {
         job,
@@ -432,14 +473,27 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
         dataset: &dataset,
         mappings: OnceMap::default(),
     };
+    let journal = Journal::new(&job.output, job.shard, "kitti", parameters, Vec::new());
     progress.start(frames.len() + missing.len());
-    let mut records: Vec<FrameRecord> = frames
+    let (mut resumed, mut done) = (0usize, 0usize);
+    let outcomes: Vec<Option<bool>> = frames
         .par_iter()
         .map(|f| {
+            // SIGINT/SIGTERM: take no new frame; those in flight finish.
+            if stop.load(Ordering::Relaxed) {
+                return None;
+            }
             let split = dataset
                 .split(&f.split)
                 .expect("selected frames come from the dataset's splits");
-            match ctx.convert(split, &f.id) {
+            if let Some(r) = previous.get(&(f.split.clone(), f.id.clone())) {
+                if journal::still_valid(r, &job.input, &job.output) {
+                    journal.record(r.clone());
+                    progress.frame_done();
+                    return Some(true);
+                }
+            }
+            let record = match ctx.convert(split, &f.id) {
                 Ok(out) => {
                     progress.frame_done();
                     out.record
@@ -451,9 +505,15 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
                     ctx.remove_outputs(split, &f.id);
                     failed_record(f, &e)
                 }
-            }
+            };
+            journal.record(record);
+            Some(false)
         })
         .collect();
+    for o in outcomes.iter().flatten() {
+        done += 1;
+        resumed += usize::from(*o);
+    }
     for id in missing {
         let f = FrameRef {
             split: String::new(),
@@ -463,11 +523,13 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
             "frame {id} was asked for but is in no selected split"
         ));
         progress.frame_failed(&f, &e);
-        records.push(failed_record(&f, &e));
+        journal.record(failed_record(&f, &e));
     }
     progress.finish();
+    let interrupted = done < frames.len();
+    let records = journal.finish(!interrupted)?;
 
-    if job.augment.is_some() {
+    if job.augment.is_some() && job.shard.is_none() {
         // augmented ids are new: list them so KITTI loaders find the views
         write_image_sets(&job.output, &dataset, &records)?;
     }
@@ -475,37 +537,15 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress) -> Result<Summary> {
         .iter()
         .filter(|r| r.status == FrameStatus::Failed)
         .count();
-    let summary = Summary {
+    Ok(Summary {
         frames: records.len(),
         converted: records.len() - failed,
         failed,
+        resumed,
+        interrupted,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.mappings.len(),
-    };
-    let manifest = Manifest {
-        tool: "panoconv",
-        version: env!("CARGO_PKG_VERSION"),
-        command: "kitti".into(),
-        parameters: Parameters {
-            job,
-            style: style.as_ref().map(|m| StyleRecord {
-                model: m.info(),
-                order: if job.style.as_ref().is_some_and(|s| s.after_warp) {
-                    "after_warp"
-                } else {
-                    "before_warp"
-                },
-            }),
-        },
-        summary: ManifestSummary {
-            frames: summary.frames,
-            converted: summary.converted,
-            failed: summary.failed,
-        },
-        frames: records,
-    };
-    output::write_manifest(&job.output, &manifest)?;
-    Ok(summary)
+    })
 }
 
 /// `OUT/ImageSets/<split>.txt`: the view ids written per split.
