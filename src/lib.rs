@@ -9,6 +9,7 @@ pub mod camera;
 pub mod error;
 pub mod geometry;
 pub mod image;
+pub mod inspect;
 pub mod kitti;
 pub mod labels;
 pub mod output;
