@@ -285,7 +285,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
             .then((b.width, b.height).cmp(&(a.width, a.height)))
     });
     // most common first; ties in order of first appearance (frames are sorted)
-    calibs.sort_by(|a, b| b.count.cmp(&a.count));
+    calibs.sort_by_key(|c| std::cmp::Reverse(c.count));
     problems.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
     Ok(Report {
         dataset: root.display().to_string(),

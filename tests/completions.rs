@@ -95,6 +95,29 @@ fn completion_scripts_for_every_shell() {
         );
     }
 
+    // and so does the fish one (fish sorts the candidates)
+    if have("fish") {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("panoconv.fish");
+        std::fs::write(&file, &fish).unwrap();
+        let probe = format!(
+            "source '{}'; complete -C 'panoconv ki'; complete -C 'panoconv kitti --to '",
+            file.display()
+        );
+        let out = Command::new("fish").arg("-c").arg(&probe).output().unwrap();
+        let reply = String::from_utf8_lossy(&out.stdout);
+        let words: Vec<&str> = reply
+            .lines()
+            .map(|l| l.split('\t').next().unwrap())
+            .collect();
+        assert_eq!(
+            words,
+            ["kitti", "cylindrical", "equirect", "perspective"],
+            "{reply}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+
     let run = panoconv(["completions", "tcsh"]);
     assert_eq!(run.code, 2);
 }
