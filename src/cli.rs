@@ -63,7 +63,7 @@ const PREVIEW_EXAMPLES: &str = "Examples:
   panoconv preview /data/kitti_equi --frame 000123 --output preview.png
   panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png
   panoconv preview /data/kitti_equi --grid 4x3 --output sheet.png
-  panoconv preview /data/kitti_equi --grid 2x1 --frames 000001,000042 --tile-width 800 --output s.png
+  panoconv preview O --grid 2x1 --frames 000001,000042 --tile-width 800 --output s.png
   panoconv preview /data/kitti --frame 000123 --output p.png        # plain KITTI: drawn with P2
 
 Each 3D box is drawn from the written calib alone (projection:, K2:, C2:; else P2) in the class
