@@ -4,7 +4,7 @@
 //! error, nothing written.
 
 use anyhow::{bail, Context as _, Result};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, CommandFactory, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use panoconv::augment::Augment;
 use panoconv::camera::{ImageSize, Projection};
@@ -46,9 +46,7 @@ enum Command {
     #[command(after_help = KITTI_EXAMPLES)]
     Kitti(Box<KittiArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
-    #[command(
-        after_help = "Examples:\n  panoconv preview /data/kitti_equi --frame 000123 --output preview.png\n  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png"
-    )]
+    #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
     /// Turn a converted dataset's labels into pixel objects (u, v, distance, ...) to train on.
     #[command(
@@ -71,7 +69,9 @@ enum Command {
     )]
     Merge(MergeArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
-    #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
+    #[command(
+        after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output data/synthetic_kitti --overwrite"
+    )]
     Synth(SynthArgs),
     /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.
     #[command(after_help = FISHEYE_EXAMPLES)]
@@ -79,7 +79,46 @@ enum Command {
     /// Warp a folder of 2:1 equirect panoramas (PNG) to cylindrical, perspective views or an equirect strip.
     #[command(after_help = PANO_EXAMPLES)]
     Pano(PanoArgs),
+    /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
+    #[command(after_help = INSPECT_EXAMPLES)]
+    Inspect(InspectArgs),
+    /// Print a shell completion script for panoconv.
+    #[command(after_help = COMPLETIONS_EXAMPLES)]
+    Completions(CompletionsArgs),
+    /// Print the man page (roff), or write one page per subcommand with --output.
+    #[command(after_help = MAN_EXAMPLES)]
+    Man(ManArgs),
 }
+
+const PREVIEW_EXAMPLES: &str = "Examples:
+  panoconv preview /data/kitti_equi --frame 000123 --output preview.png
+  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png
+  panoconv preview /data/kitti_equi --grid 4x3 --output sheet.png
+  panoconv preview O --grid 2x1 --frames 000001,000042 --tile-width 800 --output s.png
+  panoconv preview /data/kitti --frame 000123 --output p.png        # plain KITTI: drawn with P2
+
+Each 3D box is drawn from the written calib alone (projection:, K2:, C2:; else P2) in the class
+colour, the 2D box in white, with the class and the distance the projection pairs with (z,
+range or cylindrical rho) in metres. OUT/<split>/depth_2/NNNNNN.png is overlaid in colour
+(red near, blue at 80 m and beyond) when it exists.";
+
+const INSPECT_EXAMPLES: &str = "Examples:
+  panoconv inspect /data/kitti
+  panoconv inspect /data/kitti_equi --split training
+  panoconv inspect /data/kitti --json > report.json
+
+Exit codes: 0 the dataset is clean; 1 missing or malformed files were found (the report is still
+printed; each as file:line: field: message); 2 set-up error (no KITTI dataset there).";
+
+const COMPLETIONS_EXAMPLES: &str = "Examples:
+  panoconv completions bash > ~/.local/share/bash-completion/completions/panoconv
+  panoconv completions zsh > ~/.zfunc/_panoconv      # with fpath+=~/.zfunc before compinit
+  panoconv completions fish > ~/.config/fish/completions/panoconv.fish
+  panoconv completions powershell >> $PROFILE";
+
+const MAN_EXAMPLES: &str = "Examples:
+  panoconv man > panoconv.1 && man ./panoconv.1
+  panoconv man --output /usr/local/share/man/man1     # panoconv.1, panoconv-kitti.1, ...";
 
 const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --input /data/kitti --output /data/kitti_equi
@@ -217,13 +256,54 @@ struct PreviewArgs {
     /// A dataset written by `panoconv kitti` (or any KITTI root, drawn as perspective).
     dataset: PathBuf,
     /// Frame id.
-    #[arg(long)]
-    frame: String,
+    #[arg(long, required_unless_present = "grid", conflicts_with = "grid")]
+    frame: Option<String>,
     #[arg(long, default_value = "training")]
     split: String,
     /// PNG to write.
     #[arg(long, short = 'o')]
     output: PathBuf,
+    /// Contact sheet of C columns and R rows: the first C*R frames of the split (or of --frames).
+    #[arg(long, value_name = "CxR", value_parser = parse_size)]
+    grid: Option<ImageSize>,
+    /// Frames of the contact sheet (comma-separated).
+    #[arg(long, value_delimiter = ',', value_name = "ID,...", requires = "grid")]
+    frames: Option<Vec<String>>,
+    /// Width of each contact-sheet tile in pixels.
+    #[arg(long, value_name = "PX", default_value_t = 480, requires = "grid")]
+    tile_width: u32,
+    /// Do not overlay depth_2/ maps.
+    #[arg(long)]
+    no_depth: bool,
+    /// Draw the boxes without the class and distance text.
+    #[arg(long)]
+    no_text: bool,
+}
+
+#[derive(Args)]
+struct InspectArgs {
+    /// KITTI object root (training/ and/or testing/), original or written by panoconv.
+    dataset: PathBuf,
+    /// Inspect only this split (training or testing).
+    #[arg(long)]
+    split: Option<String>,
+    /// Print the report as JSON (stable key order) instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct CompletionsArgs {
+    /// The shell to write a completion script for.
+    #[arg(value_enum)]
+    shell: clap_complete::Shell,
+}
+
+#[derive(Args)]
+struct ManArgs {
+    /// Write panoconv.1 and one page per subcommand (panoconv-kitti.1, ...) into DIR.
+    #[arg(long, short = 'o', value_name = "DIR")]
+    output: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -571,26 +651,62 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
 }
 
 fn preview(args: PreviewArgs) -> Result<ExitCode> {
-    use panoconv::camera::{ImageSize, LinearCamera};
-    use panoconv::kitti::{png_io, Calib, LabelFile};
-    let split = args.dataset.join(&args.split);
-    let image_path = split.join("image_2").join(format!("{}.png", args.frame));
-    let calib_path = split.join("calib").join(format!("{}.txt", args.frame));
-    let label_path = split.join("label_2").join(format!("{}.txt", args.frame));
-    let mut image = png_io::decode_rgb8(&panoconv::error::read_file(&image_path)?, &image_path)?;
-    let calib = Calib::read(&calib_path)?;
-    let size = ImageSize::new(image.width(), image.height());
-    let (camera, centre): (Box<dyn LinearCamera>, _) = if calib.projection.is_some() {
-        calib.output_camera(2, size)?
-    } else {
-        let c = calib.camera(2)?;
-        (Box::new(c.camera(size)), c.centre)
+    use panoconv::kitti::png_io;
+    use panoconv::preview::{contact_sheet, render_frame, PreviewOptions};
+    let options = PreviewOptions {
+        depth: !args.no_depth,
+        text_scale: args.no_text.then_some(0),
     };
-    if label_path.exists() {
-        for label in LabelFile::read(&label_path)?.labels {
-            panoconv::preview::draw_label(&mut image, &label, camera.as_ref(), &centre);
+    let image = match (args.grid, &args.frame) {
+        (Some(grid), _) => {
+            if args.tile_width == 0 {
+                bail!(Error::Setup("--tile-width must be positive".into()));
+            }
+            let n = (grid.width * grid.height) as usize;
+            let ids = match &args.frames {
+                Some(ids) => ids.clone(),
+                None => {
+                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let entries = std::fs::read_dir(&dir)
+                        .map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))?;
+                    let mut ids: Vec<String> = entries
+                        .flatten()
+                        .filter_map(|e| {
+                            let name = e.file_name().to_str()?.to_owned();
+                            let id = name.strip_suffix(".png")?;
+                            (!id.starts_with('.')).then(|| id.to_owned())
+                        })
+                        .collect();
+                    ids.sort();
+                    ids
+                }
+            };
+            let ids: Vec<String> = ids.into_iter().take(n).collect();
+            if ids.is_empty() {
+                bail!(Error::Setup(format!(
+                    "no frames to show in {}",
+                    args.dataset.join(&args.split).display()
+                )));
+            }
+            // Text sized so that it stays legible once the tile is scaled down.
+            let mut tiles = Vec::with_capacity(ids.len());
+            for id in &ids {
+                let mut opts = options;
+                if opts.text_scale.is_none() {
+                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let path = dir.join(format!("{id}.png"));
+                    let bytes = panoconv::error::read_file(&path)?;
+                    let (w, _) = png_io::read_size(&bytes, &path)?;
+                    opts.text_scale = Some(w.div_ceil(args.tile_width).max(1));
+                }
+                let tile = render_frame(&args.dataset, &args.split, id, &opts)?;
+                tiles.push((format!("{}/{id}", args.split), tile));
+            }
+            contact_sheet(&tiles, grid.width, args.tile_width)
         }
-    }
+        (None, Some(frame)) => render_frame(&args.dataset, &args.split, frame, &options)?,
+        (None, None) => unreachable!("clap requires --frame or --grid"),
+    };
     panoconv::output::write_atomic(
         &args.output,
         &png_io::encode_rgb8(&image, PngCompression::Default),
@@ -670,6 +786,47 @@ fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
     })
 }
 
+fn inspect(args: InspectArgs) -> Result<ExitCode> {
+    let report = panoconv::inspect::inspect(&args.dataset, args.split.as_deref())?;
+    if args.json {
+        print!("{}", report.to_json());
+    } else {
+        print!("{}", report.to_text());
+    }
+    Ok(if report.is_clean() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
+fn completions(args: CompletionsArgs) -> Result<ExitCode> {
+    let mut cmd = Cli::command();
+    clap_complete::generate(args.shell, &mut cmd, "panoconv", &mut std::io::stdout());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn man(args: ManArgs) -> Result<ExitCode> {
+    let cmd = Cli::command();
+    match args.output {
+        Some(dir) => {
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            clap_mangen::generate_to(cmd, &dir).map_err(|e| Error::io(&dir, e))?;
+        }
+        None => {
+            let mut out = Vec::new();
+            clap_mangen::Man::new(cmd)
+                .render(&mut out)
+                .context("cannot render the man page")?;
+            use std::io::Write as _;
+            std::io::stdout()
+                .write_all(&out)
+                .context("cannot write to stdout")?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
@@ -682,6 +839,9 @@ fn run() -> Result<ExitCode> {
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),
+        Command::Inspect(a) => inspect(a),
+        Command::Completions(a) => completions(a),
+        Command::Man(a) => man(a),
     }
 }
 

@@ -13,6 +13,7 @@ pub mod eval;
 pub mod folder;
 pub mod geometry;
 pub mod image;
+pub mod inspect;
 pub mod journal;
 pub mod kitti;
 pub mod labels;

@@ -132,7 +132,7 @@ fn sigint_stops_cleanly_and_resume_finishes() {
     let reference = tmp.path().join("reference");
     assert!(kitti(&input, &reference, &[]).status().unwrap().success());
     let out = tmp.path().join("o");
-    let mut child = kitti(&input, &out, &["--jobs", "1"])
+    let child = kitti(&input, &out, &["--jobs", "1"])
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();

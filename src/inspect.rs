@@ -1,0 +1,381 @@
+//! `panoconv inspect`: what a KITTI-layout dataset holds (frames, classes, image sizes,
+//! calibrations, small objects) and what is wrong with it (missing files, malformed lines),
+//! using the same parsers as the conversion.
+
+use crate::error::{read_lines, Error, Result};
+use crate::kitti::{png_io, Calib, Dataset, Label};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::io::Read as _;
+use std::path::Path;
+
+/// Objects whose 2D box is less tall than this are ignored in training (Payen de La Garanderie
+/// et al.).
+pub const SMALL_OBJECT_PX: f64 = 25.0;
+
+/// The report. Field order is the JSON key order; maps are sorted by key.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub dataset: String,
+    pub frames: usize,
+    pub splits: Vec<SplitReport>,
+    /// Label lines per class (every split with labels).
+    pub classes: BTreeMap<String, usize>,
+    pub image_sizes: Vec<SizeCount>,
+    /// Distinct P2 matrices.
+    pub calibrations: Vec<CalibCount>,
+    /// Frames per `projection:` line ("kitti" when the calib has none).
+    pub projections: BTreeMap<String, usize>,
+    pub small_objects: SmallObjects,
+    pub problems: Vec<Problem>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct SplitReport {
+    pub name: String,
+    pub frames: usize,
+    pub labelled: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct SizeCount {
+    pub width: u32,
+    pub height: u32,
+    pub count: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibCount {
+    /// Row-major 3x4.
+    pub p2: [f64; 12],
+    pub fu: f64,
+    pub fv: f64,
+    pub cu: f64,
+    pub cv: f64,
+    /// Camera 2's optical centre in rect, metres: −K⁻¹·P2[:,3].
+    pub c2: [f64; 3],
+    pub count: usize,
+    /// The first frame (split/id) with this P2.
+    pub first_frame: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct SmallObjects {
+    pub threshold_px: f64,
+    /// Objects (DontCare excluded) whose 2D box height (bottom − top) is under the threshold.
+    pub count: usize,
+    pub classes: BTreeMap<String, usize>,
+}
+
+/// A missing or malformed file; `line` and `field` when the problem is inside a text file.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Problem {
+    /// Relative to the dataset root.
+    pub file: String,
+    pub line: Option<usize>,
+    pub field: Option<String>,
+    pub message: String,
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(l) = self.line {
+            write!(f, ":{l}")?;
+        }
+        if let Some(field) = &self.field {
+            write!(f, ": {field}")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl Problem {
+    fn file(file: &str, message: impl Into<String>) -> Self {
+        Problem {
+            file: file.to_owned(),
+            line: None,
+            field: None,
+            message: message.into(),
+        }
+    }
+
+    fn from_error(file: &str, e: Error) -> Self {
+        match e {
+            Error::Parse {
+                line,
+                field,
+                message,
+                ..
+            } => Problem {
+                file: file.to_owned(),
+                line: Some(line),
+                field: Some(field),
+                message,
+            },
+            Error::File { message, .. } => Problem::file(file, message),
+            Error::Io { cause, .. } => Problem::file(file, cause.to_string()),
+            other => Problem::file(file, other.to_string()),
+        }
+    }
+}
+
+/// Image size from the PNG header (only the first 64 KiB are read unless the header is longer).
+fn png_size(path: &Path) -> Result<(u32, u32)> {
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    match png_io::read_size(&head, path) {
+        Ok(s) => Ok(s),
+        Err(_) => png_io::read_size(&crate::error::read_file(path)?, path),
+    }
+}
+
+fn ids_in(dir: &Path, ext: &str) -> Vec<String> {
+    let mut ids: Vec<String> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_str()?.to_owned();
+            let id = name.strip_suffix(ext)?;
+            (!id.starts_with('.')).then(|| id.to_owned())
+        })
+        .collect();
+    ids.sort();
+    ids
+}
+
+/// Inspects the dataset at `root` (one split with `only`). Set-up problems (no dataset there)
+/// are errors; everything wrong inside the dataset is in [`Report::problems`].
+pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
+    let dataset = Dataset::open(root, only)?;
+    let mut classes = BTreeMap::new();
+    let mut sizes: BTreeMap<(u32, u32), usize> = BTreeMap::new();
+    let mut calibs: Vec<CalibCount> = Vec::new();
+    let mut projections = BTreeMap::new();
+    let mut small = SmallObjects {
+        threshold_px: SMALL_OBJECT_PX,
+        count: 0,
+        classes: BTreeMap::new(),
+    };
+    let mut problems = Vec::new();
+    let mut splits = Vec::new();
+    let mut total = 0;
+    for split in &dataset.splits {
+        let rel = |sub: &str, id: &str, ext: &str| format!("{}/{sub}/{id}{ext}", split.name);
+        total += split.frames.len();
+        splits.push(SplitReport {
+            name: split.name.clone(),
+            frames: split.frames.len(),
+            labelled: split.has_labels,
+        });
+        for id in &split.frames {
+            let frame = format!("{}/{id}", split.name);
+            let image_rel = rel("image_2", id, ".png");
+            match png_size(&split.image_path(2, id)) {
+                Ok(s) => *sizes.entry(s).or_default() += 1,
+                Err(e) => problems.push(Problem::from_error(&image_rel, e)),
+            }
+
+            let calib_rel = rel("calib", id, ".txt");
+            let calib_path = split.calib_path(id);
+            if !calib_path.is_file() {
+                problems.push(Problem::file(
+                    &calib_rel,
+                    format!("missing (the frame has {image_rel})"),
+                ));
+            } else {
+                let calib = read_lines(&calib_path)
+                    .and_then(|lines| Calib::parse(Path::new(&calib_rel), lines))
+                    .and_then(|c| c.camera(2).map(|cam| (c, cam)));
+                match calib {
+                    Ok((calib, cam)) => {
+                        let name = calib.projection.map_or("kitti", |p| p.name());
+                        *projections.entry(name.to_owned()).or_default() += 1;
+                        let p2: [f64; 12] = calib.p[2]
+                            .expect("camera(2) succeeded")
+                            .transpose()
+                            .as_slice()
+                            .try_into()
+                            .expect("3x4");
+                        match calibs.iter_mut().find(|c| c.p2 == p2) {
+                            Some(c) => c.count += 1,
+                            None => calibs.push(CalibCount {
+                                p2,
+                                fu: cam.k.fu,
+                                fv: cam.k.fv,
+                                cu: cam.k.cu,
+                                cv: cam.k.cv,
+                                c2: [cam.centre.x, cam.centre.y, cam.centre.z],
+                                count: 1,
+                                first_frame: frame.clone(),
+                            }),
+                        }
+                    }
+                    Err(e) => problems.push(Problem::from_error(&calib_rel, e)),
+                }
+            }
+
+            if !split.has_labels {
+                continue;
+            }
+            let label_rel = rel("label_2", id, ".txt");
+            let label_path = split.label_path(id);
+            if !label_path.is_file() {
+                problems.push(Problem::file(
+                    &label_rel,
+                    format!("missing (the frame has {image_rel})"),
+                ));
+                continue;
+            }
+            let lines = match read_lines(&label_path) {
+                Ok(l) => l,
+                Err(e) => {
+                    problems.push(Problem::from_error(&label_rel, e));
+                    continue;
+                }
+            };
+            for (i, line) in lines.iter().enumerate() {
+                if line.trim().is_empty() {
+                    continue;
+                }
+                match Label::parse(Path::new(&label_rel), i + 1, line) {
+                    Ok(label) => {
+                        *classes.entry(label.kind.clone()).or_default() += 1;
+                        let h = label.bbox[3] - label.bbox[1];
+                        if label.kind != "DontCare" && h < SMALL_OBJECT_PX {
+                            small.count += 1;
+                            *small.classes.entry(label.kind.clone()).or_default() += 1;
+                        }
+                    }
+                    Err(e) => problems.push(Problem::from_error(&label_rel, e)),
+                }
+            }
+        }
+        // Files without an image.
+        let mut orphans = vec![("calib", ".txt")];
+        if split.has_labels {
+            orphans.push(("label_2", ".txt"));
+        }
+        for (sub, ext) in orphans {
+            for id in ids_in(&split.dir.join(sub), ext) {
+                if split.frames.binary_search(&id).is_err() {
+                    problems.push(Problem::file(
+                        &rel(sub, &id, ext),
+                        format!("no image {} for it", rel("image_2", &id, ".png")),
+                    ));
+                }
+            }
+        }
+    }
+    let mut image_sizes: Vec<SizeCount> = sizes
+        .into_iter()
+        .map(|((width, height), count)| SizeCount {
+            width,
+            height,
+            count,
+        })
+        .collect();
+    image_sizes.sort_by(|a, b| {
+        b.count
+            .cmp(&a.count)
+            .then((b.width, b.height).cmp(&(a.width, a.height)))
+    });
+    // most common first; ties in order of first appearance (frames are sorted)
+    calibs.sort_by_key(|c| std::cmp::Reverse(c.count));
+    problems.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
+    Ok(Report {
+        dataset: root.display().to_string(),
+        frames: total,
+        splits,
+        classes,
+        image_sizes,
+        calibrations: calibs,
+        projections,
+        small_objects: small,
+        problems,
+    })
+}
+
+impl Report {
+    pub fn is_clean(&self) -> bool {
+        self.problems.is_empty()
+    }
+
+    /// Pretty JSON with a final newline.
+    pub fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("report serialises");
+        s.push('\n');
+        s
+    }
+
+    /// The human-readable report.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "dataset: {}", self.dataset);
+        let per_split: Vec<String> = self
+            .splits
+            .iter()
+            .map(|sp| format!("{} {}", sp.name, sp.frames))
+            .collect();
+        let _ = writeln!(s, "frames: {} ({})", self.frames, per_split.join(", "));
+        let objects: usize = self.classes.values().sum();
+        let _ = writeln!(s, "classes: {objects} label lines");
+        let mut classes: Vec<_> = self.classes.iter().collect();
+        classes.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
+        for (name, n) in classes {
+            let _ = writeln!(s, "  {name:<16} {n:>7}");
+        }
+        let _ = writeln!(s, "image sizes: {} distinct", self.image_sizes.len());
+        for z in &self.image_sizes {
+            let _ = writeln!(
+                s,
+                "  {:<16} {:>7}",
+                format!("{}x{}", z.width, z.height),
+                z.count
+            );
+        }
+        let _ = writeln!(s, "calibrations: {} distinct P2", self.calibrations.len());
+        for c in &self.calibrations {
+            let _ = writeln!(
+                s,
+                "  {:>7} frames  fu {:.4} fv {:.4} cu {:.4} cv {:.4}  C2 ({:.4}, {:.4}, {:.4}) m  first {}",
+                c.count, c.fu, c.fv, c.cu, c.cv, c.c2[0], c.c2[1], c.c2[2], c.first_frame
+            );
+        }
+        let projections: Vec<String> = self
+            .projections
+            .iter()
+            .map(|(p, n)| format!("{p} {n}"))
+            .collect();
+        let _ = writeln!(s, "projections: {}", projections.join(", "));
+        let by_class: Vec<String> = self
+            .small_objects
+            .classes
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        let _ = write!(
+            s,
+            "objects under {} px tall: {}",
+            self.small_objects.threshold_px, self.small_objects.count
+        );
+        if by_class.is_empty() {
+            s.push('\n');
+        } else {
+            let _ = writeln!(s, " ({})", by_class.join(", "));
+        }
+        if self.problems.is_empty() {
+            let _ = writeln!(s, "problems: none");
+        } else {
+            let _ = writeln!(s, "problems: {}", self.problems.len());
+            for p in &self.problems {
+                let _ = writeln!(s, "  {p}");
+            }
+        }
+        s
+    }
+}
