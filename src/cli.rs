@@ -45,6 +45,9 @@ enum Command {
     /// Convert a KITTI object dataset (images, labels, calib) to another projection.
     #[command(after_help = KITTI_EXAMPLES)]
     Kitti(Box<KittiArgs>),
+    /// Convert KITTI raw drives (a date folder with calib_*.txt and *_drive_*_sync/).
+    #[command(after_help = RAW_EXAMPLES)]
+    KittiRaw(Box<KittiArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
@@ -120,6 +123,15 @@ const MAN_EXAMPLES: &str = "Examples:
   panoconv man > panoconv.1 && man ./panoconv.1
   panoconv man --output /usr/local/share/man/man1     # panoconv.1, panoconv-kitti.1, ...";
 
+const RAW_EXAMPLES: &str = "Examples:
+  panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
+  panoconv kitti-raw --to cylindrical --drive 2011_09_26_drive_0001_sync --input /data/raw/2011_09_26 --output O
+
+Output mirrors the input: OUT/<drive>/image_02/data/*.png (image_03 with --cameras 2,3),
+OUT/<drive>/depth_02/data/*.png with --depth, and one OUT/<drive>/calib.txt in KITTI object form
+(P0..P3, R0_rect, Tr_velo_to_cam from the date folder) with projection:, K2:, C2: added.
+All `kitti` options apply except --split, --image-set and --augment.";
+
 const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --input /data/kitti --output /data/kitti_equi
   panoconv kitti --to cylindrical --input /data/kitti --output /data/kitti_cyl --jobs 8
@@ -157,6 +169,9 @@ struct KittiArgs {
     /// Convert only this split (training or testing).
     #[arg(long)]
     split: Option<String>,
+    /// kitti-raw: convert only this drive (e.g. 2011_09_26_drive_0001_sync).
+    #[arg(long, value_name = "NAME")]
+    drive: Option<String>,
     /// Convert only the frames listed in INPUT/ImageSets/NAME.txt.
     #[arg(long, value_name = "NAME", conflicts_with_all = ["frames", "frames_from"])]
     image_set: Option<String>,
@@ -503,7 +518,15 @@ fn with_pool<T: Send>(jobs: Option<usize>, body: impl FnOnce() -> T + Send) -> R
     Ok(pool.install(body))
 }
 
-fn kitti(args: KittiArgs) -> Result<ExitCode> {
+fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
+    if raw && (args.split.is_some() || args.image_set.is_some()) {
+        bail!(Error::Setup(
+            "kitti-raw selects drives with --drive, not --split/--image-set".into()
+        ));
+    }
+    if !raw && args.drive.is_some() {
+        bail!(Error::Setup("--drive is for kitti-raw".into()));
+    }
     let projection = match args.to {
         To::Equirect => Projection::Equirect,
         To::Cylindrical => Projection::Cylindrical,
@@ -549,7 +572,8 @@ fn kitti(args: KittiArgs) -> Result<ExitCode> {
             crop: args.crop,
             resize: args.resize,
         },
-        split: args.split,
+        split: if raw { args.drive } else { args.split },
+        raw,
         frames,
         overwrite: args.overwrite,
         png_compression: args.png_compression,
@@ -830,7 +854,8 @@ fn man(args: ManArgs) -> Result<ExitCode> {
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Kitti(a) => kitti(*a),
+        Command::Kitti(a) => kitti(*a, false),
+        Command::KittiRaw(a) => kitti(*a, true),
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),

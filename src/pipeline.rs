@@ -8,7 +8,7 @@ use crate::error::{read_file, Error, Result};
 use crate::geometry::{output_camera, OutputSpec};
 use crate::journal::{self, Journal, Shard};
 use crate::kitti::png_io::{self, PngCompression};
-use crate::kitti::velodyne;
+use crate::kitti::{raw, velodyne, Layout, OutputKind};
 use crate::kitti::{Calib, Dataset, FrameRef, LabelFile, Split};
 use crate::labels::transform_label;
 use crate::output::LidarRecord;
@@ -50,6 +50,8 @@ pub struct KittiJob {
     /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
     #[serde(skip)]
     pub resume: bool,
+    /// The input is a KITTI raw date folder (splits are its drives).
+    pub raw: bool,
 }
 
 /// The depth output of a conversion.
@@ -168,16 +170,16 @@ impl Context<'_> {
                 .collect(),
             None => vec![id.to_owned()],
         };
+        let kinds = [
+            OutputKind::Image(2),
+            OutputKind::Image(3),
+            OutputKind::Depth,
+            OutputKind::Label,
+            OutputKind::Calib,
+        ];
         ids.iter()
-            .flat_map(|v| {
-                [
-                    dir.join("image_2").join(format!("{v}.png")),
-                    dir.join("image_3").join(format!("{v}.png")),
-                    dir.join("depth_2").join(format!("{v}.png")),
-                    dir.join("label_2").join(format!("{v}.txt")),
-                    dir.join("calib").join(format!("{v}.txt")),
-                ]
-            })
+            .flat_map(|v| kinds.iter().filter_map(|k| split.output_path(*k, v)))
+            .map(|p| dir.join(p))
             .collect()
     }
 
@@ -187,15 +189,51 @@ impl Context<'_> {
         }
     }
 
+    /// The calib of a layout that has one per split (raw drives), from its first frame's size.
+    fn write_split_calib(&self, split: &Split) -> Result<()> {
+        let (Some(rel), Layout::Raw { calib }, Some(first)) = (
+            split.split_calib_output(),
+            &split.layout,
+            split.frames.first(),
+        ) else {
+            return Ok(());
+        };
+        let setup =
+            |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
+        let size_of = |cam: usize| -> Result<ImageSize> {
+            let path = split.image_path(cam, first);
+            let (w, h) = png_io::read_size(&read_file(&path)?, &path)?;
+            Ok(ImageSize::new(w, h))
+        };
+        let mut cameras = Vec::new();
+        for &n in &self.job.cameras {
+            let cam = calib.camera(n).map_err(setup)?;
+            let mapping = self
+                .mapping(&calib.path, cam.k, size_of(n).map_err(setup)?)
+                .map_err(setup)?;
+            cameras.push((n, mapping.output.intrinsics(), cam.centre));
+        }
+        let text = calib.render_output(self.job.output_spec.projection.name(), &cameras);
+        output::write_atomic(
+            &self.job.output.join(&split.name).join(rel),
+            text.as_bytes(),
+        )
+    }
+
     fn convert(&self, split: &Split, id: &str) -> Result<FrameOutput> {
         let root = &self.dataset.root;
         let mut inputs = Vec::new();
         let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
 
-        let calib_path = split.calib_path(id);
-        let calib_bytes = read_file(&calib_path)?;
-        inputs.push((relative(root, &calib_path), output::hash_hex(&calib_bytes)));
-        let calib = Calib::read(&calib_path)?;
+        let (calib, calib_path) = match &split.layout {
+            Layout::Object => {
+                let path = split.calib_path(id);
+                let bytes = read_file(&path)?;
+                inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+                (Calib::read(&path)?, path)
+            }
+            Layout::Raw { calib } => ((**calib).clone(), calib.path.clone()),
+        };
         if calib.projection.is_some() {
             return Err(Error::file(
                 &calib_path,
@@ -241,7 +279,7 @@ impl Context<'_> {
         };
 
         let lidar = if self.job.depth.is_some() {
-            let path = split.dir.join("velodyne").join(format!("{id}.bin"));
+            let path = split.velodyne_path(id);
             let bytes = read_file(&path)?;
             inputs.push((relative(root, &path), output::hash_hex(&bytes)));
             let scan = velodyne::parse(&bytes, &path)?;
@@ -260,6 +298,9 @@ impl Context<'_> {
         };
 
         let out_split = self.job.output.join(&split.name);
+        let out = |kind: OutputKind, view_id: &str| {
+            split.output_path(kind, view_id).map(|p| out_split.join(p))
+        };
         let mut views = Vec::new();
         let mut lidar_record = None;
         let views2 = self.views(split, id, &calib_path, cam2.k, size)?;
@@ -268,10 +309,9 @@ impl Context<'_> {
             if let (Some(model), true) = (self.style, after_warp) {
                 warped = model.stylize(&warped)?;
             }
-            outputs.push((
-                out_split.join("image_2").join(format!("{view_id}.png")),
-                png_io::encode_rgb8(&warped, self.job.png_compression),
-            ));
+            if let Some(path) = out(OutputKind::Image(2), &view_id) {
+                outputs.push((path, png_io::encode_rgb8(&warped, self.job.png_compression)));
+            }
             let source = cam2.camera(size);
             if let Some(labels) = &labels {
                 let mut text = String::new();
@@ -283,10 +323,9 @@ impl Context<'_> {
                         text.push('\n');
                     }
                 }
-                outputs.push((
-                    out_split.join("label_2").join(format!("{view_id}.txt")),
-                    text.into_bytes(),
-                ));
+                if let Some(path) = out(OutputKind::Label, &view_id) {
+                    outputs.push((path, text.into_bytes()));
+                }
             }
             if let (Some((points, non_finite)), Some(depth)) = (&lidar, &self.job.depth) {
                 let filter = depth.occlusion_filter.as_ref();
@@ -305,7 +344,7 @@ impl Context<'_> {
                     depth_pixels: map.valid(),
                 });
                 outputs.push((
-                    out_split.join("depth_2").join(format!("{view_id}.png")),
+                    out(OutputKind::Depth, &view_id).expect("every layout has depth maps"),
                     png_io::encode_gray16(
                         map.width,
                         map.height,
@@ -322,17 +361,16 @@ impl Context<'_> {
                     warped3 = model.stylize(&warped3)?;
                 }
                 outputs.push((
-                    out_split.join("image_3").join(format!("{view_id}.png")),
+                    out(OutputKind::Image(3), &view_id).expect("every layout has image 3"),
                     png_io::encode_rgb8(&warped3, self.job.png_compression),
                 ));
                 cameras.push((3, mapping3.output.intrinsics(), cam3.centre));
             }
             let projection = mapping.output.projection().name();
             let calib_text = calib.render_output(projection, &cameras);
-            outputs.push((
-                out_split.join("calib").join(format!("{view_id}.txt")),
-                calib_text.into_bytes(),
-            ));
+            if let Some(path) = out(OutputKind::Calib, &view_id) {
+                outputs.push((path, calib_text.into_bytes()));
+            }
             views.push(ViewRecord { id: view_id, view });
         }
 
@@ -402,7 +440,11 @@ impl Context<'_> {
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
 pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> Result<Summary> {
     let started = std::time::Instant::now();
-    let dataset = Dataset::open(&job.input, job.split.as_deref())?;
+    let dataset = if job.raw {
+        raw::open(&job.input, job.split.as_deref())?
+    } else {
+        Dataset::open(&job.input, job.split.as_deref())?
+    };
     // Resumed runs and shards write into a folder that already holds outputs.
     output::check_output_dir(
         &job.input,
@@ -447,20 +489,34 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         HashMap::new()
     };
 
+    let is_raw = dataset
+        .splits
+        .iter()
+        .any(|s| matches!(s.layout, Layout::Raw { .. }));
+    if is_raw && job.augment.is_some() {
+        return Err(Error::Setup(
+            "--augment is not available for KITTI raw drives (one calib per drive)".into(),
+        ));
+    }
     for split in &dataset.splits {
-        let mut dirs = vec!["image_2", "calib"];
+        let mut kinds = vec![OutputKind::Image(2), OutputKind::Calib];
         if split.has_labels {
-            dirs.push("label_2");
+            kinds.push(OutputKind::Label);
         }
         if job.cameras.contains(&3) {
-            dirs.push("image_3");
+            kinds.push(OutputKind::Image(3));
         }
         if job.depth.is_some() {
-            dirs.push("depth_2");
+            kinds.push(OutputKind::Depth);
         }
-        for d in dirs {
-            let dir = job.output.join(&split.name).join(d);
-            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        for k in kinds {
+            if let Some(p) = split.output_path(k, "x") {
+                let dir = job
+                    .output
+                    .join(&split.name)
+                    .join(p.parent().unwrap_or(Path::new("")));
+                std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            }
         }
     }
     if job.resume {
@@ -473,7 +529,11 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         dataset: &dataset,
         mappings: OnceMap::default(),
     };
-    let journal = Journal::new(&job.output, job.shard, "kitti", parameters, Vec::new());
+    for split in &dataset.splits {
+        ctx.write_split_calib(split)?;
+    }
+    let command = if is_raw { "kitti-raw" } else { "kitti" };
+    let journal = Journal::new(&job.output, job.shard, command, parameters, Vec::new());
     progress.start(frames.len() + missing.len());
     let (mut resumed, mut done) = (0usize, 0usize);
     let outcomes: Vec<Option<bool>> = frames

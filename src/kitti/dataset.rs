@@ -10,6 +10,26 @@ pub struct Split {
     pub has_labels: bool,
     /// Frame ids (file stems of image_2/*.png), sorted.
     pub frames: Vec<String>,
+    pub layout: Layout,
+}
+
+/// Where a split keeps its files.
+#[derive(Debug, Clone)]
+pub enum Layout {
+    /// KITTI object: `image_2/ID.png`, `calib/ID.txt`, `velodyne/ID.bin`, `label_2/ID.txt`.
+    Object,
+    /// A KITTI raw drive: `image_02/data/ID.png`, `velodyne_points/data/ID.bin`, and one
+    /// calibration for the whole drive (composed from the date folder's files).
+    Raw { calib: Box<crate::kitti::Calib> },
+}
+
+/// The files a conversion writes for a frame, relative to the split's output folder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    Image(usize),
+    Depth,
+    Label,
+    Calib,
 }
 
 #[derive(Debug, Clone)]
@@ -29,9 +49,40 @@ pub const SPLITS: [&str; 2] = ["training", "testing"];
 
 impl Split {
     pub fn image_path(&self, camera: usize, id: &str) -> PathBuf {
-        self.dir
-            .join(format!("image_{camera}"))
-            .join(format!("{id}.png"))
+        match self.layout {
+            Layout::Object => self
+                .dir
+                .join(format!("image_{camera}"))
+                .join(format!("{id}.png")),
+            Layout::Raw { .. } => self.dir.join(format!("image_0{camera}/data/{id}.png")),
+        }
+    }
+
+    pub fn velodyne_path(&self, id: &str) -> PathBuf {
+        match self.layout {
+            Layout::Object => self.dir.join("velodyne").join(format!("{id}.bin")),
+            Layout::Raw { .. } => self.dir.join(format!("velodyne_points/data/{id}.bin")),
+        }
+    }
+
+    /// An output file of a frame, relative to the split's output folder (None: this layout
+    /// has no such file per frame; raw drives write one calib, see `split_calib_output`).
+    pub fn output_path(&self, kind: OutputKind, id: &str) -> Option<PathBuf> {
+        let raw = matches!(self.layout, Layout::Raw { .. });
+        Some(PathBuf::from(match (kind, raw) {
+            (OutputKind::Image(c), false) => format!("image_{c}/{id}.png"),
+            (OutputKind::Image(c), true) => format!("image_0{c}/data/{id}.png"),
+            (OutputKind::Depth, false) => format!("depth_2/{id}.png"),
+            (OutputKind::Depth, true) => format!("depth_02/data/{id}.png"),
+            (OutputKind::Label, false) => format!("label_2/{id}.txt"),
+            (OutputKind::Calib, false) => format!("calib/{id}.txt"),
+            (OutputKind::Label | OutputKind::Calib, true) => return None,
+        }))
+    }
+
+    /// The calib written once for the whole split (raw drives: `calib.txt`).
+    pub fn split_calib_output(&self) -> Option<PathBuf> {
+        matches!(self.layout, Layout::Raw { .. }).then(|| PathBuf::from("calib.txt"))
     }
     pub fn calib_path(&self, id: &str) -> PathBuf {
         self.dir.join("calib").join(format!("{id}.txt"))
@@ -103,6 +154,7 @@ impl Dataset {
                 dir,
                 has_labels,
                 frames,
+                layout: Layout::Object,
             });
         }
         if splits.is_empty() {

@@ -4,8 +4,9 @@ pub mod calib;
 pub mod dataset;
 pub mod label;
 pub mod png_io;
+pub mod raw;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};
-pub use dataset::{Dataset, FrameRef, Split};
+pub use dataset::{Dataset, FrameRef, Layout, OutputKind, Split};
 pub use label::{Label, LabelFile};
