@@ -59,6 +59,12 @@ enum Command {
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(after_help = "Example:\n  panoconv synth --output /tmp/synthetic_kitti")]
     Synth(SynthArgs),
+    /// Check a converted dataset against its manifest: re-hash every listed output (blake3),
+    /// report missing, changed and unlisted files.
+    #[command(
+        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, ...), then a summary.\nExit codes: 0 everything matches; 1 problems found; 2 the manifest is missing or unreadable."
+    )]
+    Verify(VerifyArgs),
 }
 
 const KITTI_EXAMPLES: &str = "Examples:
@@ -227,6 +233,15 @@ struct SynthArgs {
     output: PathBuf,
     #[arg(long)]
     overwrite: bool,
+}
+
+#[derive(Args)]
+struct VerifyArgs {
+    /// Output folder written by `panoconv kitti` (holding panoconv.json).
+    output: PathBuf,
+    /// Print only the problems, no summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
 fn parse_crop(s: &str) -> std::result::Result<Crop, String> {
@@ -499,6 +514,26 @@ fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
     Ok(folder_exit(summary, &a.output))
 }
 
+fn verify(a: VerifyArgs) -> Result<ExitCode> {
+    let report = panoconv::verify::verify(&a.output)?;
+    for problem in &report.problems {
+        println!("{problem}");
+    }
+    if !a.quiet {
+        let verdict = if report.is_ok() { "OK" } else { "FAILED" };
+        println!(
+            "panoconv verify: {verdict}: {} ({})",
+            report.summary(),
+            a.output.display()
+        );
+    }
+    Ok(if report.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
@@ -507,6 +542,7 @@ fn run() -> Result<ExitCode> {
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),
         Command::Synth(a) => synth(a),
+        Command::Verify(a) => verify(a),
     }
 }
 

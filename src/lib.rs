@@ -19,4 +19,5 @@ pub mod preview;
 pub mod style;
 pub mod synth;
 pub mod unproject;
+pub mod verify;
 pub mod warp;
