@@ -55,7 +55,11 @@ fn encode_png(color: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Vec<u
         enc.set_color(color);
         enc.set_depth(depth);
         if color == png::ColorType::Indexed {
-            enc.set_palette((0..=255u8).flat_map(|i| [i, 255 - i, i / 2]).collect::<Vec<_>>());
+            enc.set_palette(
+                (0..=255u8)
+                    .flat_map(|i| [i, 255 - i, i / 2])
+                    .collect::<Vec<_>>(),
+            );
         }
         let mut w = enc.write_header().unwrap();
         w.write_image_data(data).unwrap();
@@ -98,7 +102,10 @@ fn write_frame(input: &Path, split: &str, id: &str) {
     write(&input.join(format!("{split}/image_2/{id}.png")), rgb());
     write(&input.join(format!("{split}/calib/{id}.txt")), calib_text());
     if split == "training" {
-        write(&input.join(format!("{split}/label_2/{id}.txt")), label_text());
+        write(
+            &input.join(format!("{split}/label_2/{id}.txt")),
+            label_text(),
+        );
     }
 }
 
@@ -755,7 +762,11 @@ fn snapshot(root: &Path) -> BTreeMap<String, String> {
         };
         for e in entries.map(Result::unwrap) {
             let path = e.path();
-            let rel = path.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+            let rel = path
+                .strip_prefix(root)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
             let kind = e.file_type().unwrap();
             if kind.is_symlink() {
                 let target = std::fs::read_link(&path).unwrap();
@@ -771,7 +782,12 @@ fn snapshot(root: &Path) -> BTreeMap<String, String> {
     }
     let mut out = BTreeMap::new();
     if root.is_file() {
-        out.insert(String::new(), blake3::hash(&std::fs::read(root).unwrap()).to_hex().to_string());
+        out.insert(
+            String::new(),
+            blake3::hash(&std::fs::read(root).unwrap())
+                .to_hex()
+                .to_string(),
+        );
     }
     walk(root, root, &mut out);
     out
@@ -865,7 +881,13 @@ fn run_case(case: &Case) -> Result<(), String> {
         Expect::Ok(_) => Vec::new(),
         Expect::Fails(frames, message) => frames
             .iter()
-            .map(|(s, i)| (s.to_string(), i.to_string(), fill(&message.replace("{ID}", i))))
+            .map(|(s, i)| {
+                (
+                    s.to_string(),
+                    i.to_string(),
+                    fill(&message.replace("{ID}", i)),
+                )
+            })
             .collect(),
     };
     let want_code = if failed.is_empty() { 0 } else { 1 };
@@ -916,7 +938,11 @@ fn run_case(case: &Case) -> Result<(), String> {
         all.retain(|(s, i)| ids.contains(&i.as_str()) || s.is_empty());
     }
     if records.len() != all.len() {
-        return err(format!("manifest has {} frames, expected {:?}", records.len(), all));
+        return err(format!(
+            "manifest has {} frames, expected {:?}",
+            records.len(),
+            all
+        ));
     }
     for (split, id) in &all {
         let rec = records
@@ -1047,7 +1073,9 @@ fn velodyne_wrong_size_is_refused_with_the_exact_message() {
     use panoconv::kitti::velodyne;
     let path = Path::new("training/velodyne/000001.bin");
     for len in [1usize, 15, 17, 33, 16 * 1000 + 4] {
-        let err = velodyne::parse(&vec![0u8; len], path).unwrap_err().to_string();
+        let err = velodyne::parse(&vec![0u8; len], path)
+            .unwrap_err()
+            .to_string();
         assert_eq!(
             err,
             format!(

@@ -234,7 +234,9 @@ fn a_corrupt_manifest_is_exit_2_with_line_and_column() {
     std::fs::write(&manifest, b"\xff\xfe{}").unwrap();
     let run = run_verify(&dir);
     assert_eq!(run.code, 2);
-    assert!(run.stderr.contains("panoconv.json:1: column 1: not a panoconv manifest"));
+    assert!(run
+        .stderr
+        .contains("panoconv.json:1: column 1: not a panoconv manifest"));
 }
 
 #[test]
