@@ -71,6 +71,12 @@ enum Command {
         after_help = "Examples:\n  panoconv kitti --to equirect --input K --output O --shard 0/4   # ... one per machine, 0..3\n  panoconv merge O\n\nChecks every shard is present once, with the same parameters, and no frame is doubled."
     )]
     Merge(MergeArgs),
+    /// Check a converted dataset against its manifest: re-hash every listed output (blake3),
+    /// report missing, changed and unlisted files.
+    #[command(
+        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, ...), then a summary.\nExit codes: 0 everything matches; 1 problems found; 2 the manifest is missing or unreadable."
+    )]
+    Verify(VerifyArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(
         after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output data/synthetic_kitti --overwrite"
@@ -376,6 +382,15 @@ struct EvalDepthArgs {
 struct MergeArgs {
     /// The shared output folder of the shards.
     output: PathBuf,
+}
+
+#[derive(Args)]
+struct VerifyArgs {
+    /// Output folder written by `panoconv kitti` (holding panoconv.json).
+    output: PathBuf,
+    /// Print only the problems, no summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
 #[derive(Args)]
@@ -851,6 +866,26 @@ fn man(args: ManArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn verify(a: VerifyArgs) -> Result<ExitCode> {
+    let report = panoconv::verify::verify(&a.output)?;
+    for problem in &report.problems {
+        println!("{problem}");
+    }
+    if !a.quiet {
+        let verdict = if report.is_ok() { "OK" } else { "FAILED" };
+        println!(
+            "panoconv verify: {verdict}: {} ({})",
+            report.summary(),
+            a.output.display()
+        );
+    }
+    Ok(if report.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
@@ -861,6 +896,7 @@ fn run() -> Result<ExitCode> {
         Command::Unproject(a) => unproject(a),
         Command::EvalDepth(a) => eval_depth(a),
         Command::Merge(a) => merge(a),
+        Command::Verify(a) => verify(a),
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),

@@ -25,4 +25,5 @@ pub mod preview;
 pub mod style;
 pub mod synth;
 pub mod unproject;
+pub mod verify;
 pub mod warp;

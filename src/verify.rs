@@ -1,0 +1,326 @@
+//! `panoconv verify OUT`: checks a converted dataset against its manifest.
+//!
+//! Every output listed in `OUT/panoconv.json` is re-hashed (blake3) and compared with the
+//! recorded hash. Files under `OUT` that no frame lists are reported too, so a stale file from an
+//! earlier run, a half-written temporary or a file copied in by hand does not go unnoticed.
+//! Not counted as extra: the manifest itself, manifest parts (`panoconv.*.json`), and with
+//! `--augment` the `ImageSets/<split>.txt` lists the conversion writes beside the frames.
+
+use crate::error::{Error, Result};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
+
+/// The part of the manifest `verify` reads; other fields are ignored.
+#[derive(Debug, Deserialize)]
+struct ManifestView {
+    #[serde(default)]
+    parameters: Option<ParametersView>,
+    frames: Vec<FrameView>,
+}
+
+#[derive(Debug, Deserialize)]
+struct ParametersView {
+    #[serde(default)]
+    augment: Option<serde_json::Value>,
+}
+
+#[derive(Debug, Deserialize)]
+struct FrameView {
+    #[serde(default)]
+    outputs: Vec<(String, String)>,
+}
+
+/// One disagreement between the manifest and the files.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Problem {
+    /// Listed in the manifest, absent from the folder.
+    Missing { path: String },
+    /// Present, but its blake3 differs from the manifest's.
+    Changed {
+        path: String,
+        expected: String,
+        actual: String,
+    },
+    /// Present under the folder, listed by no frame.
+    Extra { path: String },
+    /// Listed, present, but it cannot be read (permissions, a directory, a symlink loop...).
+    Unreadable { path: String, cause: String },
+    /// The manifest lists a path that is absolute or climbs out of the folder with `..`; it is
+    /// not opened.
+    BadPath { path: String },
+    /// The manifest lists the same path twice with different hashes.
+    Conflict { path: String },
+}
+
+impl Problem {
+    /// The output path the problem concerns, relative to the folder.
+    pub fn path(&self) -> &str {
+        match self {
+            Problem::Missing { path }
+            | Problem::Changed { path, .. }
+            | Problem::Extra { path }
+            | Problem::Unreadable { path, .. }
+            | Problem::BadPath { path }
+            | Problem::Conflict { path } => path,
+        }
+    }
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Problem::Missing { path } => write!(f, "missing: {path}"),
+            Problem::Changed {
+                path,
+                expected,
+                actual,
+            } => write!(
+                f,
+                "changed: {path} (manifest blake3 {expected}, file {actual})"
+            ),
+            Problem::Extra { path } => write!(f, "extra: {path} (not in the manifest)"),
+            Problem::Unreadable { path, cause } => write!(f, "unreadable: {path}: {cause}"),
+            Problem::BadPath { path } => write!(
+                f,
+                "bad path: {path:?} (absolute or outside the folder; not checked)"
+            ),
+            Problem::Conflict { path } => {
+                write!(f, "conflict: {path} is listed twice with different hashes")
+            }
+        }
+    }
+}
+
+/// The outcome of `verify`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Report {
+    /// Distinct output files listed in the manifest.
+    pub listed: usize,
+    /// Listed files whose hash matched.
+    pub matched: usize,
+    /// Problems, sorted by kind then path.
+    pub problems: Vec<Problem>,
+}
+
+impl Report {
+    pub fn is_ok(&self) -> bool {
+        self.problems.is_empty()
+    }
+
+    fn count(&self, pred: impl Fn(&Problem) -> bool) -> usize {
+        self.problems.iter().filter(|p| pred(p)).count()
+    }
+
+    pub fn missing(&self) -> usize {
+        self.count(|p| matches!(p, Problem::Missing { .. }))
+    }
+    pub fn changed(&self) -> usize {
+        self.count(|p| matches!(p, Problem::Changed { .. }))
+    }
+    pub fn extra(&self) -> usize {
+        self.count(|p| matches!(p, Problem::Extra { .. }))
+    }
+
+    /// `N files listed, M match, a missing, b changed, c extra[, d other problems]`.
+    pub fn summary(&self) -> String {
+        let other = self.problems.len() - self.missing() - self.changed() - self.extra();
+        let mut s = format!(
+            "{} files listed, {} match, {} missing, {} changed, {} extra",
+            self.listed,
+            self.matched,
+            self.missing(),
+            self.changed(),
+            self.extra()
+        );
+        if other > 0 {
+            s.push_str(&format!(", {other} other problems"));
+        }
+        s
+    }
+}
+
+/// The manifest's file name inside an output folder.
+pub const MANIFEST: &str = "panoconv.json";
+
+/// Reads `root/panoconv.json`: `Err` when it is missing, unreadable or not a manifest (a JSON
+/// error names the line and column).
+fn read_manifest(root: &Path) -> Result<ManifestView> {
+    let path = root.join(MANIFEST);
+    let bytes = crate::error::read_file(&path)?;
+    serde_json::from_slice::<ManifestView>(&bytes).map_err(|e| {
+        let text = e.to_string();
+        let suffix = format!(" at line {} column {}", e.line(), e.column());
+        let what = text.strip_suffix(&suffix).unwrap_or(&text);
+        Error::Parse {
+            path: path.clone(),
+            line: e.line(),
+            field: format!("column {}", e.column()),
+            message: format!("not a panoconv manifest: {what}"),
+        }
+    })
+}
+
+/// A manifest path that stays inside the folder: relative, no `..`, no root.
+fn safe_relative(rel: &str) -> bool {
+    !rel.is_empty()
+        && Path::new(rel)
+            .components()
+            .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+}
+
+fn hash_file(path: &Path) -> std::io::Result<String> {
+    let mut file = std::fs::File::open(path)?;
+    let mut hasher = blake3::Hasher::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = file.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hasher.finalize().to_hex().to_string())
+}
+
+/// Every file (and symlink, and other non-directory) under `dir`, relative to `root` with `/`
+/// separators. Symlinks to folders are not followed (no loops).
+fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let path = entry.path();
+        let kind = entry.file_type().map_err(|e| Error::io(&path, e))?;
+        if kind.is_dir() {
+            walk(root, &path, out)?;
+        } else {
+            let rel = path.strip_prefix(root).unwrap_or(&path);
+            let parts: Vec<String> = rel
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            out.push(parts.join("/"));
+        }
+    }
+    Ok(())
+}
+
+/// Whether an unlisted file is one the conversion writes without listing it.
+fn ignored(rel: &str, augmented: bool) -> bool {
+    if rel == MANIFEST {
+        return true;
+    }
+    if let Some(part) = rel
+        .strip_prefix("panoconv.")
+        .and_then(|r| r.strip_suffix(".json"))
+    {
+        if !part.is_empty() && !part.contains('/') {
+            return true;
+        }
+    }
+    augmented
+        && rel
+            .strip_prefix("ImageSets/")
+            .is_some_and(|n| n.ends_with(".txt") && !n.contains('/'))
+}
+
+/// Checks the folder `root` against its manifest. `Err` only when the manifest is missing,
+/// unreadable or malformed, or the folder cannot be listed; every disagreement between the
+/// manifest and the files is a [`Problem`] in the report.
+pub fn verify(root: &Path) -> Result<Report> {
+    let manifest = read_manifest(root)?;
+    let augmented = manifest
+        .parameters
+        .as_ref()
+        .and_then(|p| p.augment.as_ref())
+        .is_some_and(|a| !a.is_null());
+
+    let mut report = Report::default();
+    let mut listed: BTreeMap<String, String> = BTreeMap::new();
+    for (rel, hash) in manifest.frames.iter().flat_map(|f| &f.outputs) {
+        if !safe_relative(rel) {
+            report.problems.push(Problem::BadPath { path: rel.clone() });
+            continue;
+        }
+        let rel = rel.trim_start_matches("./").to_owned();
+        match listed.get(&rel) {
+            Some(h) if h != hash => report.problems.push(Problem::Conflict { path: rel }),
+            Some(_) => {}
+            None => {
+                listed.insert(rel, hash.to_ascii_lowercase());
+            }
+        }
+    }
+    report.listed = listed.len();
+
+    for (rel, expected) in &listed {
+        let path: PathBuf = root.join(rel);
+        match std::fs::symlink_metadata(&path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                report.problems.push(Problem::Missing { path: rel.clone() });
+                continue;
+            }
+            _ => {}
+        }
+        match hash_file(&path) {
+            Ok(actual) if &actual == expected => report.matched += 1,
+            Ok(actual) => report.problems.push(Problem::Changed {
+                path: rel.clone(),
+                expected: expected.clone(),
+                actual,
+            }),
+            Err(e) => report.problems.push(Problem::Unreadable {
+                path: rel.clone(),
+                cause: e.to_string(),
+            }),
+        }
+    }
+
+    let mut present = Vec::new();
+    walk(root, root, &mut present)?;
+    for rel in present {
+        if !listed.contains_key(&rel) && !ignored(&rel, augmented) {
+            report.problems.push(Problem::Extra { path: rel });
+        }
+    }
+
+    let rank = |p: &Problem| match p {
+        Problem::BadPath { .. } => 0,
+        Problem::Conflict { .. } => 1,
+        Problem::Missing { .. } => 2,
+        Problem::Changed { .. } => 3,
+        Problem::Unreadable { .. } => 4,
+        Problem::Extra { .. } => 5,
+    };
+    report
+        .problems
+        .sort_by(|a, b| (rank(a), a.path()).cmp(&(rank(b), b.path())));
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn manifest_parts_and_image_sets_are_not_extra() {
+        assert!(ignored("panoconv.json", false));
+        assert!(ignored("panoconv.part-1.json", false));
+        assert!(!ignored("panoconv..json", false));
+        assert!(!ignored("training/panoconv.json", false));
+        assert!(!ignored("ImageSets/training.txt", false));
+        assert!(ignored("ImageSets/training.txt", true));
+        assert!(!ignored("ImageSets/a/b.txt", true));
+    }
+
+    #[test]
+    fn unsafe_manifest_paths_are_refused() {
+        assert!(safe_relative("training/image_2/000000.png"));
+        assert!(!safe_relative("/etc/passwd"));
+        assert!(!safe_relative("../x.png"));
+        assert!(!safe_relative("training/../../x.png"));
+        assert!(!safe_relative(""));
+    }
+}
