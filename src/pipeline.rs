@@ -553,7 +553,22 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
                     return Some(true);
                 }
             }
-            let record = match ctx.convert(split, &f.id) {
+            // A panic in one frame (a bug) fails that frame, not the whole run.
+            let converted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                ctx.convert(split, &f.id)
+            }))
+            .unwrap_or_else(|panic| {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                Err(Error::file(
+                    &split.image_path(2, &f.id),
+                    format!("internal error (please report): {what}"),
+                ))
+            });
+            let record = match converted {
                 Ok(out) => {
                     progress.frame_done();
                     out.record

@@ -140,7 +140,6 @@ proptest! {
 /// `render_output` then panics in `format_sci` ("formatted with an exponent"). `camera` should
 /// refuse it (`P2: optical centre is not finite`).
 #[test]
-#[ignore = "BUG: Calib::camera accepts a non-finite K or optical centre; render_output/format_sci then panic"]
 fn calib_with_non_finite_centre_is_refused() {
     for p in [
         // fu = 6e-304, fv = cu = 6e296, centre.x = NaN

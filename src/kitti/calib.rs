@@ -195,6 +195,9 @@ impl Calib {
             return Err(bad("P[2][2] must be positive (P = K [I | t])"));
         }
         let p = p / w;
+        if p.iter().any(|v| !v.is_finite()) {
+            return Err(bad("not finite once divided by P[2][2]"));
+        }
         let scale = p[(0, 0)].abs().max(p[(1, 1)].abs()).max(1.0);
         let tol = 1e-9 * scale;
         if p[(1, 0)].abs() > tol || p[(2, 0)].abs() > tol || p[(2, 1)].abs() > tol {
@@ -211,6 +214,11 @@ impl Calib {
         let km = Matrix3::new(fu, 0.0, k.cu, 0.0, fv, k.cv, 0.0, 0.0, 1.0);
         let t = km.try_inverse().ok_or_else(|| bad("singular K"))?
             * Vector3::new(p[(0, 3)], p[(1, 3)], p[(2, 3)]);
+        if !(t.iter().all(|v| v.is_finite()) && fu.is_finite() && fv.is_finite()) {
+            return Err(bad(
+                "K is (nearly) singular: the optical centre is not finite",
+            ));
+        }
         Ok(SourceCamera { k, centre: -t })
     }
 
@@ -274,6 +282,9 @@ impl Calib {
 
 /// KITTI's number style: C's `%.12e` (e.g. `7.215377000000e+02`).
 pub fn format_sci(v: f64) -> String {
+    if !v.is_finite() {
+        return format!("{v}");
+    }
     let s = format!("{v:.12e}");
     let (mantissa, exp) = s.split_once('e').expect("formatted with an exponent");
     let exp: i32 = exp.parse().expect("integer exponent");

@@ -4,6 +4,9 @@ use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use std::path::Path;
 
+/// Largest image accepted (a 16384x8192 panorama is 134 Mpx).
+pub const MAX_PIXELS: u64 = 150_000_000;
+
 /// How hard the PNG encoder works: files are smaller or written faster.
 #[derive(
     Debug,
@@ -37,6 +40,13 @@ pub fn decode_rgb8(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     };
     if width == 0 || height == 0 {
         return Err(bad("empty image".into()));
+    }
+    // The header is untrusted: refuse before allocating for it.
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(bad(format!(
+            "{width}x{height} is larger than panoconv's limit of {} megapixels",
+            MAX_PIXELS / 1_000_000
+        )));
     }
     let mut buf = vec![0; reader.output_buffer_size()];
     let frame = reader
