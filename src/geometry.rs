@@ -173,7 +173,7 @@ pub fn output_camera(
         k = resize_intrinsics(k, size, to);
         size = to;
     }
-    if ![k.fu, k.fv, k.cu, k.cv].iter().all(|v| v.is_finite()) || !(k.fu > 0.0 && k.fv > 0.0) {
+    if !([k.fu, k.fv, k.cu, k.cv].iter().all(|v| v.is_finite()) && k.fu > 0.0 && k.fv > 0.0) {
         return Err(Error::Setup(format!(
             "the output intrinsics are not finite ({k:?}): check P2"
         )));
