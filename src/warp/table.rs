@@ -26,14 +26,18 @@ pub enum Wrap {
     Horizontal,
 }
 
+/// Set in `Tap::wx` when the right neighbour is at column offset 1 - width instead of 1: across
+/// the wrap of a 360° source, or (1 - 1 = 0) in a one-pixel-wide source.
+const WRAPS: u16 = 1 << 15;
+
+/// One bilinear tap, 8 bytes (the table is streamed once per frame).
 #[derive(Debug, Clone, Copy)]
 struct Tap {
     /// Index of the top-left source pixel; its right and lower neighbours are read too.
     offset: u32,
-    /// Column offset of the right neighbour: 1, 0 for a one-pixel-wide source, or 1 - width
-    /// across the wrap of a 360° source.
-    right: i32,
+    /// Horizontal weight of the right neighbour in 1/ONE, | WRAPS.
     wx: u16,
+    /// Vertical weight of the lower neighbour in 1/ONE.
     wy: u16,
 }
 
@@ -41,9 +45,13 @@ struct Tap {
 pub struct RemapTable {
     size: ImageSize,
     source_size: ImageSize,
-    /// taps[starts[i]..starts[i + 1]] belong to output pixel i.
+    /// taps[starts[i]..starts[i + 1]] belong to output pixel i; empty when every pixel has
+    /// exactly one tap (then tap i is pixel i's).
     starts: Vec<u32>,
     taps: Vec<Tap>,
+    /// Every tap's neighbours are at +1 column and +1 row (no WRAPS tap, source height >= 2):
+    /// `apply` then reads them without a branch.
+    plain: bool,
 }
 
 impl RemapTable {
@@ -78,7 +86,6 @@ impl RemapTable {
         let make_tap = |p: Option<Point2<f64>>| -> Tap {
             let outside = Tap {
                 offset: OUTSIDE,
-                right: 0,
                 wx: 0,
                 wy: 0,
             };
@@ -96,66 +103,79 @@ impl RemapTable {
             let y = y.clamp(0.0, sh - 1.0);
             let y0 = (y.floor() as u32).min(source_size.height.saturating_sub(2));
             let wy = ((y - y0 as f64) * ONE as f64).round() as u16;
-            let (x0, wx, right) = if wrap == Wrap::Horizontal {
+            let (x0, wx) = if wrap == Wrap::Horizontal {
                 let x0 = (x.floor() as u32).min(source_size.width - 1);
-                let wx = ((x - x0 as f64) * ONE as f64).round() as u16;
-                let right = if x0 + 1 == source_size.width {
-                    1 - source_size.width as i32
-                } else {
-                    1
-                };
-                (x0, wx, right)
+                (x0, ((x - x0 as f64) * ONE as f64).round() as u16)
             } else {
                 let x = x.clamp(0.0, sw - 1.0);
                 let x0 = (x.floor() as u32).min(source_size.width.saturating_sub(2));
-                let right = i32::from(source_size.width > 1);
-                (x0, ((x - x0 as f64) * ONE as f64).round() as u16, right)
+                (x0, ((x - x0 as f64) * ONE as f64).round() as u16)
             };
             let wy = if source_size.height > 1 { wy } else { 0 };
             Tap {
                 offset: y0 * source_size.width + x0,
-                right,
-                wx,
+                // x0 + 1 == width: across the wrap, or a one-pixel-wide source.
+                wx: if x0 + 1 == source_size.width {
+                    wx | WRAPS
+                } else {
+                    wx
+                },
                 wy,
             }
         };
         // Sequential on purpose: tables are built inside the cache's once-cell, and a parallel
         // build could let rayon run another frame's lookup of the same cell on this thread.
-        let rows: Vec<(Vec<u32>, Vec<Tap>)> = (0..size.height)
-            .map(|v| {
-                let mut counts = Vec::with_capacity(size.width as usize);
-                let mut taps = Vec::with_capacity(size.width as usize);
-                for u in 0..size.width {
-                    let (uf, vf) = (u as f64, v as f64);
-                    let n = supersampling(uf, vf, &to_src).min(max_supersample.max(1));
-                    for j in 0..n {
-                        for i in 0..n {
-                            let du = (i as f64 + 0.5) / n as f64 - 0.5;
-                            let dv = (j as f64 + 0.5) / n as f64 - 0.5;
-                            taps.push(make_tap(to_src(uf + du, vf + dv)));
-                        }
-                    }
-                    counts.push(n * n);
-                }
-                (counts, taps)
-            })
-            .collect();
-        let mut starts = Vec::with_capacity(size.width as usize * size.height as usize + 1);
-        let mut taps = Vec::new();
+        // The half-pixel points that measure the local scale are shared by neighbouring pixels
+        // (u + 0.5 is u + 1 - 0.5 exactly), so each is computed once: 3 mappings a pixel, not 5.
+        let (w, h) = (size.width as usize, size.height as usize);
+        let mut starts = Vec::with_capacity(w * h + 1);
+        let mut taps = Vec::with_capacity(w * h);
         starts.push(0u32);
-        for (counts, row_taps) in rows {
-            let mut at = *starts.last().expect("starts begins with 0");
-            for c in counts {
-                at += c;
-                starts.push(at);
+        let mut above: Vec<_> = (0..w).map(|u| to_src(u as f64, -0.5)).collect();
+        let mut below = Vec::with_capacity(w);
+        let mut across = Vec::with_capacity(w + 1);
+        for v in 0..h {
+            let vf = v as f64;
+            across.clear();
+            across.extend((0..=w).map(|i| to_src(i as f64 - 0.5, vf)));
+            below.clear();
+            below.extend((0..w).map(|u| to_src(u as f64, vf + 0.5)));
+            for u in 0..w {
+                let uf = u as f64;
+                let n = supersampling([across[u], across[u + 1], above[u], below[u]])
+                    .min(max_supersample.max(1));
+                for j in 0..n {
+                    for i in 0..n {
+                        let du = (i as f64 + 0.5) / n as f64 - 0.5;
+                        let dv = (j as f64 + 0.5) / n as f64 - 0.5;
+                        taps.push(make_tap(to_src(uf + du, vf + dv)));
+                    }
+                }
+                starts.push(taps.len() as u32);
             }
-            taps.extend(row_taps);
+            std::mem::swap(&mut above, &mut below);
         }
+        if taps.len() + 1 == starts.len() {
+            starts = Vec::new();
+        }
+        taps.shrink_to_fit();
+        let plain = source_size.height >= 2 && taps.iter().all(|t| t.wx & WRAPS == 0);
         RemapTable {
             size,
             source_size,
             starts,
             taps,
+            plain,
+        }
+    }
+
+    /// The taps of output pixel i.
+    #[inline]
+    fn taps_of(&self, i: usize) -> &[Tap] {
+        if self.starts.is_empty() {
+            std::slice::from_ref(&self.taps[i])
+        } else {
+            &self.taps[self.starts[i] as usize..self.starts[i + 1] as usize]
         }
     }
 
@@ -169,23 +189,17 @@ impl RemapTable {
 
     /// Fraction of output pixels with at least one tap inside the source.
     pub fn coverage(&self) -> f64 {
-        let n = self.starts.len() - 1;
+        let n = self.size.width as usize * self.size.height as usize;
         let covered = (0..n)
-            .filter(|&i| {
-                self.taps[self.starts[i] as usize..self.starts[i + 1] as usize]
-                    .iter()
-                    .any(|t| t.offset != OUTSIDE)
-            })
+            .filter(|&i| self.taps_of(i).iter().any(|t| t.offset != OUTSIDE))
             .count();
         covered as f64 / n as f64
     }
 
     /// Whether output pixel (u, v) is wholly inside the source (every tap valid).
     pub fn is_inside(&self, u: u32, v: u32) -> bool {
-        let i = (v * self.size.width + u) as usize;
-        self.taps[self.starts[i] as usize..self.starts[i + 1] as usize]
-            .iter()
-            .all(|t| t.offset != OUTSIDE)
+        let i = v as usize * self.size.width as usize + u as usize;
+        self.taps_of(i).iter().all(|t| t.offset != OUTSIDE)
     }
 
     /// Resamples `src` (which must have the table's source size).
@@ -204,15 +218,36 @@ impl RemapTable {
             .enumerate()
             .with_min_len(8)
             .for_each(|(v, row)| {
-                for u in 0..w {
-                    let i = v * w + u;
-                    let taps = &self.taps[self.starts[i] as usize..self.starts[i + 1] as usize];
-                    let px = if let [t] = taps {
-                        sample_one(data, stride, t)
-                    } else {
-                        sample_many(data, stride, taps)
-                    };
-                    row[u * 3..u * 3 + 3].copy_from_slice(&px);
+                let pixels = row.chunks_exact_mut(3);
+                match (self.plain, self.starts.is_empty()) {
+                    // One tap a pixel, neighbours at +1: the common case, kept branch-light.
+                    (true, true) => {
+                        for (px, t) in pixels.zip(&self.taps[v * w..(v + 1) * w]) {
+                            px.copy_from_slice(&sample_one_plain(data, stride, t));
+                        }
+                    }
+                    (true, false) => {
+                        for (u, px) in pixels.enumerate() {
+                            let taps = self.taps_of(v * w + u);
+                            let value = if let [t] = taps {
+                                sample_one_plain(data, stride, t)
+                            } else {
+                                sample_many(taps, |t| bilinear_plain(data, stride, t))
+                            };
+                            px.copy_from_slice(&value);
+                        }
+                    }
+                    (false, _) => {
+                        for (u, px) in pixels.enumerate() {
+                            let taps = self.taps_of(v * w + u);
+                            let value = if let [t] = taps {
+                                sample_one(data, stride, t)
+                            } else {
+                                sample_many(taps, |t| bilinear(data, stride, t))
+                            };
+                            px.copy_from_slice(&value);
+                        }
+                    }
                 }
             });
         debug_assert_eq!(out.as_raw().len(), w * h * 3);
@@ -220,15 +255,10 @@ impl RemapTable {
     }
 }
 
-/// Supersampling factor at output pixel (u, v): the local source-per-output pixel scale,
-/// rounded, from the table's own mapping.
-fn supersampling(u: f64, v: f64, to_src: &impl Fn(f64, f64) -> Option<Point2<f64>>) -> u32 {
-    let (Some(l), Some(r), Some(t), Some(b)) = (
-        to_src(u - 0.5, v),
-        to_src(u + 0.5, v),
-        to_src(u, v - 0.5),
-        to_src(u, v + 0.5),
-    ) else {
+/// Supersampling factor of an output pixel: the local source-per-output pixel scale, rounded,
+/// from the table's own mapping of the pixel's left, right, top and bottom edge midpoints.
+fn supersampling(edges: [Option<Point2<f64>>; 4]) -> u32 {
+    let [Some(l), Some(r), Some(t), Some(b)] = edges else {
         return 1;
     };
     let scale = (r - l).norm().max((b - t).norm());
@@ -239,11 +269,16 @@ fn supersampling(u: f64, v: f64, to_src: &impl Fn(f64, f64) -> Option<Point2<f64
     }
 }
 
+/// The bilinear sum of a tap, in 1/ONE² (general case: any neighbour layout).
 #[inline]
 fn bilinear(data: &[u8], stride: usize, t: &Tap) -> [u32; 3] {
     let base = t.offset as usize * 3;
-    let right = t.right as isize * 3;
-    let (wx, wy) = (t.wx as u32, t.wy as u32);
+    let right: isize = if t.wx & WRAPS != 0 {
+        (1 - stride as isize) * 3
+    } else {
+        3
+    };
+    let (wx, wy) = ((t.wx & !WRAPS) as u32, t.wy as u32);
     let below = if wy == 0 { 0 } else { stride * 3 };
     let mut out = [0u32; 3];
     for (c, o) in out.iter_mut().enumerate() {
@@ -256,24 +291,74 @@ fn bilinear(data: &[u8], stride: usize, t: &Tap) -> [u32; 3] {
     out
 }
 
+/// As [`bilinear`] for a plain table (right neighbour at +1 column, lower at +1 row, both
+/// inside the source): two bounds checks instead of twelve. Same arithmetic, same result.
+#[inline(always)]
+fn bilinear_plain(data: &[u8], stride: usize, t: &Tap) -> [u32; 3] {
+    let base = t.offset as usize * 3;
+    let below = base + stride * 3;
+    let top: &[u8; 6] = data[base..base + 6].try_into().expect("6 bytes");
+    let bottom: &[u8; 6] = data[below..below + 6].try_into().expect("6 bytes");
+    let (wx, wy) = (t.wx as u32, t.wy as u32);
+    let (ix, iy) = (ONE - wx, ONE - wy);
+    let mut out = [0u32; 3];
+    for (c, o) in out.iter_mut().enumerate() {
+        let a = top[c] as u32 * ix + top[c + 3] as u32 * wx;
+        let b = bottom[c] as u32 * ix + bottom[c + 3] as u32 * wx;
+        *o = a * iy + b * wy;
+    }
+    out
+}
+
+#[inline(always)]
+fn round_one(s: [u32; 3]) -> [u8; 3] {
+    let half = 1 << (2 * FRAC_BITS - 1);
+    s.map(|v| ((v + half) >> (2 * FRAC_BITS)) as u8)
+}
+
 #[inline]
 fn sample_one(data: &[u8], stride: usize, t: &Tap) -> [u8; 3] {
     if t.offset == OUTSIDE {
         return [0; 3];
     }
-    let s = bilinear(data, stride, t);
-    let half = 1 << (2 * FRAC_BITS - 1);
-    s.map(|v| ((v + half) >> (2 * FRAC_BITS)) as u8)
+    round_one(bilinear(data, stride, t))
 }
 
-fn sample_many(data: &[u8], stride: usize, taps: &[Tap]) -> [u8; 3] {
+#[inline(always)]
+fn sample_one_plain(data: &[u8], stride: usize, t: &Tap) -> [u8; 3] {
+    if t.offset == OUTSIDE {
+        return [0; 3];
+    }
+    round_one(bilinear_plain(data, stride, t))
+}
+
+/// RECIP[n] = ceil(2^32 / n): x / n == (x · RECIP[n]) >> 32 exactly whenever x · n <= 2^32.
+const RECIP: [u64; MAX_TAPS + 1] = {
+    let mut r = [0u64; MAX_TAPS + 1];
+    let mut n = 1;
+    while n <= MAX_TAPS {
+        r[n] = (1u64 << 32).div_ceil(n as u64);
+        n += 1;
+    }
+    r
+};
+const MAX_TAPS: usize = (MAX_SUPERSAMPLE * MAX_SUPERSAMPLE) as usize;
+
+/// The box average of a pixel's taps (outside ones count as black), rounded to nearest.
+#[inline]
+fn sample_many(taps: &[Tap], bilinear: impl Fn(&Tap) -> [u32; 3]) -> [u8; 3] {
     let mut acc = [0u64; 3];
-    for t in taps.iter().filter(|t| t.offset != OUTSIDE) {
-        let s = bilinear(data, stride, t);
-        for c in 0..3 {
-            acc[c] += s[c] as u64;
+    for t in taps {
+        if t.offset != OUTSIDE {
+            let s = bilinear(t);
+            for c in 0..3 {
+                acc[c] += s[c] as u64;
+            }
         }
     }
-    let div = (taps.len() as u64) << (2 * FRAC_BITS);
-    acc.map(|v| ((v + div / 2) / div) as u8)
+    // round(acc / (n·2^20)) = floor((acc + n·2^19) / 2^20) / n (floors compose), and that
+    // quotient x <= 255.5·n, so x·n <= 2^32 and the reciprocal gives it exactly: no division.
+    let n = taps.len() as u64;
+    let recip = RECIP[taps.len()];
+    acc.map(|v| ((((v + (n << (2 * FRAC_BITS - 1))) >> (2 * FRAC_BITS)) * recip) >> 32) as u8)
 }

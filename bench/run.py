@@ -1,0 +1,165 @@
+#!/usr/bin/env python3
+"""Side-by-side run of issue 8 (called by bench/run.sh, which builds and sets up the venv).
+
+Builds an N-frame KITTI set from ../shared/kitti (the 7 real frames copied under N ids, in a
+temporary folder), then runs, alternately for several rounds:
+  panoconv     `panoconv kitti --to equirect --quiet` (release build)
+  opencv       bench/opencv_convert.py (cv2.imread / remap CV_16SC2 / imwrite, Pool of J)
+  floor        examples/codec_floor: read + decode every input, encode its warped image, no warp
+and prints medians of wall time, frames/s, CPU seconds (user+sys of the process tree, from
+wait4) and peak RSS (largest single process), plus output bytes and the ratios.
+"""
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+
+def run(cmd):
+    """Runs cmd; returns (wall s, cpu s of its process tree, peak RSS MB, stdout)."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=out, stderr=err, text=True)
+        # wait4: the child's own rusage, including its reaped children (the Pool workers);
+        # ru_maxrss is then the largest single process.
+        _, status, ru = os.wait4(p.pid, 0)
+        wall = time.perf_counter() - t0
+        p.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        if p.returncode != 0:
+            sys.exit(f"{cmd[0]} failed ({p.returncode}):\n{err.read()}")
+        return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024, out.read()
+
+
+def make_set(src, dst, n):
+    """n frames: copies of src's frames (training and testing) under ids 000000..n-1."""
+    base = []
+    for split in ("training", "testing"):
+        d = os.path.join(src, split, "image_2")
+        if os.path.isdir(d):
+            base += [(split, f[:-4]) for f in sorted(os.listdir(d)) if f.endswith(".png")]
+    pairs = []
+    for i in range(n):
+        split, fid = base[i % len(base)]
+        new = f"{i:06d}"
+        for sub, ext in (("image_2", ".png"), ("calib", ".txt"), ("label_2", ".txt")):
+            s = os.path.join(src, split, sub, fid + ext)
+            if os.path.exists(s):
+                os.makedirs(os.path.join(dst, split, sub), exist_ok=True)
+                shutil.copyfile(s, os.path.join(dst, split, sub, new + ext))
+        pairs.append((os.path.join(dst, split, "image_2", new + ".png"), split, fid))
+    return pairs
+
+
+def image_bytes(out):
+    total = 0
+    for split in ("training", "testing"):
+        d = os.path.join(out, split, "image_2")
+        if os.path.isdir(d):
+            total += sum(os.path.getsize(os.path.join(d, f)) for f in os.listdir(d))
+    return total
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--bin", required=True)
+    ap.add_argument("--floor", required=True)
+    ap.add_argument("--kitti", default=os.path.join(ROOT, "..", "shared", "kitti"))
+    ap.add_argument("--frames", type=int, default=210)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--jobs", type=int, default=os.cpu_count())
+    ap.add_argument("--compression", default="default")
+    ap.add_argument("--tmp", default=None, help="where the frame sets go (default: $TMPDIR)")
+    ap.add_argument("--only", default="panoconv,opencv,floor")
+    ap.add_argument("--json", default=None, help="also write the medians here")
+    a = ap.parse_args()
+
+    kitti = os.path.abspath(a.kitti)
+    tmp = tempfile.mkdtemp(prefix="panoconv-bench-", dir=a.tmp)
+    try:
+        ref = os.path.join(tmp, "ref")
+        run([a.bin, "kitti", "--to", "equirect", "--quiet", "--input", kitti, "--output", ref])
+        data = os.path.join(tmp, "in")
+        pairs = make_set(kitti, data, a.frames)
+        pairs_file = os.path.join(tmp, "pairs.txt")
+        with open(pairs_file, "w") as f:
+            for inp, split, fid in pairs:
+                f.write(f"{inp} {os.path.join(ref, split, 'image_2', fid + '.png')}\n")
+
+        def panoconv():
+            out = os.path.join(tmp, "out-panoconv")
+            shutil.rmtree(out, ignore_errors=True)
+            r = run([a.bin, "kitti", "--to", "equirect", "--quiet", "--jobs", str(a.jobs),
+                     "--png-compression", a.compression, "--input", data, "--output", out])
+            return r[:3] + (image_bytes(out),)
+
+        def opencv():
+            out = os.path.join(tmp, "out-opencv")
+            shutil.rmtree(out, ignore_errors=True)
+            r = run([sys.executable, os.path.join(HERE, "opencv_convert.py"), "--input", data,
+                     "--output", out, "--ref", ref, "--jobs", str(a.jobs)])
+            return r[:3] + (image_bytes(out),)
+
+        def floor():
+            wall, cpu, rss, out = run([a.floor, "--pairs", pairs_file, "--jobs", str(a.jobs),
+                                       "--compression", a.compression])
+            j = json.loads(out)
+            return j["seconds"], cpu, rss, j["bytes"]
+
+        runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor}
+        names = [n for n in a.only.split(",") if n]
+        results = {n: [] for n in names}
+        for r in range(a.rounds):
+            order = names if r % 2 == 0 else names[::-1]
+            for n in order:
+                results[n].append(runners[n]())
+                w, c, m, b = results[n][-1]
+                print(f"round {r} {n:9s} wall {w:7.3f} s  {a.frames / w:7.1f} fr/s  cpu {c:7.2f} s"
+                      f"  rss {m:6.1f} MB  bytes {b}", file=sys.stderr)
+
+        med = {}
+        for n, rs in results.items():
+            walls = [x[0] for x in rs]
+            med[n] = {
+                "wall_s": statistics.median(walls),
+                "wall_min_s": min(walls),
+                "wall_max_s": max(walls),
+                "fps": a.frames / statistics.median(walls),
+                "cpu_s": statistics.median([x[1] for x in rs]),
+                "peak_rss_mb": max(x[2] for x in rs),
+                "bytes": rs[-1][3],
+            }
+        print(f"\n{a.frames} frames, {a.rounds} rounds, --jobs {a.jobs}, {os.cpu_count()} cores,"
+              f" compression {a.compression}, in {tmp}")
+        print(f"{'':10s} {'wall s (min-max)':>22s} {'frames/s':>9s} {'CPU s':>7s} {'CPU ms/fr':>9s}"
+              f" {'RSS MB':>7s} {'bytes':>11s}")
+        for n, m in med.items():
+            print(f"{n:10s} {m['wall_s']:7.3f} ({m['wall_min_s']:.3f}-{m['wall_max_s']:.3f})"
+                  f" {m['fps']:9.1f} {m['cpu_s']:7.2f} {1e3 * m['cpu_s'] / a.frames:9.2f}"
+                  f" {m['peak_rss_mb']:7.1f} {m['bytes']:11d}")
+        if "panoconv" in med and "opencv" in med:
+            p, o = med["panoconv"], med["opencv"]
+            print(f"panoconv/opencv: {p['fps'] / o['fps']:.2f}x frames/s,"
+                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes")
+        if "panoconv" in med and "floor" in med:
+            p, f = med["panoconv"], med["floor"]
+            print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall,"
+                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU")
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump({"frames": a.frames, "jobs": a.jobs, "medians": med}, f, indent=1)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,190 @@
+//! The PNG codec floor of a conversion (issue 8): for each frame, read and decode its input PNG
+//! and encode its already-warped output image, in parallel over frames like `panoconv kitti`,
+//! with no warp, no labels and no writes. `panoconv kitti` cannot be faster than this.
+//!
+//!     codec_floor --pairs FILE [--compression fast|default|best] [--jobs N]
+//!     codec_floor --sweep FILE...   (single thread: decode and encoder settings per image)
+//!
+//! FILE lists one frame a line: `INPUT.png WARPED.png` (the warped images are decoded once,
+//! before the clock starts).
+
+use panoconv::image::RgbImage;
+use panoconv::kitti::png_io::{decode_rgb8, encode_rgb8, PngCompression};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn die(msg: &str) -> ! {
+    eprintln!("codec_floor: {msg}");
+    std::process::exit(2)
+}
+
+fn load(path: &Path) -> RgbImage {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| die(&format!("{}: {e}", path.display())));
+    decode_rgb8(&bytes, path).unwrap_or_else(|e| die(&e.to_string()))
+}
+
+fn floor(pairs_file: &Path, compression: PngCompression, jobs: usize) {
+    let text = std::fs::read_to_string(pairs_file).unwrap_or_else(|e| die(&e.to_string()));
+    let pairs: Vec<(PathBuf, PathBuf)> = text
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let mut it = l.split_whitespace();
+            match (it.next(), it.next()) {
+                (Some(a), Some(b)) => (PathBuf::from(a), PathBuf::from(b)),
+                _ => die(&format!("bad line {l:?}")),
+            }
+        })
+        .collect();
+    let mut warped: HashMap<PathBuf, RgbImage> = HashMap::new();
+    for (_, w) in &pairs {
+        if !warped.contains_key(w) {
+            warped.insert(w.clone(), load(w));
+        }
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .expect("thread pool");
+    let started = Instant::now();
+    let bytes: usize = pool.install(|| {
+        pairs
+            .par_iter()
+            .map(|(input, w)| {
+                let data = std::fs::read(input)
+                    .unwrap_or_else(|e| die(&format!("{}: {e}", input.display())));
+                let img = decode_rgb8(&data, input).unwrap_or_else(|e| die(&e.to_string()));
+                std::hint::black_box(&img);
+                encode_rgb8(&warped[w], compression).len()
+            })
+            .sum()
+    });
+    let s = started.elapsed().as_secs_f64();
+    println!(
+        "{{\"frames\": {}, \"seconds\": {s:.4}, \"fps\": {:.2}, \"bytes\": {bytes}, \"jobs\": {jobs}}}",
+        pairs.len(),
+        pairs.len() as f64 / s
+    );
+}
+
+/// Median milliseconds of `f` over `n` runs.
+fn time_ms<T>(n: usize, mut f: impl FnMut() -> T) -> f64 {
+    let mut t: Vec<f64> = (0..n)
+        .map(|_| {
+            let s = Instant::now();
+            std::hint::black_box(f());
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[n / 2]
+}
+
+fn sweep(files: &[PathBuf]) {
+    let imgs: Vec<(Vec<u8>, RgbImage)> = files
+        .iter()
+        .map(|p| {
+            let b = std::fs::read(p).unwrap_or_else(|e| die(&e.to_string()));
+            let i = decode_rgb8(&b, p).unwrap_or_else(|e| die(&e.to_string()));
+            (b, i)
+        })
+        .collect();
+    let n = 7;
+    let decode: f64 = imgs
+        .iter()
+        .map(|(b, _)| time_ms(n, || decode_rgb8(b, Path::new("x")).unwrap()))
+        .sum();
+    println!(
+        "decode_rgb8            {:7.2} ms/img",
+        decode / imgs.len() as f64
+    );
+    for c in [
+        PngCompression::Fast,
+        PngCompression::Default,
+        PngCompression::Best,
+    ] {
+        report(&format!("preset {c:?}"), &imgs, |i| encode_rgb8(i, c));
+    }
+    use png::{AdaptiveFilterType as A, Compression as C, FilterType as F};
+    #[allow(clippy::type_complexity)]
+    let settings: [(&str, C, F, A); 10] = [
+        ("fdeflate none", C::Fast, F::NoFilter, A::NonAdaptive),
+        ("fdeflate sub", C::Fast, F::Sub, A::NonAdaptive),
+        ("fdeflate up", C::Fast, F::Up, A::NonAdaptive),
+        ("fdeflate avg", C::Fast, F::Avg, A::NonAdaptive),
+        ("fdeflate paeth", C::Fast, F::Paeth, A::NonAdaptive),
+        ("fdeflate adaptive", C::Fast, F::Paeth, A::Adaptive),
+        ("zlib6 sub", C::Default, F::Sub, A::NonAdaptive),
+        ("zlib6 paeth", C::Default, F::Paeth, A::NonAdaptive),
+        ("zlib6 adaptive", C::Default, F::Paeth, A::Adaptive),
+        ("zlib9 adaptive", C::Best, F::Paeth, A::Adaptive),
+    ];
+    for (name, c, f, a) in settings {
+        report(name, &imgs, |i| {
+            let mut out = Vec::new();
+            let mut enc = png::Encoder::new(&mut out, i.width(), i.height());
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_compression(c);
+            enc.set_filter(f);
+            enc.set_adaptive_filter(a);
+            let mut w = enc.write_header().expect("header");
+            w.write_image_data(i.as_raw()).expect("data");
+            drop(w);
+            out
+        });
+    }
+}
+
+/// Prints the median encode time and the mean size of `encode` over `imgs`.
+fn report(name: &str, imgs: &[(Vec<u8>, RgbImage)], encode: impl Fn(&RgbImage) -> Vec<u8>) {
+    let bytes: usize = imgs.iter().map(|(_, i)| encode(i).len()).sum();
+    let single = time_ms(1, || encode(&imgs[0].1));
+    let n = if single > 30.0 { 1 } else { 7 };
+    let ms: f64 = imgs.iter().map(|(_, i)| time_ms(n, || encode(i))).sum();
+    println!(
+        "encode {name:<18} {:7.2} ms/img {:>9} bytes/img",
+        ms / imgs.len() as f64,
+        bytes / imgs.len()
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut pairs = None;
+    let mut compression = PngCompression::Default;
+    let mut jobs = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut i = 0;
+    while i < args.len() {
+        let val = || {
+            args.get(i + 1)
+                .cloned()
+                .unwrap_or_else(|| die("missing value"))
+        };
+        match args[i].as_str() {
+            "--sweep" => {
+                let files: Vec<PathBuf> = args[i + 1..].iter().map(PathBuf::from).collect();
+                return sweep(&files);
+            }
+            "--pairs" => pairs = Some(PathBuf::from(val())),
+            "--jobs" => jobs = val().parse().unwrap_or_else(|_| die("bad --jobs")),
+            "--compression" => {
+                compression = match val().as_str() {
+                    "fast" => PngCompression::Fast,
+                    "default" => PngCompression::Default,
+                    "best" => PngCompression::Best,
+                    v => die(&format!("bad --compression {v}")),
+                }
+            }
+            a => die(&format!("unknown argument {a}")),
+        }
+        i += 2;
+    }
+    floor(
+        &pairs.unwrap_or_else(|| die("--pairs FILE is required")),
+        compression,
+        jobs,
+    );
+}
