@@ -6,7 +6,7 @@
 //!     cargo run --release --example occlusion_figure -- docs/images
 
 use nalgebra::{Matrix3, Matrix3x4, Point2, Vector3};
-use panoconv::camera::{CameraModel, Perspective, Projection};
+use panoconv::camera::{CameraModel as _, Perspective, Projection};
 use panoconv::depth::{depth_map, rect_from_velo, OcclusionFilter};
 use panoconv::geometry::{output_camera, OutputSpec};
 use panoconv::kitti::png_io::{encode_rgb8, PngCompression};
@@ -14,13 +14,26 @@ use panoconv::synth::{frames, SynthCalib};
 use panoconv::warp::{RemapTable, Wrap};
 
 fn main() {
-    let dir = std::env::args().nth(1).unwrap_or_else(|| "docs/images".into());
+    let dir = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "docs/images".into());
     let f = &frames()[0];
     let src = Perspective::new(f.calib.intrinsics(), f.calib.size);
-    let out = output_camera(&OutputSpec::new(Projection::Equirect), f.calib.intrinsics(), &src).unwrap();
-    let image = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None).apply(&f.scene.render(&src, &f.calib.centre()));
+    let out = output_camera(
+        &OutputSpec::new(Projection::Equirect),
+        f.calib.intrinsics(),
+        &src,
+    )
+    .unwrap();
+    let image = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None)
+        .apply(&f.scene.render(&src, &f.calib.centre()));
     let (r, t) = SynthCalib::rect_from_velo();
-    let velo: Vec<Vector3<f64>> = f.scene.lidar_scan(&(r, t)).into_iter().map(|(p, _)| p).collect();
+    let velo: Vec<Vector3<f64>> = f
+        .scene
+        .lidar_scan(&(r, t))
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect();
     let mut tr = Matrix3x4::zeros();
     tr.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
     tr.set_column(3, &t);
@@ -39,9 +52,16 @@ fn main() {
                     continue;
                 }
                 let ray = out.unproject(&Point2::new(u as f64, v as f64)).unwrap();
-                let truth = f.scene.first_hit(&f.calib.centre(), &ray).map(|(t, _)| out.distance(&(ray * t)));
+                let truth = f
+                    .scene
+                    .first_hit(&f.calib.centre(), &ray)
+                    .map(|(t, _)| out.distance(&(ray * t)));
                 let see_through = truth.is_some_and(|t| d > 1.05 * t);
-                let colour = if see_through { [255, 40, 40] } else { [60, 220, 90] };
+                let colour = if see_through {
+                    [255, 40, 40]
+                } else {
+                    [60, 220, 90]
+                };
                 if see_through {
                     bad += 1;
                 } else {
@@ -58,6 +78,9 @@ fn main() {
         }
         let path = std::path::Path::new(&dir).join(format!("occlusion_{name}.png"));
         std::fs::write(&path, encode_rgb8(&img, PngCompression::Best)).unwrap();
-        println!("{}: {good} points on the visible surface, {bad} seen through an occluder", path.display());
+        println!(
+            "{}: {good} points on the visible surface, {bad} seen through an occluder",
+            path.display()
+        );
     }
 }

@@ -3,7 +3,7 @@
 //! per shard and joined by `merge`.
 
 use crate::error::{read_file, Error, Result};
-use crate::output::{hash_hex, write_atomic, FrameRecord, FrameStatus};
+use crate::output::{hash_hex, write_atomic_durable, FrameRecord, FrameStatus};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -73,7 +73,7 @@ fn document(
 fn write_document(path: &Path, doc: &Value) -> Result<()> {
     let mut bytes = serde_json::to_vec_pretty(doc).expect("manifest serialises");
     bytes.push(b'\n');
-    write_atomic(path, &bytes)
+    write_atomic_durable(path, &bytes)
 }
 
 impl Journal {

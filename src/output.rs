@@ -6,8 +6,19 @@ use std::io::Write;
 use std::path::{Component, Path, PathBuf};
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
-/// reader (or a crash) never sees a half-written file.
+/// reader (or a killed process) never sees a half-written file. Not fsynced: a frame's files
+/// are many and small, and after an OS crash `--resume` re-hashes every output anyway; the
+/// manifest, the commit point, goes through [`write_atomic_durable`].
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_via_temporary(path, bytes, false)
+}
+
+/// As [`write_atomic`], and on disk before the rename.
+pub fn write_atomic_durable(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_via_temporary(path, bytes, true)
+}
+
+fn write_via_temporary(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path
         .file_name()
@@ -17,7 +28,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let write = || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_data()?;
+        if durable {
+            f.sync_data()?;
+        }
         std::fs::rename(&tmp, path)
     };
     write().map_err(|e| {
@@ -174,5 +187,5 @@ pub enum FrameStatus {
 pub fn write_manifest<P: Serialize>(output: &Path, manifest: &Manifest<P>) -> Result<()> {
     let mut json = serde_json::to_vec_pretty(manifest).expect("manifest serialises");
     json.push(b'\n');
-    write_atomic(&output.join("panoconv.json"), &json)
+    write_atomic_durable(&output.join("panoconv.json"), &json)
 }

@@ -98,9 +98,8 @@ fn yaw_180_rolls_the_panorama_exactly() {
                 for c in 0..3 {
                     let d = (p[c] as i32 - q[c] as i32).abs();
                     sum += d as f64;
-                    if u != w / 2 {
-                        worst = worst.max(d);
-                    }
+                    // the seam column included: the table takes steps across the wrap the short way
+                    worst = worst.max(d);
                 }
             }
             if u == w / 2 {
@@ -108,11 +107,11 @@ fn yaw_180_rolls_the_panorama_exactly() {
             }
         }
         eprintln!(
-            "{name}: yaw 180 vs rolled source: max difference {worst} off the seam column, \
-             mean difference {worst_seam:.2} on it"
+            "{name}: yaw 180 vs rolled source: max difference {worst} (seam column included), \
+             mean difference {worst_seam:.2} on the seam column"
         );
         assert!(worst <= 1, "{name}: {worst}");
-        assert!(worst_seam <= 3.0, "{name}: {worst_seam}");
+        assert!(worst_seam <= 0.5, "{name}: {worst_seam}");
     }
 }
 

@@ -96,7 +96,8 @@ impl RemapTable {
             } else if !(x >= -0.5 && x < sw - 0.5) {
                 return outside;
             }
-            if !(y >= -0.5 && y < sh - 0.5) {
+            // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
+            if !(y >= -0.5 && y <= sh - 0.5) {
                 return outside;
             }
             // Within half a pixel of the border the edge pixel is repeated (it covers that area).
@@ -142,8 +143,11 @@ impl RemapTable {
             below.extend((0..w).map(|u| to_src(u as f64, vf + 0.5)));
             for u in 0..w {
                 let uf = u as f64;
-                let n = supersampling([across[u], across[u + 1], above[u], below[u]])
-                    .min(max_supersample.max(1));
+                let n = supersampling(
+                    [across[u], across[u + 1], above[u], below[u]],
+                    (wrap == Wrap::Horizontal).then_some(sw),
+                )
+                .min(max_supersample.max(1));
                 for j in 0..n {
                     for i in 0..n {
                         let du = (i as f64 + 0.5) / n as f64 - 0.5;
@@ -257,11 +261,19 @@ impl RemapTable {
 
 /// Supersampling factor of an output pixel: the local source-per-output pixel scale, rounded,
 /// from the table's own mapping of the pixel's left, right, top and bottom edge midpoints.
-fn supersampling(edges: [Option<Point2<f64>>; 4]) -> u32 {
+/// `period`: the source width of a 360° source, across whose wrap a step is taken the short way.
+fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> u32 {
     let [Some(l), Some(r), Some(t), Some(b)] = edges else {
         return 1;
     };
-    let scale = (r - l).norm().max((b - t).norm());
+    let step = |a: Point2<f64>, b: Point2<f64>| {
+        let mut d = b - a;
+        if let Some(w) = period {
+            d.x -= w * (d.x / w).round();
+        }
+        d.norm()
+    };
+    let scale = step(l, r).max(step(t, b));
     if !scale.is_finite() || scale < 1.5 {
         1
     } else {
