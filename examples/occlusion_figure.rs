@@ -6,7 +6,7 @@
 //!     cargo run --release --example occlusion_figure -- docs/images
 
 use nalgebra::{Matrix3, Matrix3x4, Point2, Vector3};
-use panoconv::camera::{CameraModel as _, Perspective, Projection};
+use panoconv::camera::{Perspective, Projection};
 use panoconv::depth::{depth_map, rect_from_velo, OcclusionFilter};
 use panoconv::geometry::{output_camera, OutputSpec};
 use panoconv::kitti::png_io::{encode_rgb8, PngCompression};
