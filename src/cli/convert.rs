@@ -1,0 +1,355 @@
+//! `kitti`, `kitti-raw` and `merge`: dataset conversion, its options and its signals.
+
+use super::*;
+
+pub(super) const RAW_EXAMPLES: &str = "Examples:
+  panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
+  panoconv kitti-raw --to cylindrical --drive 2011_09_26_drive_0001_sync --input /data/raw/2011_09_26 --output O
+
+Output mirrors the input: OUT/<drive>/image_02/data/*.png (image_03 with --cameras 2,3),
+OUT/<drive>/depth_02/data/*.png with --depth, and one OUT/<drive>/calib.txt in KITTI object form
+(P0..P3, R0_rect, Tr_velo_to_cam from the date folder) with projection:, K2:, C2: added.
+All `kitti` options apply except --split, --image-set and --augment.";
+
+pub(super) const KITTI_EXAMPLES: &str = "Examples:
+  panoconv kitti --to equirect --input /data/kitti --output /data/kitti_equi
+  panoconv kitti --to cylindrical --input /data/kitti --output /data/kitti_cyl --jobs 8
+  panoconv kitti --to cylindrical --depth --input /data/kitti --output /data/kitti_cyl
+  panoconv kitti --to equirect --cameras 2,3 --input /data/kitti --output /data/kitti_equi
+  panoconv kitti --to equirect --pano-width 2048 --input /data/kitti --output /data/kitti_2048
+  panoconv kitti --to equirect --split training --image-set val --input K --output O
+  panoconv kitti --to perspective --frames 000001,000042 --input K --output O
+  panoconv kitti --to equirect --style miami_BtoA.onnx --input K --output O_miami
+  panoconv kitti --to equirect --pano-width 2048 --crop 0,20,469,128 --input K --output O
+  panoconv kitti --to cylindrical --resize 620x200 --input K --output O
+  panoconv kitti --to equirect --augment 4 --seed 7 --scale-range 0.8,1.25 --crop-size 448x128 --input K --output O
+
+Output: OUT/<split>/{image_2,label_2,calib}/NNNNNN.* in KITTI's format, and OUT/panoconv.json.
+The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README).";
+
+#[derive(Args)]
+pub(super) struct KittiArgs {
+    /// Target projection.
+    #[arg(long, value_enum)]
+    to: To,
+    /// KITTI object root holding training/ and/or testing/.
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Output root (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// Convert only this split (training or testing).
+    #[arg(long)]
+    split: Option<String>,
+    /// kitti-raw: convert only this drive (e.g. 2011_09_26_drive_0001_sync).
+    #[arg(long, value_name = "NAME")]
+    drive: Option<String>,
+    /// Convert only the frames listed in INPUT/ImageSets/NAME.txt.
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["frames", "frames_from"])]
+    image_set: Option<String>,
+    /// Convert only these frame ids (comma-separated).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "ID,...",
+        conflicts_with = "frames_from"
+    )]
+    frames: Option<Vec<String>>,
+    /// Convert only the frame ids listed in FILE (one per line).
+    #[arg(long, value_name = "FILE")]
+    frames_from: Option<PathBuf>,
+    /// Scale given as the width in pixels of a full 360° panorama (2048 → 325.95 px/rad).
+    /// Default: the source focal length in pixels per radian.
+    #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
+    pano_width: Option<u32>,
+    /// Scale in pixels per degree at the image centre.
+    #[arg(long, value_name = "PX")]
+    px_per_deg: Option<f64>,
+    /// Cover the full 360° of azimuth (and 180° of latitude for equirect).
+    #[arg(long, conflicts_with = "size")]
+    full_360: bool,
+    /// Explicit output size, centred on the source field of view.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<ImageSize>,
+    /// Crop the output canvas to this window (in canvas pixels; may reach beyond it). K, boxes
+    /// and truncation follow; the image is still resampled once.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<Crop>,
+    /// Resize the (cropped) output to this size: fu' = s·fu, cu' = s(cu + 0.5) − 0.5.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    resize: Option<ImageSize>,
+    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
+    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+    augment: Option<u32>,
+    /// Seed of --augment (same seed, same views, whatever --jobs).
+    #[arg(long, default_value_t = 0, requires = "augment")]
+    seed: u64,
+    /// Range of the --augment scale factor, drawn uniformly.
+    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
+    scale_range: (f64, f64),
+    /// Size of every --augment view.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
+    crop_size: Option<ImageSize>,
+    /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
+    #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
+    cameras: Vec<usize>,
+    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/.
+    #[arg(long)]
+    depth: bool,
+    /// Keep LiDAR points the camera cannot see (the occlusion correction is on by default).
+    #[arg(long, requires = "depth")]
+    no_occlusion_filter: bool,
+    /// Continue a killed or interrupted run: frames whose outputs match the manifest are kept.
+    #[arg(long)]
+    resume: bool,
+    /// Convert only shard K of N (K from 0), writing panoconv.shard-K-of-N.json; join the
+    /// shards with `panoconv merge OUT`.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// Worker threads (default: all cores).
+    #[arg(long, short = 'j', value_name = "N")]
+    jobs: Option<usize>,
+    /// Write into a non-empty output folder, replacing files of the same name.
+    #[arg(long)]
+    overwrite: bool,
+    /// PNG compression effort.
+    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
+    png_compression: PngCompression,
+    /// No progress bar and no summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+    /// CycleGAN generator (ONNX) giving each image the target domain's look, before the warp.
+    #[arg(long, value_name = "MODEL.onnx")]
+    style: Option<PathBuf>,
+    /// Apply the style model to the warped image instead of the source.
+    #[arg(long, requires = "style")]
+    style_after_warp: bool,
+    /// ONNX Runtime library (libonnxruntime.so); else $ORT_DYLIB_PATH, else beside the binary.
+    #[arg(long, value_name = "PATH", requires = "style")]
+    ort_lib: Option<PathBuf>,
+    /// Where the style model runs.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu, requires = "style")]
+    device: DeviceArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(super) enum DeviceArg {
+    Cpu,
+    Cuda,
+}
+
+#[derive(Args)]
+pub(super) struct MergeArgs {
+    /// The shared output folder of the shards.
+    output: PathBuf,
+}
+
+pub(super) fn parse_shard(s: &str) -> std::result::Result<Shard, String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or("expected K/N, e.g. 3/16 (K from 0)")?;
+    let k: u32 = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad shard index {k:?}"))?;
+    let n: u32 = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad shard count {n:?}"))?;
+    if n == 0 || k >= n {
+        return Err(format!("shard {k}/{n}: need 0 <= K < N"));
+    }
+    Ok(Shard { index: k, count: n })
+}
+
+pub(super) fn parse_camera(s: &str) -> std::result::Result<usize, String> {
+    match s.trim() {
+        "2" => Ok(2),
+        "3" => Ok(3),
+        other => Err(format!(
+            "camera {other:?}: expected 2 or 3 (KITTI's colour cameras)"
+        )),
+    }
+}
+
+pub(super) fn parse_crop(s: &str) -> std::result::Result<Crop, String> {
+    let v: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [x, y, w, h] = v[..] else {
+        return Err("expected X,Y,WIDTH,HEIGHT, e.g. 0,20,469,128".into());
+    };
+    let int = |t: &str| {
+        t.parse::<i64>()
+            .map_err(|_| format!("{t:?} is not an integer"))
+    };
+    let (width, height) = (int(w)?, int(h)?);
+    if width <= 0 || height <= 0 || width > 65535 || height > 65535 {
+        return Err("crop width and height must be between 1 and 65535".into());
+    }
+    Ok(Crop {
+        x: int(x)?,
+        y: int(y)?,
+        width: width as u32,
+        height: height as u32,
+    })
+}
+
+pub(super) fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
+    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX, e.g. 0.8,1.25")?;
+    let num = |t: &str| {
+        t.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{t:?} is not a number"))
+    };
+    let (a, b) = (num(a)?, num(b)?);
+    if !(a > 0.0 && b >= a && b.is_finite()) {
+        return Err("expected 0 < MIN <= MAX".into());
+    }
+    Ok((a, b))
+}
+
+pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
+    if raw && (args.split.is_some() || args.image_set.is_some()) {
+        bail!(Error::Setup(
+            "kitti-raw selects drives with --drive, not --split/--image-set".into()
+        ));
+    }
+    if !raw && args.drive.is_some() {
+        bail!(Error::Setup("--drive is for kitti-raw".into()));
+    }
+    let projection = match args.to {
+        To::Equirect => Projection::Equirect,
+        To::Cylindrical => Projection::Cylindrical,
+        To::Perspective => Projection::Perspective,
+    };
+    let scale = match (args.pano_width, args.px_per_deg) {
+        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
+        (Some(w), _) => Scale::PanoWidth(w),
+        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+            bail!(Error::Setup("--px-per-deg must be positive".into()))
+        }
+        (None, Some(d)) => Scale::PixelsPerDegree(d),
+        (None, None) => Scale::SourceFocal,
+    };
+    let canvas = match (args.full_360, args.size) {
+        (true, _) => Canvas::Full360,
+        (false, Some(s)) => Canvas::Size(s),
+        (false, None) => Canvas::Tight,
+    };
+    let frames = if let Some(list) = args.frames {
+        Some(list)
+    } else if let Some(file) = &args.frames_from {
+        Some(read_id_list(file)?)
+    } else if let Some(set) = &args.image_set {
+        let file = args.input.join("ImageSets").join(format!("{set}.txt"));
+        if !file.is_file() {
+            bail!(Error::Setup(format!(
+                "image set {set:?}: {} does not exist",
+                file.display()
+            )));
+        }
+        Some(read_id_list(&file)?)
+    } else {
+        None
+    };
+    let job = KittiJob {
+        input: args.input,
+        output: args.output,
+        output_spec: OutputSpec {
+            projection,
+            scale,
+            canvas,
+            crop: args.crop,
+            resize: args.resize,
+        },
+        split: if raw { args.drive } else { args.split },
+        raw,
+        frames,
+        overwrite: args.overwrite,
+        png_compression: args.png_compression,
+        cameras: {
+            let mut c = args.cameras.clone();
+            c.sort_unstable();
+            c.dedup();
+            if !c.contains(&2) {
+                bail!(Error::Setup(
+                    "--cameras must include 2 (labels and depth belong to camera 2)".into()
+                ));
+            }
+            c
+        },
+        shard: args.shard,
+        resume: args.resume,
+        depth: args.depth.then(|| DepthJob {
+            occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
+        }),
+        augment: args.augment.map(|count| Augment {
+            count,
+            seed: args.seed,
+            scale_range: args.scale_range,
+            crop_size: args
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+        }),
+        style: args.style.map(|model| StyleJob {
+            options: StyleOptions {
+                model,
+                ort_lib: args.ort_lib,
+                device: match args.device {
+                    DeviceArg::Cpu => Device::Cpu,
+                    DeviceArg::Cuda => Device::Cuda,
+                },
+                intra_threads: 1,
+            },
+            after_warp: args.style_after_warp,
+        }),
+    };
+    install_stop_handler();
+    let bar = Bar::new(args.quiet);
+    let summary = with_pool(args.jobs, || run_kitti(&job, &bar, &STOP))??;
+    if !args.quiet {
+        let resumed = if summary.resumed > 0 {
+            format!(" ({} kept from the previous run)", summary.resumed)
+        } else {
+            String::new()
+        };
+        eprintln!(
+            "panoconv: {} frames converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
+            summary.converted,
+            summary.failed,
+            summary.seconds,
+            (summary.converted - summary.resumed) as f64 / summary.seconds.max(1e-9),
+            job.output.display()
+        );
+    }
+    if summary.interrupted {
+        eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
+        return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
+    Ok(if summary.failed > 0 {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Set by SIGINT/SIGTERM: the conversion takes no new frame, finishes those in flight and
+/// writes its manifest.
+pub(super) static STOP: AtomicBool = AtomicBool::new(false);
+
+pub(super) fn install_stop_handler() {
+    // ctrlc replaces the default handlers, so a second signal while stopping exits at once.
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED as i32);
+        }
+    });
+}
+
+pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
+    let n = panoconv::journal::merge(&a.output)?;
+    eprintln!(
+        "panoconv: merged {n} frames into {}",
+        a.output.join(panoconv::journal::MANIFEST).display()
+    );
+    Ok(ExitCode::SUCCESS)
+}

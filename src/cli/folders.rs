@@ -1,0 +1,241 @@
+//! `fisheye` and `pano`: folders of fisheye images or panoramas.
+
+use super::*;
+
+// ---------------------------------------------------------------------------------------------
+// Folder conversions: fisheye and pano
+
+pub(super) const FISHEYE_EXAMPLES: &str = "Examples:
+  panoconv fisheye --camera front.json --to cylindrical --input frames/ --output cyl/
+  panoconv fisheye --camera front.json --to cylindrical --vfov 90 --px-per-deg 4 --input F --output O
+  panoconv fisheye --camera rear.json --to perspective --fov 100 --input F --output O
+
+The camera description (JSON, \"version\": 1) is documented in docs/fisheye.md. The output is
+levelled (the camera's pitch and roll undone) and turned to the camera's heading. Each image
+NAME.png gives NAME.png and NAME.txt (projection:, K:, R:) in OUTPUT, plus OUTPUT/panoconv.json.
+PNG input only.";
+
+pub(super) const PANO_EXAMPLES: &str = "Examples:
+  panoconv pano --to cylindrical --vfov 60 --input panos/ --output cyl/
+  panoconv pano --to perspective --yaw 0,90,180,270 --fov 90 --input panos/ --output views/
+  panoconv pano --to equirect --vfov 60 --yaw 180 --input panos/ --output strips/
+
+Input: every 2:1 equirect PNG in INPUT (JPEG is not read). Each image NAME.png gives NAME.png and
+NAME.txt (projection:, K:, R:), or NAME_yawDEG.png/.txt per yaw when several are given.";
+
+#[derive(Args)]
+pub(super) struct FolderArgs {
+    /// Target projection.
+    #[arg(long, value_enum)]
+    to: To,
+    /// Folder of input images (PNG).
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Output folder (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// Horizontal field of view of the output, degrees.
+    #[arg(long, value_name = "DEG")]
+    fov: Option<f64>,
+    /// Vertical field of view of the output, degrees (latitude range at the centre).
+    #[arg(long, value_name = "DEG")]
+    vfov: Option<f64>,
+    /// Scale given as the width in pixels of a full 360° at the output's scale.
+    /// Default: the source's pixels per radian at its centre.
+    #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
+    pano_width: Option<u32>,
+    /// Scale in pixels per degree at the output's centre.
+    #[arg(long, value_name = "PX")]
+    px_per_deg: Option<f64>,
+    /// Worker threads (default: all cores).
+    #[arg(long, short = 'j', value_name = "N")]
+    jobs: Option<usize>,
+    /// Write into a non-empty output folder, replacing files of the same name.
+    #[arg(long)]
+    overwrite: bool,
+    /// PNG compression effort.
+    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
+    png_compression: PngCompression,
+    /// No progress bar and no summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+#[derive(Args)]
+pub(super) struct FisheyeArgs {
+    /// Camera description (JSON, see docs/fisheye.md).
+    #[arg(long, value_name = "CAMERA.json")]
+    camera: PathBuf,
+    #[command(flatten)]
+    common: FolderArgs,
+}
+
+#[derive(Args)]
+pub(super) struct PanoArgs {
+    /// View centres in degrees, right positive; one output per yaw.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "DEG,...",
+        allow_hyphen_values = true
+    )]
+    yaw: Option<Vec<f64>>,
+    /// View tilt in degrees, up positive.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pitch: f64,
+    #[command(flatten)]
+    common: FolderArgs,
+}
+
+pub(super) fn projection_of(to: To) -> Projection {
+    match to {
+        To::Equirect => Projection::Equirect,
+        To::Cylindrical => Projection::Cylindrical,
+        To::Perspective => Projection::Perspective,
+    }
+}
+
+pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::pano::ViewScale> {
+    use panoconv::pano::ViewScale;
+    Ok(match (a.pano_width, a.px_per_deg) {
+        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
+        (Some(w), _) => ViewScale::PanoWidth(w),
+        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+            bail!(Error::Setup("--px-per-deg must be positive".into()))
+        }
+        (None, Some(d)) => ViewScale::PixelsPerDegree(d),
+        (None, None) => ViewScale::Source,
+    })
+}
+
+pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
+    match v {
+        Some(d) if !(d > 0.0 && d <= 360.0) => {
+            bail!(Error::Setup(format!("{flag} must be in (0, 360] degrees")))
+        }
+        v => Ok(v.map(f64::to_radians)),
+    }
+}
+
+pub(super) fn run_folder_job(
+    common: &FolderArgs,
+    job: &panoconv::folder::FolderJob,
+    planner: &panoconv::folder::Planner,
+) -> Result<ExitCode> {
+    let bar = Bar::new(common.quiet);
+    let summary = with_pool(common.jobs, || {
+        panoconv::folder::run_folder(job, planner, &bar)
+    })??;
+    if !common.quiet {
+        eprintln!(
+            "panoconv: {} images converted, {} failed in {:.2} s -> {}",
+            summary.converted,
+            summary.failed,
+            summary.seconds,
+            job.output.display()
+        );
+    }
+    Ok(if summary.failed > 0 {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
+    use panoconv::camera::description::CameraDescription;
+    use panoconv::pano::FisheyeView;
+    let a = &args.common;
+    let desc = CameraDescription::read(&args.camera)?;
+    let spec = FisheyeView {
+        projection: projection_of(a.to),
+        hfov: degrees(a.fov, "--fov")?,
+        vfov: degrees(a.vfov, "--vfov")?,
+        scale: view_scale(a)?,
+    };
+    let size = desc.camera.size;
+    // Built before anything is written (one camera, one table): errors are set-up errors.
+    let view = spec.plan(&desc)?;
+    let (hfov, vfov) = spec.fov(&desc);
+    let job = panoconv::folder::FolderJob {
+        command: "fisheye",
+        input: a.input.clone(),
+        output: a.output.clone(),
+        overwrite: a.overwrite,
+        png_compression: a.png_compression,
+        parameters: serde_json::json!({
+            "input": a.input,
+            "camera": args.camera,
+            "camera_model": desc.camera.model.name(),
+            "projection": spec.projection,
+            "hfov_deg": hfov.to_degrees(),
+            "vfov_deg": vfov.to_degrees(),
+            "scale": spec.scale,
+            "png_compression": a.png_compression,
+        }),
+    };
+    let planner = move |s: panoconv::camera::ImageSize| {
+        if s != size {
+            return Err(Error::Setup(format!(
+                "image is {s}, the camera description says {size}"
+            )));
+        }
+        Ok(vec![view.clone()])
+    };
+    run_folder_job(a, &job, &planner)
+}
+
+pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
+    use panoconv::pano::PanoViews;
+    let a = &args.common;
+    let projection = projection_of(a.to);
+    let yaws: Vec<f64> = args
+        .yaw
+        .clone()
+        .unwrap_or_else(|| vec![0.0])
+        .iter()
+        .map(|d| d.to_radians())
+        .collect();
+    if !yaws.iter().all(|y| y.is_finite()) || args.pitch.is_nan() || args.pitch.abs() > 90.0 {
+        bail!(Error::Setup(
+            "--yaw must be finite and --pitch within [-90, 90] degrees".into()
+        ));
+    }
+    let hfov = degrees(a.fov, "--fov")?.unwrap_or(match projection {
+        Projection::Perspective => 90f64.to_radians(),
+        _ => 2.0 * std::f64::consts::PI,
+    });
+    let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(match projection {
+        Projection::Perspective => hfov,
+        Projection::Cylindrical => 90f64.to_radians(),
+        Projection::Equirect => std::f64::consts::PI,
+    });
+    let views = PanoViews {
+        projection,
+        yaws,
+        pitch: args.pitch.to_radians(),
+        hfov,
+        vfov,
+        scale: view_scale(a)?,
+    };
+    views.validate()?;
+    let job = panoconv::folder::FolderJob {
+        command: "pano",
+        input: a.input.clone(),
+        output: a.output.clone(),
+        overwrite: a.overwrite,
+        png_compression: a.png_compression,
+        parameters: serde_json::json!({
+            "input": a.input,
+            "views": &views,
+            "png_compression": a.png_compression,
+        }),
+    };
+    let planner = |s: panoconv::camera::ImageSize| views.plan(s);
+    run_folder_job(a, &job, &planner)
+}

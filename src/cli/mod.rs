@@ -1,0 +1,213 @@
+//! Command-line interface: argument parsing, progress display and exit codes.
+//!
+//! Exit codes: 0 all frames converted; 1 some frames failed (each reported); 2 usage or set-up
+//! error, nothing written.
+
+use anyhow::{bail, Context as _, Result};
+use clap::{Args, CommandFactory, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use panoconv::augment::Augment;
+use panoconv::camera::{ImageSize, Projection};
+use panoconv::depth::OcclusionFilter;
+use panoconv::error::Error;
+use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
+use panoconv::journal::Shard;
+use panoconv::kitti::dataset::read_id_list;
+use panoconv::kitti::png_io::PngCompression;
+use panoconv::kitti::FrameRef;
+use panoconv::pipeline::{run_kitti, DepthJob, KittiJob, Progress, StyleJob};
+use panoconv::style::{Device, StyleOptions};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+mod convert;
+mod folders;
+mod tools;
+
+use convert::*;
+use folders::*;
+use tools::*;
+
+const EXIT_FRAMES_FAILED: u8 = 1;
+const EXIT_SETUP: u8 = 2;
+const EXIT_INTERRUPTED: u8 = 130;
+
+#[derive(Parser)]
+#[command(
+    name = "panoconv",
+    version,
+    about = "Adapt KITTI datasets to panoramic, cylindrical and fisheye cameras: images, labels and calibration reprojected exactly."
+)]
+#[command(
+    after_help = "Exit codes: 0 success; 1 some frames failed (each is reported); 2 usage or set-up error (nothing written); 130 interrupted (SIGINT/SIGTERM; finished frames are in the manifest, continue with --resume).\n\nRun `panoconv kitti --help` for examples."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Convert a KITTI object dataset (images, labels, calib) to another projection.
+    #[command(after_help = KITTI_EXAMPLES)]
+    Kitti(Box<KittiArgs>),
+    /// Convert KITTI raw drives (a date folder with calib_*.txt and *_drive_*_sync/).
+    #[command(after_help = RAW_EXAMPLES)]
+    KittiRaw(Box<KittiArgs>),
+    /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
+    #[command(after_help = PREVIEW_EXAMPLES)]
+    Preview(PreviewArgs),
+    /// Turn a converted dataset's labels into pixel objects (u, v, distance, ...) to train on.
+    #[command(
+        after_help = "Examples:\n  panoconv labels-to-pixels --input /data/kitti_equi --output /data/kitti_equi/training/pixels\n\nFormat (one object per line): type u v distance height width length alpha score\n(u, v) = pixel of the 3D box centre; distance = z, range or rho by projection."
+    )]
+    LabelsToPixels(LabelsToPixelsArgs),
+    /// Turn pixel-object predictions made in converted images back into KITTI 3D results.
+    #[command(
+        after_help = "Examples:\n  panoconv unproject --calib O/training/calib --input preds/ --output preds_kitti/\n  panoconv unproject --calib O/training/calib --input preds/ --output out/ --trained-focal 721.5377\n\nImages are read from CALIB/../image_2 (for their size) unless --images is given."
+    )]
+    Unproject(UnprojectArgs),
+    /// Depth metrics (abs rel, sq rel, RMSE, RMSE log, δ<1.25ᵏ) of predicted depth maps.
+    #[command(
+        after_help = "Examples:\n  panoconv eval-depth --pred preds/depth --gt /data/kitti_cyl/training/depth_2\n  panoconv eval-depth --pred P --gt G --max-depth 80 --json\n\nBoth folders hold 16-bit PNGs (round(d*256), 0 = none) with the same names. Ground truth outside\n(min, max) is discarded, predictions are clamped to [min, max], metrics are averaged per image."
+    )]
+    EvalDepth(EvalDepthArgs),
+    /// Join the manifests of a sharded conversion (--shard K/N) into OUT/panoconv.json.
+    #[command(
+        after_help = "Examples:\n  panoconv kitti --to equirect --input K --output O --shard 0/4   # ... one per machine, 0..3\n  panoconv merge O\n\nChecks every shard is present once, with the same parameters, and no frame is doubled."
+    )]
+    Merge(MergeArgs),
+    /// Check a converted dataset against its manifest: re-hash every listed output (blake3),
+    /// report missing, changed and unlisted files.
+    #[command(
+        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, ...), then a summary.\nExit codes: 0 everything matches; 1 problems found; 2 the manifest is missing or unreadable."
+    )]
+    Verify(VerifyArgs),
+    /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
+    #[command(
+        after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output data/synthetic_kitti --overwrite"
+    )]
+    Synth(SynthArgs),
+    /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.
+    #[command(after_help = FISHEYE_EXAMPLES)]
+    Fisheye(FisheyeArgs),
+    /// Warp a folder of 2:1 equirect panoramas (PNG) to cylindrical, perspective views or an equirect strip.
+    #[command(after_help = PANO_EXAMPLES)]
+    Pano(PanoArgs),
+    /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
+    #[command(after_help = INSPECT_EXAMPLES)]
+    Inspect(InspectArgs),
+    /// Print a shell completion script for panoconv.
+    #[command(after_help = COMPLETIONS_EXAMPLES)]
+    Completions(CompletionsArgs),
+    /// Print the man page (roff), or write one page per subcommand with --output.
+    #[command(after_help = MAN_EXAMPLES)]
+    Man(ManArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum To {
+    Equirect,
+    Cylindrical,
+    Perspective,
+}
+
+fn parse_size(s: &str) -> std::result::Result<ImageSize, String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 2048x512")?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width {w:?}"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height {h:?}"))?;
+    if w == 0 || h == 0 {
+        return Err("width and height must be positive".into());
+    }
+    Ok(ImageSize::new(w, h))
+}
+
+/// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean).
+struct Bar {
+    bar: ProgressBar,
+}
+
+impl Bar {
+    fn new(quiet: bool) -> Self {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        if quiet || !std::io::stderr().is_terminal() {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+        }
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({per_sec}, eta {eta})",
+            )
+            .expect("valid template"),
+        );
+        Self { bar }
+    }
+}
+
+impl Progress for Bar {
+    fn start(&self, total: usize) {
+        self.bar.set_length(total as u64);
+    }
+    fn frame_done(&self) {
+        self.bar.inc(1);
+    }
+    fn frame_failed(&self, frame: &FrameRef, error: &Error) {
+        let what = if frame.split.is_empty() {
+            format!("frame {}", frame.id)
+        } else {
+            format!("frame {}/{}", frame.split, frame.id)
+        };
+        self.bar
+            .suspend(|| eprintln!("panoconv: {what} failed: {error}"));
+        self.bar.inc(1);
+    }
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// Runs `body` on a pool of `jobs` threads: the one place threads are made.
+fn with_pool<T: Send>(jobs: Option<usize>, body: impl FnOnce() -> T + Send) -> Result<T> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = jobs {
+        if n == 0 {
+            bail!(Error::Setup("--jobs must be at least 1".into()));
+        }
+        builder = builder.num_threads(n);
+    }
+    let pool = builder.build().context("cannot start worker threads")?;
+    Ok(pool.install(body))
+}
+
+fn run() -> Result<ExitCode> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Kitti(a) => kitti(*a, false),
+        Command::KittiRaw(a) => kitti(*a, true),
+        Command::Preview(a) => preview(a),
+        Command::LabelsToPixels(a) => labels_to_pixels(a),
+        Command::Unproject(a) => unproject(a),
+        Command::EvalDepth(a) => eval_depth(a),
+        Command::Merge(a) => merge(a),
+        Command::Verify(a) => verify(a),
+        Command::Synth(a) => synth(a),
+        Command::Fisheye(a) => fisheye(a),
+        Command::Pano(a) => pano(a),
+        Command::Inspect(a) => inspect(a),
+        Command::Completions(a) => completions(a),
+        Command::Man(a) => man(a),
+    }
+}
+
+pub fn main() -> ExitCode {
+    match run() {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("panoconv: error: {e:#}");
+            ExitCode::from(EXIT_SETUP)
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! The tools around a conversion: preview, inspect, verify, predictions, depth metrics,
+//! completions, man pages and the synthetic sample.
+
+use super::*;
+
+pub(super) const PREVIEW_EXAMPLES: &str = "Examples:
+  panoconv preview /data/kitti_equi --frame 000123 --output preview.png
+  panoconv preview /data/kitti_cyl --split testing --frame 000007 --output p.png
+  panoconv preview /data/kitti_equi --grid 4x3 --output sheet.png
+  panoconv preview O --grid 2x1 --frames 000001,000042 --tile-width 800 --output s.png
+  panoconv preview /data/kitti --frame 000123 --output p.png        # plain KITTI: drawn with P2
+
+Each 3D box is drawn from the written calib alone (projection:, K2:, C2:; else P2) in the class
+colour, the 2D box in white, with the class and the distance the projection pairs with (z,
+range or cylindrical rho) in metres. OUT/<split>/depth_2/NNNNNN.png is overlaid in colour
+(red near, blue at 80 m and beyond) when it exists.";
+
+pub(super) const INSPECT_EXAMPLES: &str = "Examples:
+  panoconv inspect /data/kitti
+  panoconv inspect /data/kitti_equi --split training
+  panoconv inspect /data/kitti --json > report.json
+
+Exit codes: 0 the dataset is clean; 1 missing or malformed files were found (the report is still
+printed; each as file:line: field: message); 2 set-up error (no KITTI dataset there).";
+
+pub(super) const COMPLETIONS_EXAMPLES: &str = "Examples:
+  panoconv completions bash > ~/.local/share/bash-completion/completions/panoconv
+  panoconv completions zsh > ~/.zfunc/_panoconv      # with fpath+=~/.zfunc before compinit
+  panoconv completions fish > ~/.config/fish/completions/panoconv.fish
+  panoconv completions powershell >> $PROFILE";
+
+pub(super) const MAN_EXAMPLES: &str = "Examples:
+  panoconv man > panoconv.1 && man ./panoconv.1
+  panoconv man --output /usr/local/share/man/man1     # panoconv.1, panoconv-kitti.1, ...";
+
+#[derive(Args)]
+pub(super) struct PreviewArgs {
+    /// A dataset written by `panoconv kitti` (or any KITTI root, drawn as perspective).
+    dataset: PathBuf,
+    /// Frame id.
+    #[arg(long, required_unless_present = "grid", conflicts_with = "grid")]
+    frame: Option<String>,
+    #[arg(long, default_value = "training")]
+    split: String,
+    /// PNG to write.
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// Contact sheet of C columns and R rows: the first C*R frames of the split (or of --frames).
+    #[arg(long, value_name = "CxR", value_parser = parse_size)]
+    grid: Option<ImageSize>,
+    /// Frames of the contact sheet (comma-separated).
+    #[arg(long, value_delimiter = ',', value_name = "ID,...", requires = "grid")]
+    frames: Option<Vec<String>>,
+    /// Width of each contact-sheet tile in pixels.
+    #[arg(long, value_name = "PX", default_value_t = 480, requires = "grid")]
+    tile_width: u32,
+    /// Do not overlay depth_2/ maps.
+    #[arg(long)]
+    no_depth: bool,
+    /// Draw the boxes without the class and distance text.
+    #[arg(long)]
+    no_text: bool,
+}
+
+#[derive(Args)]
+pub(super) struct InspectArgs {
+    /// KITTI object root (training/ and/or testing/), original or written by panoconv.
+    dataset: PathBuf,
+    /// Inspect only this split (training or testing).
+    #[arg(long)]
+    split: Option<String>,
+    /// Print the report as JSON (stable key order) instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+pub(super) struct CompletionsArgs {
+    /// The shell to write a completion script for.
+    #[arg(value_enum)]
+    shell: clap_complete::Shell,
+}
+
+#[derive(Args)]
+pub(super) struct ManArgs {
+    /// Write panoconv.1 and one page per subcommand (panoconv-kitti.1, ...) into DIR.
+    #[arg(long, short = 'o', value_name = "DIR")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub(super) struct LabelsToPixelsArgs {
+    /// A dataset written by `panoconv kitti`.
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Folder for the pixel-object files (one per frame).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    #[arg(long, default_value = "training")]
+    split: String,
+}
+
+#[derive(Args)]
+pub(super) struct UnprojectArgs {
+    /// The converted dataset's calib folder (e.g. O/training/calib).
+    #[arg(long)]
+    calib: PathBuf,
+    /// Its images, for their sizes (default: CALIB/../image_2).
+    #[arg(long)]
+    images: Option<PathBuf>,
+    /// Folder of pixel-object predictions, one NNNNNN.txt per frame.
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Folder for the KITTI result files.
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// The detector was trained on perspective images of this vertical focal length (px):
+    /// distances are rescaled to the output camera (Z at f becomes rho at f_y).
+    #[arg(long, value_name = "PX")]
+    trained_focal: Option<f64>,
+}
+
+#[derive(Args)]
+pub(super) struct EvalDepthArgs {
+    /// Predicted depth maps.
+    #[arg(long)]
+    pred: PathBuf,
+    /// Ground-truth depth maps (e.g. OUT/training/depth_2).
+    #[arg(long)]
+    gt: PathBuf,
+    /// Metres.
+    #[arg(long, default_value_t = 1e-3)]
+    min_depth: f64,
+    /// Metres.
+    #[arg(long, default_value_t = 50.0)]
+    max_depth: f64,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+pub(super) struct VerifyArgs {
+    /// Output folder written by `panoconv kitti` (holding panoconv.json).
+    output: PathBuf,
+    /// Print only the problems, no summary line.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+#[derive(Args)]
+pub(super) struct SynthArgs {
+    /// Output root (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    #[arg(long)]
+    overwrite: bool,
+}
+
+pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
+    panoconv::synth::write_dataset(&args.output, args.overwrite)?;
+    eprintln!(
+        "panoconv: synthetic KITTI dataset written to {}",
+        args.output.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
+    use panoconv::kitti::png_io;
+    use panoconv::preview::{contact_sheet, render_frame, PreviewOptions};
+    let options = PreviewOptions {
+        depth: !args.no_depth,
+        text_scale: args.no_text.then_some(0),
+    };
+    let image = match (args.grid, &args.frame) {
+        (Some(grid), _) => {
+            if args.tile_width == 0 {
+                bail!(Error::Setup("--tile-width must be positive".into()));
+            }
+            let n = (grid.width * grid.height) as usize;
+            let ids = match &args.frames {
+                Some(ids) => ids.clone(),
+                None => {
+                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let entries = std::fs::read_dir(&dir)
+                        .map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))?;
+                    let mut ids: Vec<String> = entries
+                        .flatten()
+                        .filter_map(|e| {
+                            let name = e.file_name().to_str()?.to_owned();
+                            let id = name.strip_suffix(".png")?;
+                            (!id.starts_with('.')).then(|| id.to_owned())
+                        })
+                        .collect();
+                    ids.sort();
+                    ids
+                }
+            };
+            let ids: Vec<String> = ids.into_iter().take(n).collect();
+            if ids.is_empty() {
+                bail!(Error::Setup(format!(
+                    "no frames to show in {}",
+                    args.dataset.join(&args.split).display()
+                )));
+            }
+            // Text sized so that it stays legible once the tile is scaled down.
+            let mut tiles = Vec::with_capacity(ids.len());
+            for id in &ids {
+                let mut opts = options;
+                if opts.text_scale.is_none() {
+                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let path = dir.join(format!("{id}.png"));
+                    let bytes = panoconv::error::read_file(&path)?;
+                    let (w, _) = png_io::read_size(&bytes, &path)?;
+                    opts.text_scale = Some(w.div_ceil(args.tile_width).max(1));
+                }
+                let tile = render_frame(&args.dataset, &args.split, id, &opts)?;
+                tiles.push((format!("{}/{id}", args.split), tile));
+            }
+            contact_sheet(&tiles, grid.width, args.tile_width)
+        }
+        (None, Some(frame)) => render_frame(&args.dataset, &args.split, frame, &options)?,
+        (None, None) => unreachable!("clap requires --frame or --grid"),
+    };
+    panoconv::output::write_atomic(
+        &args.output,
+        &png_io::encode_rgb8(&image, PngCompression::Default),
+    )?;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn folder_exit(
+    summary: panoconv::predictions::FolderSummary,
+    output: &std::path::Path,
+) -> ExitCode {
+    for (id, e) in &summary.failed {
+        eprintln!("panoconv: frame {id} failed: {e}");
+    }
+    eprintln!(
+        "panoconv: {} frames written, {} failed -> {}",
+        summary.done,
+        summary.failed.len(),
+        output.display()
+    );
+    if summary.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    }
+}
+
+pub(super) fn labels_to_pixels(a: LabelsToPixelsArgs) -> Result<ExitCode> {
+    let summary = panoconv::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
+    Ok(folder_exit(summary, &a.output))
+}
+
+pub(super) fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
+    if let Some(f) = a.trained_focal {
+        if !(f > 0.0 && f.is_finite()) {
+            bail!(Error::Setup("--trained-focal must be positive".into()));
+        }
+    }
+    let images = a
+        .images
+        .clone()
+        .unwrap_or_else(|| panoconv::predictions::default_images_dir(&a.calib));
+    let summary =
+        panoconv::predictions::unproject(&a.calib, &images, &a.input, &a.output, a.trained_focal)?;
+    Ok(folder_exit(summary, &a.output))
+}
+
+pub(super) fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
+    let e = panoconv::eval::evaluate(&a.pred, &a.gt, a.min_depth, a.max_depth)?;
+    for (name, err) in &e.failed {
+        eprintln!("panoconv: {name} not evaluated: {err}");
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&e).context("serialising the metrics")?
+        );
+    } else {
+        let m = &e.mean;
+        println!(
+            "{} images, {} pixels, depth range {}..{} m",
+            e.images, m.pixels, e.min_depth, e.max_depth
+        );
+        println!(
+            "{:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}",
+            "abs_rel", "sq_rel", "rmse", "rmse_log", "d<1.25", "d<1.25^2", "d<1.25^3"
+        );
+        println!(
+            "{:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>10.4}",
+            m.abs_rel, m.sq_rel, m.rmse, m.rmse_log, m.delta_1, m.delta_2, m.delta_3
+        );
+    }
+    Ok(if e.failed.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
+pub(super) fn inspect(args: InspectArgs) -> Result<ExitCode> {
+    let report = panoconv::inspect::inspect(&args.dataset, args.split.as_deref())?;
+    if args.json {
+        print!("{}", report.to_json());
+    } else {
+        print!("{}", report.to_text());
+    }
+    Ok(if report.is_clean() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
+
+pub(super) fn completions(args: CompletionsArgs) -> Result<ExitCode> {
+    let mut cmd = Cli::command();
+    clap_complete::generate(args.shell, &mut cmd, "panoconv", &mut std::io::stdout());
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn man(args: ManArgs) -> Result<ExitCode> {
+    let cmd = Cli::command();
+    match args.output {
+        Some(dir) => {
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            clap_mangen::generate_to(cmd, &dir).map_err(|e| Error::io(&dir, e))?;
+        }
+        None => {
+            let mut out = Vec::new();
+            clap_mangen::Man::new(cmd)
+                .render(&mut out)
+                .context("cannot render the man page")?;
+            use std::io::Write as _;
+            std::io::stdout()
+                .write_all(&out)
+                .context("cannot write to stdout")?;
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode> {
+    let report = panoconv::verify::verify(&a.output)?;
+    for problem in &report.problems {
+        println!("{problem}");
+    }
+    if !a.quiet {
+        let verdict = if report.is_ok() { "OK" } else { "FAILED" };
+        println!(
+            "panoconv verify: {verdict}: {} ({})",
+            report.summary(),
+            a.output.display()
+        );
+    }
+    Ok(if report.is_ok() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    })
+}
