@@ -1,9 +1,9 @@
 //! The remap table and its application.
 //!
 //! For every output pixel the table holds one or more bilinear taps into the source image. When
-//! the output is locally coarser than the source (more than 1.5 source pixels per output pixel)
-//! the pixel is supersampled on an n×n grid over its footprint (n = round(scale), at most 8):
-//! a box prefilter that removes the moiré a plain bilinear lookup gives. Weights are fixed-point
+//! the output is locally coarser than the source (more than 1.5 source pixels per output pixel
+//! along an axis) the pixel is supersampled on an nu×nv grid over its footprint (n = round(scale)
+//! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives. Weights are fixed-point
 //! integers, so the result is bit-exact on every machine and thread count.
 
 use crate::camera::{CameraModel, ImageSize};
@@ -143,15 +143,16 @@ impl RemapTable {
             below.extend((0..w).map(|u| to_src(u as f64, vf + 0.5)));
             for u in 0..w {
                 let uf = u as f64;
-                let n = supersampling(
+                let (nu, nv) = supersampling(
                     [across[u], across[u + 1], above[u], below[u]],
                     (wrap == Wrap::Horizontal).then_some(sw),
-                )
-                .min(max_supersample.max(1));
-                for j in 0..n {
-                    for i in 0..n {
-                        let du = (i as f64 + 0.5) / n as f64 - 0.5;
-                        let dv = (j as f64 + 0.5) / n as f64 - 0.5;
+                );
+                let cap = max_supersample.max(1);
+                let (nu, nv) = (nu.min(cap), nv.min(cap));
+                for j in 0..nv {
+                    for i in 0..nu {
+                        let du = (i as f64 + 0.5) / nu as f64 - 0.5;
+                        let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
                         taps.push(make_tap(to_src(uf + du, vf + dv)));
                     }
                 }
@@ -259,12 +260,14 @@ impl RemapTable {
     }
 }
 
-/// Supersampling factor of an output pixel: the local source-per-output pixel scale, rounded,
-/// from the table's own mapping of the pixel's left, right, top and bottom edge midpoints.
+/// Supersampling of an output pixel along its u and v axes: the source pixels one output step
+/// spans in each direction, rounded (1 below 1.5), from the table's own mapping of the pixel's
+/// left, right, top and bottom edge midpoints. Anisotropic: at a KITTI frame's edges an equirect
+/// pixel spans 1.8 source pixels across but 1.3 down, and needs 2×1 samples, not 2×2.
 /// `period`: the source width of a 360° source, across whose wrap a step is taken the short way.
-fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> u32 {
+fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> (u32, u32) {
     let [Some(l), Some(r), Some(t), Some(b)] = edges else {
-        return 1;
+        return (1, 1);
     };
     let step = |a: Point2<f64>, b: Point2<f64>| {
         let mut d = b - a;
@@ -273,12 +276,14 @@ fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> u32 {
         }
         d.norm()
     };
-    let scale = step(l, r).max(step(t, b));
-    if !scale.is_finite() || scale < 1.5 {
-        1
-    } else {
-        (scale.round() as u32).min(MAX_SUPERSAMPLE)
-    }
+    let count = |scale: f64| {
+        if !scale.is_finite() || scale < 1.5 {
+            1
+        } else {
+            (scale.round() as u32).min(MAX_SUPERSAMPLE)
+        }
+    };
+    (count(step(l, r)), count(step(t, b)))
 }
 
 /// The bilinear sum of a tap, in 1/ONE² (general case: any neighbour layout).
