@@ -9,7 +9,37 @@ mod common;
 use common::*;
 use std::process::Command;
 
-const SUBCOMMANDS: [&str; 6] = ["kitti", "preview", "synth", "inspect", "completions", "man"];
+/// The subcommands `panoconv --help` lists (all but `help`): every one must have its
+/// completions, its man page and its examples.
+fn subcommands() -> Vec<String> {
+    let run = panoconv(["--help"]);
+    assert_success(&run);
+    let mut in_commands = false;
+    let mut subs = Vec::new();
+    for line in run.stdout.lines() {
+        if line.starts_with("Commands:") {
+            in_commands = true;
+            continue;
+        }
+        if in_commands {
+            if line.trim().is_empty() || !line.starts_with("  ") {
+                break;
+            }
+            // a subcommand line starts with two spaces and its name; continuation lines are indented more
+            if let Some(name) = line.strip_prefix("  ").filter(|l| !l.starts_with(' ')) {
+                let name = name.split_whitespace().next().unwrap_or("").to_owned();
+                if name != "help" {
+                    subs.push(name);
+                }
+            }
+        }
+    }
+    assert!(
+        subs.len() >= 6,
+        "too few subcommands parsed from --help: {subs:?}"
+    );
+    subs
+}
 
 fn completion(shell: &str) -> String {
     let run = panoconv(["completions", shell]);
@@ -49,8 +79,8 @@ fn completion_scripts_for_every_shell() {
     for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
         let s = completion(shell);
         assert!(s.contains("panoconv"), "{shell}");
-        for sub in SUBCOMMANDS {
-            assert!(s.contains(sub), "{shell}: no {sub}");
+        for sub in subcommands() {
+            assert!(s.contains(sub.as_str()), "{shell}: no {sub}");
         }
         for opt in ["to", "pano-width", "grid", "json"] {
             // fish spells long options `-l NAME`
@@ -89,7 +119,7 @@ fn completion_scripts_for_every_shell() {
         let reply = String::from_utf8_lossy(&out.stdout);
         assert_eq!(
             reply.trim(),
-            "kitti",
+            "kitti kitti-raw",
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
@@ -112,7 +142,13 @@ fn completion_scripts_for_every_shell() {
             .collect();
         assert_eq!(
             words,
-            ["kitti", "cylindrical", "equirect", "perspective"],
+            [
+                "kitti",
+                "kitti-raw",
+                "cylindrical",
+                "equirect",
+                "perspective"
+            ],
             "{reply}{}",
             String::from_utf8_lossy(&out.stderr)
         );
@@ -128,9 +164,9 @@ fn man_page_to_stdout_and_one_per_subcommand() {
     assert_success(&run);
     let page = &run.stdout;
     assert!(page.contains(".TH panoconv 1"), "{page}");
-    for sub in SUBCOMMANDS {
+    for sub in subcommands() {
         assert!(
-            page.contains(&format!("panoconv\\-{sub}")),
+            page.contains(&format!("panoconv\\-{}", sub.replace('-', "\\-"))),
             "no {sub} in\n{page}"
         );
     }
@@ -144,7 +180,7 @@ fn man_page_to_stdout_and_one_per_subcommand() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    let mut want: Vec<String> = SUBCOMMANDS
+    let mut want: Vec<String> = subcommands()
         .iter()
         .map(|s| format!("panoconv-{s}.1"))
         .chain(["panoconv.1".to_owned()])
@@ -158,8 +194,8 @@ fn man_page_to_stdout_and_one_per_subcommand() {
 
 #[test]
 fn every_subcommand_help_has_examples() {
-    for sub in SUBCOMMANDS {
-        let run = panoconv([sub, "--help"]);
+    for sub in subcommands() {
+        let run = panoconv([sub.as_str(), "--help"]);
         assert_success(&run);
         let examples = run
             .stdout
