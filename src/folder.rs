@@ -163,7 +163,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
             .unwrap_or_default();
         let supported = match ext.as_str() {
             "png" => true,
-            "jpg" | "jpeg" => false,
+            "jpg" | "jpeg" => true,
             _ => continue,
         };
         let stem = path
@@ -180,7 +180,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
     inputs.sort_by(|a, b| a.name.cmp(&b.name));
     if inputs.is_empty() {
         return Err(Error::Setup(format!(
-            "input {} holds no PNG images",
+            "input {} holds no PNG or JPEG images",
             dir.display()
         )));
     }
@@ -202,7 +202,17 @@ impl Ctx<'_> {
             ));
         }
         let bytes = read_file(&input.path)?;
-        let image = png_io::decode_rgb8(&bytes, &input.path)?;
+        let is_jpeg = input.path.extension().is_some_and(|x| {
+            matches!(
+                x.to_string_lossy().to_ascii_lowercase().as_str(),
+                "jpg" | "jpeg"
+            )
+        });
+        let image = if is_jpeg {
+            crate::jpeg::decode_rgb8(&bytes, &input.path)?
+        } else {
+            png_io::decode_rgb8(&bytes, &input.path)?
+        };
         let size = ImageSize::new(image.width(), image.height());
         let views = self
             .views

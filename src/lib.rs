@@ -15,6 +15,7 @@ pub mod geometry;
 pub mod image;
 pub mod inspect;
 pub mod journal;
+pub mod jpeg;
 pub mod kitti;
 pub mod labels;
 pub mod output;

@@ -302,7 +302,13 @@ fn depth_png_contract_and_filter_switch() {
     // bottom centre is ~1.65 m / sin(latitude) away
     let m: serde_json::Value =
         serde_json::from_slice(&std::fs::read(a.join("panoconv.json")).unwrap()).unwrap();
-    let lidar = &m["frames"][0]["lidar"];
+    let record = m["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["split"] == "training" && f["id"] == "000000")
+        .unwrap();
+    let lidar = &record["lidar"];
     assert!(lidar["dropped_occluded"].as_u64().unwrap() > 0);
     assert_eq!(
         lidar["depth_pixels"].as_u64().unwrap() as usize,
