@@ -68,7 +68,11 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
 
 /// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
 pub fn read_lines(path: &Path) -> Result<Vec<String>> {
-    let bytes = read_file(path)?;
+    split_lines(&read_file(path)?, path)
+}
+
+/// The lines of a text file already read (LF or CRLF); `path` tags a non-UTF-8 line.
+pub fn split_lines(bytes: &[u8], path: &Path) -> Result<Vec<String>> {
     bytes
         .split(|&b| b == b'\n')
         .enumerate()

@@ -4,7 +4,7 @@
 use crate::augment::{view_id, Augment, View};
 use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo, OcclusionFilter};
-use crate::error::{read_file, Error, Result};
+use crate::error::{read_file, split_lines, Error, Result};
 use crate::geometry::{output_camera, OutputSpec};
 use crate::journal::{self, Journal, Shard};
 use crate::kitti::png_io::{self, PngCompression};
@@ -230,7 +230,7 @@ impl Context<'_> {
                 let path = split.calib_path(id);
                 let bytes = read_file(&path)?;
                 inputs.push((relative(root, &path), output::hash_hex(&bytes)));
-                (Calib::read(&path)?, path)
+                (Calib::parse(&path, split_lines(&bytes, &path)?)?, path)
             }
             Layout::Raw { calib } => ((**calib).clone(), calib.path.clone()),
         };
@@ -246,7 +246,7 @@ impl Context<'_> {
             let path = split.label_path(id);
             let bytes = read_file(&path)?;
             inputs.push((relative(root, &path), output::hash_hex(&bytes)));
-            Some(LabelFile::read(&path)?)
+            Some(LabelFile::parse(&path, split_lines(&bytes, &path)?)?)
         } else {
             None
         };

@@ -52,7 +52,11 @@ pub struct LabelFile {
 
 impl LabelFile {
     pub fn read(path: &Path) -> Result<LabelFile> {
-        let lines = read_lines(path)?;
+        Self::parse(path, read_lines(path)?)
+    }
+
+    /// Parses the lines of `path` (already read).
+    pub fn parse(path: &Path, lines: Vec<String>) -> Result<LabelFile> {
         let mut labels = Vec::new();
         for (i, line) in lines.iter().enumerate() {
             if line.trim().is_empty() {
