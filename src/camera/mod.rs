@@ -4,14 +4,16 @@
 //! frame. A *bearing* is a unit vector from the camera's optical centre. Pixel centres lie at
 //! integer coordinates: pixel (0, 0) covers [-0.5, 0.5)², as KITTI's P matrices assume.
 //!
-//! Each projection is one file implementing [`CameraModel`]; the warp, the label transform and
-//! the output-geometry search only talk to the trait, so a new model is one new file.
+//! Each projection is one file implementing [`CameraModel`] (the K-based ones implement only
+//! their (a, b) [`Mapping`]; [`Linear`] adds K once for all of them). The warp, the label
+//! transform and the output-geometry search only talk to the trait, so a new model is one file.
 
 mod cylindrical;
 pub mod description;
 mod equirect;
 pub mod fisheye;
 mod intrinsics;
+pub mod linear;
 mod perspective;
 pub mod rotated;
 
@@ -19,6 +21,7 @@ pub use cylindrical::Cylindrical;
 pub use equirect::Equirect;
 pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
+pub use linear::{Linear, Mapping};
 pub use perspective::Perspective;
 pub use rotated::{rotation_ypr, Rotated};
 

@@ -1,0 +1,95 @@
+//! The cameras whose pixels are an affine map K of projection coordinates (a, b):
+//! pixel = K · (a, b, 1). Everything K-related lives here once; each projection file only says
+//! how a bearing becomes (a, b) and back ([`Mapping`]).
+
+use super::{CameraModel, ImageSize, Intrinsics, LinearCamera, Projection, ProjectionReject};
+use nalgebra::{Point2, Vector3};
+use std::marker::PhantomData;
+
+/// A projection's coordinates (a, b) of a bearing, and the distance it pairs with.
+pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
+    const PROJECTION: Projection;
+    /// `a` is an angle about the y axis, so u is periodic with 2π·fu (360° images wrap).
+    const PERIODIC: bool;
+    /// Only bearings with z > 0 have an image.
+    const FRONT_ONLY: bool;
+    fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
+    fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
+    /// The distance this projection pairs with, for a point relative to the centre.
+    fn distance(p: &Vector3<f64>) -> f64;
+}
+
+/// A linear camera of projection `M` with intrinsics `k` and image `size`.
+#[derive(Debug, PartialEq)]
+pub struct Linear<M> {
+    pub k: Intrinsics,
+    pub size: ImageSize,
+    mapping: PhantomData<M>,
+}
+
+impl<M> Clone for Linear<M> {
+    fn clone(&self) -> Self {
+        Self::new(self.k, self.size)
+    }
+}
+
+impl<M> Linear<M> {
+    pub fn new(k: Intrinsics, size: ImageSize) -> Self {
+        Self {
+            k,
+            size,
+            mapping: PhantomData,
+        }
+    }
+}
+
+impl<M: Mapping> CameraModel for Linear<M> {
+    fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let (a, b) = M::bearing_to_ab(bearing)?;
+        let (u, v) = self.k.to_pixel(a, b);
+        Ok(Point2::new(u, v))
+    }
+
+    fn unproject(&self, pixel: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        let (a, b) = self.k.from_pixel(pixel.x, pixel.y);
+        M::ab_to_bearing(a, b)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        M::distance(p)
+    }
+
+    fn size(&self) -> ImageSize {
+        self.size
+    }
+
+    fn front_halfspace(&self) -> Option<Vector3<f64>> {
+        M::FRONT_ONLY.then(Vector3::z)
+    }
+
+    fn horizontal_period(&self) -> Option<f64> {
+        M::PERIODIC.then_some(2.0 * std::f64::consts::PI * self.k.fu)
+    }
+}
+
+impl<M: Mapping> LinearCamera for Linear<M> {
+    fn projection(&self) -> Projection {
+        M::PROJECTION
+    }
+
+    fn intrinsics(&self) -> Intrinsics {
+        self.k
+    }
+
+    fn bearing_to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
+        M::bearing_to_ab(d)
+    }
+
+    fn ab_to_bearing(&self, a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject> {
+        M::ab_to_bearing(a, b)
+    }
+
+    fn boxed_clone(&self) -> Box<dyn LinearCamera> {
+        Box::new(self.clone())
+    }
+}
