@@ -106,18 +106,8 @@ pub(super) struct KittiArgs {
     /// shards with `panoconv merge OUT`.
     #[arg(long, value_name = "K/N", value_parser = parse_shard)]
     shard: Option<Shard>,
-    /// Worker threads (default: all cores).
-    #[arg(long, short = 'j', value_name = "N")]
-    jobs: Option<usize>,
-    /// Write into a non-empty output folder, replacing files of the same name.
-    #[arg(long)]
-    overwrite: bool,
-    /// PNG compression effort.
-    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
-    png_compression: PngCompression,
-    /// No progress bar and no summary line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
+    #[command(flatten)]
+    run: RunArgs,
     /// CycleGAN generator (ONNX) giving each image the target domain's look, before the warp.
     #[arg(long, value_name = "MODEL.onnx")]
     style: Option<PathBuf>,
@@ -264,8 +254,8 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         split: if raw { args.drive } else { args.split },
         raw,
         frames,
-        overwrite: args.overwrite,
-        png_compression: args.png_compression,
+        overwrite: args.run.overwrite,
+        png_compression: args.run.png_compression,
         cameras: {
             let mut c = args.cameras.clone();
             c.sort_unstable();
@@ -304,9 +294,9 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         }),
     };
     install_stop_handler();
-    let bar = Bar::new(args.quiet);
-    let summary = with_pool(args.jobs, || run_kitti(&job, &bar, &STOP))??;
-    if !args.quiet {
+    let bar = Bar::new(args.run.quiet);
+    let summary = with_pool(args.run.jobs, || run_kitti(&job, &bar, &STOP))??;
+    if !args.run.quiet {
         let resumed = if summary.resumed > 0 {
             format!(" ({} kept from the previous run)", summary.resumed)
         } else {

@@ -47,18 +47,8 @@ pub(super) struct FolderArgs {
     /// Scale in pixels per degree at the output's centre.
     #[arg(long, value_name = "PX")]
     px_per_deg: Option<f64>,
-    /// Worker threads (default: all cores).
-    #[arg(long, short = 'j', value_name = "N")]
-    jobs: Option<usize>,
-    /// Write into a non-empty output folder, replacing files of the same name.
-    #[arg(long)]
-    overwrite: bool,
-    /// PNG compression effort.
-    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
-    png_compression: PngCompression,
-    /// No progress bar and no summary line.
-    #[arg(long, short = 'q')]
-    quiet: bool,
+    #[command(flatten)]
+    run: RunArgs,
 }
 
 #[derive(Args)]
@@ -127,11 +117,11 @@ pub(super) fn run_folder_job(
     job: &panoconv::folder::FolderJob,
     planner: &panoconv::folder::Planner,
 ) -> Result<ExitCode> {
-    let bar = Bar::new(common.quiet);
-    let summary = with_pool(common.jobs, || {
+    let bar = Bar::new(common.run.quiet);
+    let summary = with_pool(common.run.jobs, || {
         panoconv::folder::run_folder(job, planner, &bar)
     })??;
-    if !common.quiet {
+    if !common.run.quiet {
         eprintln!(
             "panoconv: {} images converted, {} failed in {:.2} s -> {}",
             summary.converted,
@@ -166,8 +156,8 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
         command: "fisheye",
         input: a.input.clone(),
         output: a.output.clone(),
-        overwrite: a.overwrite,
-        png_compression: a.png_compression,
+        overwrite: a.run.overwrite,
+        png_compression: a.run.png_compression,
         parameters: serde_json::json!({
             "input": a.input,
             "camera": args.camera,
@@ -176,7 +166,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
             "hfov_deg": hfov.to_degrees(),
             "vfov_deg": vfov.to_degrees(),
             "scale": spec.scale,
-            "png_compression": a.png_compression,
+            "png_compression": a.run.png_compression,
         }),
     };
     let planner = move |s: panoconv::camera::ImageSize| {
@@ -228,12 +218,12 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
         command: "pano",
         input: a.input.clone(),
         output: a.output.clone(),
-        overwrite: a.overwrite,
-        png_compression: a.png_compression,
+        overwrite: a.run.overwrite,
+        png_compression: a.run.png_compression,
         parameters: serde_json::json!({
             "input": a.input,
             "views": &views,
-            "png_compression": a.png_compression,
+            "png_compression": a.run.png_compression,
         }),
     };
     let planner = |s: panoconv::camera::ImageSize| views.plan(s);

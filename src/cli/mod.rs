@@ -126,6 +126,23 @@ fn parse_size(s: &str) -> std::result::Result<ImageSize, String> {
     Ok(ImageSize::new(w, h))
 }
 
+/// How a run is carried out, shared by every converting subcommand.
+#[derive(Args)]
+struct RunArgs {
+    /// Worker threads (default: all cores).
+    #[arg(long, short = 'j', value_name = "N")]
+    pub(super) jobs: Option<usize>,
+    /// Write into a non-empty output folder, replacing files of the same name.
+    #[arg(long)]
+    pub(super) overwrite: bool,
+    /// PNG compression effort.
+    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
+    pub(super) png_compression: PngCompression,
+    /// No progress bar and no summary line.
+    #[arg(long, short = 'q')]
+    pub(super) quiet: bool,
+}
+
 /// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean).
 struct Bar {
     bar: ProgressBar,
