@@ -8,10 +8,11 @@
 
 use crate::camera::{ImageSize, Intrinsics, LinearCamera, Projection};
 use crate::error::{read_file, Error, Result};
+use crate::journal::Journal;
 use crate::kitti::calib::format_sci;
 use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::FrameRef;
-use crate::output::{self, FrameRecord, FrameStatus, Manifest, ManifestSummary};
+use crate::output::{self, FrameRecord, FrameStatus};
 use crate::pipeline::{Progress, Summary};
 use crate::warp::{OnceMap, RemapTable};
 use nalgebra::Matrix3;
@@ -271,39 +272,36 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         views: OnceMap::default(),
     };
     progress.start(inputs.len());
-    let records: Vec<FrameRecord> = inputs
-        .par_iter()
-        .map(|input| {
-            let mut written = Vec::new();
-            match ctx.convert(input, &mut written) {
-                Ok(record) => {
-                    progress.frame_done();
-                    record
-                }
-                Err(e) => {
-                    let f = FrameRef {
-                        split: String::new(),
-                        id: input.name.clone(),
-                    };
-                    progress.frame_failed(&f, &e);
-                    for p in written {
-                        let _ = std::fs::remove_file(p);
-                    }
-                    FrameRecord {
-                        split: String::new(),
-                        id: input.name.clone(),
-                        status: FrameStatus::Failed,
-                        error: Some(e.to_string()),
-                        inputs: Vec::new(),
-                        outputs: Vec::new(),
-                        views: Vec::new(),
-                        lidar: None,
-                    }
-                }
+    let journal = Journal::new(
+        &job.output,
+        None,
+        job.command,
+        job.parameters.clone(),
+        Vec::new(),
+    );
+    inputs.par_iter().for_each(|input| {
+        let mut written = Vec::new();
+        let record = match ctx.convert(input, &mut written) {
+            Ok(record) => {
+                progress.frame_done();
+                record
             }
-        })
-        .collect();
+            Err(e) => {
+                let f = FrameRef {
+                    split: String::new(),
+                    id: input.name.clone(),
+                };
+                progress.frame_failed(&f, &e);
+                for p in written {
+                    let _ = std::fs::remove_file(p);
+                }
+                FrameRecord::failed("", &input.name, &e)
+            }
+        };
+        journal.record(record);
+    });
     progress.finish();
+    let records = journal.finish(true)?;
     let failed = records
         .iter()
         .filter(|r| r.status == FrameStatus::Failed)
@@ -317,18 +315,5 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
     };
-    let manifest = Manifest {
-        tool: "panoconv",
-        version: env!("CARGO_PKG_VERSION"),
-        command: job.command.into(),
-        parameters: &job.parameters,
-        summary: ManifestSummary {
-            frames: summary.frames,
-            converted: summary.converted,
-            failed: summary.failed,
-        },
-        frames: records,
-    };
-    output::write_manifest(&job.output, &manifest)?;
     Ok(summary)
 }

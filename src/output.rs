@@ -124,25 +124,6 @@ pub fn hash_hex(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
 }
 
-/// The manifest `OUT/panoconv.json`. Deterministic: no times, no absolute output paths,
-/// frames in sorted order.
-#[derive(Debug, Serialize)]
-pub struct Manifest<P: Serialize> {
-    pub tool: &'static str,
-    pub version: &'static str,
-    pub command: String,
-    pub parameters: P,
-    pub summary: ManifestSummary,
-    pub frames: Vec<FrameRecord>,
-}
-
-#[derive(Debug, Serialize)]
-pub struct ManifestSummary {
-    pub frames: usize,
-    pub converted: usize,
-    pub failed: usize,
-}
-
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct FrameRecord {
     pub split: String,
@@ -155,10 +136,10 @@ pub struct FrameRecord {
     /// Output file (relative to the output root) → blake3.
     pub outputs: Vec<(String, String)>,
     /// With --augment: each view's output id and how it was drawn.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub views: Vec<ViewRecord>,
     /// With --depth: what happened to the LiDAR points (of the last view).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar: Option<LidarRecord>,
 }
 
@@ -168,6 +149,22 @@ pub struct LidarRecord {
     pub dropped_non_finite: usize,
     pub dropped_occluded: usize,
     pub depth_pixels: usize,
+}
+
+impl FrameRecord {
+    /// The record of a frame that failed: its error, no outputs.
+    pub fn failed(split: &str, id: &str, error: &crate::error::Error) -> Self {
+        Self {
+            split: split.to_owned(),
+            id: id.to_owned(),
+            status: FrameStatus::Failed,
+            error: Some(error.to_string()),
+            inputs: Vec::new(),
+            outputs: Vec::new(),
+            views: Vec::new(),
+            lidar: None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
@@ -182,10 +179,4 @@ pub struct ViewRecord {
 pub enum FrameStatus {
     Ok,
     Failed,
-}
-
-pub fn write_manifest<P: Serialize>(output: &Path, manifest: &Manifest<P>) -> Result<()> {
-    let mut json = serde_json::to_vec_pretty(manifest).expect("manifest serialises");
-    json.push(b'\n');
-    write_atomic_durable(&output.join("panoconv.json"), &json)
 }

@@ -371,7 +371,9 @@ impl Context<'_> {
             if let Some(path) = out(OutputKind::Calib, &view_id) {
                 outputs.push((path, calib_text.into_bytes()));
             }
-            views.push(ViewRecord { id: view_id, view });
+            if view.is_some() {
+                views.push(ViewRecord { id: view_id, view });
+            }
         }
 
         let mut record_outputs = Vec::new();
@@ -578,7 +580,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
                     // A failed frame leaves no output behind, not even one from an earlier
                     // run into the same folder (--overwrite), which loaders would pick up.
                     ctx.remove_outputs(split, &f.id);
-                    failed_record(f, &e)
+                    FrameRecord::failed(&f.split, &f.id, &e)
                 }
             };
             journal.record(record);
@@ -598,7 +600,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
             "frame {id} was asked for but is in no selected split"
         ));
         progress.frame_failed(&f, &e);
-        journal.record(failed_record(&f, &e));
+        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
     }
     progress.finish();
     let interrupted = done < frames.len();
@@ -644,17 +646,4 @@ fn write_image_sets(output: &Path, dataset: &Dataset, records: &[FrameRecord]) -
         output::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
     }
     Ok(())
-}
-
-fn failed_record(f: &FrameRef, e: &Error) -> FrameRecord {
-    FrameRecord {
-        split: f.split.clone(),
-        id: f.id.clone(),
-        status: FrameStatus::Failed,
-        error: Some(e.to_string()),
-        inputs: Vec::new(),
-        outputs: Vec::new(),
-        views: Vec::new(),
-        lidar: None,
-    }
 }

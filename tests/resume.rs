@@ -190,9 +190,20 @@ fn resume_refuses_other_parameters() {
         err.contains("cannot resume") && err.contains("output_spec"),
         "{err}"
     );
-    // a resume with the same parameters keeps everything
-    let o = kitti(&input, &out, &["--resume"]).output().unwrap();
-    assert!(o.status.success());
+    // a resume with the same parameters keeps everything: nothing is converted again
+    let o = Command::new(BIN)
+        .args(["kitti", "--to", "equirect", "--resume", "-i"])
+        .arg(&input)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("24 frames converted (24 kept from the previous run)"),
+        "{err}"
+    );
 }
 
 #[test]
