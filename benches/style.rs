@@ -43,6 +43,7 @@ fn read_png(path: &Path) -> RgbImage {
 }
 
 struct Setup {
+    opts: StyleOptions,
     model: StyleModel,
     bare: Session,
     img: RgbImage,
@@ -76,6 +77,7 @@ fn setup() -> Setup {
     );
     let tensor = convert::image_to_chw(&img, pw, ph);
     Setup {
+        opts,
         model,
         bare,
         img,
@@ -122,6 +124,34 @@ fn bench(c: &mut Criterion) {
         b.as_secs_f64() * 1e3,
         f.as_secs_f64() / b.as_secs_f64(),
         (f.as_secs_f64() - b.as_secs_f64()) * 1e3
+    );
+
+    // The pipeline's configuration: one-thread sessions. Four equal-size frames one by one
+    // against one batch of four (what `--style-batch 4` does).
+    let one = StyleModel::load(&StyleOptions {
+        intra_threads: 1,
+        ..s.opts.clone()
+    })
+    .expect("load style model");
+    let four = [&s.img, &s.img, &s.img, &s.img];
+    black_box(one.stylize_batch(&four).unwrap());
+    let (mut singles, mut batched) = (Vec::new(), Vec::new());
+    for _ in 0..5 {
+        let t = Instant::now();
+        for img in four {
+            black_box(one.stylize(img).unwrap());
+        }
+        singles.push(t.elapsed());
+        let t = Instant::now();
+        black_box(one.stylize_batch(&four).unwrap());
+        batched.push(t.elapsed());
+    }
+    let (a, b) = (median(singles), median(batched));
+    println!(
+        "style 1242x375, 1 thread: 4 single runs {:.1} ms, one batch of 4 {:.1} ms (median of 5) -> batch speed-up {:.2}",
+        a.as_secs_f64() * 1e3,
+        b.as_secs_f64() * 1e3,
+        a.as_secs_f64() / b.as_secs_f64()
     );
 
     let mut g = c.benchmark_group("style_1242x375");

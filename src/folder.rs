@@ -314,6 +314,7 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         interrupted: false,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
+        style_runs: None,
     };
     Ok(summary)
 }

@@ -192,6 +192,9 @@ pub struct StyleModel {
     info: StyleInfo,
     sessions: Vec<Mutex<Session>>,
     next: AtomicUsize,
+    /// Model runs so far, and the images (batch items or tiles) they took.
+    runs: AtomicUsize,
+    items: AtomicUsize,
     dynamic_batch: bool,
     height: Axis,
     width: Axis,
@@ -271,6 +274,8 @@ impl StyleModel {
             info,
             sessions: pool,
             next: AtomicUsize::new(0),
+            runs: AtomicUsize::new(0),
+            items: AtomicUsize::new(0),
             dynamic_batch,
             height,
             width,
@@ -344,6 +349,35 @@ impl StyleModel {
             .collect())
     }
 
+    /// (model runs, images or tiles they took) since the model was loaded.
+    pub fn runs(&self) -> (usize, usize) {
+        (
+            self.runs.load(Ordering::Relaxed),
+            self.items.load(Ordering::Relaxed),
+        )
+    }
+
+    /// Whether [`StyleModel::stylize_batch`] puts several images in one run (a dynamic batch
+    /// axis and whole-image inference).
+    pub fn batches(&self) -> bool {
+        self.dynamic_batch && self.info.tiled.is_none()
+    }
+
+    /// Whether a batch of `n` images of this size gives exactly the bytes of single runs: a
+    /// runtime may pick other kernels (other rounding) for other batch sizes. Checked on a fixed
+    /// pattern, so the answer depends on the model, the runtime and the size only.
+    pub fn batch_matches_single(
+        &self,
+        width: u32,
+        height: u32,
+        n: usize,
+    ) -> Result<bool, StyleError> {
+        let pattern = probe_pattern(width, height);
+        let single = self.stylize(&pattern)?;
+        let batch = self.stylize_batch(&vec![&pattern; n.max(1)])?;
+        Ok(batch.iter().all(|b| b.as_raw() == single.as_raw()))
+    }
+
     fn check_size(&self, img: &RgbImage) -> Result<(), StyleError> {
         if img.width() == 0 || img.height() == 0 {
             return Err(StyleError::EmptyImage {
@@ -398,6 +432,8 @@ impl StyleModel {
         let input = TensorRef::from_array_view((shape, data)).map_err(run_err)?;
         let mut session = self.acquire();
         let outputs = session.run(ort::inputs![input]).map_err(run_err)?;
+        self.runs.fetch_add(1, Ordering::Relaxed);
+        self.items.fetch_add(shape[0] as usize, Ordering::Relaxed);
         let (oshape, out) = outputs[0].try_extract_tensor::<f32>().map_err(run_err)?;
         if **oshape != shape[..] {
             return Err(StyleError::BadOutput {
@@ -422,6 +458,26 @@ impl StyleModel {
             .lock()
             .unwrap_or_else(|p| p.into_inner())
     }
+}
+
+/// A fixed image with edges, gradients and noise, for [`StyleModel::batch_matches_single`].
+fn probe_pattern(width: u32, height: u32) -> RgbImage {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut data = Vec::with_capacity(width as usize * height as usize * 3);
+    for y in 0..height {
+        for x in 0..width {
+            // xorshift64: deterministic noise on every platform
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let noise = (state >> 58) as u32;
+            let square = if (x / 16 + y / 16) % 2 == 0 { 60 } else { 0 };
+            data.push(((x * 255 / width.max(1)) / 2 + square + noise) as u8);
+            data.push(((y * 255 / height.max(1)) / 2 + square + noise) as u8);
+            data.push((128 + noise * 2) as u8);
+        }
+    }
+    RgbImage::from_raw(width, height, data).expect("width * height * 3 bytes")
 }
 
 fn new_session(

@@ -1,0 +1,430 @@
+//! One frame's conversion, in two halves around the style pass: [`Context::prepare`] (read,
+//! parse, decode) and [`Context::finish`] (warp, labels, depth, encode, write), so that the
+//! style pass can take several frames' images at once.
+
+use super::KittiJob;
+use crate::augment::{view_id, Augment, View};
+use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
+use crate::depth::{depth_map, rect_from_velo};
+use crate::error::{read_file, split_lines, Error, Result};
+use crate::geometry::output_camera;
+use crate::image::RgbImage;
+use crate::kitti::calib::SourceCamera;
+use crate::kitti::png_io;
+use crate::kitti::{velodyne, Layout, OutputKind};
+use crate::kitti::{Calib, Dataset, LabelFile, Split};
+use crate::labels::transform_label;
+use crate::output::{self, FrameRecord, FrameStatus, LidarRecord, ViewRecord};
+use crate::style::StyleModel;
+use crate::warp::{OnceMap, RemapTable, Wrap};
+use nalgebra::{Matrix3, Vector3};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The output camera and remap table of one source camera.
+#[derive(Clone)]
+struct Mapping {
+    output: Arc<dyn LinearCamera>,
+    table: Arc<RemapTable>,
+}
+
+type MappingKey = ([u64; 4], ImageSize);
+
+/// One output view of a camera: its id, mapping, and augmentation (None: the whole frame).
+type OutputView = (String, Mapping, Option<View>);
+
+pub(super) struct Context<'a> {
+    job: &'a KittiJob,
+    style: Option<&'a StyleModel>,
+    dataset: &'a Dataset,
+    mappings: OnceMap<MappingKey, std::result::Result<Mapping, String>>,
+}
+
+pub(super) struct FrameOutput {
+    pub(super) record: FrameRecord,
+}
+
+fn relative(root: &Path, path: &Path) -> String {
+    path.strip_prefix(root)
+        .unwrap_or(path)
+        .to_string_lossy()
+        .replace('\\', "/")
+}
+
+impl<'a> Context<'a> {
+    pub(super) fn new(
+        job: &'a KittiJob,
+        style: Option<&'a StyleModel>,
+        dataset: &'a Dataset,
+    ) -> Self {
+        Context {
+            job,
+            style,
+            dataset,
+            mappings: OnceMap::default(),
+        }
+    }
+
+    /// Distinct (source camera → output camera) mappings built so far.
+    pub(super) fn tables_built(&self) -> usize {
+        self.mappings.len()
+    }
+
+    fn mapping(&self, calib_path: &Path, k: Intrinsics, size: ImageSize) -> Result<Mapping> {
+        let source = Perspective::new(k, size);
+        self.mappings
+            .get_or_build(&(k.key(), size), || {
+                let output =
+                    output_camera(&self.job.output_spec, k, &source).map_err(|e| e.to_string())?;
+                let table =
+                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                Ok(Mapping {
+                    output: Arc::from(output),
+                    table: Arc::new(table),
+                })
+            })
+            .map_err(|m| Error::file(calib_path, m))
+    }
+
+    /// Every file `convert` may write for a frame.
+    fn output_paths(&self, split: &Split, id: &str) -> Vec<PathBuf> {
+        let dir = self.job.output.join(&split.name);
+        let ids: Vec<String> = match &self.job.augment {
+            Some(a) => (0..a.count)
+                .filter_map(|i| view_id(id, a.count, i))
+                .collect(),
+            None => vec![id.to_owned()],
+        };
+        let kinds = [
+            OutputKind::Image(2),
+            OutputKind::Image(3),
+            OutputKind::Depth,
+            OutputKind::Label,
+            OutputKind::Calib,
+        ];
+        ids.iter()
+            .flat_map(|v| kinds.iter().filter_map(|k| split.output_path(*k, v)))
+            .map(|p| dir.join(p))
+            .collect()
+    }
+
+    pub(super) fn remove_outputs(&self, split: &Split, id: &str) {
+        for path in self.output_paths(split, id) {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+
+    /// The calib of a layout that has one per split (raw drives), from its first frame's size.
+    pub(super) fn write_split_calib(&self, split: &Split) -> Result<()> {
+        let (Some(rel), Layout::Raw { calib }, Some(first)) = (
+            split.split_calib_output(),
+            &split.layout,
+            split.frames.first(),
+        ) else {
+            return Ok(());
+        };
+        let setup =
+            |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
+        let size_of = |cam: usize| -> Result<ImageSize> {
+            let path = split.image_path(cam, first);
+            let (w, h) = png_io::read_size(&read_file(&path)?, &path)?;
+            Ok(ImageSize::new(w, h))
+        };
+        let mut cameras = Vec::new();
+        for &n in &self.job.cameras {
+            let cam = calib.camera(n).map_err(setup)?;
+            let mapping = self
+                .mapping(&calib.path, cam.k, size_of(n).map_err(setup)?)
+                .map_err(setup)?;
+            cameras.push((n, mapping.output.intrinsics(), cam.centre));
+        }
+        let text = calib.render_output(self.job.output_spec.projection.name(), &cameras);
+        output::write_atomic(
+            &self.job.output.join(&split.name).join(rel),
+            text.as_bytes(),
+        )
+    }
+
+    /// Reads, parses and decodes a frame: everything before the style pass. Styling after the
+    /// warp, the views are warped here too, so `images` is always what the style pass takes.
+    pub(super) fn prepare(&self, split: &Split, id: &str) -> Result<Prepared> {
+        let root = &self.dataset.root;
+        let mut inputs = Vec::new();
+
+        let (calib, calib_path) = match &split.layout {
+            Layout::Object => {
+                let path = split.calib_path(id);
+                let bytes = read_file(&path)?;
+                inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+                (Calib::parse(&path, split_lines(&bytes, &path)?)?, path)
+            }
+            Layout::Raw { calib } => ((**calib).clone(), calib.path.clone()),
+        };
+        if calib.projection.is_some() {
+            return Err(Error::file(
+                &calib_path,
+                "this calib was written by panoconv (it has a projection: line): convert the original dataset",
+            ));
+        }
+        let cam2 = calib.camera(2)?;
+
+        let labels = if split.has_labels {
+            let path = split.label_path(id);
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            Some(LabelFile::parse(&path, split_lines(&bytes, &path)?)?)
+        } else {
+            None
+        };
+
+        let image_path = split.image_path(2, id);
+        let image_bytes = read_file(&image_path)?;
+        inputs.push((relative(root, &image_path), output::hash_hex(&image_bytes)));
+        let image = png_io::decode_rgb8(&image_bytes, &image_path)?;
+        let size = ImageSize::new(image.width(), image.height());
+        let views2 = self.views(split, id, &calib_path, cam2.k, size)?;
+        let mut images = vec![image];
+
+        // The right camera, converted about its own centre C3 (labels stay with camera 2).
+        let right = if self.job.cameras.contains(&3) {
+            let cam3 = calib.camera(3)?;
+            let path = split.image_path(3, id);
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            let img = png_io::decode_rgb8(&bytes, &path)?;
+            let size3 = ImageSize::new(img.width(), img.height());
+            let views3 = self.views(split, id, &calib_path, cam3.k, size3)?;
+            images.push(img);
+            Some((cam3, views3))
+        } else {
+            None
+        };
+
+        let lidar = if self.job.depth.is_some() {
+            let path = split.velodyne_path(id);
+            let bytes = read_file(&path)?;
+            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            let scan = velodyne::parse(&bytes, &path)?;
+            let r0 = calib
+                .r0_rect
+                .ok_or_else(|| Error::file(&calib_path, "no R0_rect line (needed for --depth)"))?;
+            let tr = calib.tr_velo_to_cam.ok_or_else(|| {
+                Error::file(&calib_path, "no Tr_velo_to_cam line (needed for --depth)")
+            })?;
+            Some((
+                rect_from_velo(&scan.points, &r0, &tr),
+                scan.dropped_non_finite,
+            ))
+        } else {
+            None
+        };
+
+        let mut frame = Prepared {
+            calib,
+            cam2,
+            labels,
+            inputs,
+            size,
+            views2,
+            right,
+            lidar,
+            images,
+        };
+        if self.style_after_warp() {
+            frame.images = frame.warp_all();
+        }
+        Ok(frame)
+    }
+
+    /// Whether the style pass takes the warped views (else the source images).
+    pub(super) fn style_after_warp(&self) -> bool {
+        self.style.is_some() && self.job.style.as_ref().is_some_and(|s| s.after_warp)
+    }
+
+    /// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
+    /// whose `images` have been through the style pass, if any.
+    pub(super) fn finish(&self, split: &Split, id: &str, frame: Prepared) -> Result<FrameOutput> {
+        let warped = if self.style_after_warp() {
+            frame.images
+        } else {
+            frame.warp_all()
+        };
+        let Prepared {
+            calib,
+            cam2,
+            labels,
+            inputs,
+            size,
+            views2,
+            right,
+            lidar,
+            ..
+        } = frame;
+        let per_view = if right.is_some() { 2 } else { 1 };
+        let mut warped = warped.into_iter();
+        let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+        let out_split = self.job.output.join(&split.name);
+        let out = |kind: OutputKind, view_id: &str| {
+            split.output_path(kind, view_id).map(|p| out_split.join(p))
+        };
+        let mut views = Vec::new();
+        let mut lidar_record = None;
+        let source = cam2.camera(size);
+        for (i, (view_id, mapping, view)) in views2.into_iter().enumerate() {
+            let image2 = warped.next().expect("one warped image per camera and view");
+            if let Some(path) = out(OutputKind::Image(2), &view_id) {
+                outputs.push((path, png_io::encode_rgb8(&image2, self.job.png_compression)));
+            }
+            if let Some(labels) = &labels {
+                let mut text = String::new();
+                for label in &labels.labels {
+                    if let Some(line) =
+                        transform_label(label, &cam2.centre, &source, mapping.output.as_ref())
+                    {
+                        text.push_str(&line);
+                        text.push('\n');
+                    }
+                }
+                if let Some(path) = out(OutputKind::Label, &view_id) {
+                    outputs.push((path, text.into_bytes()));
+                }
+            }
+            if let (Some((points, non_finite)), Some(depth)) = (&lidar, &self.job.depth) {
+                let filter = depth.occlusion_filter.as_ref();
+                // Projected straight into the final camera: crops and resizes never resample it.
+                let (map, occluded) = depth_map(
+                    points,
+                    &cam2.centre,
+                    mapping.output.as_ref(),
+                    &source,
+                    filter,
+                );
+                lidar_record = Some(LidarRecord {
+                    points: points.len() + non_finite,
+                    dropped_non_finite: *non_finite,
+                    dropped_occluded: occluded,
+                    depth_pixels: map.valid(),
+                });
+                outputs.push((
+                    out(OutputKind::Depth, &view_id).expect("every layout has depth maps"),
+                    png_io::encode_gray16(
+                        map.width,
+                        map.height,
+                        &map.to_u16(),
+                        self.job.png_compression,
+                    ),
+                ));
+            }
+            let mut cameras = vec![(2, mapping.output.intrinsics(), cam2.centre)];
+            if let Some((cam3, views3)) = &right {
+                let image3 = warped.next().expect("one warped image per camera and view");
+                outputs.push((
+                    out(OutputKind::Image(3), &view_id).expect("every layout has image 3"),
+                    png_io::encode_rgb8(&image3, self.job.png_compression),
+                ));
+                cameras.push((3, views3[i].1.output.intrinsics(), cam3.centre));
+            }
+            let projection = mapping.output.projection().name();
+            let calib_text = calib.render_output(projection, &cameras);
+            if let Some(path) = out(OutputKind::Calib, &view_id) {
+                outputs.push((path, calib_text.into_bytes()));
+            }
+            if view.is_some() {
+                views.push(ViewRecord { id: view_id, view });
+            }
+        }
+        debug_assert_eq!(warped.len(), 0, "{per_view} images a view");
+
+        let mut record_outputs = Vec::new();
+        for (path, bytes) in &outputs {
+            output::write_atomic(path, bytes)?;
+            record_outputs.push((relative(&self.job.output, path), output::hash_hex(bytes)));
+        }
+        Ok(FrameOutput {
+            record: FrameRecord {
+                split: split.name.clone(),
+                id: id.to_owned(),
+                status: FrameStatus::Ok,
+                error: None,
+                inputs,
+                outputs: record_outputs,
+                views,
+                lidar: lidar_record,
+            },
+        })
+    }
+
+    /// The output views of a frame: the frame itself, or its augmented views.
+    fn views(
+        &self,
+        split: &Split,
+        id: &str,
+        calib_path: &Path,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<Vec<OutputView>> {
+        let Some(aug) = &self.job.augment else {
+            return Ok(vec![(
+                id.to_owned(),
+                self.mapping(calib_path, k, size)?,
+                None,
+            )]);
+        };
+        let source = Perspective::new(k, size);
+        let canvas = output_camera(&self.job.output_spec, k, &source)
+            .map_err(|e| Error::file(calib_path, e.to_string()))?;
+        (0..aug.count)
+            .map(|i| {
+                let view_id = view_id(id, aug.count, i).ok_or_else(|| {
+                    Error::file(
+                        &split.image_path(2, id),
+                        "--augment needs numeric frame ids (e.g. 000123)",
+                    )
+                })?;
+                let view = aug.view(&split.name, id, i, canvas.size());
+                let (kv, sv) = Augment::view_camera(&view, canvas.intrinsics(), canvas.size());
+                let output = self.job.output_spec.projection.camera(kv, sv);
+                // Every view has its own camera, so its table is not shared.
+                let table =
+                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                let mapping = Mapping {
+                    output: Arc::from(output),
+                    table: Arc::new(table),
+                };
+                Ok((view_id, mapping, Some(view)))
+            })
+            .collect()
+    }
+}
+
+/// A frame read and decoded, waiting for the style pass and the rest of its conversion.
+pub(super) struct Prepared {
+    calib: Calib,
+    cam2: SourceCamera,
+    labels: Option<LabelFile>,
+    /// (path relative to the input, blake3) of every file read.
+    inputs: Vec<(String, String)>,
+    /// Camera 2's source size.
+    size: ImageSize,
+    views2: Vec<OutputView>,
+    right: Option<(SourceCamera, Vec<OutputView>)>,
+    /// LiDAR points in rect, and how many non-finite ones were dropped.
+    lidar: Option<(Vec<Vector3<f64>>, usize)>,
+    /// What the style pass takes, in order: camera 2's source image then camera 3's; or, when
+    /// styling after the warp, each view's warped camera 2 and camera 3 images.
+    pub(super) images: Vec<RgbImage>,
+}
+
+impl Prepared {
+    /// Each view's warped camera 2 image, then its camera 3 image, from the source `images`.
+    fn warp_all(&self) -> Vec<RgbImage> {
+        let mut warped = Vec::with_capacity(self.images.len() * self.views2.len());
+        for (i, (_, mapping, _)) in self.views2.iter().enumerate() {
+            warped.push(mapping.table.apply(&self.images[0]));
+            if let Some((_, views3)) = &self.right {
+                warped.push(views3[i].1.table.apply(&self.images[1]));
+            }
+        }
+        warped
+    }
+}

@@ -1,0 +1,331 @@
+//! The KITTI conversion: frames flow through read → (style) → warp → labels/calib → write, in
+//! parallel over frames (or groups of frames, when the style pass batches) on one rayon pool
+//! (the only owner of threads).
+
+mod batch;
+mod frame;
+
+use crate::augment::Augment;
+use crate::depth::OcclusionFilter;
+use crate::error::{Error, Result};
+use crate::geometry::OutputSpec;
+use crate::journal::{self, Journal, Shard};
+use crate::kitti::png_io::PngCompression;
+use crate::kitti::{raw, Layout, OutputKind};
+use crate::kitti::{Dataset, FrameRef, Split};
+use crate::output::{self, FrameRecord, FrameStatus};
+use crate::style::{StyleInfo, StyleModel, StyleOptions};
+use batch::StylePass;
+use frame::Context;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Everything a `kitti` conversion needs; also recorded in the manifest.
+#[derive(Debug, Clone, Serialize)]
+pub struct KittiJob {
+    pub input: PathBuf,
+    #[serde(skip)]
+    pub output: PathBuf,
+    pub output_spec: OutputSpec,
+    pub split: Option<String>,
+    /// Restrict to these frame ids.
+    pub frames: Option<Vec<String>>,
+    #[serde(skip)]
+    pub overwrite: bool,
+    pub png_compression: PngCompression,
+    /// The CycleGAN style pass, if any.
+    #[serde(skip)]
+    pub style: Option<StyleJob>,
+    /// Random scale-and-crop views instead of the whole frame.
+    pub augment: Option<Augment>,
+    /// Cameras to convert: 2 (left colour), and 3 (right colour) for stereo pairs.
+    pub cameras: Vec<usize>,
+    /// LiDAR depth maps (`depth_2/`), if asked for.
+    pub depth: Option<DepthJob>,
+    /// This process converts one shard of the frames.
+    pub shard: Option<Shard>,
+    /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
+    #[serde(skip)]
+    pub resume: bool,
+    /// The input is a KITTI raw date folder (splits are its drives).
+    pub raw: bool,
+}
+
+/// The depth output of a conversion.
+#[derive(Debug, Clone, Serialize)]
+pub struct DepthJob {
+    /// None turns the occlusion correction off.
+    pub occlusion_filter: Option<OcclusionFilter>,
+}
+
+/// The style pass of a conversion.
+#[derive(Debug, Clone)]
+pub struct StyleJob {
+    pub options: StyleOptions,
+    /// Style the warped image instead of the source (the paper styles before the warp).
+    pub after_warp: bool,
+    /// Equal-size images of up to this many consecutive frames go through the model in one
+    /// run (1: frame by frame). Outputs do not depend on it (see `batch`).
+    pub batch: usize,
+}
+
+/// What the manifest records of the style pass.
+#[derive(Debug, Serialize)]
+struct StyleRecord<'a> {
+    model: &'a StyleInfo,
+    order: &'static str,
+}
+
+/// The manifest's parameters: the job and the style model that was actually loaded.
+#[derive(Debug, Serialize)]
+struct Parameters<'a> {
+    #[serde(flatten)]
+    job: &'a KittiJob,
+    style: Option<StyleRecord<'a>>,
+}
+
+/// Reports progress; the CLI passes an indicatif bar, tests a no-op.
+pub trait Progress: Sync {
+    fn start(&self, total: usize);
+    fn frame_done(&self);
+    /// A frame failed: report it (once) without disturbing the bar.
+    fn frame_failed(&self, frame: &FrameRef, error: &Error);
+    fn finish(&self);
+}
+
+/// A progress reporter that says nothing.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn start(&self, _: usize) {}
+    fn frame_done(&self) {}
+    fn frame_failed(&self, _: &FrameRef, _: &Error) {}
+    fn finish(&self) {}
+}
+
+#[derive(Debug)]
+pub struct Summary {
+    pub frames: usize,
+    pub converted: usize,
+    pub failed: usize,
+    /// Frames a previous run had completed (--resume).
+    pub resumed: usize,
+    /// Stopped by SIGINT/SIGTERM before every frame was taken.
+    pub interrupted: bool,
+    pub seconds: f64,
+    /// Distinct (source camera → output camera) mappings built.
+    pub tables_built: usize,
+    /// Style model runs and the images they took (batch checks included), if styled.
+    pub style_runs: Option<(usize, usize)>,
+}
+
+/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
+/// is reported through `progress`, recorded in the manifest and counted in the summary.
+pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> Result<Summary> {
+    let started = std::time::Instant::now();
+    let dataset = if job.raw {
+        raw::open(&job.input, job.split.as_deref())?
+    } else {
+        Dataset::open(&job.input, job.split.as_deref())?
+    };
+    // Resumed runs and shards write into a folder that already holds outputs.
+    output::check_output_dir(
+        &job.input,
+        &job.output,
+        job.overwrite || job.resume || job.shard.is_some(),
+    )?;
+    let (mut frames, mut missing) = dataset.select(job.frames.as_deref());
+    if let Some(shard) = job.shard {
+        frames.retain(|f| shard.owns(&f.split, &f.id));
+        missing.retain(|id| shard.owns("", id));
+    }
+    // Loaded before anything is written: a missing library or a bad model is a set-up error.
+    // One session per worker with one thread each, so --jobs alone sets the core count.
+    let style = match &job.style {
+        Some(s) => {
+            let options = StyleOptions {
+                intra_threads: 1,
+                ..s.options.clone()
+            };
+            Some(StyleModel::load_pool(
+                &options,
+                rayon::current_num_threads(),
+            )?)
+        }
+        None => None,
+    };
+    let parameters = serde_json::to_value(Parameters {
+        job,
+        style: style.as_ref().map(|m| StyleRecord {
+            model: m.info(),
+            order: if job.style.as_ref().is_some_and(|s| s.after_warp) {
+                "after_warp"
+            } else {
+                "before_warp"
+            },
+        }),
+    })
+    .expect("parameters serialise");
+    let previous = if job.resume {
+        journal::load_previous(&job.output, job.shard, &parameters)?
+    } else {
+        HashMap::new()
+    };
+
+    let is_raw = dataset
+        .splits
+        .iter()
+        .any(|s| matches!(s.layout, Layout::Raw { .. }));
+    if is_raw && job.augment.is_some() {
+        return Err(Error::Setup(
+            "--augment is not available for KITTI raw drives (one calib per drive)".into(),
+        ));
+    }
+    for split in &dataset.splits {
+        let mut kinds = vec![OutputKind::Image(2), OutputKind::Calib];
+        if split.has_labels {
+            kinds.push(OutputKind::Label);
+        }
+        if job.cameras.contains(&3) {
+            kinds.push(OutputKind::Image(3));
+        }
+        if job.depth.is_some() {
+            kinds.push(OutputKind::Depth);
+        }
+        for k in kinds {
+            if let Some(p) = split.output_path(k, "x") {
+                let dir = job
+                    .output
+                    .join(&split.name)
+                    .join(p.parent().unwrap_or(Path::new("")));
+                std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            }
+        }
+    }
+    if job.resume {
+        journal::remove_stale_temporaries(&job.output);
+    }
+
+    let ctx = Context::new(job, style.as_ref(), &dataset);
+    let style_pass = style
+        .as_ref()
+        .map(|m| StylePass::new(m, job.style.as_ref().map_or(1, |s| s.batch)));
+    let group_len = style_pass.as_ref().map_or(1, |p| p.group_len());
+    for split in &dataset.splits {
+        ctx.write_split_calib(split)?;
+    }
+    let command = if is_raw { "kitti-raw" } else { "kitti" };
+    let journal = Journal::new(&job.output, job.shard, command, parameters, Vec::new());
+    progress.start(frames.len() + missing.len());
+    let (mut resumed, mut done) = (0usize, 0usize);
+    // Groups of consecutive frames (one frame each unless the style pass batches): the
+    // grouping depends on the selection and the options only, never on the thread count.
+    let outcomes: Vec<Option<bool>> = frames
+        .par_chunks(group_len)
+        .flat_map_iter(|group| {
+            // SIGINT/SIGTERM: take no new group; those in flight finish.
+            if stop.load(Ordering::Relaxed) {
+                return vec![None; group.len()];
+            }
+            let mut outcomes = vec![Some(true); group.len()];
+            let mut todo = Vec::new();
+            for (f, outcome) in group.iter().zip(&mut outcomes) {
+                let split = dataset
+                    .split(&f.split)
+                    .expect("selected frames come from the dataset's splits");
+                if let Some(r) = previous.get(&(f.split.clone(), f.id.clone())) {
+                    if journal::still_valid(r, &job.input, &job.output) {
+                        journal.record(r.clone());
+                        progress.frame_done();
+                        continue;
+                    }
+                }
+                *outcome = Some(false);
+                todo.push((split, f));
+            }
+            let items: Vec<(&Split, &str)> =
+                todo.iter().map(|(s, f)| (*s, f.id.as_str())).collect();
+            let results = batch::convert_group(&ctx, style_pass.as_ref(), &items);
+            for ((split, f), converted) in todo.into_iter().zip(results) {
+                let record = match converted {
+                    Ok(out) => {
+                        progress.frame_done();
+                        out.record
+                    }
+                    Err(e) => {
+                        progress.frame_failed(f, &e);
+                        // A failed frame leaves no output behind, not even one from an earlier
+                        // run into the same folder (--overwrite), which loaders would pick up.
+                        ctx.remove_outputs(split, &f.id);
+                        FrameRecord::failed(&f.split, &f.id, &e)
+                    }
+                };
+                journal.record(record);
+            }
+            outcomes
+        })
+        .collect();
+    for o in outcomes.iter().flatten() {
+        done += 1;
+        resumed += usize::from(*o);
+    }
+    for id in missing {
+        let f = FrameRef {
+            split: String::new(),
+            id: id.clone(),
+        };
+        let e = Error::Setup(format!(
+            "frame {id} was asked for but is in no selected split"
+        ));
+        progress.frame_failed(&f, &e);
+        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
+    }
+    progress.finish();
+    let interrupted = done < frames.len();
+    let records = journal.finish(!interrupted)?;
+
+    if job.augment.is_some() && job.shard.is_none() {
+        // augmented ids are new: list them so KITTI loaders find the views
+        write_image_sets(&job.output, &dataset, &records)?;
+    }
+    let failed = records
+        .iter()
+        .filter(|r| r.status == FrameStatus::Failed)
+        .count();
+    Ok(Summary {
+        frames: records.len(),
+        converted: records.len() - failed,
+        failed,
+        resumed,
+        interrupted,
+        seconds: started.elapsed().as_secs_f64(),
+        tables_built: ctx.tables_built(),
+        style_runs: style.as_ref().map(StyleModel::runs),
+    })
+}
+
+/// `OUT/ImageSets/<split>.txt`: the view ids written per split.
+fn write_image_sets(output: &Path, dataset: &Dataset, records: &[FrameRecord]) -> Result<()> {
+    let dir = output.join("ImageSets");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    for split in &dataset.splits {
+        let mut ids: Vec<&str> = records
+            .iter()
+            .filter(|r| r.split == split.name && r.status == FrameStatus::Ok)
+            .flat_map(|r| {
+                if r.views.iter().any(|v| v.view.is_some()) {
+                    r.views.iter().map(|v| v.id.as_str()).collect()
+                } else {
+                    vec![r.id.as_str()]
+                }
+            })
+            .collect();
+        ids.sort_unstable();
+        let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
+        output::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
+    }
+    Ok(())
+}
