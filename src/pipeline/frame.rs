@@ -4,7 +4,7 @@
 
 use super::KittiJob;
 use crate::augment::{view_id, Augment, View};
-use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo};
 use crate::error::{read_file, split_lines, Error, Result};
 use crate::geometry::output_camera;
@@ -23,7 +23,7 @@ use std::sync::Arc;
 
 /// The output camera and remap table of one source camera.
 #[derive(Clone)]
-struct Mapping {
+pub(super) struct Mapping {
     output: Arc<dyn LinearCamera>,
     table: Arc<RemapTable>,
 }
@@ -71,19 +71,38 @@ impl<'a> Context<'a> {
     }
 
     fn mapping(&self, calib_path: &Path, k: Intrinsics, size: ImageSize) -> Result<Mapping> {
-        let source = Perspective::new(k, size);
         self.mappings
             .get_or_build(&(k.key(), size), || {
-                let output =
-                    output_camera(&self.job.output_spec, k, &source).map_err(|e| e.to_string())?;
-                let table =
-                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
-                Ok(Mapping {
-                    output: Arc::from(output),
-                    table: Arc::new(table),
-                })
+                self.build_mapping(k, size, RemapTable::build)
             })
             .map_err(|m| Error::file(calib_path, m))
+    }
+
+    /// The output camera and table of a source camera, the table made by `build` (serial
+    /// inside the cache's once-cells, parallel ahead of the frames).
+    pub(super) fn build_mapping(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+        build: fn(&dyn CameraModel, &dyn CameraModel, &Matrix3<f64>, Wrap) -> RemapTable,
+    ) -> std::result::Result<Mapping, String> {
+        let source = Perspective::new(k, size);
+        let output = output_camera(&self.job.output_spec, k, &source).map_err(|e| e.to_string())?;
+        let table = build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+        Ok(Mapping {
+            output: Arc::from(output),
+            table: Arc::new(table),
+        })
+    }
+
+    /// Stores a mapping built ahead of the frames.
+    pub(super) fn insert_mapping(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+        mapping: std::result::Result<Mapping, String>,
+    ) {
+        self.mappings.insert((k.key(), size), mapping);
     }
 
     /// Every file `convert` may write for a frame.

@@ -4,6 +4,7 @@
 
 mod batch;
 mod frame;
+mod tables;
 
 use crate::augment::Augment;
 use crate::depth::OcclusionFilter;
@@ -214,6 +215,15 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         .as_ref()
         .map(|m| StylePass::new(m, job.style.as_ref().map_or(1, |s| s.batch)));
     let group_len = style_pass.as_ref().map_or(1, |p| p.group_len());
+    if job.augment.is_none() {
+        // (augmented views have tables of their own, built with the frame)
+        let todo: Vec<(&Split, &str)> = frames
+            .iter()
+            .filter(|f| !previous.contains_key(&(f.split.clone(), f.id.clone())))
+            .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
+            .collect();
+        tables::build_ahead(&ctx, &todo, &job.cameras);
+    }
     for split in &dataset.splits {
         ctx.write_split_calib(split)?;
     }

@@ -27,6 +27,12 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> OnceMap<K, V> {
         cell.get_or_init(build).clone()
     }
 
+    /// Sets the value of `key` unless it has one (a value built ahead of need).
+    pub fn insert(&self, key: K, value: V) {
+        let mut map = self.entries.lock().unwrap_or_else(|e| e.into_inner());
+        let _ = map.entry(key).or_default().set(value);
+    }
+
     /// Number of distinct keys seen so far.
     pub fn len(&self) -> usize {
         self.entries.lock().unwrap_or_else(|e| e.into_inner()).len()
