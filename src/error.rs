@@ -66,6 +66,18 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).map_err(|e| Error::io(path, e))
 }
 
+/// Reads a whole file into `buf` (cleared first), reusing its allocation.
+pub fn read_file_into(path: &Path, buf: &mut Vec<u8>) -> Result<()> {
+    use std::io::Read;
+    buf.clear();
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    if let Ok(meta) = file.metadata() {
+        buf.reserve(meta.len() as usize);
+    }
+    file.read_to_end(buf).map_err(|e| Error::io(path, e))?;
+    Ok(())
+}
+
 /// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
 pub fn read_lines(path: &Path) -> Result<Vec<String>> {
     split_lines(&read_file(path)?, path)

@@ -6,7 +6,7 @@ use super::KittiJob;
 use crate::augment::{view_id, Augment, View};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo};
-use crate::error::{read_file, split_lines, Error, Result};
+use crate::error::{read_file, read_file_into, split_lines, Error, Result};
 use crate::geometry::output_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
@@ -197,9 +197,9 @@ impl<'a> Context<'a> {
         };
 
         let image_path = split.image_path(2, id);
-        let image_bytes = read_file(&image_path)?;
-        inputs.push((relative(root, &image_path), output::hash_hex(&image_bytes)));
-        let image = png_io::decode_rgb8(&image_bytes, &image_path)?;
+        let image = read_png(&image_path, |bytes| {
+            inputs.push((relative(root, &image_path), output::hash_hex(bytes)));
+        })?;
         let size = ImageSize::new(image.width(), image.height());
         let views2 = self.views(split, id, &calib_path, cam2.k, size)?;
         let mut images = vec![image];
@@ -208,9 +208,9 @@ impl<'a> Context<'a> {
         let right = if self.job.cameras.contains(&3) {
             let cam3 = calib.camera(3)?;
             let path = split.image_path(3, id);
-            let bytes = read_file(&path)?;
-            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
-            let img = png_io::decode_rgb8(&bytes, &path)?;
+            let img = read_png(&path, |bytes| {
+                inputs.push((relative(root, &path), output::hash_hex(bytes)));
+            })?;
             let size3 = ImageSize::new(img.width(), img.height());
             let views3 = self.views(split, id, &calib_path, cam3.k, size3)?;
             images.push(img);
@@ -414,6 +414,25 @@ impl<'a> Context<'a> {
             })
             .collect()
     }
+}
+
+thread_local! {
+    /// Each worker's buffer for the PNG files it reads: one allocation for the whole run, not
+    /// fresh (page-faulting) memory for every image.
+    static PNG_BYTES: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Reads and decodes an RGB PNG, handing its bytes to `seen` first (for the manifest's hash).
+fn read_png(path: &Path, seen: impl FnOnce(&[u8])) -> Result<RgbImage> {
+    PNG_BYTES.with(|cell| {
+        let mut own = Vec::new();
+        // (a worker is never inside another read here, but a fresh buffer is correct anyway)
+        let mut borrowed = cell.try_borrow_mut();
+        let buf = borrowed.as_deref_mut().unwrap_or(&mut own);
+        read_file_into(path, buf)?;
+        seen(buf);
+        png_io::decode_rgb8(buf, path)
+    })
 }
 
 /// A frame read and decoded, waiting for the style pass and the rest of its conversion.
