@@ -808,6 +808,45 @@ fn unknown_frame_id_is_reported() {
 }
 
 #[test]
+fn frame_files_with_unusable_names_are_reported_not_skipped() {
+    use std::os::unix::ffi::OsStrExt;
+    let s = Scratch::synth();
+    let images = s.input_file("training/image_2");
+    std::fs::rename(images.join("000002.png"), images.join("000002.PNG")).unwrap();
+    let bad = std::ffi::OsStr::from_bytes(b"0000\xff9.png");
+    std::fs::copy(images.join("000001.png"), images.join(bad)).unwrap();
+    // not frames at all: other extensions, hidden files
+    write_text(&images.join("notes.txt"), "x");
+    std::fs::copy(images.join("000001.png"), images.join("._000001.png")).unwrap();
+
+    let run = kitti("equirect", &s.input, &s.output, &[]);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    let failures = run.frame_failures();
+    assert_eq!(failures.len(), 2, "{}", run.stderr);
+    for (failure, name) in failures.iter().zip(["000002.PNG", "0000\u{fffd}9.png"]) {
+        assert!(
+            failure.contains(&format!("training/image_2/{name}: not a KITTI frame name")),
+            "{failure}"
+        );
+    }
+    assert!(
+        run.stderr
+            .contains("panoconv: 3 frames converted, 2 failed in"),
+        "{}",
+        run.stderr
+    );
+    let m = check_manifest(&s.input, &s.output, 3, 2);
+    assert_eq!(
+        manifest_frame(&m, "training", "000002.PNG")["status"],
+        "failed"
+    );
+    // Asked for by id, other files are not this run's business.
+    let out = s.path("selected");
+    let run = kitti("equirect", &s.input, &out, &["--frames", "000001"]);
+    assert_success(&run);
+}
+
+#[test]
 fn frame_selection_options() {
     let s = Scratch::synth();
     // --image-set

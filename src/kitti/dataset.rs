@@ -10,6 +10,9 @@ pub struct Split {
     pub has_labels: bool,
     /// Frame ids (file stems of image_2/*.png), sorted.
     pub frames: Vec<String>,
+    /// Image file names that look like frames but cannot be (`.PNG`, a name that is not
+    /// UTF-8), sorted: each is reported as a failed frame rather than silently left out.
+    pub unusable: Vec<String>,
     pub layout: Layout,
 }
 
@@ -46,6 +49,36 @@ pub struct FrameRef {
 }
 
 pub const SPLITS: [&str; 2] = ["training", "testing"];
+
+/// The frame ids (stems of `*.png`) of an image folder, sorted, and the file names that look
+/// like frames but cannot be used (see [`Split::unusable`]). Hidden files are ignored.
+pub(crate) fn list_frames(
+    entries: std::fs::ReadDir,
+    dir: &Path,
+) -> Result<(Vec<String>, Vec<String>)> {
+    let (mut frames, mut unusable) = (Vec::new(), Vec::new());
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let os_name = entry.file_name();
+        let lossy = os_name.to_string_lossy();
+        if lossy.starts_with('.') {
+            continue;
+        }
+        let Some((stem, ext)) = lossy.rsplit_once('.') else {
+            continue;
+        };
+        if !ext.eq_ignore_ascii_case("png") {
+            continue;
+        }
+        match os_name.to_str() {
+            Some(_) if ext == "png" => frames.push(stem.to_owned()),
+            _ => unusable.push(lossy.into_owned()),
+        }
+    }
+    frames.sort();
+    unusable.sort();
+    Ok((frames, unusable))
+}
 
 impl Split {
     pub fn image_path(&self, camera: usize, id: &str) -> PathBuf {
@@ -130,18 +163,7 @@ impl Dataset {
                     image_dir.display()
                 ))
             })?;
-            let mut frames = Vec::new();
-            for entry in entries {
-                let entry = entry.map_err(|e| Error::io(&image_dir, e))?;
-                let name = entry.file_name();
-                let Some(name) = name.to_str() else { continue };
-                if let Some(id) = name.strip_suffix(".png") {
-                    if !id.starts_with('.') {
-                        frames.push(id.to_owned());
-                    }
-                }
-            }
-            frames.sort();
+            let (frames, unusable) = list_frames(entries, &image_dir)?;
             let has_labels = name == "training";
             if has_labels && !dir.join("label_2").is_dir() {
                 return Err(Error::Setup(format!(
@@ -154,6 +176,7 @@ impl Dataset {
                 dir,
                 has_labels,
                 frames,
+                unusable,
                 layout: Layout::Object,
             });
         }

@@ -108,23 +108,15 @@ pub fn open(date_dir: &Path, drive: Option<&str>) -> Result<Dataset> {
     for name in names {
         let dir = date_dir.join(&name);
         let images = dir.join("image_02/data");
-        let mut frames: Vec<String> = std::fs::read_dir(&images)
-            .map_err(|e| Error::Setup(format!("{}: {e}", images.display())))?
-            .flatten()
-            .filter_map(|e| {
-                e.file_name()
-                    .to_str()
-                    .and_then(|n| n.strip_suffix(".png"))
-                    .map(str::to_owned)
-            })
-            .filter(|id| !id.starts_with('.'))
-            .collect();
-        frames.sort();
+        let entries = std::fs::read_dir(&images)
+            .map_err(|e| Error::Setup(format!("{}: {e}", images.display())))?;
+        let (frames, unusable) = crate::kitti::dataset::list_frames(entries, &images)?;
         splits.push(Split {
             name,
             dir,
             has_labels: false,
             frames,
+            unusable,
             layout: Layout::Raw {
                 calib: Box::new(calib.clone()),
             },

@@ -229,7 +229,15 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
     }
     let command = if is_raw { "kitti-raw" } else { "kitti" };
     let journal = Journal::new(&job.output, job.shard, command, parameters, Vec::new());
-    progress.start(frames.len() + missing.len());
+    // Files that look like frames but cannot be read as one: reported, not silently skipped.
+    // (With a frame selection they were not asked for; each shard reports its own share.)
+    let unusable: Vec<(&Split, &String)> = dataset
+        .splits
+        .iter()
+        .flat_map(|s| s.unusable.iter().map(move |name| (s, name)))
+        .filter(|(s, n)| job.frames.is_none() && job.shard.is_none_or(|sh| sh.owns(&s.name, n)))
+        .collect();
+    progress.start(frames.len() + missing.len() + unusable.len());
     let (mut resumed, mut done) = (0usize, 0usize);
     // Groups of consecutive frames (one frame each unless the style pass batches): the
     // grouping depends on the selection and the options only, never on the thread count.
@@ -281,6 +289,18 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
     for o in outcomes.iter().flatten() {
         done += 1;
         resumed += usize::from(*o);
+    }
+    for &(split, name) in &unusable {
+        let f = FrameRef {
+            split: split.name.clone(),
+            id: name.clone(),
+        };
+        let e = Error::file(
+            &split.image_path(2, "x").with_file_name(name),
+            "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
+        );
+        progress.frame_failed(&f, &e);
+        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
     }
     for id in missing {
         let f = FrameRef {
