@@ -2,6 +2,7 @@
 //! to every frame that shares them.
 
 mod cache;
+mod kernel;
 mod table;
 
 pub use cache::OnceMap;
