@@ -15,9 +15,9 @@ use nalgebra::{Matrix3, Point2};
 use rayon::prelude::*;
 
 const MAX_SUPERSAMPLE: u32 = 8;
-/// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps its own
-/// upper edge once, so wider bands repeat less of that work.
-const BAND_ROWS: usize = 4;
+/// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
+/// just above and below it too, so wider bands repeat less of that work.
+const BAND_ROWS: usize = 16;
 
 /// How source columns beyond the left and right edges are treated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -224,10 +224,18 @@ impl<'a> Builder<'a> {
         self.src.project(&(self.src_from_dst * d)).ok()
     }
 
-    /// Builds output rows `rows`. The half-pixel points that measure the local scale are
-    /// shared by neighbouring pixels (u + 0.5 is u + 1 - 0.5 exactly, and v + 0.5 of one row
-    /// is v + 1 - 0.5 of the next), so each is computed once: 3 mappings a pixel, not 5; a band
-    /// computes its upper edge itself, with the same values the row above would give.
+    /// The source positions of the centres of output row `v`, columns -1..=width (one beyond
+    /// each side, for the scale estimate of the edge pixels).
+    fn centres(&self, v: isize, out: &mut Vec<Option<Point2<f64>>>) {
+        let w = self.dst.size().width as isize;
+        out.clear();
+        out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64)));
+    }
+
+    /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel
+    /// that is not supersampled (most of them), and the centres of its four neighbours give
+    /// the local scale. A band maps the rows above and below it itself, with the same values
+    /// its neighbouring bands compute, so any split into bands gives the same table.
     fn band(&self, rows: std::ops::Range<usize>) -> Band {
         let w = self.dst.size().width as usize;
         let n = rows.len() * w;
@@ -240,32 +248,38 @@ impl<'a> Builder<'a> {
         };
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut scratch = Scratch::default();
-        let mut above: Vec<_> = (0..w)
-            .map(|u| self.to_src(u as f64, rows.start as f64 - 0.5))
-            .collect();
-        let mut below = Vec::with_capacity(w);
-        let mut across = Vec::with_capacity(w + 1);
+        let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
+        self.centres(rows.start as isize - 1, &mut above);
+        self.centres(rows.start as isize, &mut here);
         for v in rows {
             let vf = v as f64;
             let row_start = band.quads.len();
-            across.clear();
-            across.extend((0..=w).map(|i| self.to_src(i as f64 - 0.5, vf)));
-            below.clear();
-            below.extend((0..w).map(|u| self.to_src(u as f64, vf + 0.5)));
+            self.centres(v as isize + 1, &mut below);
             for u in 0..w {
-                let uf = u as f64;
-                let (nu, nv) =
-                    supersampling([across[u], across[u + 1], above[u], below[u]], period);
+                let centre = here[u + 1];
+                let (nu, nv) = supersampling(
+                    centre,
+                    [here[u], here[u + 2]],
+                    [above[u + 1], below[u + 1]],
+                    period,
+                );
                 let (nu, nv) = (nu.min(self.cap), nv.min(self.cap));
                 scratch.blocks.clear();
-                let mut inside = 0;
-                for j in 0..nv {
-                    for i in 0..nu {
-                        let du = (i as f64 + 0.5) / nu as f64 - 0.5;
-                        let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
-                        inside += self.add_tap(self.to_src(uf + du, vf + dv), &mut scratch) as u32;
+                let inside = if (nu, nv) == (1, 1) {
+                    self.add_tap(centre, &mut scratch) as u32
+                } else {
+                    let uf = u as f64;
+                    let mut inside = 0;
+                    for j in 0..nv {
+                        for i in 0..nu {
+                            let du = (i as f64 + 0.5) / nu as f64 - 0.5;
+                            let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
+                            let p = self.to_src(uf + du, vf + dv);
+                            inside += self.add_tap(p, &mut scratch) as u32;
+                        }
                     }
-                }
+                    inside
+                };
                 let taps = nu * nv;
                 let before = band.quads.len();
                 quantize(&mut scratch, inside, taps, &mut band.quads);
@@ -280,7 +294,8 @@ impl<'a> Builder<'a> {
             band.row_lens.push(row.len() as u32);
             band.row_reach
                 .push(row.iter().map(|q| q.offset).max().unwrap_or(0));
-            std::mem::swap(&mut above, &mut below);
+            std::mem::swap(&mut above, &mut here);
+            std::mem::swap(&mut here, &mut below);
         }
         band
     }
@@ -303,13 +318,14 @@ impl<'a> Builder<'a> {
         }
         // Within half a pixel of the border the edge pixel is repeated (it covers that area).
         let y = y.clamp(0.0, sh - 1.0);
-        let y0 = (y.floor() as u32).min(size.height.saturating_sub(2));
+        // y, x and the weights are >= 0 here, where `as` truncation is floor (and no libm call)
+        let y0 = (y as u32).min(size.height.saturating_sub(2));
         let fy = if size.height > 1 { y - y0 as f64 } else { 0.0 };
         let x0 = if self.wrap == Wrap::Horizontal {
-            (x.floor() as u32).min(size.width - 1)
+            (x as u32).min(size.width - 1)
         } else {
             x = x.clamp(0.0, sw - 1.0);
-            (x.floor() as u32).min(size.width.saturating_sub(2))
+            (x as u32).min(size.width.saturating_sub(2))
         };
         let fx = x - x0 as f64;
         let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
@@ -377,10 +393,31 @@ fn merge(blocks: &mut Vec<(u32, [f64; 4])>, offset: u32, w: [f64; 4]) {
 fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
     let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
     let scale = WEIGHT_ONE as f64 / taps as f64;
+    if let [(offset, w)] = s.blocks[..] {
+        // One block (most pixels): the same rule on four weights, without the scratch vectors.
+        let y = w.map(|x| x * scale);
+        let mut q = y.map(|x| x as i32);
+        let mut frac: [f64; 4] = std::array::from_fn(|k| y[k] - q[k] as f64);
+        for _ in 0..total - q.iter().sum::<i32>() {
+            let mut best = 0;
+            for k in 1..4 {
+                if frac[k] > frac[best] {
+                    best = k;
+                }
+            }
+            q[best] += 1;
+            frac[best] = -1.0;
+        }
+        out.push(Quad {
+            offset,
+            w: q.map(|x| x as i16),
+        });
+        return;
+    }
     s.ints.clear();
     let mut sum = 0;
     for (_, w) in &s.blocks {
-        let q = w.map(|x| (x * scale).floor() as i32);
+        let q = w.map(|x| (x * scale) as i32);
         sum += q.iter().sum::<i32>();
         s.ints.push(q);
     }
@@ -390,13 +427,28 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
         for (b, (_, w)) in s.blocks.iter().enumerate() {
             for (k, x) in w.iter().enumerate() {
                 let y = x * scale;
-                s.order.push((4 * b + k, y - y.floor()));
+                s.order.push((4 * b + k, y - (y as i32) as f64));
             }
         }
-        // stable: equal remainders keep their order
-        s.order.sort_by(|a, b| b.1.total_cmp(&a.1));
-        for &(i, _) in s.order.iter().take(missing as usize) {
-            s.ints[i / 4][i % 4] += 1;
+        if missing <= 4 {
+            // the common case (a few units over a few weights): pick maxima, no sort
+            for _ in 0..missing {
+                let mut best = 0;
+                for (j, o) in s.order.iter().enumerate() {
+                    if o.1 > s.order[best].1 {
+                        best = j;
+                    }
+                }
+                let i = s.order[best].0;
+                s.ints[i / 4][i % 4] += 1;
+                s.order[best].1 = -1.0;
+            }
+        } else {
+            // stable: equal remainders keep their order, as the first maximum above
+            s.order.sort_by(|a, b| b.1.total_cmp(&a.1));
+            for &(i, _) in s.order.iter().take(missing as usize) {
+                s.ints[i / 4][i % 4] += 1;
+            }
         }
     }
     let before = out.len();
@@ -415,19 +467,31 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
 
 /// Supersampling of an output pixel along its u and v axes: the source pixels one output step
 /// spans in each direction, rounded (1 below 1.5), from the table's own mapping of the pixel's
-/// left, right, top and bottom edge midpoints. Anisotropic: at a KITTI frame's edges an equirect
-/// pixel spans 1.8 source pixels across but 1.3 down, and needs 2×1 samples, not 2×2.
-/// `period`: the source width of a 360° source, across whose wrap a step is taken the short way.
-fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> (u32, u32) {
-    let [Some(l), Some(r), Some(t), Some(b)] = edges else {
+/// centre and its neighbours' (a central difference; one-sided where a neighbour has no
+/// image). Anisotropic: at a KITTI frame's edges an equirect pixel spans 1.8 source pixels
+/// across but 1.3 down, and needs 2×1 samples, not 2×2. `period`: the source width of a 360°
+/// source, across whose wrap a step is taken the short way.
+fn supersampling(
+    centre: Option<Point2<f64>>,
+    across: [Option<Point2<f64>>; 2],
+    down: [Option<Point2<f64>>; 2],
+    period: Option<f64>,
+) -> (u32, u32) {
+    let Some(c) = centre else {
         return (1, 1);
     };
-    let step = |a: Point2<f64>, b: Point2<f64>| {
+    let dist = |a: Point2<f64>, b: Point2<f64>| {
         let mut d = b - a;
         if let Some(w) = period {
             d.x -= w * (d.x / w).round();
         }
         d.norm()
+    };
+    let step = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
+        (Some(a), Some(b)) => dist(a, b) / 2.0,
+        (Some(a), None) => dist(a, c),
+        (None, Some(b)) => dist(c, b),
+        (None, None) => 0.0,
     };
     let count = |scale: f64| {
         if !scale.is_finite() || scale < 1.5 {
@@ -436,5 +500,5 @@ fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> (u32, 
             (scale.round() as u32).min(MAX_SUPERSAMPLE)
         }
     };
-    (count(step(l, r)), count(step(t, b)))
+    (count(step(across)), count(step(down)))
 }
