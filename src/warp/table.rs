@@ -394,20 +394,17 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
     let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
     let scale = WEIGHT_ONE as f64 / taps as f64;
     if let [(offset, w)] = s.blocks[..] {
-        // One block (most pixels): the same rule on four weights, without the scratch vectors.
+        // One block (most pixels): each weight rounded, the largest one (first on ties) takes
+        // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
         let y = w.map(|x| x * scale);
-        let mut q = y.map(|x| x as i32);
-        let mut frac: [f64; 4] = std::array::from_fn(|k| y[k] - q[k] as f64);
-        for _ in 0..total - q.iter().sum::<i32>() {
-            let mut best = 0;
-            for k in 1..4 {
-                if frac[k] > frac[best] {
-                    best = k;
-                }
+        let mut q = y.map(|x| (x + 0.5) as i32);
+        let mut big = 0;
+        for k in 1..4 {
+            if y[k] > y[big] {
+                big = k;
             }
-            q[best] += 1;
-            frac[best] = -1.0;
         }
+        q[big] += total - q.iter().sum::<i32>();
         out.push(Quad {
             offset,
             w: q.map(|x| x as i16),
@@ -480,25 +477,26 @@ fn supersampling(
     let Some(c) = centre else {
         return (1, 1);
     };
-    let dist = |a: Point2<f64>, b: Point2<f64>| {
+    // Squared distances: the square root is needed only for the (rare) counts above 1.
+    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
         let mut d = b - a;
         if let Some(w) = period {
             d.x -= w * (d.x / w).round();
         }
-        d.norm()
+        d.norm_squared()
     };
-    let step = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
-        (Some(a), Some(b)) => dist(a, b) / 2.0,
-        (Some(a), None) => dist(a, c),
-        (None, Some(b)) => dist(c, b),
+    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
+        (Some(a), Some(b)) => dist2(a, b) / 4.0,
+        (Some(a), None) => dist2(a, c),
+        (None, Some(b)) => dist2(c, b),
         (None, None) => 0.0,
     };
-    let count = |scale: f64| {
-        if !scale.is_finite() || scale < 1.5 {
+    let count = |scale2: f64| {
+        if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
             1
         } else {
-            (scale.round() as u32).min(MAX_SUPERSAMPLE)
+            (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
         }
     };
-    (count(step(across)), count(step(down)))
+    (count(step2(across)), count(step2(down)))
 }
