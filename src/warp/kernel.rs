@@ -23,10 +23,21 @@ pub(super) struct Quad {
 /// Bytes the SIMD kernel reads from a block's top-left and bottom-left pixel (6 used).
 const SIMD_READ: usize = 8;
 
+/// Which kernel applies a table.
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kernel {
+    /// The fastest the CPU has (what `apply` uses).
+    Auto,
+    /// Portable scalar code (the only one off x86_64).
+    Scalar,
+    /// SSE2 without AVX2 (x86_64 only; elsewhere the scalar one).
+    Sse2,
+}
+
 /// Resamples one output row. `quads` are the row's blocks, `counts` (if any) how many of them
 /// each pixel has (otherwise one each); `reach` is the largest block offset of the row, which
-/// bounds every read once for the whole row. `simd: false` forces the scalar kernel (tests
-/// compare the two).
+/// bounds every read once for the whole row.
 pub(super) fn apply_row(
     quads: &[Quad],
     counts: Option<&[u8]>,
@@ -34,17 +45,24 @@ pub(super) fn apply_row(
     stride: usize,
     reach: u32,
     out: &mut [u8],
-    simd: bool,
+    kernel: Kernel,
 ) {
     let stride3 = stride * 3;
     let end = reach as usize * 3 + stride3;
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = simd;
+    let _ = kernel;
     #[cfg(target_arch = "x86_64")]
-    if simd && end + SIMD_READ <= data.len() {
+    if kernel != Kernel::Scalar && end + SIMD_READ <= data.len() {
         // SAFETY: every quad of the row has offset <= reach, so each 8-byte load at
-        // offset·3 and offset·3 + stride·3 ends at or before end + 8 <= data.len().
-        unsafe { sse2::apply_row(quads, counts, data, stride3, out) };
+        // offset·3 and offset·3 + stride·3 ends at or before end + 8 <= data.len(); AVX2 is
+        // used only where the CPU has it.
+        unsafe {
+            if kernel == Kernel::Auto && std::arch::is_x86_feature_detected!("avx2") {
+                avx2::apply_row(quads, counts, data, stride3, out);
+            } else {
+                sse2::apply_row(quads, counts, data, stride3, out);
+            }
+        }
         return;
     }
     if end + 6 <= data.len() {
@@ -130,7 +148,7 @@ mod sse2 {
     /// SAFETY: `data + offset·3` and `data + offset·3 + stride3` must have 8 readable bytes.
     #[inline]
     #[target_feature(enable = "sse2")]
-    unsafe fn quad_sum(data: *const u8, stride3: usize, q: &Quad) -> __m128i {
+    pub(super) unsafe fn quad_sum(data: *const u8, stride3: usize, q: &Quad) -> __m128i {
         let base = q.offset as usize * 3;
         // SAFETY: the caller's contract; the weights are 8 bytes of `q`.
         let (top, bottom, w) = unsafe {
@@ -157,7 +175,7 @@ mod sse2 {
 
     #[inline]
     #[target_feature(enable = "sse2")]
-    fn finish(acc: __m128i) -> [u8; 3] {
+    pub(super) fn finish(acc: __m128i) -> [u8; 3] {
         let r = _mm_srai_epi32::<{ WEIGHT_BITS as i32 }>(_mm_add_epi32(acc, _mm_set1_epi32(HALF)));
         let p = _mm_packus_epi16(_mm_packs_epi32(r, r), r);
         let v = (_mm_cvtsi128_si32(p) as u32).to_le_bytes();
@@ -192,6 +210,144 @@ mod sse2 {
                         acc = _mm_add_epi32(acc, unsafe { quad_sum(p, stride3, q) });
                     }
                     px.copy_from_slice(&finish(acc));
+                }
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    //! AVX2 (where the CPU has it): the SSE2 kernel's arithmetic on two pixels at once, one
+    //! per 128-bit lane, so each shuffle and multiply serves two pixels. Same integer results.
+    use super::{sse2, Quad, HALF, WEIGHT_BITS};
+    use std::arch::x86_64::*;
+
+    /// The (r, g, b, junk) sums of blocks `a` (low lane) and `b` (high lane).
+    ///
+    /// SAFETY: as [`sse2::quad_sum`], for both blocks.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn pair_sum(data: *const u8, stride3: usize, a: &Quad, b: &Quad) -> __m256i {
+        let (oa, ob) = (a.offset as usize * 3, b.offset as usize * 3);
+        let load = |p: *const u8| {
+            // SAFETY: the caller's contract (pixels) or 8 bytes of a quad (weights).
+            unsafe { _mm_loadl_epi64(p as *const __m128i) }
+        };
+        let top = _mm256_set_m128i(load(data.wrapping_add(ob)), load(data.wrapping_add(oa)));
+        let bottom = _mm256_set_m128i(
+            load(data.wrapping_add(ob + stride3)),
+            load(data.wrapping_add(oa + stride3)),
+        );
+        let w = _mm256_set_m128i(load(b.w.as_ptr() as _), load(a.w.as_ptr() as _));
+        let zero = _mm256_setzero_si256();
+        let tb = _mm256_unpacklo_epi8(top, bottom);
+        let lo = _mm256_unpacklo_epi8(tb, zero);
+        let hi = _mm256_unpackhi_epi8(tb, zero);
+        let x = _mm256_madd_epi16(lo, _mm256_shuffle_epi32::<0b01_00_00_00>(w));
+        let y = _mm256_madd_epi16(hi, _mm256_shuffle_epi32::<0b01_01_01_01>(w));
+        _mm256_add_epi32(
+            _mm256_add_epi32(x, _mm256_bslli_epi128::<4>(y)),
+            _mm256_bsrli_epi128::<12>(x),
+        )
+    }
+
+    /// Both pixels of a pair, rounded, into `out` (6 bytes).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn finish_pair(acc: __m256i, out: &mut [u8]) {
+        let r = _mm256_srai_epi32::<{ WEIGHT_BITS as i32 }>(_mm256_add_epi32(
+            acc,
+            _mm256_set1_epi32(HALF),
+        ));
+        let p = _mm256_packus_epi16(_mm256_packs_epi32(r, r), r);
+        let a = (_mm256_cvtsi256_si32(p) as u32).to_le_bytes();
+        let b = (_mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(p)) as u32).to_le_bytes();
+        out[..3].copy_from_slice(&a[..3]);
+        out[3..6].copy_from_slice(&b[..3]);
+    }
+
+    /// SAFETY: every quad's reads (see [`sse2::quad_sum`]) must lie inside `data`, and the CPU
+    /// must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn apply_row(
+        quads: &[Quad],
+        counts: Option<&[u8]>,
+        data: &[u8],
+        stride3: usize,
+        out: &mut [u8],
+    ) {
+        let p = data.as_ptr();
+        match counts {
+            // SAFETY (all three): the caller's contract.
+            None => unsafe { run(p, stride3, quads, 1, out) },
+            Some(counts) => {
+                // Runs of pixels with the same number of blocks (a row has few: 2×1
+                // supersampled columns at the sides, one block in the middle), each with
+                // the loop for its count, free of per-pixel decisions.
+                let w = counts.len().min(out.len() / 3);
+                let (mut u, mut q) = (0, 0);
+                while u < w {
+                    let n = counts[u];
+                    let len = counts[u..w].iter().position(|&c| c != n).unwrap_or(w - u);
+                    let k = len * n as usize;
+                    unsafe {
+                        run(
+                            p,
+                            stride3,
+                            &quads[q..q + k],
+                            n as usize,
+                            &mut out[3 * u..3 * (u + len)],
+                        )
+                    };
+                    u += len;
+                    q += k;
+                }
+            }
+        }
+    }
+
+    /// Pixels of `n` blocks each, `out.len() / 3` of them.
+    ///
+    /// SAFETY: as [`apply_row`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run(p: *const u8, stride3: usize, quads: &[Quad], n: usize, out: &mut [u8]) {
+        match n {
+            1 => {
+                let mut pairs = out.chunks_exact_mut(6);
+                let mut qs = quads.chunks_exact(2);
+                for (px, q) in (&mut pairs).zip(&mut qs) {
+                    // SAFETY: the caller's contract.
+                    finish_pair(unsafe { pair_sum(p, stride3, &q[0], &q[1]) }, px);
+                }
+                if let ([q], [_, _, _]) = (qs.remainder(), pairs.into_remainder()) {
+                    let px = out.len() - 3;
+                    // SAFETY: the caller's contract.
+                    let acc = unsafe { sse2::quad_sum(p, stride3, q) };
+                    out[px..].copy_from_slice(&sse2::finish(acc));
+                }
+            }
+            2 => {
+                for (px, q) in out.chunks_exact_mut(3).zip(quads.chunks_exact(2)) {
+                    // both blocks of the pixel in the two lanes, then summed
+                    // SAFETY: the caller's contract.
+                    let acc = unsafe { pair_sum(p, stride3, &q[0], &q[1]) };
+                    let acc = _mm_add_epi32(
+                        _mm256_castsi256_si128(acc),
+                        _mm256_extracti128_si256::<1>(acc),
+                    );
+                    px.copy_from_slice(&sse2::finish(acc));
+                }
+            }
+            _ => {
+                for (px, qs) in out.chunks_exact_mut(3).zip(quads.chunks_exact(n)) {
+                    let mut acc = _mm_setzero_si128();
+                    for q in qs {
+                        // SAFETY: the caller's contract.
+                        acc = _mm_add_epi32(acc, unsafe { sse2::quad_sum(p, stride3, q) });
+                    }
+                    px.copy_from_slice(&sse2::finish(acc));
                 }
             }
         }

@@ -6,4 +6,6 @@ mod kernel;
 mod table;
 
 pub use cache::OnceMap;
+#[doc(hidden)]
+pub use kernel::Kernel;
 pub use table::{RemapTable, Wrap};

@@ -8,7 +8,7 @@
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path.
 
-use super::kernel::{self, Quad, WEIGHT_ONE};
+use super::kernel::{self, Kernel, Quad, WEIGHT_ONE};
 use crate::camera::{CameraModel, ImageSize};
 use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2};
@@ -159,19 +159,13 @@ impl RemapTable {
     /// from an earlier frame can be reused); `out` is replaced by a new image if its size is
     /// not the table's.
     pub fn apply_into(&self, src: &RgbImage, out: &mut RgbImage) {
-        self.apply_impl(src, out, true);
+        self.apply_with(src, out, Kernel::Auto);
     }
 
-    /// As [`RemapTable::apply`] with the portable scalar kernel only: the SIMD kernel must give
-    /// the same bytes (tests compare them).
+    /// As [`RemapTable::apply_into`] with a given kernel: every kernel must give the same
+    /// bytes (tests compare them).
     #[doc(hidden)]
-    pub fn apply_scalar(&self, src: &RgbImage) -> RgbImage {
-        let mut out = RgbImage::new(self.size.width, self.size.height);
-        self.apply_impl(src, &mut out, false);
-        out
-    }
-
-    fn apply_impl(&self, src: &RgbImage, out: &mut RgbImage, simd: bool) {
+    pub fn apply_with(&self, src: &RgbImage, out: &mut RgbImage, kernel: Kernel) {
         assert_eq!(
             (src.width(), src.height()),
             (self.source_size.width, self.source_size.height),
@@ -194,7 +188,7 @@ impl RemapTable {
                 let quads =
                     &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
                 let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
-                kernel::apply_row(quads, counts, data, stride, self.row_reach[v], row, simd);
+                kernel::apply_row(quads, counts, data, stride, self.row_reach[v], row, kernel);
             });
     }
 }
