@@ -2,7 +2,10 @@
 //! to every frame that shares them.
 
 mod cache;
+mod kernel;
 mod table;
 
 pub use cache::OnceMap;
+#[doc(hidden)]
+pub use kernel::Kernel;
 pub use table::{RemapTable, Wrap};

@@ -1,21 +1,23 @@
-//! The remap table and its application.
+//! The remap table and its construction.
 //!
-//! For every output pixel the table holds one or more bilinear taps into the source image. When
+//! Every output pixel is sampled at one or more points of the source (bilinear taps). When
 //! the output is locally coarser than the source (more than 1.5 source pixels per output pixel
 //! along an axis) the pixel is supersampled on an nu×nv grid over its footprint (n = round(scale)
-//! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives. Weights are fixed-point
-//! integers, so the result is bit-exact on every machine and thread count.
+//! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives.
+//! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
+//! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
+//! every machine, thread count and code path.
 
+use super::kernel::{self, Kernel, Quad, WEIGHT_ONE};
 use crate::camera::{CameraModel, ImageSize};
 use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2};
 use rayon::prelude::*;
 
-const FRAC_BITS: u32 = 10;
-const ONE: u32 = 1 << FRAC_BITS;
-/// Tap offset meaning "outside the source": contributes black.
-const OUTSIDE: u32 = u32::MAX;
 const MAX_SUPERSAMPLE: u32 = 8;
+/// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
+/// just above and below it too, so wider bands repeat less of that work.
+const BAND_ROWS: usize = 16;
 
 /// How source columns beyond the left and right edges are treated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -26,32 +28,58 @@ pub enum Wrap {
     Horizontal,
 }
 
-/// Set in `Tap::wx` when the right neighbour is at column offset 1 - width instead of 1: across
-/// the wrap of a 360° source, or (1 - 1 = 0) in a one-pixel-wide source.
-const WRAPS: u16 = 1 << 15;
-
-/// One bilinear tap, 8 bytes (the table is streamed once per frame).
-#[derive(Debug, Clone, Copy)]
-struct Tap {
-    /// Index of the top-left source pixel; its right and lower neighbours are read too.
-    offset: u32,
-    /// Horizontal weight of the right neighbour in 1/ONE, | WRAPS.
-    wx: u16,
-    /// Vertical weight of the lower neighbour in 1/ONE.
-    wy: u16,
+/// How much of an output pixel's footprint the source covers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+enum Cover {
+    None,
+    Part,
+    Full,
 }
 
-#[derive(Debug)]
+/// Equality is of the whole table (tests compare the serial and the parallel build).
+#[derive(Debug, PartialEq)]
 pub struct RemapTable {
     size: ImageSize,
     source_size: ImageSize,
-    /// taps[starts[i]..starts[i + 1]] belong to output pixel i; empty when every pixel has
-    /// exactly one tap (then tap i is pixel i's).
-    starts: Vec<u32>,
-    taps: Vec<Tap>,
-    /// Every tap's neighbours are at +1 column and +1 row (no WRAPS tap, source height >= 2):
-    /// `apply` then reads them without a branch.
-    plain: bool,
+    /// The blocks of every pixel, row by row; a pixel outside the source has one all-zero block.
+    quads: Vec<Quad>,
+    /// Blocks per pixel; empty when every pixel has exactly one (then quad i is pixel i's).
+    counts: Vec<u8>,
+    /// quads[row_starts[v]..row_starts[v + 1]] belong to output row v.
+    row_starts: Vec<u32>,
+    /// Largest block offset of each row: bounds the row's source reads once.
+    row_reach: Vec<u32>,
+    /// Per pixel, for `is_inside` and `coverage` (never read by `apply`).
+    cover: Vec<Cover>,
+}
+
+/// The camera mapping and tap rules shared by the serial and the parallel build.
+struct Builder<'a> {
+    dst: &'a dyn CameraModel,
+    src: &'a dyn CameraModel,
+    src_from_dst: &'a Matrix3<f64>,
+    wrap: Wrap,
+    cap: u32,
+    source_size: ImageSize,
+}
+
+/// A band of consecutive output rows, built independently of the others.
+#[derive(Default)]
+struct Band {
+    quads: Vec<Quad>,
+    counts: Vec<u8>,
+    row_lens: Vec<u32>,
+    row_reach: Vec<u32>,
+    cover: Vec<Cover>,
+}
+
+/// Scratch space of one pixel's taps: merged blocks (offset, float weights).
+#[derive(Default)]
+struct Scratch {
+    blocks: Vec<(u32, [f64; 4])>,
+    ints: Vec<[i32; 4]>,
+    order: Vec<(usize, f64)>,
 }
 
 impl RemapTable {
@@ -68,7 +96,9 @@ impl RemapTable {
     }
 
     /// As [`RemapTable::build`], with at most `max_supersample`² samples per output pixel
-    /// (1 turns the antialiasing off).
+    /// (1 turns the antialiasing off). Single-threaded on purpose: tables are built inside the
+    /// cache's once-cell, where a rayon build could let another frame's lookup of the same
+    /// cell run on this thread. See [`RemapTable::build_parallel`].
     pub fn build_with(
         dst: &dyn CameraModel,
         src: &dyn CameraModel,
@@ -76,112 +106,27 @@ impl RemapTable {
         wrap: Wrap,
         max_supersample: u32,
     ) -> RemapTable {
-        let size = dst.size();
-        let source_size = src.size();
-        let (sw, sh) = (source_size.width as f64, source_size.height as f64);
-        let to_src = |u: f64, v: f64| -> Option<Point2<f64>> {
-            let d = dst.unproject(&Point2::new(u, v)).ok()?;
-            src.project(&(src_from_dst * d)).ok()
-        };
-        let make_tap = |p: Option<Point2<f64>>| -> Tap {
-            let outside = Tap {
-                offset: OUTSIDE,
-                wx: 0,
-                wy: 0,
-            };
-            let Some(p) = p else { return outside };
-            let (mut x, y) = (p.x, p.y);
-            if wrap == Wrap::Horizontal {
-                x = x.rem_euclid(sw);
-            } else if !(x >= -0.5 && x < sw - 0.5) {
-                return outside;
-            }
-            // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
-            if !(y >= -0.5 && y <= sh - 0.5) {
-                return outside;
-            }
-            // Within half a pixel of the border the edge pixel is repeated (it covers that area).
-            let y = y.clamp(0.0, sh - 1.0);
-            let y0 = (y.floor() as u32).min(source_size.height.saturating_sub(2));
-            let wy = ((y - y0 as f64) * ONE as f64).round() as u16;
-            let (x0, wx) = if wrap == Wrap::Horizontal {
-                let x0 = (x.floor() as u32).min(source_size.width - 1);
-                (x0, ((x - x0 as f64) * ONE as f64).round() as u16)
-            } else {
-                let x = x.clamp(0.0, sw - 1.0);
-                let x0 = (x.floor() as u32).min(source_size.width.saturating_sub(2));
-                (x0, ((x - x0 as f64) * ONE as f64).round() as u16)
-            };
-            let wy = if source_size.height > 1 { wy } else { 0 };
-            Tap {
-                offset: y0 * source_size.width + x0,
-                // x0 + 1 == width: across the wrap, or a one-pixel-wide source.
-                wx: if x0 + 1 == source_size.width {
-                    wx | WRAPS
-                } else {
-                    wx
-                },
-                wy,
-            }
-        };
-        // Sequential on purpose: tables are built inside the cache's once-cell, and a parallel
-        // build could let rayon run another frame's lookup of the same cell on this thread.
-        // The half-pixel points that measure the local scale are shared by neighbouring pixels
-        // (u + 0.5 is u + 1 - 0.5 exactly), so each is computed once: 3 mappings a pixel, not 5.
-        let (w, h) = (size.width as usize, size.height as usize);
-        let mut starts = Vec::with_capacity(w * h + 1);
-        let mut taps = Vec::with_capacity(w * h);
-        starts.push(0u32);
-        let mut above: Vec<_> = (0..w).map(|u| to_src(u as f64, -0.5)).collect();
-        let mut below = Vec::with_capacity(w);
-        let mut across = Vec::with_capacity(w + 1);
-        for v in 0..h {
-            let vf = v as f64;
-            across.clear();
-            across.extend((0..=w).map(|i| to_src(i as f64 - 0.5, vf)));
-            below.clear();
-            below.extend((0..w).map(|u| to_src(u as f64, vf + 0.5)));
-            for u in 0..w {
-                let uf = u as f64;
-                let (nu, nv) = supersampling(
-                    [across[u], across[u + 1], above[u], below[u]],
-                    (wrap == Wrap::Horizontal).then_some(sw),
-                );
-                let cap = max_supersample.max(1);
-                let (nu, nv) = (nu.min(cap), nv.min(cap));
-                for j in 0..nv {
-                    for i in 0..nu {
-                        let du = (i as f64 + 0.5) / nu as f64 - 0.5;
-                        let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
-                        taps.push(make_tap(to_src(uf + du, vf + dv)));
-                    }
-                }
-                starts.push(taps.len() as u32);
-            }
-            std::mem::swap(&mut above, &mut below);
-        }
-        if taps.len() + 1 == starts.len() {
-            starts = Vec::new();
-        }
-        taps.shrink_to_fit();
-        let plain = source_size.height >= 2 && taps.iter().all(|t| t.wx & WRAPS == 0);
-        RemapTable {
-            size,
-            source_size,
-            starts,
-            taps,
-            plain,
-        }
+        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
+        let h = dst.size().height as usize;
+        b.finish(vec![b.band(0..h)])
     }
 
-    /// The taps of output pixel i.
-    #[inline]
-    fn taps_of(&self, i: usize) -> &[Tap] {
-        if self.starts.is_empty() {
-            std::slice::from_ref(&self.taps[i])
-        } else {
-            &self.taps[self.starts[i] as usize..self.starts[i + 1] as usize]
-        }
+    /// Exactly [`RemapTable::build_with`], with bands of rows built in parallel on rayon's
+    /// pool. Call it outside any once-cell that other rayon tasks may wait on.
+    pub fn build_parallel(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+    ) -> RemapTable {
+        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
+        let h = dst.size().height as usize;
+        let bands = (0..h.div_ceil(BAND_ROWS))
+            .into_par_iter()
+            .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
+            .collect();
+        b.finish(bands)
     }
 
     pub fn size(&self) -> ImageSize {
@@ -194,28 +139,45 @@ impl RemapTable {
 
     /// Fraction of output pixels with at least one tap inside the source.
     pub fn coverage(&self) -> f64 {
-        let n = self.size.width as usize * self.size.height as usize;
-        let covered = (0..n)
-            .filter(|&i| self.taps_of(i).iter().any(|t| t.offset != OUTSIDE))
-            .count();
-        covered as f64 / n as f64
+        let covered = self.cover.iter().filter(|&&c| c != Cover::None).count();
+        covered as f64 / self.cover.len() as f64
     }
 
     /// Whether output pixel (u, v) is wholly inside the source (every tap valid).
     pub fn is_inside(&self, u: u32, v: u32) -> bool {
-        let i = v as usize * self.size.width as usize + u as usize;
-        self.taps_of(i).iter().all(|t| t.offset != OUTSIDE)
+        self.cover[v as usize * self.size.width as usize + u as usize] == Cover::Full
     }
 
     /// Resamples `src` (which must have the table's source size).
     pub fn apply(&self, src: &RgbImage) -> RgbImage {
+        let mut out = RgbImage::new(self.size.width, self.size.height);
+        self.apply_into(src, &mut out);
+        out
+    }
+
+    /// As [`RemapTable::apply`], writing into `out` (every byte is overwritten, so a buffer
+    /// from an earlier frame can be reused); `out` is replaced by a new image if its size is
+    /// not the table's.
+    pub fn apply_into(&self, src: &RgbImage, out: &mut RgbImage) {
+        self.apply_with(src, out, Kernel::Auto);
+    }
+
+    /// As [`RemapTable::apply_into`] with a given kernel: every kernel must give the same
+    /// bytes (tests compare them).
+    #[doc(hidden)]
+    pub fn apply_with(&self, src: &RgbImage, out: &mut RgbImage, kernel: Kernel) {
         assert_eq!(
             (src.width(), src.height()),
             (self.source_size.width, self.source_size.height),
             "source image size differs from the table's"
         );
-        let (w, h) = (self.size.width as usize, self.size.height as usize);
-        let mut out = RgbImage::new(self.size.width, self.size.height);
+        if (out.width(), out.height()) != (self.size.width, self.size.height) {
+            *out = RgbImage::new(self.size.width, self.size.height);
+        }
+        let w = self.size.width as usize;
+        if w == 0 {
+            return;
+        }
         let stride = self.source_size.width as usize;
         let data = src.as_raw();
         out.as_raw_mut()
@@ -223,159 +185,312 @@ impl RemapTable {
             .enumerate()
             .with_min_len(8)
             .for_each(|(v, row)| {
-                let pixels = row.chunks_exact_mut(3);
-                match (self.plain, self.starts.is_empty()) {
-                    // One tap a pixel, neighbours at +1: the common case, kept branch-light.
-                    (true, true) => {
-                        for (px, t) in pixels.zip(&self.taps[v * w..(v + 1) * w]) {
-                            px.copy_from_slice(&sample_one_plain(data, stride, t));
+                let quads =
+                    &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
+                let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
+                kernel::apply_row(quads, counts, data, stride, self.row_reach[v], row, kernel);
+            });
+    }
+}
+
+impl<'a> Builder<'a> {
+    fn new(
+        dst: &'a dyn CameraModel,
+        src: &'a dyn CameraModel,
+        src_from_dst: &'a Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+    ) -> Self {
+        Self {
+            dst,
+            src,
+            src_from_dst,
+            wrap,
+            cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
+            source_size: src.size(),
+        }
+    }
+
+    /// The source position of output position (u, v).
+    #[inline]
+    fn to_src(&self, u: f64, v: f64) -> Option<Point2<f64>> {
+        let d = self.dst.unproject(&Point2::new(u, v)).ok()?;
+        self.src.project(&(self.src_from_dst * d)).ok()
+    }
+
+    /// The source positions of the centres of output row `v`, columns -1..=width (one beyond
+    /// each side, for the scale estimate of the edge pixels).
+    fn centres(&self, v: isize, out: &mut Vec<Option<Point2<f64>>>) {
+        let w = self.dst.size().width as isize;
+        out.clear();
+        out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64)));
+    }
+
+    /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel
+    /// that is not supersampled (most of them), and the centres of its four neighbours give
+    /// the local scale. A band maps the rows above and below it itself, with the same values
+    /// its neighbouring bands compute, so any split into bands gives the same table.
+    fn band(&self, rows: std::ops::Range<usize>) -> Band {
+        let w = self.dst.size().width as usize;
+        let n = rows.len() * w;
+        let mut band = Band {
+            quads: Vec::with_capacity(n),
+            counts: Vec::with_capacity(n),
+            row_lens: Vec::with_capacity(rows.len()),
+            row_reach: Vec::with_capacity(rows.len()),
+            cover: Vec::with_capacity(n),
+        };
+        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
+        let mut scratch = Scratch::default();
+        let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
+        self.centres(rows.start as isize - 1, &mut above);
+        self.centres(rows.start as isize, &mut here);
+        for v in rows {
+            let vf = v as f64;
+            let row_start = band.quads.len();
+            self.centres(v as isize + 1, &mut below);
+            for u in 0..w {
+                let centre = here[u + 1];
+                let (nu, nv) = supersampling(
+                    centre,
+                    [here[u], here[u + 2]],
+                    [above[u + 1], below[u + 1]],
+                    period,
+                );
+                let (nu, nv) = (nu.min(self.cap), nv.min(self.cap));
+                scratch.blocks.clear();
+                let inside = if (nu, nv) == (1, 1) {
+                    self.add_tap(centre, &mut scratch) as u32
+                } else {
+                    let uf = u as f64;
+                    let mut inside = 0;
+                    for j in 0..nv {
+                        for i in 0..nu {
+                            let du = (i as f64 + 0.5) / nu as f64 - 0.5;
+                            let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
+                            let p = self.to_src(uf + du, vf + dv);
+                            inside += self.add_tap(p, &mut scratch) as u32;
                         }
                     }
-                    (true, false) => {
-                        for (u, px) in pixels.enumerate() {
-                            let taps = self.taps_of(v * w + u);
-                            let value = if let [t] = taps {
-                                sample_one_plain(data, stride, t)
-                            } else {
-                                sample_many(taps, |t| bilinear_plain(data, stride, t))
-                            };
-                            px.copy_from_slice(&value);
-                        }
-                    }
-                    (false, _) => {
-                        for (u, px) in pixels.enumerate() {
-                            let taps = self.taps_of(v * w + u);
-                            let value = if let [t] = taps {
-                                sample_one(data, stride, t)
-                            } else {
-                                sample_many(taps, |t| bilinear(data, stride, t))
-                            };
-                            px.copy_from_slice(&value);
-                        }
+                    inside
+                };
+                let taps = nu * nv;
+                let before = band.quads.len();
+                quantize(&mut scratch, inside, taps, &mut band.quads);
+                band.counts.push((band.quads.len() - before) as u8);
+                band.cover.push(match inside {
+                    0 => Cover::None,
+                    k if k == taps => Cover::Full,
+                    _ => Cover::Part,
+                });
+            }
+            let row = &band.quads[row_start..];
+            band.row_lens.push(row.len() as u32);
+            band.row_reach
+                .push(row.iter().map(|q| q.offset).max().unwrap_or(0));
+            std::mem::swap(&mut above, &mut here);
+            std::mem::swap(&mut here, &mut below);
+        }
+        band
+    }
+
+    /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
+    /// unit scale (the pixel's taps are averaged when quantized). Whether it was inside.
+    fn add_tap(&self, p: Option<Point2<f64>>, s: &mut Scratch) -> bool {
+        let Some(p) = p else { return false };
+        let size = self.source_size;
+        let (sw, sh) = (size.width as f64, size.height as f64);
+        let (mut x, y) = (p.x, p.y);
+        if self.wrap == Wrap::Horizontal {
+            x = x.rem_euclid(sw);
+        } else if !(x >= -0.5 && x < sw - 0.5) {
+            return false;
+        }
+        // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
+        if !(y >= -0.5 && y <= sh - 0.5) {
+            return false;
+        }
+        // Within half a pixel of the border the edge pixel is repeated (it covers that area).
+        let y = y.clamp(0.0, sh - 1.0);
+        // y, x and the weights are >= 0 here, where `as` truncation is floor (and no libm call)
+        let y0 = (y as u32).min(size.height.saturating_sub(2));
+        let fy = if size.height > 1 { y - y0 as f64 } else { 0.0 };
+        let x0 = if self.wrap == Wrap::Horizontal {
+            (x as u32).min(size.width - 1)
+        } else {
+            x = x.clamp(0.0, sw - 1.0);
+            (x as u32).min(size.width.saturating_sub(2))
+        };
+        let fx = x - x0 as f64;
+        let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
+        let (tr, br) = (fx * (1.0 - fy), fx * fy);
+        let offset = y0 * size.width + x0;
+        if x0 + 1 == size.width {
+            // The right neighbour is column 0 (across a 360° source's wrap, or the same column
+            // of a one-pixel-wide source): it is a block of its own, left column only.
+            merge(&mut s.blocks, offset, [tl, bl, 0.0, 0.0]);
+            merge(&mut s.blocks, y0 * size.width, [tr, br, 0.0, 0.0]);
+        } else {
+            merge(&mut s.blocks, offset, [tl, bl, tr, br]);
+        }
+        true
+    }
+
+    /// Concatenates the bands (in row order) into the table.
+    fn finish(&self, bands: Vec<Band>) -> RemapTable {
+        let size = self.dst.size();
+        let n = size.width as usize * size.height as usize;
+        let total: usize = bands.iter().map(|b| b.quads.len()).sum();
+        let mut t = RemapTable {
+            size,
+            source_size: self.source_size,
+            quads: Vec::with_capacity(total),
+            counts: Vec::with_capacity(n),
+            row_starts: Vec::with_capacity(size.height as usize + 1),
+            row_reach: Vec::with_capacity(size.height as usize),
+            cover: Vec::with_capacity(n),
+        };
+        t.row_starts.push(0);
+        for b in bands {
+            t.quads.extend_from_slice(&b.quads);
+            t.counts.extend_from_slice(&b.counts);
+            t.cover.extend_from_slice(&b.cover);
+            t.row_reach.extend_from_slice(&b.row_reach);
+            for len in b.row_lens {
+                let last = *t.row_starts.last().expect("starts with 0");
+                t.row_starts.push(last + len);
+            }
+        }
+        if t.quads.len() == n {
+            // one block a pixel (each pixel has at least one): the index is implicit
+            t.counts = Vec::new();
+        }
+        t
+    }
+}
+
+/// Adds `w` to the block at `offset`, or appends a new block.
+fn merge(blocks: &mut Vec<(u32, [f64; 4])>, offset: u32, w: [f64; 4]) {
+    if let Some((_, acc)) = blocks.iter_mut().rev().find(|(o, _)| *o == offset) {
+        for (a, b) in acc.iter_mut().zip(w) {
+            *a += b;
+        }
+    } else {
+        blocks.push((offset, w));
+    }
+}
+
+/// Turns the pixel's blocks (`inside` of its `taps` taps, each weighing 1) into quads whose
+/// integer weights sum to round(WEIGHT_ONE · inside / taps) exactly (largest remainders get
+/// the rounding units, ties to the first), so a flat source stays flat and outside taps count
+/// as black. Appends at least one quad (an all-zero one for a pixel with nothing inside).
+fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
+    let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
+    let scale = WEIGHT_ONE as f64 / taps as f64;
+    if let [(offset, w)] = s.blocks[..] {
+        // One block (most pixels): each weight rounded, the largest one (first on ties) takes
+        // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
+        let y = w.map(|x| x * scale);
+        let mut q = y.map(|x| (x + 0.5) as i32);
+        let mut big = 0;
+        for k in 1..4 {
+            if y[k] > y[big] {
+                big = k;
+            }
+        }
+        q[big] += total - q.iter().sum::<i32>();
+        out.push(Quad {
+            offset,
+            w: q.map(|x| x as i16),
+        });
+        return;
+    }
+    s.ints.clear();
+    let mut sum = 0;
+    for (_, w) in &s.blocks {
+        let q = w.map(|x| (x * scale) as i32);
+        sum += q.iter().sum::<i32>();
+        s.ints.push(q);
+    }
+    let missing = total - sum;
+    if missing > 0 {
+        s.order.clear();
+        for (b, (_, w)) in s.blocks.iter().enumerate() {
+            for (k, x) in w.iter().enumerate() {
+                let y = x * scale;
+                s.order.push((4 * b + k, y - (y as i32) as f64));
+            }
+        }
+        if missing <= 4 {
+            // the common case (a few units over a few weights): pick maxima, no sort
+            for _ in 0..missing {
+                let mut best = 0;
+                for (j, o) in s.order.iter().enumerate() {
+                    if o.1 > s.order[best].1 {
+                        best = j;
                     }
                 }
+                let i = s.order[best].0;
+                s.ints[i / 4][i % 4] += 1;
+                s.order[best].1 = -1.0;
+            }
+        } else {
+            // stable: equal remainders keep their order, as the first maximum above
+            s.order.sort_by(|a, b| b.1.total_cmp(&a.1));
+            for &(i, _) in s.order.iter().take(missing as usize) {
+                s.ints[i / 4][i % 4] += 1;
+            }
+        }
+    }
+    let before = out.len();
+    for ((offset, _), w) in s.blocks.iter().zip(&s.ints) {
+        if w.iter().any(|&x| x != 0) {
+            out.push(Quad {
+                offset: *offset,
+                w: w.map(|x| x as i16),
             });
-        debug_assert_eq!(out.as_raw().len(), w * h * 3);
-        out
+        }
+    }
+    if out.len() == before {
+        out.push(Quad::default());
     }
 }
 
 /// Supersampling of an output pixel along its u and v axes: the source pixels one output step
 /// spans in each direction, rounded (1 below 1.5), from the table's own mapping of the pixel's
-/// left, right, top and bottom edge midpoints. Anisotropic: at a KITTI frame's edges an equirect
-/// pixel spans 1.8 source pixels across but 1.3 down, and needs 2×1 samples, not 2×2.
-/// `period`: the source width of a 360° source, across whose wrap a step is taken the short way.
-fn supersampling(edges: [Option<Point2<f64>>; 4], period: Option<f64>) -> (u32, u32) {
-    let [Some(l), Some(r), Some(t), Some(b)] = edges else {
+/// centre and its neighbours' (a central difference; one-sided where a neighbour has no
+/// image). Anisotropic: at a KITTI frame's edges an equirect pixel spans 1.8 source pixels
+/// across but 1.3 down, and needs 2×1 samples, not 2×2. `period`: the source width of a 360°
+/// source, across whose wrap a step is taken the short way.
+fn supersampling(
+    centre: Option<Point2<f64>>,
+    across: [Option<Point2<f64>>; 2],
+    down: [Option<Point2<f64>>; 2],
+    period: Option<f64>,
+) -> (u32, u32) {
+    let Some(c) = centre else {
         return (1, 1);
     };
-    let step = |a: Point2<f64>, b: Point2<f64>| {
+    // Squared distances: the square root is needed only for the (rare) counts above 1.
+    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
         let mut d = b - a;
         if let Some(w) = period {
             d.x -= w * (d.x / w).round();
         }
-        d.norm()
+        d.norm_squared()
     };
-    let count = |scale: f64| {
-        if !scale.is_finite() || scale < 1.5 {
+    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
+        (Some(a), Some(b)) => dist2(a, b) / 4.0,
+        (Some(a), None) => dist2(a, c),
+        (None, Some(b)) => dist2(c, b),
+        (None, None) => 0.0,
+    };
+    let count = |scale2: f64| {
+        if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
             1
         } else {
-            (scale.round() as u32).min(MAX_SUPERSAMPLE)
+            (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
         }
     };
-    (count(step(l, r)), count(step(t, b)))
-}
-
-/// The bilinear sum of a tap, in 1/ONE² (general case: any neighbour layout).
-#[inline]
-fn bilinear(data: &[u8], stride: usize, t: &Tap) -> [u32; 3] {
-    let base = t.offset as usize * 3;
-    let right: isize = if t.wx & WRAPS != 0 {
-        (1 - stride as isize) * 3
-    } else {
-        3
-    };
-    let (wx, wy) = ((t.wx & !WRAPS) as u32, t.wy as u32);
-    let below = if wy == 0 { 0 } else { stride * 3 };
-    let mut out = [0u32; 3];
-    for (c, o) in out.iter_mut().enumerate() {
-        let i = base + c;
-        let j = i.wrapping_add_signed(right);
-        let top = data[i] as u32 * (ONE - wx) + data[j] as u32 * wx;
-        let bottom = data[i + below] as u32 * (ONE - wx) + data[j + below] as u32 * wx;
-        *o = top * (ONE - wy) + bottom * wy;
-    }
-    out
-}
-
-/// As [`bilinear`] for a plain table (right neighbour at +1 column, lower at +1 row, both
-/// inside the source): two bounds checks instead of twelve. Same arithmetic, same result.
-#[inline(always)]
-fn bilinear_plain(data: &[u8], stride: usize, t: &Tap) -> [u32; 3] {
-    let base = t.offset as usize * 3;
-    let below = base + stride * 3;
-    let top: &[u8; 6] = data[base..base + 6].try_into().expect("6 bytes");
-    let bottom: &[u8; 6] = data[below..below + 6].try_into().expect("6 bytes");
-    let (wx, wy) = (t.wx as u32, t.wy as u32);
-    let (ix, iy) = (ONE - wx, ONE - wy);
-    let mut out = [0u32; 3];
-    for (c, o) in out.iter_mut().enumerate() {
-        let a = top[c] as u32 * ix + top[c + 3] as u32 * wx;
-        let b = bottom[c] as u32 * ix + bottom[c + 3] as u32 * wx;
-        *o = a * iy + b * wy;
-    }
-    out
-}
-
-#[inline(always)]
-fn round_one(s: [u32; 3]) -> [u8; 3] {
-    let half = 1 << (2 * FRAC_BITS - 1);
-    s.map(|v| ((v + half) >> (2 * FRAC_BITS)) as u8)
-}
-
-#[inline]
-fn sample_one(data: &[u8], stride: usize, t: &Tap) -> [u8; 3] {
-    if t.offset == OUTSIDE {
-        return [0; 3];
-    }
-    round_one(bilinear(data, stride, t))
-}
-
-#[inline(always)]
-fn sample_one_plain(data: &[u8], stride: usize, t: &Tap) -> [u8; 3] {
-    if t.offset == OUTSIDE {
-        return [0; 3];
-    }
-    round_one(bilinear_plain(data, stride, t))
-}
-
-/// RECIP[n] = ceil(2^32 / n): x / n == (x · RECIP[n]) >> 32 exactly whenever x · n <= 2^32.
-const RECIP: [u64; MAX_TAPS + 1] = {
-    let mut r = [0u64; MAX_TAPS + 1];
-    let mut n = 1;
-    while n <= MAX_TAPS {
-        r[n] = (1u64 << 32).div_ceil(n as u64);
-        n += 1;
-    }
-    r
-};
-const MAX_TAPS: usize = (MAX_SUPERSAMPLE * MAX_SUPERSAMPLE) as usize;
-
-/// The box average of a pixel's taps (outside ones count as black), rounded to nearest.
-#[inline]
-fn sample_many(taps: &[Tap], bilinear: impl Fn(&Tap) -> [u32; 3]) -> [u8; 3] {
-    let mut acc = [0u64; 3];
-    for t in taps {
-        if t.offset != OUTSIDE {
-            let s = bilinear(t);
-            for c in 0..3 {
-                acc[c] += s[c] as u64;
-            }
-        }
-    }
-    // round(acc / (n·2^20)) = floor((acc + n·2^19) / 2^20) / n (floors compose), and that
-    // quotient x <= 255.5·n, so x·n <= 2^32 and the reciprocal gives it exactly: no division.
-    let n = taps.len() as u64;
-    let recip = RECIP[taps.len()];
-    acc.map(|v| ((((v + (n << (2 * FRAC_BITS - 1))) >> (2 * FRAC_BITS)) * recip) >> 32) as u8)
+    (count(step2(across)), count(step2(down)))
 }
