@@ -9,7 +9,7 @@
 use super::frame::Context;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::kitti::{Calib, Layout, Split};
-use crate::warp::RemapTable;
+use crate::warp::{RemapTable, MAX_SUPERSAMPLE};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -30,7 +30,15 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[u
         .into_values()
         .collect::<Vec<_>>()
         .into_par_iter()
-        .map(|(k, size)| (k, size, ctx.build_mapping(k, size, RemapTable::build)))
+        .map(|(k, size)| {
+            (
+                k,
+                size,
+                ctx.build_mapping(k, size, |dst, src, src_from_dst, wrap| {
+                    RemapTable::build_parallel(dst, src, src_from_dst, wrap, MAX_SUPERSAMPLE)
+                }),
+            )
+        })
         .collect();
     for (k, size, mapping) in built {
         ctx.insert_mapping(k, size, mapping);

@@ -8,4 +8,4 @@ mod table;
 pub use cache::OnceMap;
 #[doc(hidden)]
 pub use kernel::Kernel;
-pub use table::{RemapTable, Wrap};
+pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

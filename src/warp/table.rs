@@ -14,7 +14,7 @@ use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2};
 use rayon::prelude::*;
 
-const MAX_SUPERSAMPLE: u32 = 8;
+pub const MAX_SUPERSAMPLE: u32 = 8;
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
