@@ -152,6 +152,9 @@ fn report(name: &str, imgs: &[(Vec<u8>, RgbImage)], encode: impl Fn(&RgbImage) -
 }
 
 fn main() {
+    // The same allocator settings as `panoconv` (src/main.rs), so the floor is not slowed by
+    // page faults that the conversion avoids.
+    panoconv::alloc::keep_freed_memory();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = None;
     let mut compression = PngCompression::Default;
