@@ -50,6 +50,12 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None))
         });
+        // the same table, bands of rows on rayon's pool
+        g.bench_function(format!("{name}/parallel"), |b| {
+            b.iter(|| {
+                RemapTable::build_parallel(out.as_ref(), &src, &Matrix3::identity(), Wrap::None, 8)
+            })
+        });
     }
     g.finish();
 
@@ -76,6 +82,16 @@ fn bench(c: &mut Criterion) {
                 |b| b.iter(|| table.apply(black_box(&image))),
             );
         }
+        // into a reused buffer, as the pipeline does (no fresh 1 MB image a frame)
+        let table = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None);
+        let mut buf = table.apply(&image);
+        g.bench_function(
+            BenchmarkId::new(
+                format!("{name}/antialiased_into"),
+                format!("{}x{}", s.width, s.height),
+            ),
+            |b| b.iter(|| table.apply_into(black_box(&image), &mut buf)),
+        );
     }
     g.finish();
 

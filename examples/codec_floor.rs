@@ -4,6 +4,8 @@
 //!
 //!     codec_floor --pairs FILE [--compression fast|default|best] [--jobs N]
 //!     codec_floor --sweep FILE...   (single thread: decode and encoder settings per image)
+//!     codec_floor --remap IMAGE CALIB   (the equirect table of CALIB's P2: build, serial and
+//!                                        parallel, and apply on one thread, minimum of N runs)
 //!
 //! FILE lists one frame a line: `INPUT.png WARPED.png` (the warped images are decoded once,
 //! before the clock starts).
@@ -151,6 +153,59 @@ fn report(name: &str, imgs: &[(Vec<u8>, RgbImage)], encode: impl Fn(&RgbImage) -
     );
 }
 
+/// Minimum milliseconds of `f` over `n` runs (the figure least disturbed by other load).
+fn min_ms<T>(n: usize, mut f: impl FnMut() -> T) -> f64 {
+    (0..n)
+        .map(|_| {
+            let s = Instant::now();
+            std::hint::black_box(f());
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The remap stages of one frame as `panoconv kitti --to equirect` runs them.
+fn remap(image: &Path, calib: &Path) {
+    use nalgebra::Matrix3;
+    use panoconv::camera::{ImageSize, Perspective, Projection};
+    use panoconv::geometry::{output_camera, OutputSpec};
+    use panoconv::warp::{RemapTable, Wrap};
+    let img = load(image);
+    let calib = panoconv::kitti::calib::Calib::read(calib).unwrap_or_else(|e| die(&e.to_string()));
+    let k = calib.camera(2).unwrap_or_else(|e| die(&e.to_string())).k;
+    let src = Perspective::new(k, ImageSize::new(img.width(), img.height()));
+    let out = output_camera(&OutputSpec::new(Projection::Equirect), k, &src)
+        .unwrap_or_else(|e| die(&e.to_string()));
+    let id = Matrix3::identity();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    let serial =
+        one.install(|| min_ms(5, || RemapTable::build(out.as_ref(), &src, &id, Wrap::None)));
+    let parallel = min_ms(5, || {
+        RemapTable::build_parallel(out.as_ref(), &src, &id, Wrap::None, 8)
+    });
+    println!(
+        "table build      {serial:7.2} ms serial, {parallel:7.2} ms parallel ({} threads)",
+        rayon::current_num_threads()
+    );
+    for (name, max_supersample) in [("antialiased", 8), ("bilinear", 1)] {
+        let table = RemapTable::build_with(out.as_ref(), &src, &id, Wrap::None, max_supersample);
+        let s = table.size();
+        let fresh = one.install(|| min_ms(40, || table.apply(&img)));
+        let mut buf = table.apply(&img);
+        let reused = one.install(|| min_ms(40, || table.apply_into(&img, &mut buf)));
+        println!(
+            "apply {name:<11} {fresh:7.3} ms, apply_into {reused:7.3} ms ({}x{}, 1 thread)",
+            s.width, s.height
+        );
+    }
+    let bytes = std::fs::read(image).unwrap_or_else(|e| die(&e.to_string()));
+    let decode = min_ms(40, || decode_rgb8(&bytes, image).unwrap());
+    println!("decode_rgb8      {decode:7.3} ms");
+}
+
 fn main() {
     // The same allocator settings as `panoconv` (src/main.rs), so the floor is not slowed by
     // page faults that the conversion avoids.
@@ -171,6 +226,10 @@ fn main() {
                 let files: Vec<PathBuf> = args[i + 1..].iter().map(PathBuf::from).collect();
                 return sweep(&files);
             }
+            "--remap" => match (args.get(i + 1), args.get(i + 2)) {
+                (Some(image), Some(calib)) => return remap(Path::new(image), Path::new(calib)),
+                _ => die("--remap IMAGE CALIB"),
+            },
             "--pairs" => pairs = Some(PathBuf::from(val())),
             "--jobs" => jobs = val().parse().unwrap_or_else(|_| die("bad --jobs")),
             "--compression" => {

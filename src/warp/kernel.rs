@@ -341,9 +341,20 @@ mod avx2 {
                 }
             }
             _ => {
+                // blocks two at a time in the two lanes, the lanes summed at the end
                 for (px, qs) in out.chunks_exact_mut(3).zip(quads.chunks_exact(n)) {
-                    let mut acc = _mm_setzero_si128();
-                    for q in qs {
+                    let mut wide = _mm256_setzero_si256();
+                    let mut pairs = qs.chunks_exact(2);
+                    for q in &mut pairs {
+                        // SAFETY: the caller's contract.
+                        wide =
+                            _mm256_add_epi32(wide, unsafe { pair_sum(p, stride3, &q[0], &q[1]) });
+                    }
+                    let mut acc = _mm_add_epi32(
+                        _mm256_castsi256_si128(wide),
+                        _mm256_extracti128_si256::<1>(wide),
+                    );
+                    if let [q] = pairs.remainder() {
                         // SAFETY: the caller's contract.
                         acc = _mm_add_epi32(acc, unsafe { sse2::quad_sum(p, stride3, q) });
                     }
