@@ -138,7 +138,9 @@ fn encode(
     data: &[u8],
     c: PngCompression,
 ) -> Vec<u8> {
-    let mut out = Vec::new();
+    // Room for a typical camera image (about half its raw size) up front: growing the Vec by
+    // doubling copied the encoded bytes several times over.
+    let mut out = Vec::with_capacity(data.len() / 2 + 4096);
     {
         let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(color);
