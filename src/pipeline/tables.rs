@@ -1,4 +1,5 @@
-//! The remap tables of every distinct source camera, built before the first frame.
+//! The remap tables of the source cameras that several frames share, built before the first
+//! frame.
 //!
 //! Built lazily, a table is made inside the cache's once-cell, serially (a parallel build there
 //! could let rayon run, on the same thread, a frame that waits on that very cell), while the
@@ -8,6 +9,7 @@
 
 use super::frame::Context;
 use crate::camera::{ImageSize, Intrinsics};
+use crate::kitti::png_io;
 use crate::kitti::{Calib, Layout, Split};
 use crate::warp::{RemapTable, MAX_SUPERSAMPLE};
 use rayon::prelude::*;
@@ -15,29 +17,39 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-/// Builds, in parallel, the table of every distinct (camera, image size) of `frames`.
+/// Builds, in parallel, the table of every (camera, image size) that several of `frames` share.
 pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[usize]) {
     let found: Vec<(Intrinsics, ImageSize)> = frames
         .par_iter()
         .flat_map_iter(|&(split, id)| source_cameras(split, id, cameras))
         .collect();
     // Distinct, in a fixed order (the tables do not depend on it; the work split does).
-    let distinct: BTreeMap<_, _> = found
-        .into_iter()
-        .map(|(k, size)| ((k.key(), size.width, size.height), (k, size)))
-        .collect();
+    let mut distinct: BTreeMap<_, (Intrinsics, ImageSize, usize)> = BTreeMap::new();
+    for (k, size) in found {
+        distinct
+            .entry((k.key(), size.width, size.height))
+            .or_insert((k, size, 0))
+            .2 += 1;
+    }
+    // Only cameras shared by several frames: a single frame gains nothing from being ahead,
+    // and a corrupt PNG header (an absurd size, read before the decoder has refused the file)
+    // must not cost a huge table.
     let built: Vec<_> = distinct
         .into_values()
+        .filter(|&(_, _, frames)| frames > 1)
+        .map(|(k, size, _)| (k, size))
         .collect::<Vec<_>>()
         .into_par_iter()
-        .map(|(k, size)| {
-            (
-                k,
-                size,
+        .filter_map(|(k, size)| {
+            // A panic here (a bug) must not end the run: the frames then build the table
+            // themselves, each failing alone.
+            let build = || {
                 ctx.build_mapping(k, size, |dst, src, src_from_dst, wrap| {
                     RemapTable::build_parallel(dst, src, src_from_dst, wrap, MAX_SUPERSAMPLE)
-                }),
-            )
+                })
+            };
+            let mapping = std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)).ok()?;
+            Some((k, size, mapping))
         })
         .collect();
     for (k, size, mapping) in built {
@@ -82,5 +94,7 @@ fn png_size(path: &Path) -> Option<ImageSize> {
     }
     let be = |at: usize| u32::from_be_bytes(head[at..at + 4].try_into().expect("4 bytes"));
     let size = ImageSize::new(be(16), be(20));
-    (size.width > 0 && size.height > 0).then_some(size)
+    // The header is untrusted: an image the decoder will refuse gets no table.
+    let pixels = size.width as u64 * size.height as u64;
+    (pixels > 0 && pixels <= png_io::MAX_PIXELS).then_some(size)
 }
