@@ -54,7 +54,8 @@ impl<'a> StylePass<'a> {
             }
         }
         for (size, members) in groups {
-            let batched = members.len() > 1 && self.batch > 1 && self.is_exact(size);
+            let batched =
+                members.len() > 1 && self.batch > 1 && self.model.batches() && self.is_exact(size);
             let run_len = if batched { self.batch } else { 1 };
             for run in members.chunks(run_len) {
                 let batch: Vec<&RgbImage> = run.iter().map(|&i| images[i]).collect();
