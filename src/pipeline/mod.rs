@@ -15,7 +15,7 @@ use crate::kitti::png_io::PngCompression;
 use crate::kitti::{raw, Layout, OutputKind};
 use crate::kitti::{Dataset, FrameRef, Split};
 use crate::output::{self, FrameRecord, FrameStatus};
-use crate::style::{StyleInfo, StyleModel, StyleOptions};
+use crate::style::{Device, StyleInfo, StyleModel, StyleOptions};
 use batch::StylePass;
 use frame::Context;
 use rayon::prelude::*;
@@ -144,17 +144,22 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         missing.retain(|id| shard.owns("", id));
     }
     // Loaded before anything is written: a missing library or a bad model is a set-up error.
-    // One session per worker with one thread each, so --jobs alone sets the core count.
+    // On the CPU, one session per worker with one thread each, so --jobs alone sets the core
+    // count. On a GPU each session holds its own weights and activation arena in device
+    // memory, and one device runs one model at a time anyway: two sessions (one computing
+    // while the other's inputs are prepared) serve any number of workers.
     let style = match &job.style {
         Some(s) => {
             let options = StyleOptions {
                 intra_threads: 1,
                 ..s.options.clone()
             };
-            Some(StyleModel::load_pool(
-                &options,
-                rayon::current_num_threads(),
-            )?)
+            let workers = rayon::current_num_threads();
+            let sessions = match options.device {
+                Device::Cpu => workers,
+                Device::Cuda => workers.min(2),
+            };
+            Some(StyleModel::load_pool(&options, sessions)?)
         }
         None => None,
     };
