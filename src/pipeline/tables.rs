@@ -75,14 +75,17 @@ fn source_cameras(split: &Split, id: &str, cameras: &[usize]) -> Vec<(Intrinsics
         }
         Layout::Raw { calib } => (**calib).clone(),
     };
-    cameras
+    let mut found: Vec<(Intrinsics, ImageSize)> = cameras
         .iter()
         .filter_map(|&n| {
             let k = calib.camera(n).ok()?.k;
             let size = png_size(&split.image_path(n, id))?;
             Some((k, size))
         })
-        .collect()
+        .collect();
+    // Counted once a frame (KITTI's cameras 2 and 3 share K and size).
+    found.dedup_by_key(|(k, size)| (k.key(), size.width, size.height));
+    found
 }
 
 /// Width and height from a PNG's IHDR chunk (the first 24 bytes).
