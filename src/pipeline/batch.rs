@@ -44,35 +44,13 @@ impl<'a> StylePass<'a> {
 
     /// Styles `images`, equal sizes batched where that is exact; results in input order.
     fn stylize(&self, images: &[&RgbImage]) -> std::result::Result<Vec<RgbImage>, StyleError> {
-        let mut out: Vec<Option<RgbImage>> = vec![None; images.len()];
-        let mut groups: Vec<((u32, u32), Vec<usize>)> = Vec::new();
-        for (i, img) in images.iter().enumerate() {
-            let key = (img.width(), img.height());
-            match groups.iter_mut().find(|(k, _)| *k == key) {
-                Some((_, members)) => members.push(i),
-                None => groups.push((key, vec![i])),
+        self.model.stylize_batch_by(images, |width, height| {
+            if self.batch > 1 && self.is_exact((width, height)) {
+                self.batch
+            } else {
+                1
             }
-        }
-        for (size, members) in groups {
-            let batched =
-                members.len() > 1 && self.batch > 1 && self.model.batches() && self.is_exact(size);
-            let run_len = if batched { self.batch } else { 1 };
-            for run in members.chunks(run_len) {
-                let batch: Vec<&RgbImage> = run.iter().map(|&i| images[i]).collect();
-                let styled = if batched {
-                    self.model.stylize_batch(&batch)?
-                } else {
-                    vec![self.model.stylize(batch[0])?]
-                };
-                for (&i, img) in run.iter().zip(styled) {
-                    out[i] = Some(img);
-                }
-            }
-        }
-        Ok(out
-            .into_iter()
-            .map(|o| o.expect("every image styled"))
-            .collect())
+        })
     }
 
     fn is_exact(&self, (width, height): (u32, u32)) -> bool {

@@ -279,7 +279,6 @@ impl<'a> Context<'a> {
             lidar,
             ..
         } = frame;
-        let per_view = if right.is_some() { 2 } else { 1 };
         let mut warped = warped.into_iter();
         let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
         let out_split = self.job.output.join(&split.name);
@@ -352,7 +351,7 @@ impl<'a> Context<'a> {
                 views.push(ViewRecord { id: view_id, view });
             }
         }
-        debug_assert_eq!(warped.len(), 0, "{per_view} images a view");
+        debug_assert_eq!(warped.len(), 0, "one image per camera and view");
 
         let mut record_outputs = Vec::new();
         for (path, bytes) in &outputs {

@@ -310,7 +310,17 @@ impl StyleModel {
     /// [`MAX_BATCH`] per run) when its batch axis is dynamic and it is not tiled; otherwise one
     /// by one. The results are identical to [`StyleModel::stylize`] on each image.
     pub fn stylize_batch(&self, imgs: &[&RgbImage]) -> Result<Vec<RgbImage>, StyleError> {
-        if !self.dynamic_batch || self.info.tiled.is_some() {
+        self.stylize_batch_by(imgs, |_, _| MAX_BATCH)
+    }
+
+    /// As [`StyleModel::stylize_batch`], with at most `run_len(width, height)` images of that
+    /// size per run (asked only for sizes that several images share; clamped to 1..=MAX_BATCH).
+    pub fn stylize_batch_by(
+        &self,
+        imgs: &[&RgbImage],
+        run_len: impl Fn(u32, u32) -> usize,
+    ) -> Result<Vec<RgbImage>, StyleError> {
+        if !self.batches() {
             return imgs.iter().map(|i| self.stylize(i)).collect();
         }
         let mut out: Vec<Option<RgbImage>> = vec![None; imgs.len()];
@@ -327,7 +337,8 @@ impl StyleModel {
         for ((w, h), idx) in groups {
             let (pw, ph) = (convert::padded_extent(w), convert::padded_extent(h));
             let per = 3 * pw as usize * ph as usize;
-            for chunk in idx.chunks(MAX_BATCH) {
+            let len = if idx.len() > 1 { run_len(w, h) } else { 1 };
+            for chunk in idx.chunks(len.clamp(1, MAX_BATCH)) {
                 let mut data = vec![0f32; per * chunk.len()];
                 for (slot, &i) in data.chunks_mut(per).zip(chunk) {
                     convert::window_to_chw(imgs[i], 0, 0, pw, ph, slot);
