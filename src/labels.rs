@@ -13,7 +13,7 @@ use nalgebra::{Point2, Vector3};
 /// Near plane (metres along the camera's front normal) for one-sided cameras.
 const NEAR: f64 = 0.05;
 const EDGE_SAMPLES: usize = 32;
-const REFINE_STEPS: usize = 40;
+const REFINE_STEPS: usize = 28;
 
 /// Pixel bounds [left, top, right, bottom]; may extend beyond the image or be infinite.
 pub type Bounds = [f64; 4];
@@ -176,6 +176,8 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
         .or_else(|| corners.iter().find_map(|c| camera.project_point(c).ok()))
         .map(|p| p.x);
     let front = camera.front_halfspace();
+    // Each edge of a box borders two faces: collected first so that it is projected once.
+    let mut edges = Vec::with_capacity(24);
     for face in FACES {
         let quad: Vec<Vector3<f64>> = face.iter().map(|&i| corners[i]).collect();
         let poly = match front {
@@ -186,7 +188,7 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
             continue;
         }
         for i in 0..poly.len() {
-            acc.add_segment(&poly[i], &poly[(i + 1) % poly.len()]);
+            edges.push(Edge::new(poly[i], poly[(i + 1) % poly.len()]));
         }
         if front.is_none() {
             if let Some(hit) = vertical_axis_hit(&poly) {
@@ -201,8 +203,40 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
             }
         }
     }
+    edges.sort_by(Edge::order);
+    edges.dedup();
+    for e in &edges {
+        acc.add_segment(&e.0, &e.1);
+    }
     let b = acc.bounds;
     (b[0] <= b[2] && b[1] <= b[3]).then_some(b)
+}
+
+/// A segment with its ends in a fixed order, so that the two faces sharing an edge give the
+/// same value (and the bounds do not depend on the direction an edge is walked).
+#[derive(PartialEq)]
+struct Edge(Vector3<f64>, Vector3<f64>);
+
+impl Edge {
+    fn new(p: Vector3<f64>, q: Vector3<f64>) -> Self {
+        if Self::point_order(&p, &q).is_le() {
+            Self(p, q)
+        } else {
+            Self(q, p)
+        }
+    }
+
+    fn point_order(p: &Vector3<f64>, q: &Vector3<f64>) -> std::cmp::Ordering {
+        p.iter()
+            .zip(q.iter())
+            .map(|(a, b)| a.total_cmp(b))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    }
+
+    fn order(a: &Self, b: &Self) -> std::cmp::Ordering {
+        Self::point_order(&a.0, &b.0).then_with(|| Self::point_order(&a.1, &b.1))
+    }
 }
 
 /// Unclipped bounds of the image of a source-pixel rectangle, mapped through `map` (source
