@@ -1,5 +1,6 @@
 //! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
 
+use super::png_encode::{encode_rows, Header, RowFilter};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use std::path::Path;
@@ -130,19 +131,41 @@ fn encoder_settings(
     }
 }
 
-fn encode(
-    width: u32,
-    height: u32,
-    color: png::ColorType,
-    depth: png::BitDepth,
-    data: &[u8],
-    c: PngCompression,
-) -> Vec<u8> {
+/// Encodes with the streamed fdeflate encoder ([`encode_rows`]) for `fast` and `default`,
+/// with the png crate for `best`.
+fn encode(header: Header, data: &[u8], c: PngCompression) -> Vec<u8> {
+    match row_filter(c) {
+        Some(filter) => {
+            let len = header.width as usize * header.bpp;
+            encode_rows(header, filter, |v, row| {
+                row.copy_from_slice(&data[v * len..(v + 1) * len])
+            })
+        }
+        None => encode_with_png_crate(header, data, c),
+    }
+}
+
+/// The row filter of the fdeflate presets (streamed by [`encode_rows`]); `None` for `best`.
+pub fn row_filter(c: PngCompression) -> Option<RowFilter> {
+    match c {
+        PngCompression::Fast => Some(RowFilter::Sub),
+        PngCompression::Default => Some(RowFilter::Paeth),
+        PngCompression::Best => None,
+    }
+}
+
+/// The png crate's encoder with the settings of `c` (for `fast` and `default`, the reference
+/// that `tests/png.rs` compares the streamed encoder with).
+fn encode_with_png_crate(header: Header, data: &[u8], c: PngCompression) -> Vec<u8> {
+    let (color, depth) = match header.color_type {
+        2 => (png::ColorType::Rgb, png::BitDepth::Eight),
+        _ => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
+    };
     // Room for a typical camera image (about half its raw size) up front: growing the Vec by
     // doubling copied the encoded bytes several times over.
     let mut out = Vec::with_capacity(data.len() / 2 + 4096);
     {
-        let mut enc = png::Encoder::new(&mut out, width, height);
+        let mut enc = png::Encoder::new(&mut out, header.width, header.height);
         enc.set_color(color);
         enc.set_depth(depth);
         let (comp, filter, adaptive) = encoder_settings(c);
@@ -158,27 +181,31 @@ fn encode(
 }
 
 pub fn encode_rgb8(img: &RgbImage, c: PngCompression) -> Vec<u8> {
-    encode(
-        img.width(),
-        img.height(),
-        png::ColorType::Rgb,
-        png::BitDepth::Eight,
-        img.as_raw(),
-        c,
-    )
+    encode(Header::rgb8(img.width(), img.height()), img.as_raw(), c)
+}
+
+/// As [`encode_rgb8`], always with the png crate's encoder (for tests).
+#[doc(hidden)]
+pub fn encode_rgb8_with_png_crate(img: &RgbImage, c: PngCompression) -> Vec<u8> {
+    encode_with_png_crate(Header::rgb8(img.width(), img.height()), img.as_raw(), c)
 }
 
 /// 16-bit greyscale (depth maps).
 pub fn encode_gray16(width: u32, height: u32, values: &[u16], c: PngCompression) -> Vec<u8> {
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
-    encode(
-        width,
-        height,
-        png::ColorType::Grayscale,
-        png::BitDepth::Sixteen,
-        &bytes,
-        c,
-    )
+    encode(Header::gray16(width, height), &bytes, c)
+}
+
+/// As [`encode_gray16`], always with the png crate's encoder (for tests).
+#[doc(hidden)]
+pub fn encode_gray16_with_png_crate(
+    width: u32,
+    height: u32,
+    values: &[u16],
+    c: PngCompression,
+) -> Vec<u8> {
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    encode_with_png_crate(Header::gray16(width, height), &bytes, c)
 }
 
 /// Decodes a 16-bit greyscale PNG (depth maps).
