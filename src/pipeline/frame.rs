@@ -10,7 +10,8 @@ use crate::error::{read_file, read_file_into, split_lines, Error, Result};
 use crate::geometry::output_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
-use crate::kitti::png_io;
+use crate::kitti::png_encode::{encode_rows, Header};
+use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::{velodyne, Layout, OutputKind};
 use crate::kitti::{Calib, Dataset, LabelFile, Split};
 use crate::labels::transform_label;
@@ -263,11 +264,7 @@ impl<'a> Context<'a> {
     /// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
     /// whose `images` have been through the style pass, if any.
     pub(super) fn finish(&self, split: &Split, id: &str, frame: Prepared) -> Result<FrameOutput> {
-        let warped = if self.style_after_warp() {
-            frame.images
-        } else {
-            frame.warp_all()
-        };
+        let after_warp = self.style_after_warp();
         let Prepared {
             calib,
             cam2,
@@ -277,9 +274,19 @@ impl<'a> Context<'a> {
             views2,
             right,
             lidar,
-            ..
+            images,
         } = frame;
-        let mut warped = warped.into_iter();
+        let cameras_per_view = if right.is_some() { 2 } else { 1 };
+        let compression = self.job.png_compression;
+        // The PNG of view i's camera 2 (cam 0) or 3 (cam 1): the styled warped image, or the
+        // source warped row by row as the encoder takes the rows.
+        let encode_view = |i: usize, cam: usize, table: &RemapTable| {
+            if after_warp {
+                png_io::encode_rgb8(&images[i * cameras_per_view + cam], compression)
+            } else {
+                warp_encode(table, &images[cam], compression)
+            }
+        };
         let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
         let out_split = self.job.output.join(&split.name);
         let out = |kind: OutputKind, view_id: &str| {
@@ -289,9 +296,8 @@ impl<'a> Context<'a> {
         let mut lidar_record = None;
         let source = cam2.camera(size);
         for (i, (view_id, mapping, view)) in views2.into_iter().enumerate() {
-            let image2 = warped.next().expect("one warped image per camera and view");
             if let Some(path) = out(OutputKind::Image(2), &view_id) {
-                outputs.push((path, png_io::encode_rgb8(&image2, self.job.png_compression)));
+                outputs.push((path, encode_view(i, 0, &mapping.table)));
             }
             if let Some(labels) = &labels {
                 let mut text = String::new();
@@ -335,10 +341,9 @@ impl<'a> Context<'a> {
             }
             let mut cameras = vec![(2, mapping.output.intrinsics(), cam2.centre)];
             if let Some((cam3, views3)) = &right {
-                let image3 = warped.next().expect("one warped image per camera and view");
                 outputs.push((
                     out(OutputKind::Image(3), &view_id).expect("every layout has image 3"),
-                    png_io::encode_rgb8(&image3, self.job.png_compression),
+                    encode_view(i, 1, &views3[i].1.table),
                 ));
                 cameras.push((3, views3[i].1.output.intrinsics(), cam3.centre));
             }
@@ -351,7 +356,6 @@ impl<'a> Context<'a> {
                 views.push(ViewRecord { id: view_id, view });
             }
         }
-        debug_assert_eq!(warped.len(), 0, "one image per camera and view");
 
         let mut record_outputs = Vec::new();
         for (path, bytes) in &outputs {
@@ -450,6 +454,18 @@ pub(super) struct Prepared {
     /// What the style pass takes, in order: camera 2's source image then camera 3's; or, when
     /// styling after the warp, each view's warped camera 2 and camera 3 images.
     pub(super) images: Vec<RgbImage>,
+}
+
+/// Warps `src` row by row as the PNG encoder asks for rows, so the warped image never exists
+/// whole (`best`, which the png crate encodes, takes a whole image).
+fn warp_encode(table: &RemapTable, src: &RgbImage, compression: PngCompression) -> Vec<u8> {
+    let size = table.size();
+    match png_io::row_filter(compression) {
+        Some(filter) => encode_rows(Header::rgb8(size.width, size.height), filter, |v, row| {
+            table.apply_row(src, v, row)
+        }),
+        None => png_io::encode_rgb8(&table.apply(src), compression),
+    }
 }
 
 impl Prepared {

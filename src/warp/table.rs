@@ -178,18 +178,41 @@ impl RemapTable {
         if w == 0 {
             return;
         }
-        let stride = self.source_size.width as usize;
-        let data = src.as_raw();
         out.as_raw_mut()
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| {
-                let quads =
-                    &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
-                let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
-                kernel::apply_row(quads, counts, data, stride, self.row_reach[v], row, kernel);
-            });
+            .for_each(|(v, row)| self.row(src, v, row, kernel));
+    }
+
+    /// Resamples output row `v` into `row` (the table's width × 3 bytes), on the calling
+    /// thread: for a consumer that takes an image row by row (the PNG encoder), so that the
+    /// whole warped image never has to exist.
+    pub fn apply_row(&self, src: &RgbImage, v: usize, row: &mut [u8]) {
+        assert_eq!(
+            (src.width(), src.height()),
+            (self.source_size.width, self.source_size.height),
+            "source image size differs from the table's"
+        );
+        assert_eq!(row.len(), self.size.width as usize * 3, "row length");
+        assert!(v < self.size.height as usize, "row {v} beyond the table");
+        self.row(src, v, row, Kernel::Auto);
+    }
+
+    fn row(&self, src: &RgbImage, v: usize, row: &mut [u8], kernel: Kernel) {
+        let w = self.size.width as usize;
+        let quads = &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
+        let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
+        let stride = self.source_size.width as usize;
+        kernel::apply_row(
+            quads,
+            counts,
+            src.as_raw(),
+            stride,
+            self.row_reach[v],
+            row,
+            kernel,
+        );
     }
 }
 
