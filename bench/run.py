@@ -146,13 +146,22 @@ def main():
             print(f"{n:10s} {m['wall_s']:7.3f} ({m['wall_min_s']:.3f}-{m['wall_max_s']:.3f})"
                   f" {m['fps']:9.1f} {m['cpu_s']:7.2f} {1e3 * m['cpu_s'] / a.frames:9.2f}"
                   f" {m['peak_rss_mb']:7.1f} {m['bytes']:11d}")
+        def paired(other):
+            """Per round, other's wall time over panoconv's (the two ran minutes apart at most,
+            so a slow spell of a shared machine slows both): median and range."""
+            rs = [o[0] / p[0] for p, o in zip(results["panoconv"], results[other])]
+            return f"per round {statistics.median(rs):.2f}x ({min(rs):.2f}-{max(rs):.2f})"
+
         if "panoconv" in med and "opencv" in med:
             p, o = med["panoconv"], med["opencv"]
-            print(f"panoconv/opencv: {p['fps'] / o['fps']:.2f}x frames/s,"
+            print(f"panoconv/opencv: {p['fps'] / o['fps']:.2f}x frames/s"
+                  f" [{paired('opencv')}],"
                   f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes")
         if "panoconv" in med and "floor" in med:
             p, f = med["panoconv"], med["floor"]
-            print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall,"
+            inv = [p_[0] / f_[0] for p_, f_ in zip(results["panoconv"], results["floor"])]
+            print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall"
+                  f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
                   f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU")
         if a.json:
             with open(a.json, "w") as f:
