@@ -252,19 +252,19 @@ mod avx2 {
         )
     }
 
-    /// Both pixels of a pair, rounded, into `out` (6 bytes).
+    /// Both pixels of a pair, rounded: (r, g, b, junk) of each.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn finish_pair(acc: __m256i, out: &mut [u8]) {
+    fn finish_pair(acc: __m256i) -> [u32; 2] {
         let r = _mm256_srai_epi32::<{ WEIGHT_BITS as i32 }>(_mm256_add_epi32(
             acc,
             _mm256_set1_epi32(HALF),
         ));
         let p = _mm256_packus_epi16(_mm256_packs_epi32(r, r), r);
-        let a = (_mm256_cvtsi256_si32(p) as u32).to_le_bytes();
-        let b = (_mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(p)) as u32).to_le_bytes();
-        out[..3].copy_from_slice(&a[..3]);
-        out[3..6].copy_from_slice(&b[..3]);
+        [
+            _mm256_cvtsi256_si32(p) as u32,
+            _mm_cvtsi128_si32(_mm256_extracti128_si256::<1>(p)) as u32,
+        ]
     }
 
     /// SAFETY: every quad's reads (see [`sse2::quad_sum`]) must lie inside `data`, and the CPU
@@ -315,17 +315,38 @@ mod avx2 {
     unsafe fn run(p: *const u8, stride3: usize, quads: &[Quad], n: usize, out: &mut [u8]) {
         match n {
             1 => {
-                let mut pairs = out.chunks_exact_mut(6);
-                let mut qs = quads.chunks_exact(2);
-                for (px, q) in (&mut pairs).zip(&mut qs) {
-                    // SAFETY: the caller's contract.
-                    finish_pair(unsafe { pair_sum(p, stride3, &q[0], &q[1]) }, px);
+                let pixels = (out.len() / 3).min(quads.len());
+                // Each pixel is stored as 4 bytes, the 4th overwritten by the next pixel: one
+                // store instead of three. The last pair of the row has no room for that.
+                let wide = pixels.saturating_sub(2) / 2;
+                let o = out.as_mut_ptr();
+                for i in 0..wide {
+                    // SAFETY: the caller's contract for the reads; pixel 2i + 1's 4-byte store
+                    // ends at byte 6i + 7 <= 3·pixels - 3, inside `out`.
+                    unsafe {
+                        let [a, b] = finish_pair(pair_sum(
+                            p,
+                            stride3,
+                            quads.get_unchecked(2 * i),
+                            quads.get_unchecked(2 * i + 1),
+                        ));
+                        std::ptr::write_unaligned(o.add(6 * i) as *mut u32, a);
+                        std::ptr::write_unaligned(o.add(6 * i + 3) as *mut u32, b);
+                    }
                 }
-                if let ([q], [_, _, _]) = (qs.remainder(), pairs.into_remainder()) {
-                    let px = out.len() - 3;
+                let mut u = 2 * wide;
+                while u + 2 <= pixels {
                     // SAFETY: the caller's contract.
-                    let acc = unsafe { sse2::quad_sum(p, stride3, q) };
-                    out[px..].copy_from_slice(&sse2::finish(acc));
+                    let [a, b] =
+                        unsafe { finish_pair(pair_sum(p, stride3, &quads[u], &quads[u + 1])) };
+                    out[3 * u..3 * u + 3].copy_from_slice(&a.to_le_bytes()[..3]);
+                    out[3 * u + 3..3 * u + 6].copy_from_slice(&b.to_le_bytes()[..3]);
+                    u += 2;
+                }
+                if u < pixels {
+                    // SAFETY: the caller's contract.
+                    let acc = unsafe { sse2::quad_sum(p, stride3, &quads[u]) };
+                    out[3 * u..3 * u + 3].copy_from_slice(&sse2::finish(acc));
                 }
             }
             2 => {
