@@ -304,7 +304,10 @@ fn simd_and_scalar_kernels_give_the_same_bytes() {
         for (v, row) in rows.chunks_exact_mut(w).enumerate() {
             table.apply_row(&image, v, row);
         }
-        assert!(rows == *scalar.as_raw(), "apply_row differs from the scalar kernel");
+        assert!(
+            rows == *scalar.as_raw(),
+            "apply_row differs from the scalar kernel"
+        );
         for kernel in [Kernel::Auto, Kernel::Sse2] {
             assert!(
                 run(&table, &image, kernel) == scalar,
