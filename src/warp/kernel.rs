@@ -74,6 +74,24 @@ pub(super) fn apply_row(
     }
 }
 
+/// How many leading `counts` equal `n`, eight at a time (a row's runs are long: a byte at a
+/// time cost a quarter of the AVX2 kernel's time).
+fn same_prefix(counts: &[u8], n: u8) -> usize {
+    let pattern = u64::from_ne_bytes([n; 8]);
+    let mut words = counts.chunks_exact(8);
+    let mut i = 0;
+    for word in &mut words {
+        if u64::from_ne_bytes(word.try_into().expect("8 bytes")) != pattern {
+            break;
+        }
+        i += 8;
+    }
+    i + counts[i..]
+        .iter()
+        .position(|&c| c != n)
+        .unwrap_or(counts.len() - i)
+}
+
 fn apply_row_scalar(
     quads: &[Quad],
     counts: Option<&[u8]>,
@@ -273,6 +291,23 @@ mod avx2 {
         )
     }
 
+    /// Pixels 0 and 1 (`x`'s lanes) and 2 and 3 (`y`'s), rounded, as 12 bytes r g b r g b ...
+    /// and 4 bytes of junk.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn finish_four(x: __m256i, y: __m256i) -> __m128i {
+        let half = _mm256_set1_epi32(HALF);
+        let x = _mm256_srai_epi32::<{ WEIGHT_BITS as i32 }>(_mm256_add_epi32(x, half));
+        let y = _mm256_srai_epi32::<{ WEIGHT_BITS as i32 }>(_mm256_add_epi32(y, half));
+        // bytes, per lane: pixel 0 (or 1) then pixel 2 (or 3), each r g b 0, twice
+        let b = _mm256_packus_epi16(_mm256_packs_epi32(x, y), _mm256_setzero_si256());
+        // dwords in pixel order: lane 0's first two, lane 1's first two, interleaved
+        let d = _mm256_permutevar8x32_epi32(b, _mm256_setr_epi32(0, 4, 1, 5, 0, 0, 0, 0));
+        #[rustfmt::skip]
+        let squeeze = _mm_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1);
+        _mm_shuffle_epi8(_mm256_castsi256_si128(d), squeeze)
+    }
+
     /// Both pixels of a pair, rounded: (r, g, b, junk) of each.
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -310,7 +345,7 @@ mod avx2 {
                 let (mut u, mut q) = (0, 0);
                 while u < w {
                     let n = counts[u];
-                    let len = counts[u..w].iter().position(|&c| c != n).unwrap_or(w - u);
+                    let len = super::same_prefix(&counts[u..w], n);
                     let k = len * n as usize;
                     unsafe {
                         run(
@@ -334,75 +369,95 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn run(p: *const u8, stride3: usize, quads: &[Quad], n: usize, out: &mut [u8]) {
+        // SAFETY (all three): the caller's contract.
         match n {
-            1 => {
-                let pixels = (out.len() / 3).min(quads.len());
-                // Each pixel is stored as 4 bytes, the 4th overwritten by the next pixel: one
-                // store instead of three. The last pair of the row has no room for that.
-                let wide = pixels.saturating_sub(2) / 2;
-                let o = out.as_mut_ptr();
-                for i in 0..wide {
-                    // SAFETY: the caller's contract for the reads; pixel 2i + 1's 4-byte store
-                    // ends at byte 6i + 7 <= 3·pixels - 3, inside `out`.
-                    unsafe {
-                        let [a, b] = finish_pair(pair_sum(
-                            p,
-                            stride3,
-                            quads.get_unchecked(2 * i),
-                            quads.get_unchecked(2 * i + 1),
-                        ));
-                        std::ptr::write_unaligned(o.add(6 * i) as *mut u32, a);
-                        std::ptr::write_unaligned(o.add(6 * i + 3) as *mut u32, b);
-                    }
-                }
-                let mut u = 2 * wide;
-                while u + 2 <= pixels {
-                    // SAFETY: the caller's contract.
-                    let [a, b] =
-                        unsafe { finish_pair(pair_sum(p, stride3, &quads[u], &quads[u + 1])) };
-                    out[3 * u..3 * u + 3].copy_from_slice(&a.to_le_bytes()[..3]);
-                    out[3 * u + 3..3 * u + 6].copy_from_slice(&b.to_le_bytes()[..3]);
-                    u += 2;
-                }
-                if u < pixels {
-                    // SAFETY: the caller's contract.
-                    let acc = unsafe { sse2::quad_sum(p, stride3, &quads[u]) };
-                    out[3 * u..3 * u + 3].copy_from_slice(&sse2::finish(acc));
-                }
+            1 => unsafe { run_n::<1>(p, stride3, quads, out) },
+            2 => unsafe { run_n::<2>(p, stride3, quads, out) },
+            _ => unsafe { run_any(p, stride3, quads, n, out) },
+        }
+    }
+
+    /// Pixels of `N` blocks each (the common counts: 1, and 2 for the 2×1 supersampled
+    /// columns), two pixels in the two lanes, their blocks summed lane by lane.
+    ///
+    /// SAFETY: as [`apply_row`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_n<const N: usize>(p: *const u8, stride3: usize, quads: &[Quad], out: &mut [u8]) {
+        let pixels = (out.len() / 3).min(quads.len() / N);
+        let o = out.as_mut_ptr();
+        let q = quads.as_ptr();
+        // The sums of pixels a and b (lanes 0 and 1).
+        // SAFETY: a, b < pixels, so their blocks are inside `quads`; reads: the caller's.
+        let pair = |a: usize, b: usize| unsafe {
+            let mut acc = pair_sum(p, stride3, &*q.add(a * N), &*q.add(b * N));
+            for k in 1..N {
+                acc = _mm256_add_epi32(
+                    acc,
+                    pair_sum(p, stride3, &*q.add(a * N + k), &*q.add(b * N + k)),
+                );
             }
-            2 => {
-                for (px, q) in out.chunks_exact_mut(3).zip(quads.chunks_exact(2)) {
-                    // both blocks of the pixel in the two lanes, then summed
-                    // SAFETY: the caller's contract.
-                    let acc = unsafe { pair_sum(p, stride3, &q[0], &q[1]) };
-                    let acc = _mm_add_epi32(
-                        _mm256_castsi256_si128(acc),
-                        _mm256_extracti128_si256::<1>(acc),
-                    );
-                    px.copy_from_slice(&sse2::finish(acc));
+            acc
+        };
+        // Four pixels at a time, packed together and stored as 16 bytes (12 of them pixels,
+        // the rest overwritten by the next ones), while 2 more pixels follow.
+        let fours = pixels.saturating_sub(2) / 4;
+        for i in 0..fours {
+            let u = 4 * i;
+            let px = finish_four(pair(u, u + 1), pair(u + 2, u + 3));
+            // SAFETY: the store at byte 12i ends at 12i + 16 <= 3·pixels - 2.
+            unsafe { _mm_storeu_si128(o.add(3 * u) as *mut __m128i, px) };
+        }
+        // Then two at a time, each pixel as 4 bytes (the 4th overwritten by the next pixel)
+        // while a pixel follows, the last ones as 3 bytes.
+        let mut u = 4 * fours;
+        while u + 2 <= pixels {
+            let [a, b] = finish_pair(pair(u, u + 1));
+            if u + 2 < pixels {
+                // SAFETY: pixel u + 1's 4 bytes end at 3u + 7 <= 3·pixels - 2.
+                unsafe {
+                    std::ptr::write_unaligned(o.add(3 * u) as *mut u32, a);
+                    std::ptr::write_unaligned(o.add(3 * u + 3) as *mut u32, b);
                 }
+            } else {
+                out[3 * u..3 * u + 3].copy_from_slice(&a.to_le_bytes()[..3]);
+                out[3 * u + 3..3 * u + 6].copy_from_slice(&b.to_le_bytes()[..3]);
             }
-            _ => {
-                // blocks two at a time in the two lanes, the lanes summed at the end
-                for (px, qs) in out.chunks_exact_mut(3).zip(quads.chunks_exact(n)) {
-                    let mut wide = _mm256_setzero_si256();
-                    let mut pairs = qs.chunks_exact(2);
-                    for q in &mut pairs {
-                        // SAFETY: the caller's contract.
-                        wide =
-                            _mm256_add_epi32(wide, unsafe { pair_sum(p, stride3, &q[0], &q[1]) });
-                    }
-                    let mut acc = _mm_add_epi32(
-                        _mm256_castsi256_si128(wide),
-                        _mm256_extracti128_si256::<1>(wide),
-                    );
-                    if let [q] = pairs.remainder() {
-                        // SAFETY: the caller's contract.
-                        acc = _mm_add_epi32(acc, unsafe { sse2::quad_sum(p, stride3, q) });
-                    }
-                    px.copy_from_slice(&sse2::finish(acc));
-                }
+            u += 2;
+        }
+        if u < pixels {
+            let mut acc = _mm_setzero_si128();
+            for quad in &quads[u * N..(u + 1) * N] {
+                // SAFETY: the caller's contract.
+                acc = _mm_add_epi32(acc, unsafe { sse2::quad_sum(p, stride3, quad) });
             }
+            out[3 * u..3 * u + 3].copy_from_slice(&sse2::finish(acc));
+        }
+    }
+
+    /// Pixels of `n` blocks each, any n: blocks two at a time in the two lanes.
+    ///
+    /// SAFETY: as [`apply_row`].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_any(p: *const u8, stride3: usize, quads: &[Quad], n: usize, out: &mut [u8]) {
+        // blocks two at a time in the two lanes, the lanes summed at the end
+        for (px, qs) in out.chunks_exact_mut(3).zip(quads.chunks_exact(n)) {
+            let mut wide = _mm256_setzero_si256();
+            let mut pairs = qs.chunks_exact(2);
+            for q in &mut pairs {
+                // SAFETY: the caller's contract.
+                wide = _mm256_add_epi32(wide, unsafe { pair_sum(p, stride3, &q[0], &q[1]) });
+            }
+            let mut acc = _mm_add_epi32(
+                _mm256_castsi256_si128(wide),
+                _mm256_extracti128_si256::<1>(wide),
+            );
+            if let [q] = pairs.remainder() {
+                // SAFETY: the caller's contract.
+                acc = _mm_add_epi32(acc, unsafe { sse2::quad_sum(p, stride3, q) });
+            }
+            px.copy_from_slice(&sse2::finish(acc));
         }
     }
 }
