@@ -3,6 +3,7 @@
 pub mod calib;
 pub mod dataset;
 pub mod label;
+pub mod png_decode;
 pub mod png_encode;
 pub mod png_io;
 pub mod raw;

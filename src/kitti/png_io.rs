@@ -1,5 +1,6 @@
 //! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
 
+use super::png_decode;
 use super::png_encode::{encode_rows, Header, RowFilter};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
@@ -31,8 +32,22 @@ pub enum PngCompression {
 /// Decodes a PNG, tagging any failure with `path`. Alpha is dropped (KITTI images are opaque);
 /// 16-bit samples are rounded to 8 bits.
 pub fn decode_rgb8(bytes: &[u8], path: &Path) -> Result<RgbImage> {
+    if let Some((width, height, data)) = png_decode::decode_rgb8(bytes, MAX_PIXELS) {
+        return Ok(RgbImage::from_raw(width, height, data).expect("width · height · 3 bytes"));
+    }
+    decode_rgb8_with_png_crate(bytes, path)
+}
+
+/// As [`decode_rgb8`], always with the png crate (every pixel format; the error messages).
+#[doc(hidden)]
+pub fn decode_rgb8_with_png_crate(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     let bad = |e: String| Error::file(path, format!("cannot decode PNG: {e}"));
     let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    // The png crate's default 64 MiB would refuse panoramas that MAX_PIXELS allows (the size
+    // is checked against MAX_PIXELS below, before anything is allocated).
+    decoder.set_limits(png::Limits {
+        bytes: (MAX_PIXELS * 8) as usize,
+    });
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
     let (width, height) = {
