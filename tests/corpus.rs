@@ -8,6 +8,8 @@
 //! Cases that expose a bug carry `bug: Some(..)`: the main test skips them and an `#[ignore]`d
 //! test of the same name runs them (`cargo test --test corpus -- --ignored`).
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
@@ -712,25 +714,9 @@ fn with_size(png: &[u8], width: u32, height: u32) -> Vec<u8> {
     assert_eq!(&png[12..16], b"IHDR");
     png[16..20].copy_from_slice(&width.to_be_bytes());
     png[20..24].copy_from_slice(&height.to_be_bytes());
-    let crc = crc32(&png[12..29]);
+    let crc = common::png_crc32(&png[12..29]);
     png[29..33].copy_from_slice(&crc.to_be_bytes());
     png
-}
-
-/// The PNG chunk CRC (for the hand-made IHDR above).
-fn crc32(bytes: &[u8]) -> u32 {
-    let mut crc = 0xffff_ffffu32;
-    for &b in bytes {
-        crc ^= b as u32;
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xedb8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
 }
 
 // ---------------------------------------------------------------------------------------------

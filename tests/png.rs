@@ -4,6 +4,8 @@
 //! The direct RGB8 decoder against the png crate's decoder: the same pixels for every filter
 //! type and every encoder, and files it must not take are left to the png crate.
 
+mod common;
+
 use panoconv::image::RgbImage;
 use panoconv::kitti::png_decode;
 use panoconv::kitti::png_io::{
@@ -309,7 +311,7 @@ fn png_file(w: u32, h: u32, color: u8, zlib: &[u8], extra: &[([u8; 4], Vec<u8>)]
         let mut body = kind.to_vec();
         body.extend_from_slice(data);
         out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32(&body).to_be_bytes());
+        out.extend_from_slice(&common::png_crc32(&body).to_be_bytes());
     };
     let mut ihdr = Vec::new();
     ihdr.extend_from_slice(&w.to_be_bytes());
@@ -322,20 +324,4 @@ fn png_file(w: u32, h: u32, color: u8, zlib: &[u8], extra: &[([u8; 4], Vec<u8>)]
     chunk(b"IDAT", zlib);
     chunk(b"IEND", &[]);
     out
-}
-
-/// CRC-32 (ISO-HDLC, PNG's), bit by bit: independent of the crate the decoder uses.
-fn crc32(data: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &byte in data {
-        crc ^= byte as u32;
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xedb8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
 }

@@ -506,3 +506,20 @@ pub fn check_manifest(
     assert_eq!(ok, converted);
     m
 }
+
+/// CRC-32 as PNG chunks use it, bit by bit (independent of the crates panoconv decodes with),
+/// for hand-made chunks.
+pub fn png_crc32(bytes: &[u8]) -> u32 {
+    let mut crc = 0xffff_ffffu32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
