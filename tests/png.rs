@@ -325,3 +325,82 @@ fn png_file(w: u32, h: u32, color: u8, zlib: &[u8], extra: &[([u8; 4], Vec<u8>)]
     chunk(b"IEND", &[]);
     out
 }
+
+/// Damaged files with valid chunk CRCs (so that the damage reaches the inflater, the filters
+/// and the chunk layout): the decoder never panics, and `decode_rgb8` gives the png crate's
+/// answer, the same pixels or an error, whichever path takes the file.
+#[test]
+fn damaged_files_are_decoded_as_the_png_crate_decodes_them() {
+    let img = camera_like(37, 21, 11);
+    let mut rng = noise(0xdec0de, 40_000).into_iter();
+    let mut next = move || rng.next().expect("enough noise") as usize;
+    let (mut taken, mut errors) = (0, 0);
+    for round in 0..2_000 {
+        let c = [
+            PngCompression::Fast,
+            PngCompression::Default,
+            PngCompression::Best,
+        ][round % 3];
+        let mut png = encode_rgb8(&img, c);
+        let chunks = chunk_spans(&png);
+        let (start, len) = chunks[next() % chunks.len()];
+        match next() % 4 {
+            // flip bits in a chunk's data (IHDR fields, the zlib stream, ...)
+            0 | 1 if len > 0 => {
+                for _ in 0..1 + next() % 3 {
+                    png[start + 8 + next() % len] ^= 1 << (next() % 8);
+                }
+            }
+            // cut the file short
+            2 => png.truncate(start + next() % (len + 12)),
+            // repeat or drop a chunk
+            _ => {
+                let chunk = png[start..start + len + 12].to_vec();
+                if next() % 2 == 0 {
+                    png.splice(start..start, chunk);
+                } else {
+                    png.drain(start..start + len + 12);
+                }
+            }
+        }
+        fix_crcs(&mut png);
+        let what = format!("damaged file {round}");
+        taken += png_decode::decode_rgb8(&png, MAX_PIXELS).is_some() as usize;
+        let ours = decode_rgb8(&png, Path::new(&what)).map(|i| i.into_raw());
+        let theirs = decode_rgb8_with_png_crate(&png, Path::new(&what)).map(|i| i.into_raw());
+        errors += theirs.is_err() as usize;
+        assert_eq!(
+            ours.as_ref().map_err(|e| e.to_string()),
+            theirs.as_ref().map_err(|e| e.to_string()),
+            "{what}"
+        );
+    }
+    // both kinds of outcome occurred, so both paths were compared
+    assert!(
+        taken > 100 && errors > 100,
+        "{taken} taken directly, {errors} errors"
+    );
+}
+
+/// (offset, data length) of every chunk of a PNG (up to where the chunk layout breaks).
+fn chunk_spans(png: &[u8]) -> Vec<(usize, usize)> {
+    let mut spans = Vec::new();
+    let mut at = 8;
+    while at + 12 <= png.len() {
+        let len = u32::from_be_bytes(png[at..at + 4].try_into().unwrap()) as usize;
+        if at + 12 + len > png.len() {
+            break;
+        }
+        spans.push((at, len));
+        at += 12 + len;
+    }
+    spans
+}
+
+/// Recomputes the CRC of every whole chunk.
+fn fix_crcs(png: &mut [u8]) {
+    for (at, len) in chunk_spans(png) {
+        let crc = common::png_crc32(&png[at + 4..at + 8 + len]);
+        png[at + 8 + len..at + 12 + len].copy_from_slice(&crc.to_be_bytes());
+    }
+}
