@@ -225,8 +225,14 @@ impl Ctx<'_> {
             .map_err(|m| Error::file(&input.path, m))?;
         let mut outputs = Vec::new();
         for view in views.iter() {
-            let warped = view.table.apply(&image);
-            let png = png_io::encode_rgb8(&warped, self.job.png_compression);
+            // warped row by row as the encoder takes the rows (one image per worker already)
+            let size = view.table.size();
+            let png = png_io::encode_rgb8_rows(
+                size.width,
+                size.height,
+                self.job.png_compression,
+                |v, row| view.table.apply_row(&image, v, row),
+            );
             let txt = camera_text(view);
             for (ext, data) in [("png", png), ("txt", txt.into_bytes())] {
                 let name = format!("{}{}.{ext}", input.stem, view.suffix);

@@ -199,6 +199,31 @@ pub fn encode_rgb8(img: &RgbImage, c: PngCompression) -> Vec<u8> {
     encode(Header::rgb8(img.width(), img.height()), img.as_raw(), c)
 }
 
+/// Encodes a `width` × `height` RGB8 image whose row `v` is written by `fill(v, row)`: for
+/// `fast` and `default` row by row as the encoder takes them (the image never exists whole),
+/// for `best` gathered first for the png crate. Same bytes as [`encode_rgb8`] of the image.
+pub fn encode_rgb8_rows(
+    width: u32,
+    height: u32,
+    c: PngCompression,
+    mut fill: impl FnMut(usize, &mut [u8]),
+) -> Vec<u8> {
+    let header = Header::rgb8(width, height);
+    match row_filter(c) {
+        Some(filter) => encode_rows(header, filter, fill),
+        None => {
+            let len = header.width as usize * 3;
+            let mut data = vec![0u8; len * header.height as usize];
+            if len > 0 {
+                for (v, row) in data.chunks_exact_mut(len).enumerate() {
+                    fill(v, row);
+                }
+            }
+            encode_with_png_crate(header, &data, c)
+        }
+    }
+}
+
 /// As [`encode_rgb8`], always with the png crate's encoder (for tests).
 #[doc(hidden)]
 pub fn encode_rgb8_with_png_crate(img: &RgbImage, c: PngCompression) -> Vec<u8> {

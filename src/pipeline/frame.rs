@@ -10,7 +10,6 @@ use crate::error::{read_file, read_file_into, split_lines, Error, Result};
 use crate::geometry::output_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
-use crate::kitti::png_encode::{encode_rows, Header};
 use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::{velodyne, Layout, OutputKind};
 use crate::kitti::{Calib, Dataset, LabelFile, Split};
@@ -456,16 +455,13 @@ pub(super) struct Prepared {
     pub(super) images: Vec<RgbImage>,
 }
 
-/// Warps `src` row by row as the PNG encoder asks for rows, so the warped image never exists
-/// whole (`best`, which the png crate encodes, takes a whole image).
+/// Warps `src` row by row as the PNG encoder takes the rows, so that the warped image never
+/// has to exist whole.
 fn warp_encode(table: &RemapTable, src: &RgbImage, compression: PngCompression) -> Vec<u8> {
     let size = table.size();
-    match png_io::row_filter(compression) {
-        Some(filter) => encode_rows(Header::rgb8(size.width, size.height), filter, |v, row| {
-            table.apply_row(src, v, row)
-        }),
-        None => png_io::encode_rgb8(&table.apply(src), compression),
-    }
+    png_io::encode_rgb8_rows(size.width, size.height, compression, |v, row| {
+        table.apply_row(src, v, row)
+    })
 }
 
 impl Prepared {
