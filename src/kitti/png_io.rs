@@ -161,7 +161,7 @@ fn encode(header: Header, data: &[u8], c: PngCompression) -> Vec<u8> {
 }
 
 /// The row filter of the fdeflate presets (streamed by [`encode_rows`]); `None` for `best`.
-pub fn row_filter(c: PngCompression) -> Option<RowFilter> {
+fn row_filter(c: PngCompression) -> Option<RowFilter> {
     match c {
         PngCompression::Fast => Some(RowFilter::Sub),
         PngCompression::Default => Some(RowFilter::Paeth),
