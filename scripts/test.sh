@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The whole test suite. Installs what it needs first (ONNX Runtime for the style tests, from
-# the PyPI wheel, into .ort/), then runs every test. Extra arguments go to `cargo test`.
+# the PyPI wheel, into .ort/; the Python references of the tests, into .venv-test/), then runs
+# every test. Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ORT_DYLIB_PATH="$(scripts/install_ort.sh | tail -n 1)"
-export ORT_DYLIB_PATH
+PANOCONV_TEST_PYTHON="$(scripts/install_test_python.sh | tail -n 1)"
+export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
 cargo test --locked "$@"

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Installs the Python packages that the tests use as independent references (pycocotools for
+# the COCO export, OpenCV's fisheye and omnidir modules for the camera models) into a virtual
+# environment of their own, `<repo>/.venv-test/`, from PyPI.
+#
+# Idempotent: nothing is downloaded when the environment already holds these pinned versions.
+# Always prints the absolute path of the environment's python on stdout (last line), e.g. to
+# use as PANOCONV_TEST_PYTHON.
+#
+# Environment:
+#   PYTHON   interpreter that makes the environment (default: python3)
+set -euo pipefail
+
+PYTHON="${PYTHON:-python3}"
+REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+VENV="$REPO/.venv-test"
+REQUIREMENTS=(
+    "numpy==2.2.6"
+    "pycocotools==2.0.11"
+    "opencv-contrib-python-headless==4.11.0.86"
+)
+STAMP="$VENV/.panoconv-requirements"
+WANT="$(printf '%s\n' "${REQUIREMENTS[@]}")"
+
+if [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "$WANT" ]]; then
+    echo "$VENV/bin/python"
+    exit 0
+fi
+
+echo "install_test_python: installing ${REQUIREMENTS[*]} into $VENV" >&2
+rm -rf "$VENV"
+"$PYTHON" -m venv "$VENV" >&2
+"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
+    "${REQUIREMENTS[@]}" >&2
+printf '%s\n' "$WANT" >"$STAMP"
+echo "$VENV/bin/python"
