@@ -15,6 +15,17 @@ pub struct Augment {
     pub scale_range: (f64, f64),
     /// Size of every view.
     pub crop_size: ImageSize,
+    /// A view holding fewer objects (DontCare aside) is drawn again, up to [`MAX_ATTEMPTS`]
+    /// times. 0: every first draw stands.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_objects: u32,
+}
+
+/// Draws of one view tried before a view short of objects is kept as it is.
+pub const MAX_ATTEMPTS: u32 = 16;
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// One drawn view: the canvas resized to `scaled`, then the window `crop` of it.
@@ -24,6 +35,9 @@ pub struct View {
     pub scale: f64,
     pub scaled: ImageSize,
     pub crop: Crop,
+    /// Which draw of this view it is (0: the first; more with `min_objects`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub attempt: u32,
 }
 
 /// Uniform numbers in [0, 1) from a keyed hash.
@@ -33,7 +47,7 @@ struct Draws {
 }
 
 impl Draws {
-    fn new(seed: u64, split: &str, frame: &str, view: u32) -> Self {
+    fn new(seed: u64, split: &str, frame: &str, view: u32, attempt: u32) -> Self {
         let mut h = blake3::Hasher::new();
         h.update(b"panoconv-augment-v1");
         h.update(&seed.to_le_bytes());
@@ -41,6 +55,10 @@ impl Draws {
         h.update(&[0]);
         h.update(frame.as_bytes());
         h.update(&view.to_le_bytes());
+        // (the first draw hashes as it always did, so views without redraws do not change)
+        if attempt > 0 {
+            h.update(&attempt.to_le_bytes());
+        }
         let mut bytes = [0u8; 64];
         h.finalize_xof().fill(&mut bytes);
         Self { bytes, at: 0 }
@@ -58,9 +76,16 @@ impl Draws {
 }
 
 impl Augment {
-    /// The `index`-th view of a frame whose full output canvas is `canvas`.
-    pub fn view(&self, split: &str, frame: &str, index: u32, canvas: ImageSize) -> View {
-        let mut d = Draws::new(self.seed, split, frame, index);
+    /// Draw `attempt` of the `index`-th view of a frame whose full output canvas is `canvas`.
+    pub fn view(
+        &self,
+        split: &str,
+        frame: &str,
+        index: u32,
+        attempt: u32,
+        canvas: ImageSize,
+    ) -> View {
+        let mut d = Draws::new(self.seed, split, frame, index, attempt);
         let (lo, hi) = self.scale_range;
         let scale = lo + (hi - lo) * d.next();
         let scaled = ImageSize::new(
@@ -87,6 +112,7 @@ impl Augment {
             scale,
             scaled,
             crop,
+            attempt,
         }
     }
 

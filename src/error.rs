@@ -27,6 +27,10 @@ pub enum Error {
     Setup(String),
     #[error(transparent)]
     Style(#[from] crate::style::StyleError),
+    /// The output device refused writes (full, over quota, read-only) and the run stopped;
+    /// the message says how far it got and what to do.
+    #[error("{0}")]
+    DeviceFull(String),
 }
 
 impl Error {
@@ -56,6 +60,18 @@ impl Error {
             path: path.to_path_buf(),
             cause,
         }
+    }
+}
+
+impl Error {
+    /// Whether the output device refused a write for a reason every later write shares (no
+    /// space, no quota, a read-only file system): a run stops taking frames then.
+    pub fn is_device_full(&self) -> bool {
+        use std::io::ErrorKind;
+        matches!(self, Error::Io { cause, .. } if matches!(
+            cause.kind(),
+            ErrorKind::StorageFull | ErrorKind::QuotaExceeded | ErrorKind::ReadOnlyFilesystem
+        ))
     }
 }
 

@@ -318,9 +318,11 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         failed,
         resumed: 0,
         interrupted: false,
+        device_full: None,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
         style_runs: None,
+        thin_views: None,
     };
     Ok(summary)
 }

@@ -36,7 +36,12 @@ pub struct SplitReport {
     pub name: String,
     pub frames: usize,
     pub labelled: bool,
+    /// Which of the folders a frame may have exist (image_2 and calib always do).
+    pub folders: Vec<String>,
 }
+
+/// The folders of a split besides image_2 and calib, in the order they are listed.
+const OPTIONAL_FOLDERS: [&str; 4] = ["label_2", "image_3", "velodyne", "depth_2"];
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct SizeCount {
@@ -58,6 +63,21 @@ pub struct CalibCount {
     pub count: usize,
     /// The first frame (split/id) with this P2.
     pub first_frame: String,
+    /// The camera a converted image was written with (`projection:`, `K2:`, `C2:`), when the
+    /// calib has those lines: then the image is not P2's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub written: Option<WrittenCamera>,
+}
+
+/// Camera 2 as panoconv wrote it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WrittenCamera {
+    pub projection: String,
+    pub fu: f64,
+    pub fv: f64,
+    pub cu: f64,
+    pub cv: f64,
+    pub c2: [f64; 3],
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -171,6 +191,12 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
             name: split.name.clone(),
             frames: split.frames.len(),
             labelled: split.has_labels,
+            folders: std::iter::once("image_2")
+                .chain(OPTIONAL_FOLDERS)
+                .chain(std::iter::once("calib"))
+                .filter(|f| split.dir.join(f).is_dir())
+                .map(str::to_owned)
+                .collect(),
         });
         for id in &split.frames {
             let frame = format!("{}/{id}", split.name);
@@ -201,7 +227,21 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
                             .as_slice()
                             .try_into()
                             .expect("3x4");
-                        match calibs.iter_mut().find(|c| c.p2 == p2) {
+                        let written = match (calib.projection, calib.k_out[2], calib.c_out[2]) {
+                            (Some(p), Some(k), Some(c)) => Some(WrittenCamera {
+                                projection: p.name().to_owned(),
+                                fu: k.fu,
+                                fv: k.fv,
+                                cu: k.cu,
+                                cv: k.cv,
+                                c2: [c.x, c.y, c.z],
+                            }),
+                            _ => None,
+                        };
+                        match calibs
+                            .iter_mut()
+                            .find(|c| c.p2 == p2 && c.written == written)
+                        {
                             Some(c) => c.count += 1,
                             None => calibs.push(CalibCount {
                                 p2,
@@ -212,6 +252,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
                                 c2: [cam.centre.x, cam.centre.y, cam.centre.z],
                                 count: 1,
                                 first_frame: frame.clone(),
+                                written,
                             }),
                         }
                     }
@@ -322,6 +363,19 @@ impl Report {
             .map(|sp| format!("{} {}", sp.name, sp.frames))
             .collect();
         let _ = writeln!(s, "frames: {} ({})", self.frames, per_split.join(", "));
+        for sp in &self.splits {
+            let absent: Vec<&str> = OPTIONAL_FOLDERS
+                .iter()
+                .copied()
+                .filter(|f| !sp.folders.iter().any(|g| g == f))
+                .collect();
+            let _ = write!(s, "  {}: {}", sp.name, sp.folders.join(" "));
+            if absent.is_empty() {
+                s.push('\n');
+            } else {
+                let _ = writeln!(s, " (no {})", absent.join(", no "));
+            }
+        }
         let objects: usize = self.classes.values().sum();
         let _ = writeln!(s, "classes: {objects} label lines");
         let mut classes: Vec<_> = self.classes.iter().collect();
@@ -338,12 +392,18 @@ impl Report {
                 z.count
             );
         }
-        let _ = writeln!(s, "calibrations: {} distinct P2", self.calibrations.len());
+        let _ = writeln!(s, "calibrations: {} distinct", self.calibrations.len());
         for c in &self.calibrations {
+            // A converted image is described by the camera it was written with; P2 stays the
+            // source camera's.
+            let (what, fu, fv, cu, cv, c2) = match &c.written {
+                Some(w) => (format!("{} K2", w.projection), w.fu, w.fv, w.cu, w.cv, w.c2),
+                None => ("P2".to_owned(), c.fu, c.fv, c.cu, c.cv, c.c2),
+            };
             let _ = writeln!(
                 s,
-                "  {:>7} frames  fu {:.4} fv {:.4} cu {:.4} cv {:.4}  C2 ({:.4}, {:.4}, {:.4}) m  first {}",
-                c.count, c.fu, c.fv, c.cu, c.cv, c.c2[0], c.c2[1], c.c2[2], c.first_frame
+                "  {:>7} frames  {what} fu {fu:.4} fv {fv:.4} cu {cu:.4} cv {cv:.4}  C2 ({:.4}, {:.4}, {:.4}) m  first {}",
+                c.count, c2[0], c2[1], c2[2], c.first_frame
             );
         }
         let projections: Vec<String> = self

@@ -9,6 +9,7 @@ pub mod alloc;
 pub mod augment;
 pub mod camera;
 pub mod depth;
+pub mod derived;
 pub mod error;
 pub mod eval;
 pub mod folder;

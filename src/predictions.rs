@@ -18,6 +18,8 @@ use std::path::{Path, PathBuf};
 pub struct FolderSummary {
     pub done: usize,
     pub failed: Vec<(String, Error)>,
+    /// The files written.
+    pub written: Vec<PathBuf>,
 }
 
 fn txt_ids(dir: &Path) -> Result<Vec<String>> {
@@ -60,7 +62,7 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
     prepare_output(output)?;
     let mut summary = FolderSummary::default();
     for id in ids {
-        let run = || -> Result<()> {
+        let run = || -> Result<PathBuf> {
             let (camera, centre) =
                 frame_camera(&split_dir.join("calib"), &split_dir.join("image_2"), &id)?;
             let labels = LabelFile::read(&label_dir.join(format!("{id}.txt")))?;
@@ -71,10 +73,15 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
                     text.push('\n');
                 }
             }
-            write_atomic(&output.join(format!("{id}.txt")), text.as_bytes())
+            let path = output.join(format!("{id}.txt"));
+            write_atomic(&path, text.as_bytes())?;
+            Ok(path)
         };
         match run() {
-            Ok(()) => summary.done += 1,
+            Ok(path) => {
+                summary.done += 1;
+                summary.written.push(path);
+            }
             Err(e) => summary.failed.push((id, e)),
         }
     }
@@ -95,7 +102,7 @@ pub fn unproject(
     prepare_output(output)?;
     let mut summary = FolderSummary::default();
     for id in ids {
-        let run = || -> Result<()> {
+        let run = || -> Result<PathBuf> {
             let (camera, centre) = frame_camera(calib_dir, images_dir, &id)?;
             let scale = trained_fv.map_or(1.0, |f| trained_focal_scale(camera.as_ref(), f));
             let path = input.join(format!("{id}.txt"));
@@ -112,10 +119,15 @@ pub fn unproject(
                 text.push_str(&line);
                 text.push('\n');
             }
-            write_atomic(&output.join(format!("{id}.txt")), text.as_bytes())
+            let path = output.join(format!("{id}.txt"));
+            write_atomic(&path, text.as_bytes())?;
+            Ok(path)
         };
         match run() {
-            Ok(()) => summary.done += 1,
+            Ok(path) => {
+                summary.done += 1;
+                summary.written.push(path);
+            }
             Err(e) => summary.failed.push((id, e)),
         }
     }

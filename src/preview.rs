@@ -302,6 +302,57 @@ pub fn depth_colour(d: f64) -> [u8; 3] {
     out
 }
 
+/// Distances (metres) where [`depth_colour`] passes its stops: red, yellow, green, cyan, blue.
+pub const DEPTH_STOPS_M: [f64; 5] = [0.0, 5.0, 20.0, 45.0, DEPTH_MAX_M];
+
+/// Draws the colour scale of [`depth_colour`] in the bottom-left corner: a bar from 0 to
+/// [`DEPTH_MAX_M`] with the metres of its stops written under it.
+pub fn draw_depth_legend(img: &mut RgbImage, scale: u32) {
+    let s = scale.max(1);
+    let width = (160 * s).min(img.width().saturating_sub(4 * s));
+    let bar_h = 6 * s;
+    let (_, text_h) = text_size("0", s);
+    if width < 40 || img.height() < bar_h + text_h + 4 * s {
+        return;
+    }
+    let x0 = 2 * s;
+    let y0 = img.height() - bar_h - text_h - 2 * s;
+    // The bar's x is linear in the colour parameter (the square root of the distance).
+    let metres_at = |x: u32| DEPTH_MAX_M * (x as f64 / (width - 1) as f64).powi(2);
+    let position = |d: f64| ((d / DEPTH_MAX_M).sqrt() * (width - 1) as f64).round() as u32;
+    for x in 0..width {
+        let c = depth_colour(metres_at(x));
+        for y in y0..y0 + bar_h {
+            img.put_pixel(x0 + x, y, c);
+        }
+    }
+    for y in y0 + bar_h..y0 + bar_h + text_h {
+        for x in 0..width {
+            img.put_pixel(x0 + x, y, [0, 0, 0]);
+        }
+    }
+    for d in DEPTH_STOPS_M {
+        let text = if d >= DEPTH_MAX_M {
+            format!("{d:.0}m+")
+        } else {
+            format!("{d:.0}")
+        };
+        let (tw, _) = text_size(&text, s);
+        let x = (x0 + position(d))
+            .saturating_sub(tw / 2)
+            .min(x0 + width - tw);
+        draw_text(
+            img,
+            x as i64,
+            (y0 + bar_h) as i64,
+            &text,
+            s,
+            [255, 255, 255],
+            None,
+        );
+    }
+}
+
 /// Paints every pixel with a depth (`value > 0`, d = value / 256 m) in the colour of its
 /// distance.
 pub fn overlay_depth(img: &mut RgbImage, width: u32, height: u32, values: &[u16]) -> bool {
@@ -377,6 +428,11 @@ pub fn render_frame(
                 format!("depth map is {w}x{h}, the image is {size}"),
             ));
         }
+        let scale = options
+            .text_scale
+            .filter(|&s| s > 0)
+            .unwrap_or_else(|| default_text_scale(&image));
+        draw_depth_legend(&mut image, scale);
     }
     if label_path.exists() {
         let scale = options
@@ -387,6 +443,49 @@ pub fn render_frame(
         }
     }
     Ok(image)
+}
+
+/// The split and id of the frame `id` names in a dataset: `split` when given, else the first
+/// split holding it; an id not found as given is tried as KITTI's six-digit form (`7` →
+/// `000007`). The error lists where it looked.
+pub fn find_frame(root: &Path, split: Option<&str>, id: &str) -> Result<(String, String)> {
+    let splits: Vec<&str> = match split {
+        Some(s) => vec![s],
+        None => crate::kitti::dataset::SPLITS.to_vec(),
+    };
+    let mut ids = vec![id.to_owned()];
+    if let Ok(n) = id.parse::<u64>() {
+        let padded = format!("{n:06}");
+        if padded != id {
+            ids.push(padded);
+        }
+    }
+    for s in &splits {
+        for candidate in &ids {
+            if root
+                .join(s)
+                .join("image_2")
+                .join(format!("{candidate}.png"))
+                .is_file()
+            {
+                return Ok((s.to_string(), candidate.clone()));
+            }
+        }
+    }
+    let looked: Vec<String> = splits
+        .iter()
+        .map(|s| {
+            root.join(s)
+                .join("image_2")
+                .join(format!("{}.png", ids.last().unwrap_or(&ids[0])))
+                .display()
+                .to_string()
+        })
+        .collect();
+    Err(Error::Setup(format!(
+        "frame {id} not found (looked for {})",
+        looked.join(" and ")
+    )))
 }
 
 /// Resizes to `width` (height in proportion) by averaging the source pixels whose centres fall

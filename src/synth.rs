@@ -463,7 +463,11 @@ pub fn label_lines(calib: &SynthCalib, scene: &Scene, dont_care: Option<[f64; 4]
 }
 
 /// Writes the synthetic dataset under `root` (KITTI object layout).
-pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
+pub fn write_dataset(
+    root: &Path,
+    overwrite: bool,
+    progress: &dyn crate::pipeline::Progress,
+) -> Result<()> {
     if root.exists()
         && !overwrite
         && std::fs::read_dir(root)
@@ -476,13 +480,15 @@ pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
             root.display()
         )));
     }
+    let frames = frames();
+    progress.start(frames.len());
     for SynthFrame {
         split,
         id,
         calib,
         scene,
         dont_care,
-    } in frames()
+    } in frames
     {
         let dir = root.join(split);
         let mut subdirs = vec!["image_2", "image_3", "calib", "velodyne"];
@@ -519,6 +525,8 @@ pub fn write_dataset(root: &Path, overwrite: bool) -> Result<()> {
                 labels.as_bytes(),
             )?;
         }
+        progress.frame_done();
     }
+    progress.finish();
     Ok(())
 }

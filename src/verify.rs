@@ -3,8 +3,10 @@
 //! Every output listed in `OUT/panoconv.json` is re-hashed (blake3) and compared with the
 //! recorded hash. Files under `OUT` that no frame lists are reported too, so a stale file from an
 //! earlier run, a half-written temporary or a file copied in by hand does not go unnoticed.
-//! Not counted as extra: the manifest itself, manifest parts (`panoconv.*.json`), and with
-//! `--augment` the `ImageSets/<split>.txt` lists the conversion writes beside the frames.
+//! Files that tools derived from the dataset and wrote inside it (`labels-to-pixels`,
+//! `preview`, ...) are listed under `derived` and checked the same way. Not counted as extra:
+//! the manifest itself, manifest parts (`panoconv.*.json`), and with `--augment` the
+//! `ImageSets/<split>.txt` lists the conversion writes beside the frames.
 
 use crate::error::{Error, Result};
 use serde::Deserialize;
@@ -19,6 +21,9 @@ struct ManifestView {
     #[serde(default)]
     parameters: Option<ParametersView>,
     frames: Vec<FrameView>,
+    /// What tools wrote into the dataset afterwards (see [`crate::derived`]).
+    #[serde(default)]
+    derived: Vec<FrameView>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -239,7 +244,12 @@ pub fn verify(root: &Path) -> Result<Report> {
 
     let mut report = Report::default();
     let mut listed: BTreeMap<String, String> = BTreeMap::new();
-    for (rel, hash) in manifest.frames.iter().flat_map(|f| &f.outputs) {
+    let listed_files = manifest
+        .frames
+        .iter()
+        .chain(&manifest.derived)
+        .flat_map(|f| &f.outputs);
+    for (rel, hash) in listed_files {
         if !safe_relative(rel) {
             report.problems.push(Problem::BadPath { path: rel.clone() });
             continue;

@@ -151,7 +151,7 @@ fn reports_the_shared_kitti_facts() {
     assert!(t.contains("frames: 7 (training 6, testing 1)"), "{t}");
     assert!(t.contains("image sizes: 2 distinct"), "{t}");
     assert!(t.contains("1224x370"), "{t}");
-    assert!(t.contains("calibrations: 2 distinct P2"), "{t}");
+    assert!(t.contains("calibrations: 2 distinct"), "{t}");
     for (class, n) in &classes {
         assert!(
             t.lines().any(|l| {

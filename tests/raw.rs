@@ -184,3 +184,42 @@ fn raw_errors_are_set_up_errors() {
     assert!(err.contains("calib_velo_to_cam.txt"), "{err}");
     assert!(!out.exists());
 }
+
+#[test]
+fn a_raw_conversion_passes_its_own_verify() {
+    let tmp = tempfile::tempdir().unwrap();
+    let date = raw_date_folder(tmp.path());
+    let out = tmp.path().join("out");
+    run(&[
+        "kitti-raw".as_ref(),
+        "--to".as_ref(),
+        "equirect".as_ref(),
+        "--cameras".as_ref(),
+        "2,3".as_ref(),
+        "--input".as_ref(),
+        date.as_os_str(),
+        "--output".as_ref(),
+        out.as_os_str(),
+    ]);
+    let o = Command::new(env!("CARGO_BIN_EXE_panoconv"))
+        .arg("verify")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}");
+    // The drive's one calib is listed (so a changed calib is caught).
+    let calib = out.join(DRIVE).join("calib.txt");
+    std::fs::write(&calib, std::fs::read_to_string(&calib).unwrap() + "\n").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_panoconv"))
+        .arg("verify")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout.contains(&format!("changed: {DRIVE}/calib.txt")),
+        "{stdout}"
+    );
+}

@@ -9,7 +9,7 @@ pub(super) const RAW_EXAMPLES: &str = "Examples:
 Output mirrors the input: OUT/<drive>/image_02/data/*.png (image_03 with --cameras 2,3),
 OUT/<drive>/depth_02/data/*.png with --depth, and one OUT/<drive>/calib.txt in KITTI object form
 (P0..P3, R0_rect, Tr_velo_to_cam from the date folder) with projection:, K2:, C2: added.
-All `kitti` options apply except --split, --image-set and --augment.";
+Frames are selected with --frames or --frames-from (ids are the image file stems).";
 
 pub(super) const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --input /data/kitti --output /data/kitti_equi
@@ -27,26 +27,61 @@ pub(super) const KITTI_EXAMPLES: &str = "Examples:
 Output: OUT/<split>/{image_2,label_2,calib}/NNNNNN.* in KITTI's format, and OUT/panoconv.json.
 The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README).";
 
+/// `panoconv kitti`: a KITTI object root.
 #[derive(Args)]
 pub(super) struct KittiArgs {
-    /// Target projection.
-    #[arg(long, value_enum)]
-    to: To,
-    /// KITTI object root holding training/ and/or testing/.
+    /// KITTI object root holding training/ and/or testing/ (each with image_2/, calib/, ...).
     #[arg(long, short = 'i')]
     input: PathBuf,
-    /// Output root (created; must be empty unless --overwrite).
-    #[arg(long, short = 'o')]
-    output: PathBuf,
     /// Convert only this split (training or testing).
     #[arg(long)]
     split: Option<String>,
-    /// kitti-raw: convert only this drive (e.g. 2011_09_26_drive_0001_sync).
-    #[arg(long, value_name = "NAME")]
-    drive: Option<String>,
     /// Convert only the frames listed in INPUT/ImageSets/NAME.txt.
     #[arg(long, value_name = "NAME", conflicts_with_all = ["frames", "frames_from"])]
     image_set: Option<String>,
+    #[command(flatten)]
+    common: ConvertArgs,
+    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
+    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+    augment: Option<u32>,
+    /// Seed of --augment (same seed, same views, whatever --jobs).
+    #[arg(long, default_value_t = 0, requires = "augment")]
+    seed: u64,
+    /// Range of the --augment scale factor, drawn uniformly.
+    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
+    scale_range: (f64, f64),
+    /// Size of every --augment view.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
+    crop_size: Option<ImageSize>,
+    /// Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare
+    /// regions do not count); the summary says how many views still hold fewer.
+    #[arg(long, value_name = "N", requires = "augment")]
+    min_objects: Option<u32>,
+}
+
+/// `panoconv kitti-raw`: a KITTI raw date folder.
+#[derive(Args)]
+pub(super) struct RawArgs {
+    /// KITTI raw date folder holding calib_cam_to_cam.txt, calib_velo_to_cam.txt and
+    /// *_drive_*_sync/ drives (e.g. /data/raw/2011_09_26).
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Convert only this drive (e.g. 2011_09_26_drive_0001_sync).
+    #[arg(long, value_name = "NAME")]
+    drive: Option<String>,
+    #[command(flatten)]
+    common: ConvertArgs,
+}
+
+/// What `kitti` and `kitti-raw` share: the target, the frames, the outputs and the run.
+#[derive(Args)]
+pub(super) struct ConvertArgs {
+    /// Target projection.
+    #[arg(long, value_enum)]
+    to: To,
+    /// Output root (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
     /// Convert only these frame ids (comma-separated).
     #[arg(
         long,
@@ -78,18 +113,6 @@ pub(super) struct KittiArgs {
     /// Resize the (cropped) output to this size: fu' = s·fu, cu' = s(cu + 0.5) − 0.5.
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     resize: Option<ImageSize>,
-    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
-    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
-    augment: Option<u32>,
-    /// Seed of --augment (same seed, same views, whatever --jobs).
-    #[arg(long, default_value_t = 0, requires = "augment")]
-    seed: u64,
-    /// Range of the --augment scale factor, drawn uniformly.
-    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
-    scale_range: (f64, f64),
-    /// Size of every --augment view.
-    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
-    crop_size: Option<ImageSize>,
     /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
     #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
     cameras: Vec<usize>,
@@ -203,20 +226,68 @@ pub(super) fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
     Ok((a, b))
 }
 
-pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
-    if raw && (args.split.is_some() || args.image_set.is_some()) {
-        bail!(Error::Setup(
-            "kitti-raw selects drives with --drive, not --split/--image-set".into()
-        ));
-    }
-    if !raw && args.drive.is_some() {
-        bail!(Error::Setup("--drive is for kitti-raw".into()));
-    }
-    let projection = match args.to {
-        To::Equirect => Projection::Equirect,
-        To::Cylindrical => Projection::Cylindrical,
-        To::Perspective => Projection::Perspective,
+pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
+    let image_set = match &args.image_set {
+        Some(set) => {
+            let file = args.input.join("ImageSets").join(format!("{set}.txt"));
+            if !file.is_file() {
+                bail!(Error::Setup(format!(
+                    "image set {set:?}: {} does not exist",
+                    file.display()
+                )));
+            }
+            Some(read_id_list_nonempty(&file)?)
+        }
+        None => None,
     };
+    let augment = match args.augment {
+        Some(count) => Some(Augment {
+            count,
+            seed: args.seed,
+            scale_range: args.scale_range,
+            crop_size: args
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+            min_objects: args.min_objects.unwrap_or(0),
+        }),
+        None => None,
+    };
+    convert(
+        args.common,
+        args.input,
+        false,
+        args.split,
+        image_set,
+        augment,
+    )
+}
+
+pub(super) fn kitti_raw(args: RawArgs) -> Result<ExitCode> {
+    convert(args.common, args.input, true, args.drive, None, None)
+}
+
+/// An id list that names at least one frame (an empty list selects nothing: a set-up error).
+fn read_id_list_nonempty(file: &std::path::Path) -> Result<Vec<String>> {
+    let ids = read_id_list(file)?;
+    if ids.is_empty() {
+        bail!(Error::Setup(format!(
+            "{}: lists no frame id, so nothing would be converted",
+            file.display()
+        )));
+    }
+    Ok(ids)
+}
+
+/// Builds and runs a conversion job from the shared options.
+fn convert(
+    args: ConvertArgs,
+    input: PathBuf,
+    raw: bool,
+    split: Option<String>,
+    image_set: Option<Vec<String>>,
+    augment: Option<Augment>,
+) -> Result<ExitCode> {
+    let projection = projection_of(args.to)?;
     let scale = match (args.pano_width, args.px_per_deg) {
         (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
         (Some(w), _) => Scale::PanoWidth(w),
@@ -231,24 +302,13 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         (false, Some(s)) => Canvas::Size(s),
         (false, None) => Canvas::Tight,
     };
-    let frames = if let Some(list) = args.frames {
-        Some(list)
-    } else if let Some(file) = &args.frames_from {
-        Some(read_id_list(file)?)
-    } else if let Some(set) = &args.image_set {
-        let file = args.input.join("ImageSets").join(format!("{set}.txt"));
-        if !file.is_file() {
-            bail!(Error::Setup(format!(
-                "image set {set:?}: {} does not exist",
-                file.display()
-            )));
-        }
-        Some(read_id_list(&file)?)
-    } else {
-        None
+    let frames = match (args.frames, &args.frames_from) {
+        (Some(list), _) => Some(list),
+        (None, Some(file)) => Some(read_id_list_nonempty(file)?),
+        (None, None) => image_set,
     };
     let job = KittiJob {
-        input: args.input,
+        input,
         output: args.output,
         output_spec: OutputSpec {
             projection,
@@ -257,7 +317,7 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
             crop: args.crop,
             resize: args.resize,
         },
-        split: if raw { args.drive } else { args.split },
+        split,
         raw,
         frames,
         overwrite: args.run.overwrite,
@@ -278,14 +338,7 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         depth: args.depth.then(|| DepthJob {
             occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
         }),
-        augment: args.augment.map(|count| Augment {
-            count,
-            seed: args.seed,
-            scale_range: args.scale_range,
-            crop_size: args
-                .crop_size
-                .expect("clap requires --crop-size with --augment"),
-        }),
+        augment,
         style: args.style.map(|model| StyleJob {
             options: StyleOptions {
                 model,
@@ -316,16 +369,31 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
             String::new()
         };
         eprintln!(
-            "panoconv: {} frames converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
-            summary.converted,
+            "panoconv: {} converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
+            count(summary.converted, "frame"),
             summary.failed,
             summary.seconds,
             (summary.converted - summary.resumed) as f64 / summary.seconds.max(1e-9),
             job.output.display()
         );
-        if let Some((runs, images)) = summary.style_runs {
-            eprintln!("panoconv: style pass: {images} images in {runs} model runs");
+        if let Some((views, min)) = summary.thin_views {
+            eprintln!(
+                "panoconv: {} held fewer than {} (DontCare regions aside)",
+                count(views, "augmented view"),
+                count(min, "object")
+            );
         }
+        if let Some((runs, images)) = summary.style_runs {
+            eprintln!(
+                "panoconv: style pass: {} in {}",
+                count(images, "image"),
+                count(runs, "model run")
+            );
+        }
+    }
+    if let Some(full) = &summary.device_full {
+        eprintln!("panoconv: {full}");
+        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
     }
     if summary.interrupted {
         eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");

@@ -13,14 +13,14 @@ pub(super) const FISHEYE_EXAMPLES: &str = "Examples:
 The camera description (JSON, \"version\": 1) is documented in docs/fisheye.md. The output is
 levelled (the camera's pitch and roll undone) and turned to the camera's heading. Each image
 NAME.png gives NAME.png and NAME.txt (projection:, K:, R:) in OUTPUT, plus OUTPUT/panoconv.json.
-PNG input only.";
+Inputs are PNG or JPEG.";
 
 pub(super) const PANO_EXAMPLES: &str = "Examples:
   panoconv pano --to cylindrical --vfov 60 --input panos/ --output cyl/
   panoconv pano --to perspective --yaw 0,90,180,270 --fov 90 --input panos/ --output views/
   panoconv pano --to equirect --vfov 60 --yaw 180 --input panos/ --output strips/
 
-Input: every 2:1 equirect PNG in INPUT (JPEG is not read). Each image NAME.png gives NAME.png and
+Input: every 2:1 equirect PNG or JPEG in INPUT. Each image NAME.png gives NAME.png and
 NAME.txt (projection:, K:, R:), or NAME_yawDEG.png/.txt per yaw when several are given.";
 
 #[derive(Args)]
@@ -28,7 +28,7 @@ pub(super) struct FolderArgs {
     /// Target projection.
     #[arg(long, value_enum)]
     to: To,
-    /// Folder of input images (PNG).
+    /// Folder of input images (PNG or JPEG).
     #[arg(long, short = 'i')]
     input: PathBuf,
     /// Output folder (created; must be empty unless --overwrite).
@@ -80,14 +80,6 @@ pub(super) struct PanoArgs {
     pitch: f64,
     #[command(flatten)]
     common: FolderArgs,
-}
-
-pub(super) fn projection_of(to: To) -> Projection {
-    match to {
-        To::Equirect => Projection::Equirect,
-        To::Cylindrical => Projection::Cylindrical,
-        To::Perspective => Projection::Perspective,
-    }
 }
 
 pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::pano::ViewScale> {
@@ -143,7 +135,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
-        projection: projection_of(a.to),
+        projection: projection_of(a.to)?,
         hfov: degrees(a.fov, "--fov")?,
         vfov: degrees(a.vfov, "--vfov")?,
         scale: view_scale(a)?,
@@ -183,7 +175,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
 pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
     use panoconv::pano::PanoViews;
     let a = &args.common;
-    let projection = projection_of(a.to);
+    let projection = projection_of(a.to)?;
     let yaws: Vec<f64> = args
         .yaw
         .clone()

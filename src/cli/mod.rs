@@ -55,7 +55,7 @@ enum Command {
     Kitti(Box<KittiArgs>),
     /// Convert KITTI raw drives (a date folder with calib_*.txt and *_drive_*_sync/).
     #[command(after_help = RAW_EXAMPLES)]
-    KittiRaw(Box<KittiArgs>),
+    KittiRaw(Box<RawArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
@@ -93,7 +93,7 @@ enum Command {
     /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.
     #[command(after_help = FISHEYE_EXAMPLES)]
     Fisheye(FisheyeArgs),
-    /// Warp a folder of 2:1 equirect panoramas (PNG) to cylindrical, perspective views or an equirect strip.
+    /// Warp a folder of 2:1 equirect panoramas (PNG or JPEG) to cylindrical, perspective views or an equirect strip.
     #[command(after_help = PANO_EXAMPLES)]
     Pano(PanoArgs),
     /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
@@ -112,6 +112,32 @@ enum To {
     Equirect,
     Cylindrical,
     Perspective,
+    /// Not a target of these commands: accepted by the parser only to say where to go.
+    #[value(hide = true)]
+    Fisheye,
+}
+
+/// The projection of `--to`.
+fn projection_of(to: To) -> Result<Projection> {
+    Ok(match to {
+        To::Equirect => Projection::Equirect,
+        To::Cylindrical => Projection::Cylindrical,
+        To::Perspective => Projection::Perspective,
+        To::Fisheye => bail!(Error::Setup(
+            "--to fisheye: the targets are equirect, cylindrical and perspective; \
+             `panoconv fisheye --camera CAMERA.json` converts fisheye images to them"
+                .into()
+        )),
+    })
+}
+
+/// `1 frame`, `2 frames`.
+fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 fn parse_size(s: &str) -> std::result::Result<ImageSize, String> {
@@ -156,9 +182,15 @@ impl Bar {
         }
         bar.set_style(
             ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({per_sec}, eta {eta})",
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({rate}, eta {eta})",
             )
-            .expect("valid template"),
+            .expect("valid template")
+            .with_key(
+                "rate",
+                |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{:.1}/s", state.per_sec());
+                },
+            ),
         );
         Self { bar }
     }
@@ -202,8 +234,8 @@ fn with_pool<T: Send>(jobs: Option<usize>, body: impl FnOnce() -> T + Send) -> R
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
-        Command::Kitti(a) => kitti(*a, false),
-        Command::KittiRaw(a) => kitti(*a, true),
+        Command::Kitti(a) => kitti(*a),
+        Command::KittiRaw(a) => kitti_raw(*a),
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),
@@ -224,7 +256,11 @@ pub fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             eprintln!("panoconv: error: {e:#}");
-            ExitCode::from(EXIT_SETUP)
+            // A run stopped by a full output device did convert frames: it is not a set-up error.
+            match e.downcast_ref::<Error>() {
+                Some(Error::DeviceFull(_)) => ExitCode::from(EXIT_FRAMES_FAILED),
+                _ => ExitCode::from(EXIT_SETUP),
+            }
         }
     }
 }

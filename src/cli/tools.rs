@@ -37,11 +37,12 @@ pub(super) const MAN_EXAMPLES: &str = "Examples:
 pub(super) struct PreviewArgs {
     /// A dataset written by `panoconv kitti` (or any KITTI root, drawn as perspective).
     dataset: PathBuf,
-    /// Frame id.
+    /// Frame id (`000007`, or `7`); found in whichever split holds it unless --split is given.
     #[arg(long, required_unless_present = "grid", conflicts_with = "grid")]
     frame: Option<String>,
-    #[arg(long, default_value = "training")]
-    split: String,
+    /// The split to look in [default: for --frame, the one holding it; for --grid, training].
+    #[arg(long)]
+    split: Option<String>,
     /// PNG to write.
     #[arg(long, short = 'o')]
     output: PathBuf,
@@ -158,7 +159,7 @@ pub(super) struct SynthArgs {
 }
 
 pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
-    panoconv::synth::write_dataset(&args.output, args.overwrite)?;
+    panoconv::synth::write_dataset(&args.output, args.overwrite, &Bar::new(false))?;
     eprintln!(
         "panoconv: synthetic KITTI dataset written to {}",
         args.output.display()
@@ -175,6 +176,7 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
     };
     let image = match (args.grid, &args.frame) {
         (Some(grid), _) => {
+            let split = args.split.as_deref().unwrap_or("training");
             if args.tile_width == 0 {
                 bail!(Error::Setup("--tile-width must be positive".into()));
             }
@@ -182,7 +184,7 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
             let ids = match &args.frames {
                 Some(ids) => ids.clone(),
                 None => {
-                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let dir = args.dataset.join(split).join("image_2");
                     let entries = std::fs::read_dir(&dir)
                         .map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))?;
                     let mut ids: Vec<String> = entries
@@ -201,7 +203,7 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
             if ids.is_empty() {
                 bail!(Error::Setup(format!(
                     "no frames to show in {}",
-                    args.dataset.join(&args.split).display()
+                    args.dataset.join(split).display()
                 )));
             }
             // Text sized so that it stays legible once the tile is scaled down.
@@ -209,24 +211,29 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
             for id in &ids {
                 let mut opts = options;
                 if opts.text_scale.is_none() {
-                    let dir = args.dataset.join(&args.split).join("image_2");
+                    let dir = args.dataset.join(split).join("image_2");
                     let path = dir.join(format!("{id}.png"));
                     let bytes = panoconv::error::read_file(&path)?;
                     let (w, _) = png_io::read_size(&bytes, &path)?;
                     opts.text_scale = Some(w.div_ceil(args.tile_width).max(1));
                 }
-                let tile = render_frame(&args.dataset, &args.split, id, &opts)?;
-                tiles.push((format!("{}/{id}", args.split), tile));
+                let tile = render_frame(&args.dataset, split, id, &opts)?;
+                tiles.push((format!("{split}/{id}"), tile));
             }
             contact_sheet(&tiles, grid.width, args.tile_width)
         }
-        (None, Some(frame)) => render_frame(&args.dataset, &args.split, frame, &options)?,
+        (None, Some(frame)) => {
+            let (split, id) =
+                panoconv::preview::find_frame(&args.dataset, args.split.as_deref(), frame)?;
+            render_frame(&args.dataset, &split, &id, &options)?
+        }
         (None, None) => unreachable!("clap requires --frame or --grid"),
     };
     panoconv::output::write_atomic(
         &args.output,
         &png_io::encode_rgb8(&image, PngCompression::Default),
     )?;
+    record_derived("preview", &args.output, std::slice::from_ref(&args.output))?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -238,8 +245,8 @@ pub(super) fn folder_exit(
         eprintln!("panoconv: frame {id} failed: {e}");
     }
     eprintln!(
-        "panoconv: {} frames written, {} failed -> {}",
-        summary.done,
+        "panoconv: {} written, {} failed -> {}",
+        count(summary.done, "frame"),
         summary.failed.len(),
         output.display()
     );
@@ -250,8 +257,21 @@ pub(super) fn folder_exit(
     }
 }
 
+/// Records files a tool wrote inside a converted dataset in its manifest, so that `verify`
+/// checks them (see `panoconv::derived`), and says so.
+fn record_derived(command: &str, target: &std::path::Path, files: &[PathBuf]) -> Result<()> {
+    if let Some(root) = panoconv::derived::record_if_inside(command, target, files)? {
+        eprintln!(
+            "panoconv: recorded in {} (checked by `panoconv verify`)",
+            root.join("panoconv.json").display()
+        );
+    }
+    Ok(())
+}
+
 pub(super) fn labels_to_pixels(a: LabelsToPixelsArgs) -> Result<ExitCode> {
     let summary = panoconv::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
+    record_derived("labels-to-pixels", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
 }
 
@@ -267,6 +287,7 @@ pub(super) fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
         .unwrap_or_else(|| panoconv::predictions::default_images_dir(&a.calib));
     let summary =
         panoconv::predictions::unproject(&a.calib, &images, &a.input, &a.output, a.trained_focal)?;
+    record_derived("unproject", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
 }
 
@@ -274,6 +295,13 @@ pub(super) fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
     let e = panoconv::eval::evaluate(&a.pred, &a.gt, a.min_depth, a.max_depth)?;
     for (name, err) in &e.failed {
         eprintln!("panoconv: {name} not evaluated: {err}");
+    }
+    if e.images == 0 {
+        // Means over no image would print as numbers; there are none to give.
+        bail!(Error::Setup(format!(
+            "no image could be evaluated: all {} failed (listed above), so there are no metrics",
+            count(e.failed.len(), "ground-truth map")
+        )));
     }
     if a.json {
         println!(

@@ -80,6 +80,67 @@ pub(crate) fn list_frames(
     Ok((frames, unusable))
 }
 
+/// What a folder that is not a KITTI object root looks like instead, and what to do about it.
+fn layout_hint(root: &Path) -> String {
+    let is_raw_date = root.join("calib_cam_to_cam.txt").is_file()
+        || std::fs::read_dir(root).is_ok_and(|entries| {
+            entries
+                .flatten()
+                .any(|e| e.file_name().to_string_lossy().contains("_drive_"))
+        });
+    if is_raw_date {
+        return ": it looks like a KITTI raw date folder (calib_cam_to_cam.txt, *_drive_*_sync/): \
+                convert it with `panoconv kitti-raw`"
+            .into();
+    }
+    let tree = "\n  expected:\n    INPUT/training/image_2/000000.png\n    INPUT/training/label_2/000000.txt\n    INPUT/training/calib/000000.txt\n    INPUT/testing/image_2/... (optional)";
+    if root.join("image_2").is_dir() {
+        return format!(
+            ": image_2/ is at its top; a KITTI object root keeps it in training/ (or testing/): \
+             move image_2/, label_2/, calib/ (and velodyne/) into {}{tree}",
+            root.join("training").display()
+        );
+    }
+    format!(" (expected a KITTI object root){tree}")
+}
+
+/// Why an image folder gave no frame: what it holds instead.
+pub fn no_frames_reason(image_dir: &Path) -> String {
+    let pattern = image_dir.join("*.png");
+    let mut by_ext: std::collections::BTreeMap<String, usize> = Default::default();
+    let mut total = 0;
+    if let Ok(entries) = std::fs::read_dir(image_dir) {
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.starts_with('.') {
+                continue;
+            }
+            total += 1;
+            if let Some((_, ext)) = name.rsplit_once('.') {
+                *by_ext.entry(ext.to_ascii_lowercase()).or_default() += 1;
+            }
+        }
+    }
+    let what = match by_ext.iter().max_by_key(|(_, n)| **n) {
+        None if total == 0 => "the folder is empty".to_owned(),
+        None => format!("{total} files there, none of them .png"),
+        Some((ext, n)) if matches!(ext.as_str(), "jpg" | "jpeg") => {
+            format!("{n} .{ext} files there: KITTI images are PNG")
+        }
+        Some((ext, n)) => format!("{n} .{ext} files there, none of them .png"),
+    };
+    format!("{}: no frames; {what}", pattern.display())
+}
+
+/// `000000..000007 (6 frames)`: the ids a split holds, for messages.
+fn id_range(frames: &[String]) -> String {
+    match (frames.first(), frames.last()) {
+        (Some(a), Some(_)) if frames.len() == 1 => format!("{a} (1 frame)"),
+        (Some(a), Some(b)) => format!("{a}..{b} ({} frames)", frames.len()),
+        _ => "no frames".into(),
+    }
+}
+
 impl Split {
     pub fn image_path(&self, camera: usize, id: &str) -> PathBuf {
         match self.layout {
@@ -182,14 +243,91 @@ impl Dataset {
         }
         if splits.is_empty() {
             return Err(Error::Setup(format!(
-                "input {} holds neither training/ nor testing/ (expected a KITTI object root)",
-                root.display()
+                "input {} holds neither training/ nor testing/{}",
+                root.display(),
+                layout_hint(root)
             )));
         }
         Ok(Dataset {
             root: root.to_path_buf(),
             splits,
         })
+    }
+
+    /// Checks a selection before anything is written: `Err` (a set-up error) when it holds no
+    /// frame at all, or names frames that no split has.
+    pub fn check_selection(&self, frames: &[FrameRef], missing: &[String]) -> Result<()> {
+        let ranges = || {
+            self.splits
+                .iter()
+                .map(|s| format!("{}: {}", s.name, id_range(&s.frames)))
+                .collect::<Vec<_>>()
+                .join("; ")
+        };
+        if !missing.is_empty() {
+            const SHOWN: usize = 5;
+            let mut named = missing[..missing.len().min(SHOWN)].join(", ");
+            if missing.len() > SHOWN {
+                named.push_str(&format!(" and {} more", missing.len() - SHOWN));
+            }
+            let noun = if missing.len() == 1 {
+                "frame"
+            } else {
+                "frames"
+            };
+            return Err(Error::Setup(format!(
+                "{noun} {named} not found in {} ({})",
+                self.root.display(),
+                ranges()
+            )));
+        }
+        let unusable = self.splits.iter().any(|s| !s.unusable.is_empty());
+        if frames.is_empty() && !unusable {
+            let reasons: Vec<String> = self
+                .splits
+                .iter()
+                .map(|s| match s.layout {
+                    Layout::Object if s.frames.is_empty() => {
+                        no_frames_reason(&s.dir.join("image_2"))
+                    }
+                    Layout::Raw { .. } if s.frames.is_empty() => {
+                        no_frames_reason(&s.dir.join("image_02/data"))
+                    }
+                    _ => format!("{}: {}", s.name, id_range(&s.frames)),
+                })
+                .collect();
+            return Err(Error::Setup(format!(
+                "nothing to convert: {}",
+                reasons.join("; ")
+            )));
+        }
+        Ok(())
+    }
+
+    /// Checks, before anything is written, that every split with frames has the folders the
+    /// options read: `image_3/` for the right camera, `velodyne/` for depth.
+    pub fn check_folders(&self, cameras: &[usize], depth: bool) -> Result<()> {
+        for split in self.splits.iter().filter(|s| !s.frames.is_empty()) {
+            let first = &split.frames[0];
+            let mut needed = Vec::new();
+            if cameras.contains(&3) {
+                needed.push((split.image_path(3, first), "--cameras 2,3"));
+            }
+            if depth {
+                needed.push((split.velodyne_path(first), "--depth"));
+            }
+            for (file, option) in needed {
+                let dir = file.parent().unwrap_or(&split.dir);
+                if !dir.is_dir() {
+                    return Err(Error::Setup(format!(
+                        "{option} reads {}, which does not exist in split {}",
+                        dir.display(),
+                        split.name
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     pub fn split(&self, name: &str) -> Option<&Split> {

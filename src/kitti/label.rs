@@ -109,13 +109,30 @@ impl Label {
                 format!("{:?} is not an integer", tokens[2]),
             ));
         }
+        let dimensions = [num(8)?, num(9)?, num(10)?];
+        // Only DontCare rows carry KITTI's -1 placeholders; an object with a flipped or empty
+        // box would get a 2D box computed from nonsense.
+        if tokens[0] != "DontCare" {
+            if let Some(i) = dimensions.iter().position(|&d| !(d > 0.0)) {
+                return Err(Error::parse(
+                    path,
+                    line_no,
+                    FIELD_NAMES[8 + i],
+                    format!(
+                        "{:?} must be positive for a {} (only DontCare rows carry -1 placeholders)",
+                        tokens[8 + i],
+                        tokens[0]
+                    ),
+                ));
+            }
+        }
         Ok(Label {
             kind: tokens[0].clone(),
             truncated: num(1)?,
             occluded: occluded as i32,
             alpha: num(3)?,
             bbox: [num(4)?, num(5)?, num(6)?, num(7)?],
-            dimensions: [num(8)?, num(9)?, num(10)?],
+            dimensions,
             location: Vector3::new(num(11)?, num(12)?, num(13)?),
             rotation_y: num(14)?,
             score: if tokens.len() == 16 {

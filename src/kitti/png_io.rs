@@ -42,6 +42,12 @@ pub fn decode_rgb8(bytes: &[u8], path: &Path) -> Result<RgbImage> {
 #[doc(hidden)]
 pub fn decode_rgb8_with_png_crate(bytes: &[u8], path: &Path) -> Result<RgbImage> {
     let bad = |e: String| Error::file(path, format!("cannot decode PNG: {e}"));
+    if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        return Err(bad(
+            "the file is a JPEG (it starts with JPEG's FF D8 FF), not a PNG: KITTI images are PNG, convert it"
+                .into(),
+        ));
+    }
     let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     // The png crate's default 64 MiB would refuse panoramas that MAX_PIXELS allows (the size
     // is checked against MAX_PIXELS below, before anything is allocated).

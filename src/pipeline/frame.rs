@@ -3,7 +3,7 @@
 //! style pass can take several frames' images at once.
 
 use super::KittiJob;
-use crate::augment::{view_id, Augment, View};
+use crate::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo};
 use crate::error::{read_file, read_file_into, split_lines, Error, Result};
@@ -19,6 +19,7 @@ use crate::style::StyleModel;
 use crate::warp::{OnceMap, RemapTable, Wrap};
 use nalgebra::{Matrix3, Vector3};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 /// The output camera and remap table of one source camera.
@@ -38,6 +39,11 @@ pub(super) struct Context<'a> {
     style: Option<&'a StyleModel>,
     dataset: &'a Dataset,
     mappings: OnceMap<MappingKey, std::result::Result<Mapping, String>>,
+    /// Per split: the file written once for the whole split (raw drives' `calib.txt`), as
+    /// (path relative to the output, blake3). Every frame of the split lists it, so the
+    /// manifest covers it whichever frames a shard or a resumed run converts.
+    split_files: std::sync::Mutex<std::collections::HashMap<String, (String, String)>>,
+    thin_views: AtomicUsize,
 }
 
 pub(super) struct FrameOutput {
@@ -62,6 +68,8 @@ impl<'a> Context<'a> {
             style,
             dataset,
             mappings: OnceMap::default(),
+            split_files: Default::default(),
+            thin_views: AtomicUsize::new(0),
         }
     }
 
@@ -158,10 +166,17 @@ impl<'a> Context<'a> {
             cameras.push((n, mapping.output.intrinsics(), cam.centre));
         }
         let text = calib.render_output(self.job.output_spec.projection.name(), &cameras);
-        output::write_atomic(
-            &self.job.output.join(&split.name).join(rel),
-            text.as_bytes(),
-        )
+        let path = self.job.output.join(&split.name).join(rel);
+        output::write_atomic(&path, text.as_bytes())?;
+        let entry = (
+            relative(&self.job.output, &path),
+            output::hash_hex(text.as_bytes()),
+        );
+        self.split_files
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(split.name.clone(), entry);
+        Ok(())
     }
 
     /// Reads, parses and decodes a frame: everything before the style pass. Styling after the
@@ -201,7 +216,26 @@ impl<'a> Context<'a> {
             inputs.push((relative(root, &image_path), output::hash_hex(bytes)));
         })?;
         let size = ImageSize::new(image.width(), image.height());
-        let views2 = self.views(split, id, &calib_path, cam2.k, size)?;
+        let objects = |camera: &dyn CameraModel| -> u32 {
+            let source = cam2.camera(size);
+            labels.as_ref().map_or(0, |l| {
+                l.labels
+                    .iter()
+                    .filter(|label| label.kind != "DontCare")
+                    .filter(|label| transform_label(label, &cam2.centre, &source, camera).is_some())
+                    .count() as u32
+            })
+        };
+        // (views of an unlabelled split have no objects to count: their first draws stand)
+        let draw = match &labels {
+            Some(_) => Draw::Fewest(&objects),
+            None => Draw::First,
+        };
+        let views2 = self.views(split, id, &calib_path, cam2.k, size, draw)?;
+        let attempts: Vec<u32> = views2
+            .iter()
+            .map(|(_, _, v)| v.map_or(0, |v| v.attempt))
+            .collect();
         let mut images = vec![image];
 
         // The right camera, converted about its own centre C3 (labels stay with camera 2).
@@ -212,7 +246,7 @@ impl<'a> Context<'a> {
                 inputs.push((relative(root, &path), output::hash_hex(bytes)));
             })?;
             let size3 = ImageSize::new(img.width(), img.height());
-            let views3 = self.views(split, id, &calib_path, cam3.k, size3)?;
+            let views3 = self.views(split, id, &calib_path, cam3.k, size3, Draw::As(&attempts))?;
             images.push(img);
             Some((cam3, views3))
         } else {
@@ -361,6 +395,14 @@ impl<'a> Context<'a> {
             output::write_atomic(path, bytes)?;
             record_outputs.push((relative(&self.job.output, path), output::hash_hex(bytes)));
         }
+        if let Some(file) = self
+            .split_files
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(&split.name)
+        {
+            record_outputs.push(file.clone());
+        }
         Ok(FrameOutput {
             record: FrameRecord {
                 split: split.name.clone(),
@@ -375,7 +417,9 @@ impl<'a> Context<'a> {
         })
     }
 
-    /// The output views of a frame: the frame itself, or its augmented views.
+    /// The output views of a frame: the frame itself, or its augmented views, drawn as `draw`
+    /// says. The last element of each augmented view tells how many objects it holds when
+    /// they were counted.
     fn views(
         &self,
         split: &Split,
@@ -383,6 +427,7 @@ impl<'a> Context<'a> {
         calib_path: &Path,
         k: Intrinsics,
         size: ImageSize,
+        draw: Draw,
     ) -> Result<Vec<OutputView>> {
         let Some(aug) = &self.job.augment else {
             return Ok(vec![(
@@ -394,6 +439,10 @@ impl<'a> Context<'a> {
         let source = Perspective::new(k, size);
         let canvas = output_camera(&self.job.output_spec, k, &source)
             .map_err(|e| Error::file(calib_path, e.to_string()))?;
+        let view_camera = |view: &View| {
+            let (kv, sv) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());
+            self.job.output_spec.projection.camera(kv, sv)
+        };
         (0..aug.count)
             .map(|i| {
                 let view_id = view_id(id, aug.count, i).ok_or_else(|| {
@@ -402,9 +451,37 @@ impl<'a> Context<'a> {
                         "--augment needs numeric frame ids (e.g. 000123)",
                     )
                 })?;
-                let view = aug.view(&split.name, id, i, canvas.size());
-                let (kv, sv) = Augment::view_camera(&view, canvas.intrinsics(), canvas.size());
-                let output = self.job.output_spec.projection.camera(kv, sv);
+                let (view, output) = match draw {
+                    Draw::First => {
+                        let view = aug.view(&split.name, id, i, 0, canvas.size());
+                        (view, view_camera(&view))
+                    }
+                    Draw::As(attempts) => {
+                        let view =
+                            aug.view(&split.name, id, i, attempts[i as usize], canvas.size());
+                        (view, view_camera(&view))
+                    }
+                    Draw::Fewest(objects) => {
+                        // The first draw holding enough objects, else the one holding most.
+                        let mut best: Option<(u32, View, Box<dyn LinearCamera>)> = None;
+                        for attempt in 0..MAX_ATTEMPTS.max(1) {
+                            let view = aug.view(&split.name, id, i, attempt, canvas.size());
+                            let output = view_camera(&view);
+                            let n = objects(output.as_ref());
+                            if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
+                                best = Some((n, view, output));
+                            }
+                            if n >= aug.min_objects {
+                                break;
+                            }
+                        }
+                        let (n, view, output) = best.expect("at least one draw");
+                        if n < aug.min_objects.max(1) {
+                            self.thin_views.fetch_add(1, Ordering::Relaxed);
+                        }
+                        (view, output)
+                    }
+                };
                 // Every view has its own camera, so its table is not shared.
                 let table =
                     RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
@@ -416,6 +493,23 @@ impl<'a> Context<'a> {
             })
             .collect()
     }
+
+    /// Augmented views of labelled frames holding fewer objects than asked (or none, when no
+    /// minimum was asked).
+    pub(super) fn thin_views(&self) -> usize {
+        self.thin_views.load(Ordering::Relaxed)
+    }
+}
+
+/// How a camera's augmented views are drawn.
+#[derive(Clone, Copy)]
+enum Draw<'a> {
+    /// Redrawn until they hold enough objects, counted by the function (camera 2).
+    Fewest(&'a dyn Fn(&dyn CameraModel) -> u32),
+    /// With the draws camera 2's views took (camera 3 follows camera 2).
+    As(&'a [u32]),
+    /// The first draw of each view.
+    First,
 }
 
 thread_local! {

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Everything a `kitti` conversion needs; also recorded in the manifest.
 #[derive(Debug, Clone, Serialize)]
@@ -116,11 +116,16 @@ pub struct Summary {
     pub resumed: usize,
     /// Stopped by SIGINT/SIGTERM before every frame was taken.
     pub interrupted: bool,
+    /// Stopped because the output device refused writes: what to tell the user.
+    pub device_full: Option<String>,
     pub seconds: f64,
     /// Distinct (source camera → output camera) mappings built.
     pub tables_built: usize,
     /// Style model runs and the images they took (batch checks included), if styled.
     pub style_runs: Option<(usize, usize)>,
+    /// With --augment: the views holding fewer objects than asked (at least one), and that
+    /// minimum.
+    pub thin_views: Option<(usize, usize)>,
 }
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
@@ -138,10 +143,12 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         &job.output,
         job.overwrite || job.resume || job.shard.is_some(),
     )?;
-    let (mut frames, mut missing) = dataset.select(job.frames.as_deref());
+    let (mut frames, missing) = dataset.select(job.frames.as_deref());
+    // Checked on the whole selection, before sharding: a shard may own no frame of a small set.
+    dataset.check_selection(&frames, &missing)?;
+    dataset.check_folders(&job.cameras, job.depth.is_some())?;
     if let Some(shard) = job.shard {
         frames.retain(|f| shard.owns(&f.split, &f.id));
-        missing.retain(|id| shard.owns("", id));
     }
     // Loaded before anything is written: a missing library or a bad model is a set-up error.
     // On the CPU, one session per worker with one thread each, so --jobs alone sets the core
@@ -242,47 +249,59 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         .flat_map(|s| s.unusable.iter().map(move |name| (s, name)))
         .filter(|(s, n)| job.frames.is_none() && job.shard.is_none_or(|sh| sh.owns(&s.name, n)))
         .collect();
-    progress.start(frames.len() + missing.len() + unusable.len());
+    progress.start(frames.len() + unusable.len());
     let (mut resumed, mut done) = (0usize, 0usize);
+    // The first write the output device refused for want of space (or being read-only): no
+    // new frame is taken after it, since every one would fail the same way.
+    let device_full: std::sync::OnceLock<Error> = std::sync::OnceLock::new();
+    let written = AtomicUsize::new(0);
     // Groups of consecutive frames (one frame each unless the style pass batches): the
     // grouping depends on the selection and the options only, never on the thread count.
     let outcomes: Vec<Option<bool>> = frames
         .par_chunks(group_len)
         .flat_map_iter(|group| {
-            // SIGINT/SIGTERM: take no new group; those in flight finish.
-            if stop.load(Ordering::Relaxed) {
+            // SIGINT/SIGTERM or a full device: take no new group; those in flight finish.
+            if stop.load(Ordering::Relaxed) || device_full.get().is_some() {
                 return vec![None; group.len()];
             }
             let mut outcomes = vec![Some(true); group.len()];
             let mut todo = Vec::new();
-            for (f, outcome) in group.iter().zip(&mut outcomes) {
+            for (i, f) in group.iter().enumerate() {
                 let split = dataset
                     .split(&f.split)
                     .expect("selected frames come from the dataset's splits");
                 if let Some(r) = previous.get(&(f.split.clone(), f.id.clone())) {
                     if journal::still_valid(r, &job.input, &job.output) {
                         journal.record(r.clone());
+                        written.fetch_add(1, Ordering::Relaxed);
                         progress.frame_done();
                         continue;
                     }
                 }
-                *outcome = Some(false);
-                todo.push((split, f));
+                outcomes[i] = Some(false);
+                todo.push((i, split, f));
             }
             let items: Vec<(&Split, &str)> =
-                todo.iter().map(|(s, f)| (*s, f.id.as_str())).collect();
+                todo.iter().map(|(_, s, f)| (*s, f.id.as_str())).collect();
             let results = batch::convert_group(&ctx, style_pass.as_ref(), &items);
-            for ((split, f), converted) in todo.into_iter().zip(results) {
+            for ((i, split, f), converted) in todo.into_iter().zip(results) {
                 let record = match converted {
                     Ok(out) => {
+                        written.fetch_add(1, Ordering::Relaxed);
                         progress.frame_done();
                         out.record
                     }
                     Err(e) => {
-                        progress.frame_failed(f, &e);
                         // A failed frame leaves no output behind, not even one from an earlier
                         // run into the same folder (--overwrite), which loaders would pick up.
                         ctx.remove_outputs(split, &f.id);
+                        if e.is_device_full() {
+                            // Not this frame's fault: it is left for --resume, reported once.
+                            let _ = device_full.set(e);
+                            outcomes[i] = None;
+                            continue;
+                        }
+                        progress.frame_failed(f, &e);
                         FrameRecord::failed(&f.split, &f.id, &e)
                     }
                 };
@@ -307,20 +326,24 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         progress.frame_failed(&f, &e);
         journal.record(FrameRecord::failed(&f.split, &f.id, &e));
     }
-    for id in missing {
-        let f = FrameRef {
-            split: String::new(),
-            id: id.clone(),
-        };
-        let e = Error::Setup(format!(
-            "frame {id} was asked for but is in no selected split"
-        ));
-        progress.frame_failed(&f, &e);
-        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
-    }
     progress.finish();
     let interrupted = done < frames.len();
-    let records = journal.finish(!interrupted)?;
+    let device_full = device_full.into_inner().map(|e| {
+        format!(
+            "output device full after {} of {} frames ({e}): free space and run again with --resume",
+            written.load(Ordering::Relaxed),
+            frames.len()
+        )
+    });
+    let records = match (journal.finish(!interrupted), &device_full) {
+        (Ok(records), _) => records,
+        (Err(e), Some(full)) => {
+            return Err(Error::DeviceFull(format!(
+                "{full}; the manifest could not be written either ({e})"
+            )))
+        }
+        (Err(e), None) => return Err(e),
+    };
 
     if job.augment.is_some() && job.shard.is_none() {
         // augmented ids are new: list them so KITTI loaders find the views
@@ -335,10 +358,14 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         converted: records.len() - failed,
         failed,
         resumed,
-        interrupted,
+        interrupted: interrupted && device_full.is_none(),
+        device_full,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.tables_built(),
         style_runs: style.as_ref().map(StyleModel::runs),
+        thin_views: job
+            .augment
+            .map(|a| (ctx.thin_views(), a.min_objects.max(1) as usize)),
     })
 }
 
