@@ -135,12 +135,11 @@ pub fn camera_text(view: &View) -> String {
     )
 }
 
-/// An input file and whether it can be read.
+/// An input image.
 struct Input {
     path: PathBuf,
     name: String,
     stem: String,
-    supported: bool,
 }
 
 fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
@@ -162,21 +161,14 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
             .extension()
             .map(|x| x.to_string_lossy().to_ascii_lowercase())
             .unwrap_or_default();
-        let supported = match ext.as_str() {
-            "png" => true,
-            "jpg" | "jpeg" => true,
-            _ => continue,
-        };
+        if !matches!(ext.as_str(), "png" | "jpg" | "jpeg") {
+            continue;
+        }
         let stem = path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        inputs.push(Input {
-            path,
-            name,
-            stem,
-            supported,
-        });
+        inputs.push(Input { path, name, stem });
     }
     inputs.sort_by(|a, b| a.name.cmp(&b.name));
     if inputs.is_empty() {
@@ -196,12 +188,6 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn convert(&self, input: &Input, written: &mut Vec<PathBuf>) -> Result<FrameRecord> {
-        if !input.supported {
-            return Err(Error::file(
-                &input.path,
-                "only PNG images are read (this build has no JPEG decoder): convert it to PNG",
-            ));
-        }
         let bytes = read_file(&input.path)?;
         let is_jpeg = input.path.extension().is_some_and(|x| {
             matches!(
@@ -285,7 +271,13 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         job.parameters.clone(),
         Vec::new(),
     );
+    // As in the KITTI conversion: after the first write the output device refused for want of
+    // space, no new image is taken.
+    let device_full: std::sync::OnceLock<Error> = std::sync::OnceLock::new();
     inputs.par_iter().for_each(|input| {
+        if device_full.get().is_some() {
+            return;
+        }
         let mut written = Vec::new();
         let record = match ctx.convert(input, &mut written) {
             Ok(record) => {
@@ -293,32 +285,47 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
                 record
             }
             Err(e) => {
+                for p in written {
+                    let _ = std::fs::remove_file(p);
+                }
+                if e.is_device_full() {
+                    let _ = device_full.set(e);
+                    return;
+                }
                 let f = FrameRef {
                     split: String::new(),
                     id: input.name.clone(),
                 };
                 progress.frame_failed(&f, &e);
-                for p in written {
-                    let _ = std::fs::remove_file(p);
-                }
                 FrameRecord::failed("", &input.name, &e)
             }
         };
         journal.record(record);
     });
     progress.finish();
-    let records = journal.finish(true)?;
+    let device_full = device_full.into_inner().map(|e| {
+        format!("output device full ({e}): free space, then convert the images not in the manifest again")
+    });
+    let records = match (journal.finish(device_full.is_none()), &device_full) {
+        (Ok(records), _) => records,
+        (Err(e), Some(full)) => {
+            return Err(Error::DeviceFull(format!(
+                "{full}; the manifest could not be written either ({e})"
+            )))
+        }
+        (Err(e), None) => return Err(e),
+    };
     let failed = records
         .iter()
         .filter(|r| r.status == FrameStatus::Failed)
         .count();
     let summary = Summary {
+        device_full,
         frames: records.len(),
         converted: records.len() - failed,
         failed,
         resumed: 0,
         interrupted: false,
-        device_full: None,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
         style_runs: None,

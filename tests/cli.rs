@@ -769,7 +769,7 @@ fn frame_error_in_testing_split() {
 }
 
 #[test]
-fn unknown_frame_id_is_reported() {
+fn unknown_frame_id_is_a_setup_error() {
     let s = Scratch::synth();
     let run = kitti(
         "equirect",
@@ -777,34 +777,14 @@ fn unknown_frame_id_is_reported() {
         &s.output,
         &["--frames", "000001,999999"],
     );
-    assert_eq!(run.code, 1, "{}", run.stderr);
-    assert_eq!(
-        run.frame_failures(),
-        vec![
-            "panoconv: frame 999999 failed: frame 999999 was asked for but is in no selected split"
-        ],
-        "{}",
-        run.stderr
+    assert_setup_error(
+        &run,
+        &format!(
+            "frame 999999 not found in {} (training: 000000..000002 (3 frames); testing: 000003 (1 frame))",
+            s.input.display()
+        ),
+        &s.output,
     );
-    assert!(
-        run.stderr
-            .contains("panoconv: 1 frames converted, 1 failed in"),
-        "{}",
-        run.stderr
-    );
-    assert_eq!(
-        tree_files(&s.output),
-        expected_files(&[("training", "000001")])
-    );
-    let m = check_manifest(&s.input, &s.output, 1, 1);
-    assert_eq!(manifest_frame(&m, "training", "000001")["status"], "ok");
-    let missing = manifest_frame(&m, "", "999999");
-    assert_eq!(missing["status"], "failed");
-    assert_eq!(
-        missing["error"],
-        "frame 999999 was asked for but is in no selected split"
-    );
-    check_frame(&s.input, &s.output, "equirect", "training", "000001");
 }
 
 #[test]

@@ -614,9 +614,8 @@ fn cases() -> Vec<Case> {
         case(
             "frames_unknown_id",
             |e| e.args = vec!["--frames".into(), "000000,000001,999999".into()],
-            Expect::Fails(
-                &[("", "999999")],
-                "frame 999999 was asked for but is in no selected split",
+            Expect::Setup(
+                "frame 999999 not found in {IN} (training: 000000..000001 (2 frames); testing: 000002 (1 frame))",
             ),
         ),
         // ---- set-up errors
@@ -637,7 +636,7 @@ fn cases() -> Vec<Case> {
             "input_without_splits",
             |e| e.input = e.file("training/calib"),
             Expect::Setup(
-                "input {ROOT}/in/training/calib holds neither training/ nor testing/ (expected a KITTI object root)",
+                "input {ROOT}/in/training/calib holds neither training/ nor testing/ (expected a KITTI object root: INPUT/training/{image_2/000000.png, label_2/000000.txt, calib/000000.txt}, and INPUT/testing/ likewise without label_2/)",
             ),
         ),
         case(

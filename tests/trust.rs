@@ -32,6 +32,7 @@ fn assert_setup_error(run: &Run, output: &Path, wanted: &[&str]) {
         "expected a set-up error; stderr:\n{}",
         run.stderr
     );
+    assert_eq!(run.stderr.lines().count(), 1, "one line:\n{}", run.stderr);
     for w in wanted {
         assert!(run.stderr.contains(w), "{w:?} not in:\n{}", run.stderr);
     }
@@ -357,8 +358,7 @@ fn wrong_layouts_say_what_to_do() {
         &[
             "image_2/ is at its top",
             "training/",
-            "expected:",
-            "INPUT/training/image_2/000000.png",
+            "(expected INPUT/training/{image_2/000000.png",
         ],
     );
 
@@ -568,4 +568,22 @@ fn augment_min_objects_redraws_empty_views_and_the_summary_counts_the_rest() {
     let out3 = s.path("out3");
     assert_success(&kitti("equirect", &s.input, &out3, &with_min));
     assert_eq!(tree_hashes(&out2), tree_hashes(&out3));
+}
+
+#[test]
+fn a_turning_radial_function_is_reported_at_its_exact_angle() {
+    use panoconv::camera::{Fisheye, ImageSize, Intrinsics, RadialModel};
+    // r = θ + k1·θ³ turns where r' = 1 + 3·k1·θ² = 0, at 59.0397°.
+    let turn = 59.0397f64.to_radians();
+    let k1 = -1.0 / (3.0 * turn * turn);
+    let err = Fisheye::new(
+        RadialModel::KannalaBrandt([k1, 0.0, 0.0, 0.0]),
+        Intrinsics::new(300.0, 300.0, 640.0, 400.0),
+        ImageSize::new(1280, 800),
+        150f64.to_radians(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("stops increasing at θ = 59.0397°"), "{err}");
+    assert!(err.contains("lower max_fov_deg below 118.0794"), "{err}");
 }

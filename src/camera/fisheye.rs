@@ -185,6 +185,24 @@ pub struct Fisheye {
 /// Samples of the monotonicity check over the field of view.
 const MONOTONIC_SAMPLES: usize = 4096;
 
+/// Where R stops increasing between `lo` (increasing there) and `hi` (not): the root of R' by
+/// bisection, so that the angle a message gives is exact to its printed digits rather than to
+/// the check's sampling step.
+fn turning_angle(model: &RadialModel, mut lo: f64, mut hi: f64) -> f64 {
+    if !(model.derivative(lo) > 0.0) || model.derivative(hi) > 0.0 {
+        return hi;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if model.derivative(mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 impl Fisheye {
     /// A fisheye seeing up to `max_fov` radians (full angle). Refuses a field of view the model
     /// cannot represent and a radial function that is not strictly increasing over it.
@@ -233,15 +251,20 @@ impl Fisheye {
             let edge_flat = i == MONOTONIC_SAMPLES && (0.0..1e-12).contains(&d);
             let bad_slope = !(d > 0.0 || edge_flat);
             if bad_slope || (i > 0 && !(r > prev)) || !r.is_finite() {
+                let turn = turning_angle(
+                    &model,
+                    max_theta * (i.max(1) - 1) as f64 / MONOTONIC_SAMPLES as f64,
+                    t,
+                );
                 return Err(FisheyeError::NotMonotonic(format!(
                     "the {} radial function r(θ) is not strictly increasing over the requested field of view: \
-                     it stops increasing at θ = {:.3}° (max_fov_deg {:.3} needs θ up to {:.3}°); \
-                     lower max_fov_deg below {:.3} or fix the coefficients",
+                     it stops increasing at θ = {:.4}° (max_fov_deg {:.3} needs θ up to {:.3}°); \
+                     lower max_fov_deg below {:.4} or fix the coefficients",
                     model.name(),
-                    t.to_degrees(),
+                    turn.to_degrees(),
                     max_fov.to_degrees(),
                     max_theta.to_degrees(),
-                    2.0 * t.to_degrees()
+                    2.0 * turn.to_degrees()
                 )));
             }
             prev = r;

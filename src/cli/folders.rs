@@ -115,12 +115,16 @@ pub(super) fn run_folder_job(
     })??;
     if !common.run.quiet {
         eprintln!(
-            "panoconv: {} images converted, {} failed in {:.2} s -> {}",
-            summary.converted,
+            "panoconv: {} converted, {} failed in {:.2} s -> {}",
+            count(summary.converted, "image"),
             summary.failed,
             summary.seconds,
             job.output.display()
         );
+    }
+    if let Some(full) = &summary.device_full {
+        eprintln!("panoconv: {full}");
+        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
     }
     Ok(if summary.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)

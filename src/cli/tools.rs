@@ -12,8 +12,9 @@ pub(super) const PREVIEW_EXAMPLES: &str = "Examples:
 
 Each 3D box is drawn from the written calib alone (projection:, K2:, C2:; else P2) in the class
 colour, the 2D box in white, with the class and the distance the projection pairs with (z,
-range or cylindrical rho) in metres. OUT/<split>/depth_2/NNNNNN.png is overlaid in colour
-(red near, blue at 80 m and beyond) when it exists.";
+range or cylindrical rho) in metres. OUT/<split>/depth_2/NNNNNN.png is overlaid in colour when it
+exists (red 0 m, yellow 5 m, green 20 m, cyan 45 m, blue 80 m and beyond; a scale is drawn).
+A preview written inside a converted dataset is recorded in its manifest (see `verify`).";
 
 pub(super) const INSPECT_EXAMPLES: &str = "Examples:
   panoconv inspect /data/kitti
@@ -24,6 +25,7 @@ Exit codes: 0 the dataset is clean; 1 missing or malformed files were found (the
 printed; each as file:line: field: message); 2 set-up error (no KITTI dataset there).";
 
 pub(super) const COMPLETIONS_EXAMPLES: &str = "Examples:
+  mkdir -p ~/.local/share/bash-completion/completions
   panoconv completions bash > ~/.local/share/bash-completion/completions/panoconv
   panoconv completions zsh > ~/.zfunc/_panoconv      # with fpath+=~/.zfunc before compinit
   panoconv completions fish > ~/.config/fish/completions/panoconv.fish

@@ -93,15 +93,16 @@ fn layout_hint(root: &Path) -> String {
                 convert it with `panoconv kitti-raw`"
             .into();
     }
-    let tree = "\n  expected:\n    INPUT/training/image_2/000000.png\n    INPUT/training/label_2/000000.txt\n    INPUT/training/calib/000000.txt\n    INPUT/testing/image_2/... (optional)";
+    let tree = "INPUT/training/{image_2/000000.png, label_2/000000.txt, calib/000000.txt}, \
+                and INPUT/testing/ likewise without label_2/";
     if root.join("image_2").is_dir() {
         return format!(
             ": image_2/ is at its top; a KITTI object root keeps it in training/ (or testing/): \
-             move image_2/, label_2/, calib/ (and velodyne/) into {}{tree}",
+             move image_2/, label_2/, calib/ (and velodyne/) into {} (expected {tree})",
             root.join("training").display()
         );
     }
-    format!(" (expected a KITTI object root){tree}")
+    format!(" (expected a KITTI object root: {tree})")
 }
 
 /// Why an image folder gave no frame: what it holds instead.
