@@ -461,3 +461,84 @@ fn rotation_of(file: &CameraFile, bad: &dyn Fn(&str, String) -> Error) -> Result
         }
     })
 }
+
+impl CameraDescription {
+    /// The description as a version-1 JSON file that [`CameraDescription::parse`] reads back to
+    /// the same lens (numbers written in their shortest round-trip form); `comment` goes into
+    /// the `comment` field.
+    pub fn to_json(&self, comment: Option<&str>) -> String {
+        use serde_json::{json, Map, Value};
+        let lens = &self.camera;
+        let size = crate::camera::CameraModel::size(lens);
+        let k = lens.intrinsics();
+        let mut out = Map::new();
+        out.insert("version".into(), json!(VERSION));
+        out.insert("model".into(), json!(lens.name()));
+        out.insert("width".into(), json!(size.width));
+        out.insert("height".into(), json!(size.height));
+        out.insert(
+            "max_fov_deg".into(),
+            json!(2.0 * lens.max_theta().to_degrees()),
+        );
+        let affine = |out: &mut Map<String, Value>| {
+            out.insert("fx".into(), json!(k.fu));
+            out.insert("fy".into(), json!(k.fv));
+            out.insert("cx".into(), json!(k.cu));
+            out.insert("cy".into(), json!(k.cv));
+        };
+        match lens {
+            Lens::Radial(f) => match &f.model {
+                RadialModel::Polynomial(c) => {
+                    // r in pixels = fx·poly(θ): fold fx into the coefficients, fy/fx is the
+                    // aspect ratio, the principal point an offset from the image centre.
+                    out.insert("k".into(), json!(c.map(|v| v * k.fu)));
+                    out.insert("aspect_ratio".into(), json!(k.fv / k.fu));
+                    out.insert(
+                        "cx_offset".into(),
+                        json!(k.cu - (size.width as f64 / 2.0 - 0.5)),
+                    );
+                    out.insert(
+                        "cy_offset".into(),
+                        json!(k.cv - (size.height as f64 / 2.0 - 0.5)),
+                    );
+                }
+                RadialModel::KannalaBrandt(c) => {
+                    affine(&mut out);
+                    out.insert("k".into(), json!(c));
+                }
+                _ => affine(&mut out),
+            },
+            Lens::Unified(m) => {
+                affine(&mut out);
+                let d = m.distortion;
+                out.insert("xi".into(), json!(m.xi));
+                out.insert("k".into(), json!([d.k1, d.k2]));
+                out.insert("p".into(), json!([d.p1, d.p2]));
+                if m.skew != 0.0 {
+                    out.insert("skew".into(), json!(m.skew));
+                }
+            }
+            Lens::Eucm(m) => {
+                affine(&mut out);
+                out.insert("alpha".into(), json!(m.alpha));
+                out.insert("beta".into(), json!(m.beta));
+            }
+            Lens::DoubleSphere(m) => {
+                affine(&mut out);
+                out.insert("xi".into(), json!(m.xi));
+                out.insert("alpha".into(), json!(m.alpha));
+            }
+        }
+        if self.output_from_camera != Matrix3::identity() {
+            let m = self.output_from_camera;
+            let rows: Vec<[f64; 3]> = (0..3).map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]]).collect();
+            out.insert("rotation".into(), json!({ "matrix": rows }));
+        }
+        if let Some(c) = comment {
+            out.insert("comment".into(), json!(c));
+        }
+        let mut text = serde_json::to_string_pretty(&Value::Object(out)).expect("plain JSON");
+        text.push('\n');
+        text
+    }
+}

@@ -3,7 +3,8 @@
 //! grid pixel with a ray inside the source's field of view), and the fit is then measured on a
 //! second grid offset by half a step, so the reported errors are not those the fit minimised.
 //!
-//! The fitted lens keeps the source's image size and field of view.
+//! The fitted lens keeps the source's image size and field of view (or the narrower one asked
+//! for); where the target model cannot reach that far, the widest field angle sampled.
 
 use super::double_sphere::DoubleSphere;
 use super::eucm::Eucm;
@@ -49,8 +50,9 @@ pub struct FitReport {
 const GRID: usize = 160;
 const MAX_ITERATIONS: usize = 300;
 
-/// (bearing, source pixel) on a grid of the source image, offset by `shift` steps.
-fn samples(source: &Lens, shift: f64) -> Vec<(Vector3<f64>, Point2<f64>)> {
+/// (bearing, source pixel) on a grid of the source image, offset by `shift` steps, for rays up
+/// to `max_theta` from the axis.
+fn samples(source: &Lens, shift: f64, max_theta: f64) -> Vec<(Vector3<f64>, Point2<f64>)> {
     let s = source.size();
     let step = s.width.max(s.height) as f64 / GRID as f64;
     let mut out = Vec::new();
@@ -59,8 +61,9 @@ fn samples(source: &Lens, shift: f64) -> Vec<(Vector3<f64>, Point2<f64>)> {
         let mut u = -0.5 + shift * step;
         while u <= s.width as f64 - 0.5 {
             let p = Point2::new(u, v);
-            if let Ok(d) = source.unproject(&p) {
-                out.push((d, p));
+            match source.unproject(&p) {
+                Ok(d) if d.x.hypot(d.y).atan2(d.z) <= max_theta => out.push((d, p)),
+                _ => {}
             }
             u += step;
         }
@@ -130,16 +133,25 @@ fn residuals(lens: &Lens, rays: &[(Vector3<f64>, Point2<f64>)]) -> Option<Vec<f6
     r.iter().all(|v| v.is_finite()).then_some(r)
 }
 
-/// Fits `target` to `source` (see the module doc).
-pub fn fit(source: &Lens, target: TargetModel) -> Result<FitReport, FisheyeError> {
-    let rays = samples(source, 0.0);
+/// Fits `target` to `source` (see the module doc) over the source's pixels whose rays lie
+/// within `max_theta` of the axis (None: the source's whole field of view).
+pub fn fit(
+    source: &Lens,
+    target: TargetModel,
+    max_theta: Option<f64>,
+) -> Result<FitReport, FisheyeError> {
+    let max_theta = max_theta.unwrap_or(f64::INFINITY).min(source.max_theta());
+    let rays = samples(source, 0.0, max_theta);
     if rays.len() < 16 {
         return Err(FisheyeError::FieldOfView(
             "the source camera has too few pixels with a ray to fit another model".into(),
         ));
     }
+    let check = samples(source, 0.5, max_theta);
+    // The fitted lens must see every ray of both grids.
     let widest = rays
         .iter()
+        .chain(&check)
         .map(|(d, _)| d.x.hypot(d.y).atan2(d.z))
         .fold(0.0f64, f64::max);
     let cost_of = |p: &[f64]| -> Option<(f64, Vec<f64>)> {
@@ -160,6 +172,7 @@ pub fn fit(source: &Lens, target: TargetModel) -> Result<FitReport, FisheyeError
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS {
         iterations += 1;
+        let mut converged = false;
         // Forward-difference Jacobian, accumulated straight into JᵀJ and Jᵀr.
         let mut columns = Vec::with_capacity(n);
         for j in 0..n {
@@ -211,22 +224,22 @@ pub fn fit(source: &Lens, target: TargetModel) -> Result<FitReport, FisheyeError
                     r = rc;
                     lambda = (lambda / 3.0).max(1e-12);
                     accepted = true;
-                    if gain < 1e-12 {
-                        iterations = MAX_ITERATIONS;
-                    }
+                    converged = gain < 1e-12;
                     break;
                 }
                 _ => lambda *= 10.0,
             }
         }
-        if !accepted {
+        if std::env::var_os("PANOCONV_FIT_TRACE").is_some() {
+            eprintln!("{iterations} cost {cost:e} lambda {lambda:e} {params:?}");
+        }
+        if !accepted || converged {
             break;
         }
     }
     // The fitted lens sees the source's whole field of view when it can, else what was sampled.
-    let lens = build(target, &params, source, source.max_theta())
+    let lens = build(target, &params, source, max_theta)
         .or_else(|_| build(target, &params, source, widest))?;
-    let check = samples(source, 0.5);
     let errors: Vec<f64> = check
         .iter()
         .map(|(d, p)| lens.project(d).map_or(f64::INFINITY, |q| (q - p).norm()))
