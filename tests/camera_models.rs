@@ -10,8 +10,10 @@ use panoconv::camera::{
     Perspective, ProjectionReject, RadialModel, Unified,
 };
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
+
+mod opencv_ref;
+use opencv_ref::opencv_project;
 
 /// Round trip pixel → ray → pixel, pixels.
 const ROUND_TRIP_PX: f64 = 1e-6;
@@ -19,7 +21,7 @@ const ROUND_TRIP_PX: f64 = 1e-6;
 const REFERENCE_PX: f64 = 1e-6;
 
 /// KITTI-360's published calibration of `image_02` (calibration/image_02.yaml).
-pub fn kitti360_image_02() -> Unified {
+fn kitti360_image_02() -> Unified {
     mei(
         2.2134047507854890,
         [
@@ -359,81 +361,6 @@ fn identities_between_the_models() {
 
 // ---------------------------------------------------------------------------------------------
 // OpenCV as the reference
-
-/// The python with OpenCV (contrib): PANOCONV_TEST_PYTHON, else <repo>/.venv-test/bin/python.
-pub fn test_python() -> PathBuf {
-    if let Some(p) = std::env::var_os("PANOCONV_TEST_PYTHON") {
-        return PathBuf::from(p);
-    }
-    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv-test/bin/python");
-    assert!(
-        venv.exists(),
-        "no Python reference: set PANOCONV_TEST_PYTHON or run scripts/install_test_python.sh \
-         (it creates {})",
-        venv.display()
-    );
-    venv
-}
-
-/// Runs a python snippet with `args`, returns its stdout.
-pub fn run_python(script: &str, args: &[&str]) -> String {
-    let out = Command::new(test_python())
-        .arg("-c")
-        .arg(script)
-        .args(args)
-        .output()
-        .expect("cannot run the test python");
-    assert!(
-        out.status.success(),
-        "python failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-const OPENCV_PROJECT: &str = r#"
-import sys, json
-import numpy as np, cv2
-req = json.load(open(sys.argv[1]))
-pts = np.array(req["points"], dtype=np.float64).reshape(1, -1, 3)
-K = np.array(req["K"], dtype=np.float64).reshape(3, 3)
-D = np.array(req["D"], dtype=np.float64).reshape(1, 4)
-zero = np.zeros((1, 3), dtype=np.float64)
-if req["model"] == "fisheye":
-    img, _ = cv2.fisheye.projectPoints(pts, zero, zero, K, D)
-else:
-    img, _ = cv2.omnidir.projectPoints(pts, zero, zero, K, float(req["xi"]), D)
-for u, v in img.reshape(-1, 2):
-    print(repr(float(u)), repr(float(v)))
-"#;
-
-/// OpenCV's projections of `points` (model "fisheye" or "omnidir").
-pub fn opencv_project(
-    model: &str,
-    points: &[Vector3<f64>],
-    k: [f64; 9],
-    d: [f64; 4],
-    xi: f64,
-) -> Vec<Point2<f64>> {
-    let dir = tempfile::tempdir().unwrap();
-    let req = dir.path().join("request.json");
-    let pts: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
-    std::fs::write(
-        &req,
-        serde_json::json!({"model": model, "points": pts, "K": k, "D": d, "xi": xi}).to_string(),
-    )
-    .unwrap();
-    let out = run_python(OPENCV_PROJECT, &[req.to_str().unwrap()]);
-    let px: Vec<Point2<f64>> = out
-        .lines()
-        .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
-            Point2::new(v[0], v[1])
-        })
-        .collect();
-    assert_eq!(px.len(), points.len());
-    px
-}
 
 #[test]
 fn mei_matches_opencv_omnidir() {

@@ -310,6 +310,15 @@ fn kitti360(root: &Node, path: &Path) -> Result<Lens> {
     let dist = f.node(root, "distortion_parameters", "distortion_parameters")?;
     let proj = f.node(root, "projection_parameters", "projection_parameters")?;
     let xi = f.number(mirror, "xi", "mirror_parameters.xi")?;
+    let xi_line = mirror.get("xi").map_or(mirror.line(), Node::line);
+    if !(xi >= 0.0) {
+        return Err(Error::parse(
+            path,
+            xi_line,
+            "mirror_parameters.xi",
+            format!("xi must be ≥ 0, not {xi}"),
+        ));
+    }
     let d = |k: &str| f.number(dist, k, &format!("distortion_parameters.{k}"));
     let distortion = MeiDistortion {
         k1: d("k1")?,
@@ -319,7 +328,7 @@ fn kitti360(root: &Node, path: &Path) -> Result<Lens> {
     };
     let p = |k: &str| f.number(proj, k, &format!("projection_parameters.{k}"));
     let k = Intrinsics::new(p("gamma1")?, p("gamma2")?, p("u0")?, p("v0")?);
-    mei_lens(path, mirror.line(), xi, distortion, k, 0.0, size)
+    mei_lens(path, xi_line, xi, distortion, k, 0.0, size)
 }
 
 fn woodscape(root: &Node, path: &Path) -> Result<Lens> {
