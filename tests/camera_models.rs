@@ -3,6 +3,9 @@
 //! the papers written out here, the identities between the models, field-of-view limits, and
 //! the camera description fields.
 
+// Calibration values are written digit for digit as published.
+#![allow(clippy::excessive_precision)]
+
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::{
@@ -292,6 +295,8 @@ fn eucm_and_double_sphere_match_the_papers_equations() {
     }
 }
 
+type Camera = Box<dyn CameraModel>;
+
 /// Max pixel distance between two cameras over bearings up to `max_theta`.
 fn max_difference(a: &dyn CameraModel, b: &dyn CameraModel, max_theta: f64) -> f64 {
     let mut worst = 0.0f64;
@@ -315,7 +320,7 @@ fn identities_between_the_models() {
     let stereographic_half =
         Fisheye::new(RadialModel::Stereographic, half_k, size, 2.0 * t).unwrap();
     let no_distortion = MeiDistortion::NONE;
-    let cases: Vec<(&str, Box<dyn CameraModel>, Box<dyn CameraModel>)> = vec![
+    let cases: Vec<(&str, Camera, Camera)> = vec![
         // Double sphere with ξ = 0 is EUCM with β = 1 (Usenko et al., sec. III-E).
         (
             "double sphere ξ=0 = eucm β=1",
