@@ -173,6 +173,59 @@ fn pixel_ray_pixel_round_trips_over_every_pixel_with_a_ray() {
     }
 }
 
+/// Whether `p` lies inside the closed polygon `poly` (even-odd rule).
+fn inside(poly: &[Point2<f64>], p: &Point2<f64>) -> bool {
+    let mut c = false;
+    for (i, a) in poly.iter().enumerate() {
+        let b = &poly[(i + 1) % poly.len()];
+        if (a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) {
+            c = !c;
+        }
+    }
+    c
+}
+
+/// Distance from `p` to the polygon's edges.
+fn distance_to(poly: &[Point2<f64>], p: &Point2<f64>) -> f64 {
+    (0..poly.len())
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            let t = ((p - a).dot(&(b - a)) / (b - a).norm_squared()).clamp(0.0, 1.0);
+            (p - (a + (b - a) * t)).norm()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A pixel has a ray exactly when it lies inside the image of the field of view's edge (the
+/// curve of θ = max_theta), so that no pixel is refused wrongly (e.g. by an undistortion that
+/// converged to a folded solution).
+#[test]
+fn exactly_the_pixels_inside_the_field_of_view_have_a_ray() {
+    for (name, cam) in cameras() {
+        let edge: Vec<Point2<f64>> = (0..2000)
+            .map(|j| {
+                cam.project(&bearing(cam.max_theta(), 2.0 * PI * j as f64 / 2000.0))
+                    .unwrap()
+            })
+            .collect();
+        let s = cam.size();
+        let mut disagreements = 0usize;
+        let mut worst = 0.0f64;
+        for v in (0..s.height).step_by(4) {
+            for u in (0..s.width).step_by(4) {
+                let p = Point2::new(u as f64 + 0.25, v as f64 + 0.5);
+                if cam.unproject(&p).is_ok() != inside(&edge, &p) {
+                    disagreements += 1;
+                    worst = worst.max(distance_to(&edge, &p));
+                }
+            }
+        }
+        eprintln!("{name}: {disagreements} pixels disagree with the edge curve, at most {worst:.3} px from it");
+        // The edge is a polygon of 2000 chords: pixels within a hair of it may go either way.
+        assert!(worst < 0.05, "{name}: {worst} px");
+    }
+}
+
 #[test]
 fn ray_pixel_ray_round_trips_over_the_valid_field_of_view() {
     for (name, cam) in cameras() {
