@@ -166,7 +166,7 @@ impl FisheyeView {
 
     /// The field of view (radians) used for `desc`.
     pub fn fov(&self, desc: &CameraDescription) -> (f64, f64) {
-        let full = 2.0 * desc.camera.max_theta;
+        let full = 2.0 * desc.camera.max_theta();
         let hfov = self.hfov.unwrap_or(match self.projection {
             Projection::Perspective => full.min(120f64.to_radians()),
             _ => full.min(2.0 * PI),

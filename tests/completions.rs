@@ -184,6 +184,8 @@ fn man_page_to_stdout_and_one_per_subcommand() {
         .iter()
         .map(|s| format!("panoconv-{s}.1"))
         .chain(["panoconv.1".to_owned()])
+        // Nested subcommands get a page of their own.
+        .chain(["panoconv-camera-convert.1".to_owned()])
         .collect();
     want.sort();
     assert_eq!(names, want);

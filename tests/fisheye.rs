@@ -219,7 +219,7 @@ fn psnr(a: &RgbImage, b: &RgbImage, mask: impl Fn(u32, u32) -> bool) -> (f64, us
 /// Camera 1.2 m above the ground, pitched 8° down and rolled 2°, levelled by its rotation.
 fn mounted(cam: Fisheye) -> CameraDescription {
     CameraDescription {
-        camera: cam,
+        camera: cam.into(),
         output_from_camera: rotation_ypr(0.0, -8f64.to_radians(), 2f64.to_radians()),
     }
 }
@@ -291,9 +291,9 @@ const GOOD: &str = r#"{
 #[test]
 fn description_files_parse() {
     let d = parse(GOOD).unwrap();
-    assert_eq!(d.camera.model.name(), "kannala_brandt");
-    assert_eq!(d.camera.size, ImageSize::new(640, 480));
-    assert!((d.camera.max_theta - 95f64.to_radians()).abs() < 1e-12);
+    assert_eq!(d.camera.name(), "kannala_brandt");
+    assert_eq!(d.camera.size(), ImageSize::new(640, 480));
+    assert!((d.camera.max_theta() - 95f64.to_radians()).abs() < 1e-12);
     let forward = d.output_from_camera * Vector3::z();
     // Pitched down 10°: forward points below the horizon (y down).
     assert!(
@@ -305,13 +305,13 @@ fn description_files_parse() {
         "aspect_ratio": 1.0, "cx_offset": 3.942, "cy_offset": -3.093,
         "rotation": {"matrix": [[1,0,0],[0,1,0],[0,0,1]]}}"#;
     let d = parse(ws).unwrap();
-    assert!((d.camera.k.cu - (639.5 + 3.942)).abs() < 1e-12);
-    assert!((d.camera.k.cv - (482.5 - 3.093)).abs() < 1e-12);
+    assert!((d.camera.intrinsics().cu - (639.5 + 3.942)).abs() < 1e-12);
+    assert!((d.camera.intrinsics().cv - (482.5 - 3.093)).abs() < 1e-12);
     for model in ["equidistant", "equisolid", "stereographic", "orthographic"] {
         let t = format!(
             r#"{{"version":1,"model":"{model}","width":100,"height":100,"max_fov_deg":180,"fx":30,"cx":49.5,"cy":49.5}}"#
         );
-        assert_eq!(parse(&t).unwrap().camera.model.name(), model);
+        assert_eq!(parse(&t).unwrap().camera.name(), model);
     }
 }
 

@@ -1,10 +1,16 @@
-//! Camera description files (JSON, `"version": 1`): a fisheye model, its intrinsics, image size,
+//! Camera description files (JSON, `"version": 1`): a lens model, its intrinsics, image size,
 //! maximum field of view and its rotation relative to the output frame. See docs/fisheye.md.
+//! [`CameraDescription::read`] also takes the native calibration files of
+//! [`super::calib_files`] (recognised by their content).
 //!
 //! Errors name the file, the field and the line (and column, in the message).
 
+use super::double_sphere::DoubleSphere;
+use super::eucm::Eucm;
 use super::fisheye::{Fisheye, FisheyeError, RadialModel};
+use super::lens::Lens;
 use super::rotated::{is_rotation, rotation_ypr};
+use super::unified::{MeiDistortion, Unified};
 use super::{ImageSize, Intrinsics};
 use crate::error::{Error, Result};
 use nalgebra::Matrix3;
@@ -24,6 +30,10 @@ enum ModelName {
     #[serde(alias = "opencv_fisheye")]
     KannalaBrandt,
     Woodscape,
+    #[serde(alias = "unified", alias = "omnidir")]
+    Mei,
+    Eucm,
+    DoubleSphere,
 }
 
 #[derive(Debug, Deserialize)]
@@ -51,6 +61,11 @@ struct CameraFile {
     aspect_ratio: Option<f64>,
     cx_offset: Option<f64>,
     cy_offset: Option<f64>,
+    xi: Option<f64>,
+    alpha: Option<f64>,
+    beta: Option<f64>,
+    p: Option<Vec<f64>>,
+    skew: Option<f64>,
     rotation: Option<RotationFile>,
     /// Free text, ignored.
     #[allow(dead_code)]
@@ -60,7 +75,7 @@ struct CameraFile {
 /// A loaded camera description.
 #[derive(Debug, Clone)]
 pub struct CameraDescription {
-    pub camera: Fisheye,
+    pub camera: Lens,
     /// The camera's axes in the output frame: a camera bearing d is `output_from_camera · d`.
     pub output_from_camera: Matrix3<f64>,
 }
@@ -112,12 +127,24 @@ fn line_of_key(text: &str, key: &str) -> usize {
 }
 
 impl CameraDescription {
-    /// Reads and validates a camera description file.
+    /// Reads and validates a camera description file, or a native calibration file (KITTI-360
+    /// YAML, WoodScape JSON, OpenCV FileStorage), recognised by its content.
     pub fn read(path: &Path) -> Result<Self> {
         let bytes = crate::error::read_file(path)?;
         let text = String::from_utf8(bytes)
             .map_err(|_| Error::file(path, "camera description is not valid UTF-8"))?;
-        Self::parse(&text, path)
+        Self::parse_any(&text, path)
+    }
+
+    /// [`CameraDescription::parse`], or a native calibration file when the text is one.
+    pub fn parse_any(text: &str, path: &Path) -> Result<Self> {
+        match super::calib_files::parse_native(text, path)? {
+            Some(camera) => Ok(Self {
+                camera,
+                output_from_camera: Matrix3::identity(),
+            }),
+            None => Self::parse(text, path),
+        }
     }
 
     /// Parses the text of a camera description; `path` names it in errors.
@@ -201,6 +228,7 @@ impl CameraDescription {
                 ] {
                     forbid(present, f)?;
                 }
+                forbid_unified_fields(&forbid, &file, &[])?;
                 if file.k.is_none() {
                     return Err(bad("model", "model woodscape needs the field `k`".into()));
                 }
@@ -228,6 +256,13 @@ impl CameraDescription {
                 ] {
                     forbid(present, f)?;
                 }
+                let allowed: &[&str] = match m {
+                    ModelName::Mei => &["xi", "p", "skew"],
+                    ModelName::Eucm => &["alpha", "beta"],
+                    ModelName::DoubleSphere => &["xi", "alpha"],
+                    _ => &[],
+                };
+                forbid_unified_fields(&forbid, &file, allowed)?;
                 let fx = need(file.fx, "fx")?;
                 let fy = need(file.fy.or(file.fx), "fy")?;
                 let cx = need(file.cx, "cx")?;
@@ -237,6 +272,7 @@ impl CameraDescription {
                         return Err(bad(f, format!("focal length must be positive, not {v}")));
                     }
                 }
+                let k = Intrinsics::new(fx, fy, cx, cy);
                 let model = match m {
                     ModelName::Equidistant => RadialModel::Equidistant,
                     ModelName::Equisolid => RadialModel::Equisolid,
@@ -244,11 +280,18 @@ impl CameraDescription {
                     ModelName::Orthographic => RadialModel::Orthographic,
                     ModelName::KannalaBrandt => RadialModel::KannalaBrandt(coefficients("k")?),
                     ModelName::Woodscape => unreachable!("handled above"),
+                    ModelName::Mei | ModelName::Eucm | ModelName::DoubleSphere => {
+                        let camera = self::unified_family(&file, m, k, size, &bad, &need)?;
+                        return Ok(Self {
+                            camera,
+                            output_from_camera: rotation_of(&file, &bad)?,
+                        });
+                    }
                 };
                 if !matches!(model, RadialModel::KannalaBrandt(_)) {
                     forbid(file.k.is_some(), "k")?;
                 }
-                (model, Intrinsics::new(fx, fy, cx, cy))
+                (model, k)
             }
         };
         let fov = file.max_fov_deg;
@@ -269,42 +312,233 @@ impl CameraDescription {
             };
             bad(field, e.to_string())
         })?;
-        let output_from_camera = match &file.rotation {
-            None => Matrix3::identity(),
-            Some(r) => {
-                let angles = [r.yaw_deg, r.pitch_deg, r.roll_deg];
-                match (&r.matrix, angles.iter().any(Option::is_some)) {
-                    (Some(_), true) => {
+        Ok(Self {
+            camera: Lens::Radial(camera),
+            output_from_camera: rotation_of(&file, &bad)?,
+        })
+    }
+}
+
+/// Refuses the fields of the MEI, EUCM and double sphere models that `allowed` does not list.
+fn forbid_unified_fields(
+    forbid: &dyn Fn(bool, &str) -> Result<()>,
+    file: &CameraFile,
+    allowed: &[&str],
+) -> Result<()> {
+    for (present, f) in [
+        (file.xi.is_some(), "xi"),
+        (file.alpha.is_some(), "alpha"),
+        (file.beta.is_some(), "beta"),
+        (file.p.is_some(), "p"),
+        (file.skew.is_some(), "skew"),
+    ] {
+        if !allowed.contains(&f) {
+            forbid(present, f)?;
+        }
+    }
+    Ok(())
+}
+
+/// The MEI, EUCM and double sphere cameras of a description (fx, fy, cx, cy already checked).
+fn unified_family(
+    file: &CameraFile,
+    model: ModelName,
+    k: Intrinsics,
+    size: ImageSize,
+    bad: &dyn Fn(&str, String) -> Error,
+    need: &dyn Fn(Option<f64>, &str) -> Result<f64>,
+) -> Result<Lens> {
+    let fov = file.max_fov_deg;
+    if !(fov > 0.0 && fov < 360.0) {
+        return Err(bad(
+            "max_fov_deg",
+            format!("must be in (0, 360) degrees, not {fov}"),
+        ));
+    }
+    let max_theta = fov.to_radians() / 2.0;
+    let at_most = |v: &Option<Vec<f64>>, field: &str| -> Result<[f64; 2]> {
+        let v = v.clone().unwrap_or_default();
+        if v.len() > 2 {
+            return Err(bad(
+                field,
+                format!("expected at most 2 coefficients, found {}", v.len()),
+            ));
+        }
+        if !v.iter().all(|c| c.is_finite()) {
+            return Err(bad(field, "coefficients must be finite".into()));
+        }
+        Ok(std::array::from_fn(|i| v.get(i).copied().unwrap_or(0.0)))
+    };
+    let built = match model {
+        ModelName::Mei => {
+            let [k1, k2] = at_most(&file.k, "k")?;
+            let [p1, p2] = at_most(&file.p, "p")?;
+            let skew = match file.skew {
+                Some(s) => need(Some(s), "skew")?,
+                None => 0.0,
+            };
+            Unified::new(
+                need(file.xi, "xi")?,
+                MeiDistortion { k1, k2, p1, p2 },
+                k,
+                skew,
+                size,
+                max_theta,
+            )
+            .map(Lens::Unified)
+        }
+        ModelName::Eucm => {
+            if file.k.is_some() {
+                return Err(bad("k", "not used by model Eucm: remove it".into()));
+            }
+            Eucm::new(
+                need(file.alpha, "alpha")?,
+                need(file.beta, "beta")?,
+                k,
+                size,
+                max_theta,
+            )
+            .map(Lens::Eucm)
+        }
+        _ => {
+            if file.k.is_some() {
+                return Err(bad("k", "not used by model DoubleSphere: remove it".into()));
+            }
+            DoubleSphere::new(
+                need(file.xi, "xi")?,
+                need(file.alpha, "alpha")?,
+                k,
+                size,
+                max_theta,
+            )
+            .map(Lens::DoubleSphere)
+        }
+    };
+    built.map_err(|e| {
+        let field = match &e {
+            FisheyeError::Parameter(f, _) => f,
+            FisheyeError::Intrinsics(_) => "model",
+            FisheyeError::NotMonotonic(_) => "k",
+            FisheyeError::FieldOfView(_) => "max_fov_deg",
+        };
+        bad(field, e.to_string())
+    })
+}
+
+/// The description's rotation (`output_from_camera`), identity when absent.
+fn rotation_of(file: &CameraFile, bad: &dyn Fn(&str, String) -> Error) -> Result<Matrix3<f64>> {
+    Ok(match &file.rotation {
+        None => Matrix3::identity(),
+        Some(r) => {
+            let angles = [r.yaw_deg, r.pitch_deg, r.roll_deg];
+            match (&r.matrix, angles.iter().any(Option::is_some)) {
+                (Some(_), true) => {
+                    return Err(bad(
+                        "rotation",
+                        "give either `matrix` or yaw_deg/pitch_deg/roll_deg, not both".into(),
+                    ))
+                }
+                (Some(m), false) => {
+                    let m = Matrix3::from_fn(|i, j| m[i][j]);
+                    if !is_rotation(&m, 1e-6) {
                         return Err(bad(
-                            "rotation",
-                            "give either `matrix` or yaw_deg/pitch_deg/roll_deg, not both".into(),
-                        ))
-                    }
-                    (Some(m), false) => {
-                        let m = Matrix3::from_fn(|i, j| m[i][j]);
-                        if !is_rotation(&m, 1e-6) {
-                            return Err(bad(
                                 "matrix",
                                 "rotation.matrix is not a rotation (orthonormal, determinant +1 within 1e-6)"
                                     .into(),
                             ));
-                        }
-                        // Re-orthonormalise so that round trips stay exact.
-                        nalgebra::Rotation3::from_matrix(&m).into_inner()
                     }
-                    (None, _) => {
-                        let [y, p, ro] = angles.map(|a| a.unwrap_or(0.0));
-                        if ![y, p, ro].iter().all(|a| a.is_finite()) {
-                            return Err(bad("rotation", "angles must be finite".into()));
-                        }
-                        rotation_ypr(y.to_radians(), p.to_radians(), ro.to_radians())
+                    // Re-orthonormalise so that round trips stay exact.
+                    nalgebra::Rotation3::from_matrix(&m).into_inner()
+                }
+                (None, _) => {
+                    let [y, p, ro] = angles.map(|a| a.unwrap_or(0.0));
+                    if ![y, p, ro].iter().all(|a| a.is_finite()) {
+                        return Err(bad("rotation", "angles must be finite".into()));
                     }
+                    rotation_ypr(y.to_radians(), p.to_radians(), ro.to_radians())
                 }
             }
+        }
+    })
+}
+
+impl CameraDescription {
+    /// The description as a version-1 JSON file that [`CameraDescription::parse`] reads back to
+    /// the same lens (numbers written in their shortest round-trip form); `comment` goes into
+    /// the `comment` field.
+    pub fn to_json(&self, comment: Option<&str>) -> String {
+        use serde_json::{json, Map, Value};
+        let lens = &self.camera;
+        let size = crate::camera::CameraModel::size(lens);
+        let k = lens.intrinsics();
+        let mut out = Map::new();
+        out.insert("version".into(), json!(VERSION));
+        out.insert("model".into(), json!(lens.name()));
+        out.insert("width".into(), json!(size.width));
+        out.insert("height".into(), json!(size.height));
+        out.insert(
+            "max_fov_deg".into(),
+            json!(2.0 * lens.max_theta().to_degrees()),
+        );
+        let affine = |out: &mut Map<String, Value>| {
+            out.insert("fx".into(), json!(k.fu));
+            out.insert("fy".into(), json!(k.fv));
+            out.insert("cx".into(), json!(k.cu));
+            out.insert("cy".into(), json!(k.cv));
         };
-        Ok(Self {
-            camera,
-            output_from_camera,
-        })
+        match lens {
+            Lens::Radial(f) => match &f.model {
+                RadialModel::Polynomial(c) => {
+                    // r in pixels = fx·poly(θ): fold fx into the coefficients, fy/fx is the
+                    // aspect ratio, the principal point an offset from the image centre.
+                    out.insert("k".into(), json!(c.map(|v| v * k.fu)));
+                    out.insert("aspect_ratio".into(), json!(k.fv / k.fu));
+                    out.insert(
+                        "cx_offset".into(),
+                        json!(k.cu - (size.width as f64 / 2.0 - 0.5)),
+                    );
+                    out.insert(
+                        "cy_offset".into(),
+                        json!(k.cv - (size.height as f64 / 2.0 - 0.5)),
+                    );
+                }
+                RadialModel::KannalaBrandt(c) => {
+                    affine(&mut out);
+                    out.insert("k".into(), json!(c));
+                }
+                _ => affine(&mut out),
+            },
+            Lens::Unified(m) => {
+                affine(&mut out);
+                let d = m.distortion;
+                out.insert("xi".into(), json!(m.xi));
+                out.insert("k".into(), json!([d.k1, d.k2]));
+                out.insert("p".into(), json!([d.p1, d.p2]));
+                if m.skew != 0.0 {
+                    out.insert("skew".into(), json!(m.skew));
+                }
+            }
+            Lens::Eucm(m) => {
+                affine(&mut out);
+                out.insert("alpha".into(), json!(m.alpha));
+                out.insert("beta".into(), json!(m.beta));
+            }
+            Lens::DoubleSphere(m) => {
+                affine(&mut out);
+                out.insert("xi".into(), json!(m.xi));
+                out.insert("alpha".into(), json!(m.alpha));
+            }
+        }
+        if self.output_from_camera != Matrix3::identity() {
+            let m = self.output_from_camera;
+            let rows: Vec<[f64; 3]> = (0..3).map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]]).collect();
+            out.insert("rotation".into(), json!({ "matrix": rows }));
+        }
+        if let Some(c) = comment {
+            out.insert("comment".into(), json!(c));
+        }
+        let mut text = serde_json::to_string_pretty(&Value::Object(out)).expect("plain JSON");
+        text.push('\n');
+        text
     }
 }

@@ -155,6 +155,8 @@ pub enum FisheyeError {
     NotMonotonic(String),
     /// Focal lengths, principal point or size unusable.
     Intrinsics(String),
+    /// A model parameter (named) outside the range the model is defined for.
+    Parameter(&'static str, String),
 }
 
 impl std::fmt::Display for FisheyeError {
@@ -162,12 +164,35 @@ impl std::fmt::Display for FisheyeError {
         match self {
             FisheyeError::FieldOfView(m)
             | FisheyeError::NotMonotonic(m)
-            | FisheyeError::Intrinsics(m) => f.write_str(m),
+            | FisheyeError::Intrinsics(m)
+            | FisheyeError::Parameter(_, m) => f.write_str(m),
         }
     }
 }
 
 impl std::error::Error for FisheyeError {}
+
+/// Refuses non-positive or non-finite focal lengths, a non-finite principal point and an empty
+/// image: the checks every lens model shares.
+pub(crate) fn check_intrinsics(k: &Intrinsics, size: ImageSize) -> Result<(), FisheyeError> {
+    if !(k.fu.is_finite() && k.fv.is_finite() && k.fu > 0.0 && k.fv > 0.0) {
+        return Err(FisheyeError::Intrinsics(format!(
+            "focal lengths must be positive (fx {}, fy {})",
+            k.fu, k.fv
+        )));
+    }
+    if !(k.cu.is_finite() && k.cv.is_finite()) {
+        return Err(FisheyeError::Intrinsics(
+            "principal point must be finite".into(),
+        ));
+    }
+    if size.width == 0 || size.height == 0 {
+        return Err(FisheyeError::Intrinsics(
+            "image size must be positive".into(),
+        ));
+    }
+    Ok(())
+}
 
 /// A fisheye camera: a radial model, the affine part (fx, fy, cx, cy) and the field of view.
 #[derive(Debug, Clone, PartialEq)]
@@ -212,22 +237,7 @@ impl Fisheye {
         size: ImageSize,
         max_fov: f64,
     ) -> Result<Self, FisheyeError> {
-        if !(k.fu.is_finite() && k.fv.is_finite() && k.fu > 0.0 && k.fv > 0.0) {
-            return Err(FisheyeError::Intrinsics(format!(
-                "focal lengths must be positive (fx {}, fy {})",
-                k.fu, k.fv
-            )));
-        }
-        if !(k.cu.is_finite() && k.cv.is_finite()) {
-            return Err(FisheyeError::Intrinsics(
-                "principal point must be finite".into(),
-            ));
-        }
-        if size.width == 0 || size.height == 0 {
-            return Err(FisheyeError::Intrinsics(
-                "image size must be positive".into(),
-            ));
-        }
+        check_intrinsics(&k, size)?;
         let max_theta = max_fov / 2.0;
         let limit = model.theta_limit();
         if !(max_theta > 0.0 && max_theta < PI) || max_theta > limit + 1e-12 {

@@ -8,22 +8,33 @@
 //! their (a, b) [`Mapping`]; [`Linear`] adds K once for all of them). The warp, the label
 //! transform and the output-geometry search only talk to the trait, so a new model is one file.
 
+pub mod calib_files;
 mod cylindrical;
 pub mod description;
+pub mod double_sphere;
 mod equirect;
+pub mod eucm;
 pub mod fisheye;
+pub mod fit;
 mod intrinsics;
+pub mod lens;
 pub mod linear;
 mod perspective;
 pub mod rotated;
+pub mod unified;
+mod yaml_subset;
 
 pub use cylindrical::Cylindrical;
+pub use double_sphere::DoubleSphere;
 pub use equirect::Equirect;
+pub use eucm::Eucm;
 pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
+pub use lens::Lens;
 pub use linear::{Linear, Mapping};
 pub use perspective::Perspective;
 pub use rotated::{rotation_ypr, Rotated};
+pub use unified::{MeiDistortion, Unified};
 
 use nalgebra::{Point2, Vector3};
 

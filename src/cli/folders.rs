@@ -144,7 +144,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
         vfov: degrees(a.vfov, "--vfov")?,
         scale: view_scale(a)?,
     };
-    let size = desc.camera.size;
+    let size = panoconv::camera::CameraModel::size(&desc.camera);
     // Built before anything is written (one camera, one table): errors are set-up errors.
     let view = spec.plan(&desc)?;
     let (hfov, vfov) = spec.fov(&desc);
@@ -157,7 +157,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
         parameters: serde_json::json!({
             "input": a.input,
             "camera": args.camera,
-            "camera_model": desc.camera.model.name(),
+            "camera_model": desc.camera.name(),
             "projection": spec.projection,
             "hfov_deg": hfov.to_degrees(),
             "vfov_deg": vfov.to_degrees(),

@@ -22,10 +22,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+mod camera;
 mod convert;
 mod folders;
 mod tools;
 
+use camera::*;
 use convert::*;
 use folders::*;
 use tools::*;
@@ -96,6 +98,9 @@ enum Command {
     /// Warp a folder of 2:1 equirect panoramas (PNG or JPEG) to cylindrical, perspective views or an equirect strip.
     #[command(after_help = PANO_EXAMPLES)]
     Pano(PanoArgs),
+    /// Camera files: fit another lens model to a camera (`camera convert`).
+    #[command(after_help = CAMERA_EXAMPLES)]
+    Camera(CameraArgs),
     /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
     #[command(after_help = INSPECT_EXAMPLES)]
     Inspect(InspectArgs),
@@ -245,6 +250,7 @@ fn run() -> Result<ExitCode> {
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),
+        Command::Camera(a) => camera(a),
         Command::Inspect(a) => inspect(a),
         Command::Completions(a) => completions(a),
         Command::Man(a) => man(a),

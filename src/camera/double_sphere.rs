@@ -1,0 +1,132 @@
+//! The double sphere camera model (Usenko, Demmel & Cremers 2018):
+//!
+//! ```text
+//! d1 = |p|,  d2 = sqrt(x² + y² + (ξ·d1 + z)²)
+//! den = α·d2 + (1 − α)·(ξ·d1 + z)
+//! u = fx·x/den + cx,  v = fy·y/den + cy
+//! ```
+//!
+//! with α ∈ [0, 1], ξ ∈ (−1, 1). ξ = 0 is the EUCM with β = 1; α = 0 is the unified model
+//! without distortion (MEI) with the same ξ and fx, fy.
+//!
+//! Valid field of view (the paper's eq. 43): bearings with z > −w2·d1, w2 = (w1 + ξ) /
+//! sqrt(2·w1·ξ + ξ² + 1), w1 = α/(1 − α) for α ≤ 0.5, (1 − α)/α otherwise; for a unit bearing
+//! θ < acos(−w2). For α > 0.5 the image radius peaks there (r² = 1/(2α − 1)) and the limit is
+//! included; for α ≤ 0.5 the image is unbounded there. Bearings beyond the camera's
+//! `max_theta` are rejected.
+//!
+//! Inverse: closed-form (eqs. 47-49).
+
+use super::eucm::unified_w;
+use super::fisheye::{check_intrinsics, FisheyeError};
+use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+use nalgebra::{Point2, Vector3};
+use std::f64::consts::PI;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DoubleSphere {
+    pub xi: f64,
+    pub alpha: f64,
+    /// fx, fy, cx, cy (pixel centres at integers).
+    pub k: Intrinsics,
+    pub size: ImageSize,
+    /// Half the field of view (radians); bearings beyond it are rejected.
+    pub max_theta: f64,
+}
+
+impl DoubleSphere {
+    /// The supremum of the half field of view, and whether the image radius is finite there.
+    pub fn fov_limit(xi: f64, alpha: f64) -> (f64, bool) {
+        let w1 = unified_w(alpha);
+        let w2 = (w1 + xi) / (2.0 * w1 * xi + xi * xi + 1.0).sqrt();
+        ((-w2).clamp(-1.0, 1.0).acos(), alpha > 0.5)
+    }
+
+    /// A camera seeing up to `max_theta` (half field of view, radians) within
+    /// [`DoubleSphere::fov_limit`].
+    pub fn new(
+        xi: f64,
+        alpha: f64,
+        k: Intrinsics,
+        size: ImageSize,
+        max_theta: f64,
+    ) -> Result<Self, FisheyeError> {
+        check_intrinsics(&k, size)?;
+        if !(xi > -1.0 && xi < 1.0) {
+            return Err(FisheyeError::Parameter(
+                "xi",
+                format!("xi must be in (-1, 1), not {xi}"),
+            ));
+        }
+        if !(0.0..=1.0).contains(&alpha) {
+            return Err(FisheyeError::Parameter(
+                "alpha",
+                format!("alpha must be in [0, 1], not {alpha}"),
+            ));
+        }
+        let (limit, finite) = Self::fov_limit(xi, alpha);
+        super::lens::check_fov("double_sphere", max_theta, limit, finite)?;
+        Ok(Self {
+            xi,
+            alpha,
+            k,
+            size,
+            max_theta,
+        })
+    }
+}
+
+impl CameraModel for DoubleSphere {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let n = d.norm();
+        if !(n.is_finite() && n > 0.0) {
+            return Err(ProjectionReject::Singular);
+        }
+        let s = d / n;
+        if s.x.hypot(s.y).atan2(s.z) > self.max_theta * (1.0 + 1e-12) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        let shifted = self.xi + s.z;
+        let d2 = (s.x * s.x + s.y * s.y + shifted * shifted).sqrt();
+        let den = self.alpha * d2 + (1.0 - self.alpha) * shifted;
+        if !(den > 0.0) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        Ok(Point2::new(
+            self.k.fu * s.x / den + self.k.cu,
+            self.k.fv * s.y / den + self.k.cv,
+        ))
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        let (a, xi) = (self.alpha, self.xi);
+        let mx = (p.x - self.k.cu) / self.k.fu;
+        let my = (p.y - self.k.cv) / self.k.fv;
+        let r2 = mx * mx + my * my;
+        let inside = 1.0 - (2.0 * a - 1.0) * r2;
+        if !(r2.is_finite() && inside >= -1e-12) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        let mz = (1.0 - a * a * r2) / (a * inside.max(0.0).sqrt() + 1.0 - a);
+        let scale = (mz * xi + (mz * mz + (1.0 - xi * xi) * r2).max(0.0).sqrt()) / (mz * mz + r2);
+        let d = Vector3::new(scale * mx, scale * my, scale * mz - xi).normalize();
+        if !(d.iter().all(|v| v.is_finite())
+            && d.x.hypot(d.y).atan2(d.z) <= self.max_theta * (1.0 + 1e-9))
+        {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        Ok(d)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        p.norm()
+    }
+
+    fn size(&self) -> ImageSize {
+        self.size
+    }
+
+    fn front_halfspace(&self) -> Option<Vector3<f64>> {
+        (self.max_theta <= PI / 2.0).then(Vector3::z)
+    }
+}
