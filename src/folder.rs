@@ -73,6 +73,13 @@ pub fn view_camera(
         Projection::Perspective => (PI, PI),
         Projection::Cylindrical => (2.0 * PI, PI),
         Projection::Equirect => (2.0 * PI, PI),
+        Projection::Fisheye => {
+            return Err(Error::Setup(
+                "folder views are equirect, cylindrical or perspective; a fisheye target is \
+                 `panoconv kitti --to fisheye --camera FILE`"
+                    .into(),
+            ))
+        }
     };
     let h_ok = hfov > 0.0 && (hfov < max_h || (full && projection != Projection::Perspective));
     let v_ok = vfov > 0.0
@@ -88,7 +95,7 @@ pub fn view_camera(
     let (a_half, b_half) = match projection {
         Projection::Perspective => ((hfov / 2.0).tan(), (vfov / 2.0).tan()),
         Projection::Cylindrical => (hfov / 2.0, (vfov / 2.0).tan()),
-        Projection::Equirect => (hfov / 2.0, (vfov / 2.0).min(PI / 2.0)),
+        Projection::Equirect | Projection::Fisheye => (hfov / 2.0, (vfov / 2.0).min(PI / 2.0)),
     };
     let (width, fu, cu) = if full {
         let w = (2.0 * PI * fu).round().max(1.0) as u32;

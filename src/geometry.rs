@@ -5,10 +5,14 @@
 //! and the canvas is the tight bounding box of the source field of view in the target
 //! projection, rounded outward to whole pixels.
 
-use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Projection};
+use crate::camera::{
+    CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, LinearCamera, OutputCamera, Projection,
+};
 use crate::error::{Error, Result};
+use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
+use std::path::PathBuf;
 
 /// Pixels per radian at the centre of the output.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -72,6 +76,24 @@ impl OutputSpec {
             && self.scale == Scale::SourceFocal
             && self.canvas == Canvas::Tight
     }
+}
+
+/// A real fisheye camera to render into: a camera description or a native calibration file
+/// (docs/fisheye.md), at the source camera's centre, turned by the file's rotation relative to
+/// KITTI's rectified axes. Its size and intrinsics are the file's (then `--crop`/`--resize`).
+#[derive(Debug, Clone, Serialize)]
+pub struct FisheyeTarget {
+    /// The file, as given.
+    pub camera: PathBuf,
+    /// Its blake3: `--resume` refuses a run whose camera file changed.
+    pub camera_blake3: String,
+    /// The lens model's name.
+    pub model: String,
+    #[serde(skip)]
+    pub lens: Lens,
+    /// The camera's axes in rect: a lens bearing d is `rect_from_camera · d`.
+    #[serde(skip)]
+    pub rect_from_camera: Matrix3<f64>,
 }
 
 /// Rounds up, forgiving floating-point noise so that an exact fit is not one pixel wider.
@@ -147,6 +169,32 @@ pub fn resize_intrinsics(k: Intrinsics, from: ImageSize, to: ImageSize) -> Intri
     )
 }
 
+/// The camera a conversion writes: the fisheye target's lens, or the linear output camera of
+/// [`output_camera`], after the spec's crop and resize either way.
+pub fn target_camera(
+    spec: &OutputSpec,
+    fisheye: Option<&FisheyeTarget>,
+    src_k: Intrinsics,
+    source: &dyn CameraModel,
+) -> Result<Box<dyn OutputCamera>> {
+    match (spec.projection, fisheye) {
+        (Projection::Fisheye, Some(f)) => {
+            let camera = FisheyeCamera {
+                lens: f.lens.clone(),
+                rect_from_camera: f.rect_from_camera,
+            };
+            let (k, size) = crop_and_resize(spec, camera.intrinsics(), camera.size())?;
+            camera
+                .with_intrinsics(k, size)
+                .map_err(|e| Error::Setup(format!("{}: {e}", f.camera.display())))
+        }
+        (Projection::Fisheye, None) => Err(Error::Setup(
+            "a fisheye target needs its camera (--camera FILE)".into(),
+        )),
+        _ => Ok(output_camera(spec, src_k, source)?),
+    }
+}
+
 /// The output camera for a source camera (intrinsics `src_k` of a perspective source for the
 /// default scale; `source` for the field of view), after the spec's crop and resize.
 pub fn output_camera(
@@ -155,7 +203,17 @@ pub fn output_camera(
     source: &dyn CameraModel,
 ) -> Result<Box<dyn LinearCamera>> {
     let canvas = canvas_camera(spec, src_k, source)?;
-    let (mut k, mut size) = (canvas.intrinsics(), canvas.size());
+    let (k, size) = crop_and_resize(spec, canvas.intrinsics(), canvas.size())?;
+    Ok(spec.projection.camera(k, size))
+}
+
+/// Intrinsics and size of a canvas after the spec's crop, then resize.
+fn crop_and_resize(
+    spec: &OutputSpec,
+    k: Intrinsics,
+    size: ImageSize,
+) -> Result<(Intrinsics, ImageSize)> {
+    let (mut k, mut size) = (k, size);
     if let Some(c) = &spec.crop {
         if c.width == 0 || c.height == 0 {
             return Err(Error::Setup(
@@ -178,7 +236,7 @@ pub fn output_camera(
             "the output intrinsics are not finite ({k:?}): check P2"
         )));
     }
-    Ok(spec.projection.camera(k, size))
+    Ok((k, size))
 }
 
 /// The output camera before crop and resize.

@@ -14,6 +14,8 @@ use nalgebra::{Point2, Vector3};
 const NEAR: f64 = 0.05;
 const EDGE_SAMPLES: usize = 32;
 const REFINE_STEPS: usize = 28;
+/// Bisection steps for where an edge leaves the camera's domain (2^-40 of the edge).
+const BOUNDARY_STEPS: usize = 40;
 
 /// Pixel bounds [left, top, right, bottom]; may extend beyond the image or be infinite.
 pub type Bounds = [f64; 4];
@@ -64,6 +66,30 @@ impl<'a> Accumulator<'a> {
             .collect();
         for s in samples.iter().flatten() {
             self.add(*s);
+        }
+        // Where the segment leaves the camera's domain between two samples (a fisheye's field
+        // of view), its image ends at the domain's edge: bisect for the last point with an image.
+        for (i, pair) in samples.windows(2).enumerate() {
+            if pair[0].is_some() == pair[1].is_some() {
+                continue;
+            }
+            let (mut inside, mut outside) = (i as f64, (i + 1) as f64);
+            if pair[0].is_none() {
+                std::mem::swap(&mut inside, &mut outside);
+            }
+            let (mut inside, mut outside) =
+                (inside / EDGE_SAMPLES as f64, outside / EDGE_SAMPLES as f64);
+            for _ in 0..BOUNDARY_STEPS {
+                let mid = 0.5 * (inside + outside);
+                if self.pixel(&at(mid)).is_ok() {
+                    inside = mid;
+                } else {
+                    outside = mid;
+                }
+            }
+            if let Ok(px) = self.pixel(&at(inside)) {
+                self.add(px);
+            }
         }
         // objective k: 0 → -u, 1 → -v, 2 → u, 3 → v (maximised)
         for k in 0..4 {
@@ -190,7 +216,9 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
         for i in 0..poly.len() {
             edges.push(Edge::new(poly[i], poly[(i + 1) % poly.len()]));
         }
-        if front.is_none() {
+        // A panorama (u an angle about the vertical axis) sees a face crossing that axis at
+        // every azimuth; a fisheye has no such axis.
+        if camera.horizontal_period().is_some() {
             if let Some(hit) = vertical_axis_hit(&poly) {
                 // The box spans every azimuth around the camera's vertical axis.
                 acc.bounds[0] = f64::NEG_INFINITY;

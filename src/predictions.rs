@@ -3,7 +3,7 @@
 //! outputs back to KITTI 3D results). Each frame needs the calib panoconv wrote and the image
 //! beside it (for its size).
 
-use crate::camera::{ImageSize, LinearCamera};
+use crate::camera::{ImageSize, OutputCamera};
 use crate::error::{read_file, read_lines, Error, Result};
 use crate::kitti::{png_io, Calib, LabelFile};
 use crate::output::write_atomic;
@@ -44,7 +44,7 @@ fn frame_camera(
     calib_dir: &Path,
     images_dir: &Path,
     id: &str,
-) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
     let calib = Calib::read(&calib_dir.join(format!("{id}.txt")))?;
     let image = images_dir.join(format!("{id}.png"));
     let (w, h) = png_io::read_size(&read_file(&image)?, &image)?;

@@ -5,7 +5,7 @@
 //! The camera comes from the calib alone: the `projection:`, `K2:` and `C2:` lines panoconv
 //! writes, or, for a plain KITTI calib, the perspective camera of `P2`.
 
-use crate::camera::{CameraModel, ImageSize, LinearCamera};
+use crate::camera::{CameraModel, ImageSize, OutputCamera};
 use crate::error::{read_file, Error, Result};
 use crate::image::RgbImage;
 use crate::kitti::{png_io, Calib, Label};
@@ -333,7 +333,7 @@ pub fn draw_depth_legend(img: &mut RgbImage, scale: u32) {
     }
     for d in DEPTH_STOPS_M {
         let text = if d >= DEPTH_MAX_M {
-            format!("{d:.0}m+")
+            format!("{d:.0}m")
         } else {
             format!("{d:.0}")
         };
@@ -376,7 +376,7 @@ pub fn overlay_depth(img: &mut RgbImage, width: u32, height: u32, values: &[u16]
 pub fn frame_camera(
     calib: &Calib,
     size: ImageSize,
-) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
     if calib.projection.is_some() {
         calib.output_camera(2, size)
     } else {

@@ -15,7 +15,7 @@
 //! Going back, the location is C + t·bearing(u, v) with t chosen so that the distance matches,
 //! moved down by half the height.
 
-use crate::camera::{CameraModel, LinearCamera};
+use crate::camera::{CameraModel, OutputCamera};
 use crate::error::{Error, Result};
 use crate::kitti::Label;
 use crate::labels::{box_bounds, clip};
@@ -88,9 +88,10 @@ pub fn pixel_to_box(
 
 /// Scale from a distance predicted by a detector trained on perspective images of vertical
 /// focal length `trained_fv` to the output camera's distance: an object of height H spans
-/// f·H/d pixels in both, so d_out = d_pred · fv_out / trained_fv (Plaut et al.: Z becomes rho).
-pub fn trained_focal_scale(output: &dyn LinearCamera, trained_fv: f64) -> f64 {
-    output.intrinsics().fv / trained_fv
+/// f·H/d pixels in both, so d_out = d_pred · fv_out / trained_fv (Plaut et al.: Z becomes rho;
+/// a fisheye's f is its pixels per radian at the image centre).
+pub fn trained_focal_scale(output: &dyn OutputCamera, trained_fv: f64) -> f64 {
+    output.centre_intrinsics().fv / trained_fv
 }
 
 pub fn format_pixel_line(o: &PixelObject) -> String {

@@ -2,6 +2,7 @@
 //! nightly): the same properties, with proptest over arbitrary text and bytes and over
 //! near-valid lines built from a vocabulary of tricky tokens. None of them may panic.
 
+use panoconv::camera::{ImageSize, Projection};
 use panoconv::kitti::{velodyne, Calib, Label};
 use proptest::prelude::*;
 use std::path::Path;
@@ -65,7 +66,8 @@ fn check_calib(lines: Vec<String>) {
                 .chain(cam.centre.iter())
                 .all(|v| v.is_finite());
             if finite {
-                let _ = calib.render_output("perspective", &[(n, cam.k, cam.centre)]);
+                let out = Projection::Perspective.camera(cam.k, ImageSize::new(1242, 375));
+                let _ = calib.render_output(&[(n, out.as_ref(), cam.centre)]);
             }
         }
     }
@@ -154,7 +156,8 @@ fn calib_with_non_finite_centre_is_refused() {
                 let k = [cam.k.fu, cam.k.fv, cam.k.cu, cam.k.cv];
                 let finite = k.iter().chain(cam.centre.iter()).all(|v| v.is_finite());
                 assert!(finite, "accepted {cam:?}");
-                let _ = calib.render_output("perspective", &[(2, cam.k, cam.centre)]);
+                let out = Projection::Perspective.camera(cam.k, ImageSize::new(1242, 375));
+                let _ = calib.render_output(&[(2, out.as_ref(), cam.centre)]);
             }
         }
     }

@@ -170,6 +170,73 @@ impl Lens {
         }
     }
 
+    /// The lens a model `name` (as [`Lens::name`]) makes with intrinsics `k`, the values of
+    /// [`Lens::parameters`] in that order, an image `size` and half field of view `max_theta`:
+    /// the inverse of those three, used to read a lens back from calib lines.
+    pub fn from_parameters(
+        name: &str,
+        k: Intrinsics,
+        values: &[f64],
+        size: ImageSize,
+        max_theta: f64,
+    ) -> Result<Lens, FisheyeError> {
+        let want = |n: usize| -> Result<(), FisheyeError> {
+            if values.len() == n {
+                Ok(())
+            } else {
+                Err(FisheyeError::Parameter(
+                    "parameters",
+                    format!("model {name} takes {n} parameters, found {}", values.len()),
+                ))
+            }
+        };
+        let four = || -> [f64; 4] { std::array::from_fn(|i| values[i]) };
+        let radial =
+            |model: RadialModel| Fisheye::new(model, k, size, 2.0 * max_theta).map(Lens::Radial);
+        match name {
+            "equidistant" | "equisolid" | "stereographic" | "orthographic" => {
+                want(0)?;
+                radial(match name {
+                    "equidistant" => RadialModel::Equidistant,
+                    "equisolid" => RadialModel::Equisolid,
+                    "stereographic" => RadialModel::Stereographic,
+                    _ => RadialModel::Orthographic,
+                })
+            }
+            "kannala_brandt" => {
+                want(4)?;
+                radial(RadialModel::KannalaBrandt(four()))
+            }
+            "woodscape" => {
+                want(4)?;
+                radial(RadialModel::Polynomial(four()))
+            }
+            "mei" => {
+                want(6)?;
+                let distortion = super::unified::MeiDistortion {
+                    k1: values[1],
+                    k2: values[2],
+                    p1: values[3],
+                    p2: values[4],
+                };
+                Unified::new(values[0], distortion, k, values[5], size, max_theta)
+                    .map(Lens::Unified)
+            }
+            "eucm" => {
+                want(2)?;
+                Eucm::new(values[0], values[1], k, size, max_theta).map(Lens::Eucm)
+            }
+            "double_sphere" => {
+                want(2)?;
+                DoubleSphere::new(values[0], values[1], k, size, max_theta).map(Lens::DoubleSphere)
+            }
+            other => Err(FisheyeError::Parameter(
+                "model",
+                format!("unknown camera model {other:?}"),
+            )),
+        }
+    }
+
     /// The same lens with `max_theta` lowered to what the image shows: the largest field angle
     /// of its four corners (the whole valid field of view when a corner lies beyond it). Native
     /// calibration files state no field of view; this is theirs.

@@ -2,7 +2,9 @@
 //! pixel = K · (a, b, 1). Everything K-related lives here once; each projection file only says
 //! how a bearing becomes (a, b) and back ([`Mapping`]).
 
-use super::{CameraModel, ImageSize, Intrinsics, LinearCamera, Projection, ProjectionReject};
+use super::{
+    CameraModel, ImageSize, Intrinsics, LinearCamera, OutputCamera, Projection, ProjectionReject,
+};
 use nalgebra::{Point2, Vector3};
 use std::marker::PhantomData;
 
@@ -72,7 +74,7 @@ impl<M: Mapping> CameraModel for Linear<M> {
     }
 }
 
-impl<M: Mapping> LinearCamera for Linear<M> {
+impl<M: Mapping> OutputCamera for Linear<M> {
     fn projection(&self) -> Projection {
         M::PROJECTION
     }
@@ -81,6 +83,20 @@ impl<M: Mapping> LinearCamera for Linear<M> {
         self.k
     }
 
+    fn with_intrinsics(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<Box<dyn OutputCamera>, String> {
+        Ok(Box::new(Self::new(k, size)))
+    }
+
+    fn boxed_output(&self) -> Box<dyn OutputCamera> {
+        Box::new(self.clone())
+    }
+}
+
+impl<M: Mapping> LinearCamera for Linear<M> {
     fn bearing_to_ab(&self, d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         M::bearing_to_ab(d)
     }

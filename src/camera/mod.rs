@@ -19,6 +19,7 @@ pub mod fit;
 mod intrinsics;
 pub mod lens;
 pub mod linear;
+mod output;
 mod perspective;
 pub mod rotated;
 pub mod unified;
@@ -32,6 +33,7 @@ pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
 pub use lens::Lens;
 pub use linear::{Linear, Mapping};
+pub use output::{FisheyeCamera, OutputCamera};
 pub use perspective::Perspective;
 pub use rotated::{rotation_ypr, Rotated};
 pub use unified::{MeiDistortion, Unified};
@@ -56,6 +58,8 @@ pub enum Projection {
     Perspective,
     Equirect,
     Cylindrical,
+    /// A real fisheye lens ([`FisheyeCamera`]), described by its own calib lines.
+    Fisheye,
 }
 
 impl Projection {
@@ -64,15 +68,25 @@ impl Projection {
             Projection::Perspective => "perspective",
             Projection::Equirect => "equirect",
             Projection::Cylindrical => "cylindrical",
+            Projection::Fisheye => "fisheye",
         }
     }
 
-    /// The linear camera of this projection with intrinsics `k` and image `size`.
+    /// Whether K alone (with the projection) describes the camera.
+    pub fn is_linear(self) -> bool {
+        self != Projection::Fisheye
+    }
+
+    /// The linear camera of this projection with intrinsics `k` and image `size`. A fisheye
+    /// camera needs its lens: it is made as a [`FisheyeCamera`], never here.
     pub fn camera(self, k: Intrinsics, size: ImageSize) -> Box<dyn LinearCamera> {
         match self {
             Projection::Perspective => Box::new(Perspective::new(k, size)),
             Projection::Equirect => Box::new(Equirect::new(k, size)),
             Projection::Cylindrical => Box::new(Cylindrical::new(k, size)),
+            Projection::Fisheye => {
+                unreachable!("a fisheye camera is made from its lens (FisheyeCamera)")
+            }
         }
     }
 }
@@ -129,9 +143,7 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
 /// A camera whose pixels are an affine map `K` of projection coordinates (a, b):
 /// pixel = K · (a, b, 1). Perspective, equirect and cylindrical are such cameras; their
 /// calib lines (`K2:`) describe them completely.
-pub trait LinearCamera: CameraModel {
-    fn projection(&self) -> Projection;
-    fn intrinsics(&self) -> Intrinsics;
+pub trait LinearCamera: OutputCamera {
     /// Projection coordinates (a, b) of a bearing, before K (see the table in docs/geometry.md).
     fn bearing_to_ab(&self, bearing: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
     /// Bearing of projection coordinates (a, b).

@@ -1,6 +1,8 @@
 //! `kitti`, `kitti-raw` and `merge`: dataset conversion, its options and its signals.
 
 use super::*;
+use panoconv::camera::description::CameraDescription;
+use panoconv::geometry::FisheyeTarget;
 
 pub(super) const RAW_EXAMPLES: &str = "Examples:
   panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
@@ -76,12 +78,21 @@ pub(super) struct RawArgs {
 /// What `kitti` and `kitti-raw` share: the target, the frames, the outputs and the run.
 #[derive(Args)]
 pub(super) struct ConvertArgs {
-    /// Target projection.
+    /// Target projection (fisheye: the camera of --camera).
     #[arg(long, value_enum)]
     to: To,
+    /// The fisheye camera of --to fisheye: a camera description (JSON) or a KITTI-360, WoodScape
+    /// or OpenCV calibration file (docs/fisheye.md); its rotation turns it relative to KITTI's
+    /// rectified camera axes.
+    #[arg(long, value_name = "FILE")]
+    camera: Option<PathBuf>,
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
+    /// Also write mask_2/ (mask_3/ with --cameras 2,3): 1-bit PNGs, white where the output
+    /// pixel has source data, for trainers to ignore the rest.
+    #[arg(long)]
+    mask: bool,
     /// Convert only these frame ids (comma-separated).
     #[arg(
         long,
@@ -287,7 +298,34 @@ fn convert(
     image_set: Option<Vec<String>>,
     augment: Option<Augment>,
 ) -> Result<ExitCode> {
-    let projection = projection_of(args.to)?;
+    let projection = projection_of(args.to);
+    let fisheye = match (projection, &args.camera) {
+        (Projection::Fisheye, Some(file)) => Some(fisheye_target(file)?),
+        (Projection::Fisheye, None) => bail!(Error::Setup(
+            "--to fisheye needs --camera FILE: a camera description or a KITTI-360, WoodScape \
+             or OpenCV calibration file (docs/fisheye.md)"
+                .into()
+        )),
+        (_, Some(_)) => bail!(Error::Setup(
+            "--camera describes the camera of --to fisheye".into()
+        )),
+        (_, None) => None,
+    };
+    if fisheye.is_some() {
+        for (given, flag) in [
+            (args.pano_width.is_some(), "--pano-width"),
+            (args.px_per_deg.is_some(), "--px-per-deg"),
+            (args.full_360, "--full-360"),
+            (args.size.is_some(), "--size"),
+        ] {
+            if given {
+                bail!(Error::Setup(format!(
+                    "{flag}: a fisheye target has the size and scale of its camera file \
+                     (--crop and --resize apply)"
+                )));
+            }
+        }
+    }
     let scale = match (args.pano_width, args.px_per_deg) {
         (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
         (Some(w), _) => Scale::PanoWidth(w),
@@ -317,6 +355,8 @@ fn convert(
             crop: args.crop,
             resize: args.resize,
         },
+        fisheye,
+        mask: args.mask,
         split,
         raw,
         frames,
@@ -403,6 +443,19 @@ fn convert(
         ExitCode::from(EXIT_FRAMES_FAILED)
     } else {
         ExitCode::SUCCESS
+    })
+}
+
+/// The fisheye target of `--camera FILE`.
+fn fisheye_target(file: &std::path::Path) -> Result<FisheyeTarget> {
+    let desc = CameraDescription::read(file)?;
+    let bytes = panoconv::error::read_file(file)?;
+    Ok(FisheyeTarget {
+        camera: file.to_path_buf(),
+        camera_blake3: panoconv::output::hash_hex(&bytes),
+        model: desc.camera.name().to_owned(),
+        lens: desc.camera,
+        rect_from_camera: desc.output_from_camera,
     })
 }
 

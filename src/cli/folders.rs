@@ -82,6 +82,18 @@ pub(super) struct PanoArgs {
     common: FolderArgs,
 }
 
+/// The projection of a folder conversion's `--to` (not a fisheye: that is `kitti`'s target).
+fn folder_projection(to: To) -> Result<Projection> {
+    match projection_of(to) {
+        Projection::Fisheye => bail!(Error::Setup(
+            "--to fisheye: folder conversions write equirect, cylindrical or perspective images; \
+             `panoconv kitti --to fisheye --camera CAMERA.json` renders a KITTI dataset in a fisheye camera"
+                .into()
+        )),
+        p => Ok(p),
+    }
+}
+
 pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::pano::ViewScale> {
     use panoconv::pano::ViewScale;
     Ok(match (a.pano_width, a.px_per_deg) {
@@ -139,7 +151,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
-        projection: projection_of(a.to)?,
+        projection: folder_projection(a.to)?,
         hfov: degrees(a.fov, "--fov")?,
         vfov: degrees(a.vfov, "--vfov")?,
         scale: view_scale(a)?,
@@ -179,7 +191,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
 pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
     use panoconv::pano::PanoViews;
     let a = &args.common;
-    let projection = projection_of(a.to)?;
+    let projection = folder_projection(a.to)?;
     let yaws: Vec<f64> = args
         .yaw
         .clone()
@@ -199,7 +211,7 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
     let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(match projection {
         Projection::Perspective => hfov,
         Projection::Cylindrical => 90f64.to_radians(),
-        Projection::Equirect => std::f64::consts::PI,
+        Projection::Equirect | Projection::Fisheye => std::f64::consts::PI,
     });
     let views = PanoViews {
         projection,

@@ -117,23 +117,18 @@ enum To {
     Equirect,
     Cylindrical,
     Perspective,
-    /// Not a target of these commands: accepted by the parser only to say where to go.
-    #[value(hide = true)]
+    /// A real fisheye camera, described by --camera FILE (kitti and kitti-raw).
     Fisheye,
 }
 
 /// The projection of `--to`.
-fn projection_of(to: To) -> Result<Projection> {
-    Ok(match to {
+fn projection_of(to: To) -> Projection {
+    match to {
         To::Equirect => Projection::Equirect,
         To::Cylindrical => Projection::Cylindrical,
         To::Perspective => Projection::Perspective,
-        To::Fisheye => bail!(Error::Setup(
-            "--to fisheye: the targets are equirect, cylindrical and perspective; \
-             `panoconv fisheye --camera CAMERA.json` converts fisheye images to them"
-                .into()
-        )),
-    })
+        To::Fisheye => Projection::Fisheye,
+    }
 }
 
 /// `1 frame`, `2 frames`.

@@ -4,7 +4,9 @@
 //! the known matrices are parsed and checked. KITTI tracking's spellings (`R_rect`,
 //! `Tr_velo_cam`, `Tr_imu_velo`, with or without a colon) are accepted as aliases.
 
-use crate::camera::{ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
+use crate::camera::{
+    FisheyeCamera, ImageSize, Intrinsics, Lens, OutputCamera, Perspective, Projection,
+};
 use crate::error::{read_lines, Error, Result};
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use std::path::{Path, PathBuf};
@@ -23,6 +25,19 @@ pub struct Calib {
     pub projection: Option<Projection>,
     pub k_out: [Option<Intrinsics>; 4],
     pub c_out: [Option<Vector3<f64>>; 4],
+    /// A fisheye output's lens lines (`model2:`, `D2:`, `fov2:`, `R2:`) per camera.
+    pub lens_out: [LensLines; 4],
+}
+
+/// What the lens lines of one camera of a fisheye output say (see `FisheyeCamera::calib_lines`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LensLines {
+    pub model: Option<String>,
+    pub parameters: Vec<f64>,
+    /// Full field of view, degrees.
+    pub fov_deg: Option<f64>,
+    /// The camera's axes in rect, row-major.
+    pub rect_from_camera: Option<Matrix3<f64>>,
 }
 
 /// A rectified camera of the dataset: intrinsics and optical centre in rect.
@@ -41,12 +56,13 @@ impl SourceCamera {
 
 /// `K2`, `C3`, ...: the output-camera lines panoconv writes.
 fn output_key(name: &str, letter: char) -> Option<usize> {
-    let mut chars = name.chars();
-    if chars.next() != Some(letter) {
-        return None;
-    }
-    let n = chars.as_str().parse::<usize>().ok()?;
-    (n < 4).then_some(n)
+    name.strip_prefix(letter).and_then(camera_index)
+}
+
+/// A camera number 0..3 written as one digit.
+fn camera_index(digits: &str) -> Option<usize> {
+    let n = digits.parse::<usize>().ok()?;
+    (digits.len() == 1 && n < 4).then_some(n)
 }
 
 enum Key {
@@ -123,6 +139,7 @@ impl Calib {
             projection: None,
             k_out: [None; 4],
             c_out: [None; 4],
+            lens_out: Default::default(),
         };
         for (i, line) in lines.iter().enumerate() {
             let line_no = i + 1;
@@ -140,6 +157,7 @@ impl Calib {
                     "perspective" => Projection::Perspective,
                     "equirect" => Projection::Equirect,
                     "cylindrical" => Projection::Cylindrical,
+                    "fisheye" => Projection::Fisheye,
                     other => {
                         return Err(Error::parse(
                             path,
@@ -159,6 +177,24 @@ impl Calib {
             if let Some(n) = output_key(name, 'C') {
                 let v = parse_numbers(path, line_no, name, rest, 3)?;
                 calib.c_out[n] = Some(Vector3::new(v[0], v[1], v[2]));
+                continue;
+            }
+            if let Some(n) = name.strip_prefix("model").and_then(camera_index) {
+                calib.lens_out[n].model = Some(rest.trim().to_owned());
+                continue;
+            }
+            if let Some(n) = output_key(name, 'D') {
+                let count = rest.split_whitespace().count();
+                calib.lens_out[n].parameters = parse_numbers(path, line_no, name, rest, count)?;
+                continue;
+            }
+            if let Some(n) = name.strip_prefix("fov").and_then(camera_index) {
+                calib.lens_out[n].fov_deg = Some(parse_numbers(path, line_no, name, rest, 1)?[0]);
+                continue;
+            }
+            if let Some(n) = output_key(name, 'R') {
+                let v = parse_numbers(path, line_no, name, rest, 9)?;
+                calib.lens_out[n].rect_from_camera = Some(Matrix3::from_row_slice(&v));
                 continue;
             }
             let Some(key) = known_key(name) else { continue };
@@ -222,12 +258,13 @@ impl Calib {
         Ok(SourceCamera { k, centre: -t })
     }
 
-    /// The camera `n` a converted image was written with (`projection:`, `Kn:`, `Cn:` lines).
+    /// The camera `n` a converted image was written with (`projection:`, `Kn:`, `Cn:` lines,
+    /// and for a fisheye the lens lines), and its centre.
     pub fn output_camera(
         &self,
         n: usize,
         size: ImageSize,
-    ) -> Result<(Box<dyn LinearCamera>, Vector3<f64>)> {
+    ) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
         let missing = |what: &str| {
             Error::file(
                 &self.path,
@@ -237,16 +274,36 @@ impl Calib {
         let projection = self.projection.ok_or_else(|| missing("projection:"))?;
         let k = self.k_out[n].ok_or_else(|| missing(&format!("K{n}:")))?;
         let c = self.c_out[n].ok_or_else(|| missing(&format!("C{n}:")))?;
-        Ok((projection.camera(k, size), c))
+        if projection.is_linear() {
+            return Ok((projection.camera(k, size), c));
+        }
+        let lines = &self.lens_out[n];
+        let model = lines
+            .model
+            .as_deref()
+            .ok_or_else(|| missing(&format!("model{n}:")))?;
+        let fov = lines.fov_deg.ok_or_else(|| missing(&format!("fov{n}:")))?;
+        let rect_from_camera = lines
+            .rect_from_camera
+            .ok_or_else(|| missing(&format!("R{n}:")))?;
+        let lens = Lens::from_parameters(model, k, &lines.parameters, size, fov.to_radians() / 2.0)
+            .map_err(|e| Error::file(&self.path, format!("camera {n}: {e}")))?;
+        Ok((
+            Box::new(FisheyeCamera {
+                lens,
+                rect_from_camera,
+            }),
+            c,
+        ))
     }
 
-    /// The output calib: every input line verbatim, then the description of the output camera.
-    /// For a perspective output, `Pn` is rewritten as K_out·[I | −C] for the converted cameras.
-    pub fn render_output(
-        &self,
-        projection: &str,
-        cameras: &[(usize, Intrinsics, Vector3<f64>)],
-    ) -> String {
+    /// The output calib: every input line verbatim, then the description of the output cameras
+    /// (all of one projection). For a perspective output, `Pn` is rewritten as K_out·[I | −C]
+    /// for the converted cameras.
+    pub fn render_output(&self, cameras: &[(usize, &dyn OutputCamera, Vector3<f64>)]) -> String {
+        let projection = cameras
+            .first()
+            .map_or(Projection::Perspective, |(_, cam, _)| cam.projection());
         let mut out = String::new();
         for line in &self.lines {
             let name = line
@@ -256,9 +313,10 @@ impl Calib {
                 .unwrap_or("");
             let rewritten = cameras
                 .iter()
-                .find(|(n, _, _)| projection == "perspective" && name == format!("P{n}"));
+                .find(|(n, _, _)| projection == Projection::Perspective && name == format!("P{n}"));
             match rewritten {
-                Some((n, k, c)) => {
+                Some((n, cam, c)) => {
+                    let k = cam.intrinsics();
                     let t = -(Vector3::new(k.fu * c.x + k.cu * c.z, k.fv * c.y + k.cv * c.z, c.z));
                     let p = [
                         k.fu, 0.0, k.cu, t.x, 0.0, k.fv, k.cv, t.y, 0.0, 0.0, 1.0, t.z,
@@ -271,10 +329,14 @@ impl Calib {
                 }
             }
         }
-        out.push_str(&format!("projection: {projection}\n"));
-        for (n, k, c) in cameras {
-            out.push_str(&format!("K{n}: {}\n", join_sci(&k.matrix())));
+        out.push_str(&format!("projection: {}\n", projection.name()));
+        for (n, cam, c) in cameras {
+            out.push_str(&format!("K{n}: {}\n", join_sci(&cam.intrinsics().matrix())));
             out.push_str(&format!("C{n}: {}\n", join_sci(&[c.x, c.y, c.z])));
+            for line in cam.calib_lines(*n) {
+                out.push_str(&line);
+                out.push('\n');
+            }
         }
         out
     }
@@ -325,7 +387,8 @@ mod tests {
         let calib = standard();
         let k = Intrinsics::new(325.949, 325.949, 230.5, 80.25);
         let c = calib.camera(2).unwrap().centre;
-        let text = calib.render_output("equirect", &[(2, k, c)]);
+        let cam = Projection::Equirect.camera(k, ImageSize::new(460, 160));
+        let text = calib.render_output(&[(2, cam.as_ref(), c)]);
         // every input line first, verbatim
         assert!(text.starts_with(&(calib.lines.join("\n") + "\n")));
         let back = Calib::parse(
@@ -346,7 +409,8 @@ mod tests {
         let calib = standard();
         let src = calib.camera(2).unwrap();
         let k = Intrinsics::new(600.0, 600.0, 700.0, 200.0);
-        let text = calib.render_output("perspective", &[(2, k, src.centre)]);
+        let cam = Projection::Perspective.camera(k, ImageSize::new(1400, 400));
+        let text = calib.render_output(&[(2, cam.as_ref(), src.centre)]);
         let back = Calib::parse(
             Path::new("o.txt"),
             text.lines().map(str::to_owned).collect(),

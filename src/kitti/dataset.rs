@@ -30,6 +30,8 @@ pub enum Layout {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {
     Image(usize),
+    /// Where camera n's output pixels have source data (`--mask`).
+    Mask(usize),
     Depth,
     Label,
     Calib,
@@ -167,6 +169,8 @@ impl Split {
         Some(PathBuf::from(match (kind, raw) {
             (OutputKind::Image(c), false) => format!("image_{c}/{id}.png"),
             (OutputKind::Image(c), true) => format!("image_0{c}/data/{id}.png"),
+            (OutputKind::Mask(c), false) => format!("mask_{c}/{id}.png"),
+            (OutputKind::Mask(c), true) => format!("mask_0{c}/data/{id}.png"),
             (OutputKind::Depth, false) => format!("depth_2/{id}.png"),
             (OutputKind::Depth, true) => format!("depth_02/data/{id}.png"),
             (OutputKind::Label, false) => format!("label_2/{id}.txt"),

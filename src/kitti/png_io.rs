@@ -242,6 +242,32 @@ pub fn encode_gray16(width: u32, height: u32, values: &[u16], c: PngCompression)
     encode(Header::gray16(width, height), &bytes, c)
 }
 
+/// A 1-bit greyscale PNG: white where `set(u, v)`, black elsewhere (masks).
+pub fn encode_mask(width: u32, height: u32, set: impl Fn(u32, u32) -> bool) -> Vec<u8> {
+    let stride = (width as usize).div_ceil(8);
+    let mut bits = vec![0u8; stride * height as usize];
+    for v in 0..height {
+        let row = &mut bits[v as usize * stride..(v as usize + 1) * stride];
+        for u in 0..width {
+            if set(u, v) {
+                row[u as usize / 8] |= 0x80 >> (u % 8);
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(bits.len() / 4 + 256);
+    {
+        let mut enc = png::Encoder::new(&mut out, width, height);
+        enc.set_color(png::ColorType::Grayscale);
+        enc.set_depth(png::BitDepth::One);
+        enc.set_compression(png::Compression::Default);
+        // Writing into a Vec cannot fail for a valid size and a buffer of the right length.
+        let mut w = enc.write_header().expect("PNG header for a valid size");
+        w.write_image_data(&bits)
+            .expect("PNG data of the declared size");
+    }
+    out
+}
+
 /// As [`encode_gray16`], always with the png crate's encoder (for tests).
 #[doc(hidden)]
 pub fn encode_gray16_with_png_crate(

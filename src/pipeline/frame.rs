@@ -4,10 +4,10 @@
 
 use super::KittiJob;
 use crate::augment::{view_id, Augment, View, MAX_ATTEMPTS};
-use crate::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::depth::{depth_map, rect_from_velo};
 use crate::error::{read_file, read_file_into, split_lines, Error, Result};
-use crate::geometry::output_camera;
+use crate::geometry::target_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
 use crate::kitti::png_io::{self, PngCompression};
@@ -25,7 +25,7 @@ use std::sync::Arc;
 /// The output camera and remap table of one source camera.
 #[derive(Clone)]
 pub(super) struct Mapping {
-    output: Arc<dyn LinearCamera>,
+    output: Arc<dyn OutputCamera>,
     table: Arc<RemapTable>,
 }
 
@@ -95,7 +95,8 @@ impl<'a> Context<'a> {
         build: fn(&dyn CameraModel, &dyn CameraModel, &Matrix3<f64>, Wrap) -> RemapTable,
     ) -> std::result::Result<Mapping, String> {
         let source = Perspective::new(k, size);
-        let output = output_camera(&self.job.output_spec, k, &source).map_err(|e| e.to_string())?;
+        let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+            .map_err(|e| e.to_string())?;
         let table = build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
         Ok(Mapping {
             output: Arc::from(output),
@@ -125,6 +126,8 @@ impl<'a> Context<'a> {
         let kinds = [
             OutputKind::Image(2),
             OutputKind::Image(3),
+            OutputKind::Mask(2),
+            OutputKind::Mask(3),
             OutputKind::Depth,
             OutputKind::Label,
             OutputKind::Calib,
@@ -163,9 +166,13 @@ impl<'a> Context<'a> {
             let mapping = self
                 .mapping(&calib.path, cam.k, size_of(n).map_err(setup)?)
                 .map_err(setup)?;
-            cameras.push((n, mapping.output.intrinsics(), cam.centre));
+            cameras.push((n, mapping.output.clone(), cam.centre));
         }
-        let text = calib.render_output(self.job.output_spec.projection.name(), &cameras);
+        let cameras: Vec<(usize, &dyn OutputCamera, Vector3<f64>)> = cameras
+            .iter()
+            .map(|(n, c, v)| (*n, c.as_ref(), *v))
+            .collect();
+        let text = calib.render_output(&cameras);
         let path = self.job.output.join(&split.name).join(rel);
         output::write_atomic(&path, text.as_bytes())?;
         let entry = (
@@ -332,6 +339,12 @@ impl<'a> Context<'a> {
             if let Some(path) = out(OutputKind::Image(2), &view_id) {
                 outputs.push((path, encode_view(i, 0, &mapping.table)));
             }
+            if self.job.mask {
+                outputs.push((
+                    out(OutputKind::Mask(2), &view_id).expect("every layout has masks"),
+                    encode_mask(&mapping.table),
+                ));
+            }
             if let Some(labels) = &labels {
                 let mut text = String::new();
                 for label in &labels.labels {
@@ -372,16 +385,25 @@ impl<'a> Context<'a> {
                     ),
                 ));
             }
-            let mut cameras = vec![(2, mapping.output.intrinsics(), cam2.centre)];
+            let mut cameras = vec![(2, mapping.output.clone(), cam2.centre)];
             if let Some((cam3, views3)) = &right {
                 outputs.push((
                     out(OutputKind::Image(3), &view_id).expect("every layout has image 3"),
                     encode_view(i, 1, &views3[i].1.table),
                 ));
-                cameras.push((3, views3[i].1.output.intrinsics(), cam3.centre));
+                if self.job.mask {
+                    outputs.push((
+                        out(OutputKind::Mask(3), &view_id).expect("every layout has masks"),
+                        encode_mask(&views3[i].1.table),
+                    ));
+                }
+                cameras.push((3, views3[i].1.output.clone(), cam3.centre));
             }
-            let projection = mapping.output.projection().name();
-            let calib_text = calib.render_output(projection, &cameras);
+            let cameras: Vec<(usize, &dyn OutputCamera, Vector3<f64>)> = cameras
+                .iter()
+                .map(|(n, c, v)| (*n, c.as_ref(), *v))
+                .collect();
+            let calib_text = calib.render_output(&cameras);
             if let Some(path) = out(OutputKind::Calib, &view_id) {
                 outputs.push((path, calib_text.into_bytes()));
             }
@@ -437,11 +459,13 @@ impl<'a> Context<'a> {
             )]);
         };
         let source = Perspective::new(k, size);
-        let canvas = output_camera(&self.job.output_spec, k, &source)
+        let canvas = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
             .map_err(|e| Error::file(calib_path, e.to_string()))?;
-        let view_camera = |view: &View| {
+        let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
             let (kv, sv) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());
-            self.job.output_spec.projection.camera(kv, sv)
+            canvas
+                .with_intrinsics(kv, sv)
+                .map_err(|e| Error::file(calib_path, e))
         };
         (0..aug.count)
             .map(|i| {
@@ -454,19 +478,19 @@ impl<'a> Context<'a> {
                 let (view, output) = match draw {
                     Draw::First => {
                         let view = aug.view(&split.name, id, i, 0, canvas.size());
-                        (view, view_camera(&view))
+                        (view, view_camera(&view)?)
                     }
                     Draw::As(attempts) => {
                         let view =
                             aug.view(&split.name, id, i, attempts[i as usize], canvas.size());
-                        (view, view_camera(&view))
+                        (view, view_camera(&view)?)
                     }
                     Draw::Fewest(objects) => {
                         // The first draw holding enough objects, else the one holding most.
-                        let mut best: Option<(u32, View, Box<dyn LinearCamera>)> = None;
+                        let mut best: Option<(u32, View, Box<dyn OutputCamera>)> = None;
                         for attempt in 0..MAX_ATTEMPTS.max(1) {
                             let view = aug.view(&split.name, id, i, attempt, canvas.size());
-                            let output = view_camera(&view);
+                            let output = view_camera(&view)?;
                             let n = objects(output.as_ref());
                             if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
                                 best = Some((n, view, output));
@@ -547,6 +571,12 @@ pub(super) struct Prepared {
     /// What the style pass takes, in order: camera 2's source image then camera 3's; or, when
     /// styling after the warp, each view's warped camera 2 and camera 3 images.
     pub(super) images: Vec<RgbImage>,
+}
+
+/// The mask of a table's output: white where every tap of the pixel lies inside the source.
+fn encode_mask(table: &RemapTable) -> Vec<u8> {
+    let size = table.size();
+    png_io::encode_mask(size.width, size.height, |u, v| table.is_inside(u, v))
 }
 
 /// Warps `src` row by row as the PNG encoder takes the rows, so that the warped image never

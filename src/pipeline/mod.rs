@@ -9,7 +9,7 @@ mod tables;
 use crate::augment::Augment;
 use crate::depth::OcclusionFilter;
 use crate::error::{Error, Result};
-use crate::geometry::OutputSpec;
+use crate::geometry::{FisheyeTarget, OutputSpec};
 use crate::journal::{self, Journal, Shard};
 use crate::kitti::png_io::PngCompression;
 use crate::kitti::{raw, Layout, OutputKind};
@@ -31,6 +31,12 @@ pub struct KittiJob {
     #[serde(skip)]
     pub output: PathBuf,
     pub output_spec: OutputSpec,
+    /// The fisheye camera of `--to fisheye`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fisheye: Option<FisheyeTarget>,
+    /// Write `mask_2/` (and `mask_3/`): where each output pixel has source data.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub mask: bool,
     pub split: Option<String>,
     /// Restrict to these frame ids.
     pub frames: Option<Vec<String>>,
@@ -204,6 +210,9 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         }
         if job.cameras.contains(&3) {
             kinds.push(OutputKind::Image(3));
+        }
+        if job.mask {
+            kinds.extend(job.cameras.iter().map(|&c| OutputKind::Mask(c)));
         }
         if job.depth.is_some() {
             kinds.push(OutputKind::Depth);

@@ -1,0 +1,133 @@
+//! The cameras a conversion writes images in: the linear projections (perspective, equirect,
+//! cylindrical) and a real fisheye lens turned relative to KITTI's rectified axes. What the
+//! pipeline needs of them besides projecting: the projection's name, the affine intrinsics that
+//! crops, resizes and augmented views move, and the calib lines that describe them.
+
+use super::lens::Lens;
+use super::{CameraModel, ImageSize, Intrinsics, Projection, ProjectionReject};
+use nalgebra::{Matrix3, Point2, Vector3};
+use std::f64::consts::PI;
+
+/// A camera an image is written in. Bearings in and out are in the frame the labels live in
+/// (KITTI's rect axes: x right, y down, z forward), relative to the camera's optical centre.
+pub trait OutputCamera: CameraModel {
+    /// The `projection:` line's value.
+    fn projection(&self) -> Projection;
+    /// The affine part pixel = K · (a, b, 1) of the model's normalised coordinates.
+    fn intrinsics(&self) -> Intrinsics;
+    /// The same camera with other intrinsics and image size (a crop, a resize, a view).
+    fn with_intrinsics(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<Box<dyn OutputCamera>, String>;
+    /// Pixels per radian at the image centre (for rescaling distances by focal length); the
+    /// intrinsics themselves for the linear projections.
+    fn centre_intrinsics(&self) -> Intrinsics {
+        self.intrinsics()
+    }
+    /// The calib lines of camera `n` besides `K{n}:` and `C{n}:` (none for the linear
+    /// projections, whose K says everything).
+    fn calib_lines(&self, _n: usize) -> Vec<String> {
+        Vec::new()
+    }
+    /// A boxed copy.
+    fn boxed_output(&self) -> Box<dyn OutputCamera>;
+}
+
+/// A fisheye lens whose axes are `rect_from_camera` in rect: a lens bearing d is
+/// `rect_from_camera · d` in rect.
+#[derive(Debug, Clone)]
+pub struct FisheyeCamera {
+    pub lens: Lens,
+    pub rect_from_camera: Matrix3<f64>,
+}
+
+impl CameraModel for FisheyeCamera {
+    #[inline]
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        self.lens.project(&(self.rect_from_camera.transpose() * d))
+    }
+
+    #[inline]
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        self.lens.unproject(p).map(|d| self.rect_from_camera * d)
+    }
+
+    /// The range along the ray (the fisheye convention of KITTI-360 and Kumar et al.).
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        p.norm()
+    }
+
+    fn size(&self) -> ImageSize {
+        self.lens.size()
+    }
+
+    fn front_halfspace(&self) -> Option<Vector3<f64>> {
+        self.lens
+            .front_halfspace()
+            .map(|n| self.rect_from_camera * n)
+    }
+}
+
+/// KITTI's number style (`%.12e`).
+fn join_sci(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(|&v| crate::kitti::calib::format_sci(v))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+impl OutputCamera for FisheyeCamera {
+    fn projection(&self) -> Projection {
+        Projection::Fisheye
+    }
+
+    fn intrinsics(&self) -> Intrinsics {
+        self.lens.intrinsics()
+    }
+
+    fn with_intrinsics(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<Box<dyn OutputCamera>, String> {
+        let lens = self
+            .lens
+            .with_intrinsics(k, size)
+            .map_err(|e| e.to_string())?;
+        Ok(Box::new(FisheyeCamera {
+            lens,
+            rect_from_camera: self.rect_from_camera,
+        }))
+    }
+
+    fn centre_intrinsics(&self) -> Intrinsics {
+        self.lens.centre_intrinsics()
+    }
+
+    /// `model{n}:` the lens model, `D{n}:` its parameters (in [`Lens::parameters`]'s order),
+    /// `fov{n}:` its full field of view in degrees, `R{n}:` the camera's axes in rect (row-major).
+    fn calib_lines(&self, n: usize) -> Vec<String> {
+        let values: Vec<f64> = self.lens.parameters().iter().map(|(_, v)| *v).collect();
+        let r = &self.rect_from_camera;
+        let rows: Vec<f64> = (0..3)
+            .flat_map(|i| (0..3).map(move |j| r[(i, j)]))
+            .collect();
+        let mut lines = vec![format!("model{n}: {}", self.lens.name())];
+        if !values.is_empty() {
+            lines.push(format!("D{n}: {}", join_sci(&values)));
+        }
+        lines.push(format!(
+            "fov{n}: {}",
+            join_sci(&[2.0 * self.lens.max_theta() * 180.0 / PI])
+        ));
+        lines.push(format!("R{n}: {}", join_sci(&rows)));
+        lines
+    }
+
+    fn boxed_output(&self) -> Box<dyn OutputCamera> {
+        Box::new(self.clone())
+    }
+}
