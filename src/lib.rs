@@ -10,6 +10,7 @@ pub mod augment;
 pub mod camera;
 pub mod depth;
 pub mod error;
+pub mod export;
 pub mod eval;
 pub mod folder;
 pub mod geometry;

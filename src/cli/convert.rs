@@ -126,6 +126,10 @@ pub(super) struct KittiArgs {
     #[arg(long, value_name = "N", requires = "style",
           value_parser = clap::value_parser!(u16).range(1..=panoconv::style::MAX_BATCH as i64))]
     style_batch: Option<u16>,
+    /// After a conversion with no failed frame, also export: coco and omni3d into
+    /// OUT/annotations, yolo into OUT_yolo beside OUT (see `panoconv export --help`).
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT,...")]
+    export: Vec<FormatArg>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -208,6 +212,9 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         bail!(Error::Setup(
             "kitti-raw selects drives with --drive, not --split/--image-set".into()
         ));
+    }
+    if raw && !args.export.is_empty() {
+        bail!(Error::Setup("--export is for kitti (object datasets)".into()));
     }
     if !raw && args.drive.is_some() {
         bail!(Error::Setup("--drive is for kitti-raw".into()));
@@ -330,6 +337,11 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
     if summary.interrupted {
         eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
         return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
+    if summary.failed == 0 && !args.export.is_empty() {
+        let augmented = job.augment.is_some();
+        let (overwrite, quiet) = (args.run.overwrite, args.run.quiet);
+        return export_after_kitti(&job.input, &job.output, &args.export, augmented, overwrite, quiet);
     }
     Ok(if summary.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)

@@ -23,10 +23,12 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 mod convert;
+mod export;
 mod folders;
 mod tools;
 
 use convert::*;
+use export::*;
 use folders::*;
 use tools::*;
 
@@ -99,6 +101,9 @@ enum Command {
     /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
     #[command(after_help = INSPECT_EXAMPLES)]
     Inspect(InspectArgs),
+    /// Write COCO, YOLO or Omni3D annotations of a converted (or plain KITTI) dataset.
+    #[command(after_help = EXPORT_EXAMPLES)]
+    Export(ExportArgs),
     /// Print a shell completion script for panoconv.
     #[command(after_help = COMPLETIONS_EXAMPLES)]
     Completions(CompletionsArgs),
@@ -214,6 +219,7 @@ fn run() -> Result<ExitCode> {
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),
         Command::Inspect(a) => inspect(a),
+        Command::Export(a) => export(a),
         Command::Completions(a) => completions(a),
         Command::Man(a) => man(a),
     }
