@@ -214,7 +214,9 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
         ));
     }
     if raw && !args.export.is_empty() {
-        bail!(Error::Setup("--export is for kitti (object datasets)".into()));
+        bail!(Error::Setup(
+            "--export is for kitti (object datasets)".into()
+        ));
     }
     if !raw && args.drive.is_some() {
         bail!(Error::Setup("--drive is for kitti-raw".into()));
@@ -341,7 +343,14 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
     if summary.failed == 0 && !args.export.is_empty() {
         let augmented = job.augment.is_some();
         let (overwrite, quiet) = (args.run.overwrite, args.run.quiet);
-        return export_after_kitti(&job.input, &job.output, &args.export, augmented, overwrite, quiet);
+        return export_after_kitti(
+            &job.input,
+            &job.output,
+            &args.export,
+            augmented,
+            overwrite,
+            quiet,
+        );
     }
     Ok(if summary.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)

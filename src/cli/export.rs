@@ -86,7 +86,13 @@ pub(super) fn export(args: ExportArgs) -> Result<ExitCode> {
         split_rule,
         overwrite: args.overwrite,
     };
-    run_export(&args.dataset, args.format.into(), &args.output, &options, args.quiet)
+    run_export(
+        &args.dataset,
+        args.format.into(),
+        &args.output,
+        &options,
+        args.quiet,
+    )
 }
 
 /// Runs one export and reports it; the exit code says whether frames failed.

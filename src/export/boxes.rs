@@ -13,7 +13,11 @@ pub type PixelBox = [f64; 4];
 /// The image boxes of an object: its label_2 box first, then the part of the object beyond the
 /// seam of a periodic projection, when that part is in the image too (label_2 holds only the
 /// part on the side of the box's centre).
-pub fn image_boxes(label: &Label, camera: &dyn CameraModel, centre: &Vector3<f64>) -> Vec<PixelBox> {
+pub fn image_boxes(
+    label: &Label,
+    camera: &dyn CameraModel,
+    centre: &Vector3<f64>,
+) -> Vec<PixelBox> {
     let mut out = vec![label.bbox];
     let Some(period) = camera.horizontal_period() else {
         return out;

@@ -142,8 +142,10 @@ mod tests {
 
     #[test]
     fn merges_drops_and_numbers_by_first_appearance() {
-        let m = ClassMap::parse("Van=Car, Car=Car, Pedestrian=Person, Person_sitting=Person, Misc=-, *=-")
-            .unwrap();
+        let m = ClassMap::parse(
+            "Van=Car, Car=Car, Pedestrian=Person, Person_sitting=Person, Misc=-, *=-",
+        )
+        .unwrap();
         assert_eq!(m.categories(), ["Car", "Person"]);
         assert_eq!(m.lookup("Van"), ClassLookup::Category(0));
         assert_eq!(m.lookup("Person_sitting"), ClassLookup::Category(1));
@@ -157,7 +159,14 @@ mod tests {
         assert_eq!(ClassMap::kitti().lookup("Tram"), ClassLookup::Category(6));
         let m = ClassMap::parse("Car=Car").unwrap();
         assert_eq!(m.lookup("Van"), ClassLookup::Unknown);
-        for bad in ["Car", "Car=Car,Car=Van", "DontCare=X", "Car=-", "=Car", "*=-,*=A"] {
+        for bad in [
+            "Car",
+            "Car=Car,Car=Van",
+            "DontCare=X",
+            "Car=-",
+            "=Car",
+            "*=-,*=A",
+        ] {
             assert!(ClassMap::parse(bad).is_err(), "{bad} should be refused");
         }
     }

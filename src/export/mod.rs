@@ -155,7 +155,10 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
             data.left_out += s.frames.len() - assigned.len();
             assigned
         } else {
-            s.frames.iter().map(|id| (id.clone(), split::TEST)).collect()
+            s.frames
+                .iter()
+                .map(|id| (id.clone(), split::TEST))
+                .collect()
         };
         for (id, export_split) in assigned {
             let image_rel = format!("{}/image_2/{id}.png", s.name);
@@ -177,7 +180,11 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
             }
         }
     }
-    let order = |s: &str| [split::TRAIN, split::VAL, split::TEST].iter().position(|x| *x == s);
+    let order = |s: &str| {
+        [split::TRAIN, split::VAL, split::TEST]
+            .iter()
+            .position(|x| *x == s)
+    };
     data.frames
         .sort_by(|a, b| order(a.split).cmp(&order(b.split)).then(a.id.cmp(&b.id)));
     assign_image_ids(&mut data.frames);
@@ -256,17 +263,15 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
             match classes.lookup(&label.kind) {
                 ClassLookup::Category(category) => objects.push(Object { label, category }),
                 ClassLookup::Dropped => {}
-                ClassLookup::Unknown => {
-                    return Err(Error::parse(
-                        &path,
-                        i + 1,
-                        "type",
-                        format!(
-                            "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
-                            label.kind
-                        ),
-                    ))
-                }
+                ClassLookup::Unknown => return Err(Error::parse(
+                    &path,
+                    i + 1,
+                    "type",
+                    format!(
+                        "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
+                        label.kind
+                    ),
+                )),
             }
         }
     }
@@ -368,10 +373,7 @@ pub(crate) fn exported_file(root: &Path, path: PathBuf, bytes: &[u8]) -> Result<
 
 /// `path` relative to `root` (`/`-separated) when it lies inside it.
 fn relative_inside(root: &Path, path: &Path) -> Result<Option<String>> {
-    let (root, path) = (
-        crate::output::resolve(root)?,
-        crate::output::resolve(path)?,
-    );
+    let (root, path) = (crate::output::resolve(root)?, crate::output::resolve(path)?);
     Ok(path.strip_prefix(&root).ok().map(|rel| {
         rel.components()
             .map(|c| c.as_os_str().to_string_lossy().into_owned())

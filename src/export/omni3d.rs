@@ -140,7 +140,11 @@ fn annotation<'a>(
         R_cam: [[NA; 3]; 3],
         behind_camera: false,
         visibility: visibility(label.occluded),
-        truncation: if label.truncated >= 0.0 { label.truncated } else { NA },
+        truncation: if label.truncated >= 0.0 {
+            label.truncated
+        } else {
+            NA
+        },
         segmentation_pts: -1,
         lidar_pts: -1,
         depth_error: NA,
@@ -235,7 +239,10 @@ mod tests {
         let ours = UNIT_CORNERS.map(|[x, y, z]| r * Vector3::new(x * l, y * h, z * w) + center);
         for k in label.corners() {
             let nearest = ours.iter().map(|o| (o - k).norm()).fold(f64::MAX, f64::min);
-            assert!(nearest < 1e-12, "KITTI corner {k:?} is not an Omni3D corner");
+            assert!(
+                nearest < 1e-12,
+                "KITTI corner {k:?} is not an Omni3D corner"
+            );
         }
         // v0..v3 share z_obj = -w/2: their mean is the centre moved by -w/2 along R's z.
         let face: Vector3<f64> = ours[..4].iter().sum::<Vector3<f64>>() / 4.0;

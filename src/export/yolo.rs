@@ -40,7 +40,11 @@ fn data_yaml(data: &ExportData, root: &Path, splits: &[&str]) -> String {
     let has = |s: &str| splits.contains(&s);
     let _ = writeln!(y, "train: images/{}", split::TRAIN);
     // Ultralytics needs a val entry: without a val split, training images stand in.
-    let val = if has(split::VAL) { split::VAL } else { split::TRAIN };
+    let val = if has(split::VAL) {
+        split::VAL
+    } else {
+        split::TRAIN
+    };
     let _ = writeln!(y, "val: images/{val}");
     if has(split::TEST) {
         let _ = writeln!(y, "test: images/{}", split::TEST);
@@ -78,7 +82,11 @@ fn link(target: &Path, link: &Path) -> std::io::Result<()> {
     std::fs::copy(resolved, link).map(|_| ())
 }
 
-pub fn write(data: &ExportData, output: &Path, options: &ExportOptions) -> Result<Vec<ExportedFile>> {
+pub fn write(
+    data: &ExportData,
+    output: &Path,
+    options: &ExportOptions,
+) -> Result<Vec<ExportedFile>> {
     let root = resolve(&data.root)?;
     let out = resolve(output)?;
     if out.starts_with(&root) {
@@ -164,7 +172,8 @@ fn fill(
             link(&target, &images.join(&name)).map_err(|e| Error::io(&images.join(&name), e))?;
             let rel = format!("labels/{split}/{}.txt", f.id);
             let text = label_text(f).into_bytes();
-            std::fs::write(staging.join(&rel), &text).map_err(|e| Error::io(&staging.join(&rel), e))?;
+            std::fs::write(staging.join(&rel), &text)
+                .map_err(|e| Error::io(&staging.join(&rel), e))?;
             files.push((rel, text));
         }
     }
@@ -183,7 +192,10 @@ mod tests {
     #[test]
     fn relative_paths_between_folders() {
         assert_eq!(
-            relative_path(Path::new("/a/o_yolo/images/train"), Path::new("/a/o/training/image_2/1.png")),
+            relative_path(
+                Path::new("/a/o_yolo/images/train"),
+                Path::new("/a/o/training/image_2/1.png")
+            ),
             PathBuf::from("../../../o/training/image_2/1.png")
         );
     }
