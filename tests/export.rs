@@ -289,13 +289,15 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
         &["--split", "training", "--px-per-deg", "11"],
     );
     let tmp = tempfile::tempdir().unwrap();
-    assert_success(&export(&persp, "omni3d", tmp.path(), &[]));
+    assert_success(&export(&persp, "omni3d", tmp.path(), &["--path-prefix", "kitti_persp/"]));
     let file = read_json(&tmp.path().join("Omni3D_train.json"));
     let by_image = omni3d_by_image(&file);
     let (mut checked, mut max_proj, mut max_corner) = (0, 0.0f64, 0.0f64);
     for image in file["images"].as_array().unwrap() {
         assert_eq!(image["projection"], "perspective");
         let path = image["file_path"].as_str().unwrap();
+        let path = path.strip_prefix("kitti_persp/").expect("--path-prefix is applied");
+        assert!(persp.join(path).is_file(), "{path}");
         let stem = Path::new(path).file_stem().unwrap().to_str().unwrap();
         let calib = read_text(&persp.join(format!("training/calib/{stem}.txt")));
         let k: Vec<f64> = image["K"]

@@ -60,6 +60,10 @@ pub(super) struct ExportArgs {
     /// Seed of --val-fraction.
     #[arg(long, default_value_t = 0, requires = "val_fraction")]
     seed: u64,
+    /// Put PREFIX before every image path in the COCO and Omni3D files (they are relative to
+    /// the dataset root otherwise), e.g. kitti_equi/ for Cube R-CNN's datasets/ image root.
+    #[arg(long, value_name = "PREFIX", default_value = "")]
+    path_prefix: String,
     /// Replace export files that exist.
     #[arg(long)]
     overwrite: bool,
@@ -85,6 +89,7 @@ pub(super) fn export(args: ExportArgs) -> Result<ExitCode> {
         classes,
         split_rule,
         overwrite: args.overwrite,
+        path_prefix: args.path_prefix,
     };
     run_export(
         &args.dataset,
@@ -161,6 +166,7 @@ pub(super) fn export_after_kitti(
         classes: ClassMap::kitti(),
         split_rule,
         overwrite,
+        path_prefix: String::new(),
     };
     let mut code = ExitCode::SUCCESS;
     for &f in formats {

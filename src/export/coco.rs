@@ -18,7 +18,7 @@ pub const COCO_FROM_KITTI_PIXEL: f64 = 0.5;
 struct CocoFile<'a> {
     info: Info<'a>,
     licenses: [(); 0],
-    images: Vec<Image<'a>>,
+    images: Vec<Image>,
     annotations: Vec<Annotation>,
     categories: Vec<Category<'a>>,
 }
@@ -43,9 +43,9 @@ pub(crate) struct Camera {
 }
 
 #[derive(Serialize)]
-struct Image<'a> {
+struct Image {
     id: u64,
-    file_name: &'a str,
+    file_name: String,
     width: u32,
     height: u32,
     camera: Camera,
@@ -136,7 +136,7 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
     for f in frames {
         file.images.push(Image {
             id: f.image_id,
-            file_name: &f.image_rel,
+            file_name: format!("{}{}", data.path_prefix, f.image_rel),
             width: f.size.width,
             height: f.size.height,
             camera: camera_of(f),

@@ -47,6 +47,10 @@ pub struct ExportOptions {
     pub split_rule: SplitRule,
     /// Replace export files (or a YOLO folder) that already exist.
     pub overwrite: bool,
+    /// Put before every image path in COCO's `file_name` and Omni3D's `file_path` (which are
+    /// otherwise relative to the dataset root), e.g. `kitti_equi/` for Cube R-CNN's
+    /// `datasets/` image root.
+    pub path_prefix: String,
 }
 
 /// One file an export wrote.
@@ -103,6 +107,8 @@ pub struct Frame {
 #[derive(Debug)]
 pub struct ExportData {
     pub root: PathBuf,
+    /// See [`ExportOptions::path_prefix`].
+    pub path_prefix: String,
     pub categories: Vec<String>,
     pub frames: Vec<Frame>,
     pub left_out: usize,
@@ -125,6 +131,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
     let dataset = Dataset::open(root, None)?;
     let mut data = ExportData {
         root: root.to_path_buf(),
+        path_prefix: options.path_prefix.clone(),
         categories: options.classes.categories().to_vec(),
         frames: Vec::new(),
         left_out: 0,
@@ -321,13 +328,16 @@ pub fn export(
     Ok(report)
 }
 
+/// Renders one export split: the file's name and bytes.
+type RenderSplit = fn(&ExportData, &str, &[&Frame]) -> Result<(String, Vec<u8>)>;
+
 /// One JSON file per export split (`render` gives its name and bytes), all rendered before any
 /// is written.
 fn write_json_files(
     data: &ExportData,
     output: &Path,
     options: &ExportOptions,
-    render: fn(&ExportData, &str, &[&Frame]) -> Result<(String, Vec<u8>)>,
+    render: RenderSplit,
 ) -> Result<Vec<ExportedFile>> {
     let mut rendered = Vec::new();
     for (split, frames) in data.splits() {

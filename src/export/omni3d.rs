@@ -21,7 +21,7 @@ const NA: f64 = -1.0;
 #[derive(Serialize)]
 struct Omni3dFile<'a> {
     info: Info<'a>,
-    images: Vec<Image<'a>>,
+    images: Vec<Image>,
     categories: Vec<Category<'a>>,
     annotations: Vec<Annotation<'a>>,
 }
@@ -37,12 +37,12 @@ struct Info<'a> {
 }
 
 #[derive(Serialize)]
-struct Image<'a> {
+struct Image {
     id: u64,
     dataset_id: u32,
     width: u32,
     height: u32,
-    file_path: &'a str,
+    file_path: String,
     #[serde(rename = "K")]
     k: [[f64; 3]; 3],
     /// How pixels relate to rays: Omni3D assumes perspective; see docs/formats.md.
@@ -204,7 +204,7 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
             dataset_id: 0,
             width: f.size.width,
             height: f.size.height,
-            file_path: &f.image_rel,
+            file_path: format!("{}{}", data.path_prefix, f.image_rel),
             k: [[k[0], k[1], k[2]], [k[3], k[4], k[5]], [k[6], k[7], k[8]]],
             projection: f.camera.projection().name(),
             src_90_rotate: 0,
