@@ -1,8 +1,8 @@
-"""COCO export check with pycocotools (run by tests/export.rs): loads the file, checks every
+"""COCO export check with pycocotools (run by tests/export/): loads the file, checks every
 image file exists under the dataset root, and runs COCOeval of the ground truth against
 itself as detections, a shifted copy, and the copy plus detections on every ignore region.
 
-usage: python export_coco_eval.py INSTANCES.json DATASET_ROOT
+usage: python coco_eval.py INSTANCES.json DATASET_ROOT
 prints one line of key=value pairs."""
 import contextlib
 import copy
