@@ -270,15 +270,13 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
             match classes.lookup(&label.kind) {
                 ClassLookup::Category(category) => objects.push(Object { label, category }),
                 ClassLookup::Dropped => {}
-                ClassLookup::Unknown => return Err(Error::parse(
-                    &path,
-                    i + 1,
-                    "type",
-                    format!(
+                ClassLookup::Unknown => {
+                    let hint = format!(
                         "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
                         label.kind
-                    ),
-                )),
+                    );
+                    return Err(Error::parse(&path, i + 1, "type", hint));
+                }
             }
         }
     }

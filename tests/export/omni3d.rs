@@ -46,7 +46,7 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
     ));
     let file = read_json(&tmp.path().join("Omni3D_train.json"));
     let by_image = omni3d_by_image(&file);
-    let (mut checked, mut max_proj, mut max_corner) = (0, 0.0f64, 0.0f64);
+    let (mut checked, mut max_proj, mut max_corner, mut max_tight) = (0, 0.0f64, 0.0f64, 0.0f64);
     for image in file["images"].as_array().unwrap() {
         assert_eq!(image["projection"], "perspective");
         let path = image["file_path"].as_str().unwrap();
@@ -104,6 +104,12 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
             if a["behind_camera"] == true {
                 continue;
             }
+            // An object wholly in the image: label_2's box is the same projection, to 0.01 px.
+            if t[1] == "0.00" {
+                for (p, q) in floats(&a["bbox2D_proj"]).iter().zip(bbox_of(t)) {
+                    max_tight = max_tight.max((p - q).abs());
+                }
+            }
             let px: Vec<(f64, f64)> = corners
                 .iter()
                 .map(|p| {
@@ -126,10 +132,14 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
         }
     }
     eprintln!(
-        "omni3d perspective: {checked} boxes, bbox2D_proj max |difference| {max_proj:.2e} px, corners {max_corner:.2e} m"
+        "omni3d perspective: {checked} boxes, bbox2D_proj max |difference| {max_proj:.2e} px (to label_2 {max_tight:.2e} px), corners {max_corner:.2e} m"
     );
     assert!(checked >= 8);
     assert!(max_proj <= 0.01, "bbox2D_proj off by {max_proj} px");
+    assert!(
+        max_tight <= 0.0051,
+        "bbox2D_proj is {max_tight} px from label_2's box"
+    );
     assert!(
         max_corner <= 1e-5,
         "bbox3D_cam is not Omni3D's corner order ({max_corner} m)"
