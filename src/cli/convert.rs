@@ -213,9 +213,9 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
             "kitti-raw selects drives with --drive, not --split/--image-set".into()
         ));
     }
-    if raw && !args.export.is_empty() {
+    if (raw || args.shard.is_some()) && !args.export.is_empty() {
         bail!(Error::Setup(
-            "--export is for kitti (object datasets)".into()
+            "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into()
         ));
     }
     if !raw && args.drive.is_some() {
@@ -342,7 +342,8 @@ pub(super) fn kitti(args: KittiArgs, raw: bool) -> Result<ExitCode> {
     }
     if summary.failed == 0 && !args.export.is_empty() {
         let augmented = job.augment.is_some();
-        let (overwrite, quiet) = (args.run.overwrite, args.run.quiet);
+        // A resumed run replaces the export of the run it continues.
+        let (overwrite, quiet) = (args.run.overwrite || args.resume, args.run.quiet);
         return export_after_kitti(
             &job.input,
             &job.output,

@@ -157,6 +157,17 @@ fn kitti_export_option_writes_the_same_files_as_export() {
         "coco",
     ]);
     assert_eq!(raw.code, 2, "{}", raw.stderr);
+    // A shard is not a whole dataset: refused before anything is written.
+    let shard_out = dir.path().join("shard");
+    let shard = kitti(
+        "equirect",
+        &synthetic_dir(),
+        &shard_out,
+        &["--shard", "0/2", "--export", "coco"],
+    );
+    assert_eq!(shard.code, 2, "{}", shard.stderr);
+    assert!(shard.stderr.contains("--shard"), "{}", shard.stderr);
+    assert!(!shard_out.exists());
 }
 
 #[test]
