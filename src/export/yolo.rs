@@ -1,8 +1,10 @@
 //! The Ultralytics YOLO detection layout:
 //!
-//!     OUT/data.yaml                 path (absolute), train/val/test image folders, names
-//!     OUT/images/<split>/ID.png     symbolic link to the dataset's image (relative target)
-//!     OUT/labels/<split>/ID.txt     `class cx cy w h`, normalised to the image size
+//! ```text
+//! OUT/data.yaml                 path (absolute), train/val/test image folders, names
+//! OUT/images/<split>/ID.png     symbolic link to the dataset's image (relative target)
+//! OUT/labels/<split>/ID.txt     `class cx cy w h`, normalised to the image size
+//! ```
 //!
 //! The boxes are the COCO export's (same pixel convention: cx = (left + right)/2 + 0.5 over
 //! the width). YOLO has no ignore regions: DontCare is left out. The folder is built beside
