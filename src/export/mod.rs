@@ -194,11 +194,16 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
     };
     data.frames
         .sort_by(|a, b| order(a.split).cmp(&order(b.split)).then(a.id.cmp(&b.id)));
-    assign_image_ids(&mut data.frames);
+    // Each export split is a file of its own: ids are unique within it (KITTI's training/ and
+    // testing/ both count from 000000).
+    for split_frames in data.frames.chunk_by_mut(|a, b| a.split == b.split) {
+        assign_image_ids(split_frames);
+    }
     Ok(data)
 }
 
-/// Image ids: the frame number when every id is one (KITTI's), else the position from 1.
+/// Image ids of one export split: the frame number when every id is one (KITTI's), else the
+/// position from 1.
 fn assign_image_ids(frames: &mut [Frame]) {
     const MAX_EXACT: u64 = 1 << 53; // JSON readers hold numbers as doubles
     let numbers: Option<Vec<u64>> = frames

@@ -232,3 +232,27 @@ fn image_sets_and_a_seeded_val_fraction_split_the_frames() {
     assert_eq!(missing.code, 2, "{}", missing.stderr);
     assert!(!dir.path().join("x").exists());
 }
+
+/// Image ids are frame numbers within each file, even when training/ and testing/ share ids.
+#[test]
+fn image_ids_are_frame_numbers_in_each_split() {
+    let (dir, equi) = convert(&synthetic_dir(), "equirect", &[]);
+    for (from, to) in [
+        ("testing/image_2/000003.png", "testing/image_2/000001.png"),
+        ("testing/calib/000003.txt", "testing/calib/000001.txt"),
+    ] {
+        std::fs::rename(equi.join(from), equi.join(to)).unwrap();
+    }
+    let out = dir.path().join("coco");
+    assert_success(&export(&equi, "coco", &out, &[]));
+    let ids = |name: &str| -> Vec<u64> {
+        read_json(&out.join(name))["images"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| i["id"].as_u64().unwrap())
+            .collect()
+    };
+    assert_eq!(ids("instances_train.json"), [0, 1, 2]);
+    assert_eq!(ids("instances_test.json"), [1]);
+}
