@@ -194,6 +194,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
     };
     data.frames
         .sort_by(|a, b| order(a.split).cmp(&order(b.split)).then(a.id.cmp(&b.id)));
+    data.failed.sort_by(|a, b| a.0.cmp(&b.0));
     // Each export split is a file of its own: ids are unique within it (KITTI's training/ and
     // testing/ both count from 000000).
     for split_frames in data.frames.chunk_by_mut(|a, b| a.split == b.split) {

@@ -123,7 +123,7 @@ pub fn write(
     std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
     let staging = parent.join(format!(".{name}.partial-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&staging);
-    let result = fill(data, &root, &out, &staging, &splits);
+    let result = fill(data, &out, &staging, &splits);
     let files = match result {
         Ok(files) => files,
         Err(e) => {
@@ -152,7 +152,6 @@ pub fn write(
 /// export folder, bytes) of each regular file.
 fn fill(
     data: &ExportData,
-    root: &Path,
     out: &Path,
     staging: &Path,
     splits: &[(&'static str, Vec<&Frame>)],
@@ -168,7 +167,7 @@ fn fill(
         }
         let final_images = out.join("images").join(split);
         for f in frames {
-            let image = resolve(&root.join(&f.image_rel))?;
+            let image = resolve(&f.image)?;
             let target = relative_path(&final_images, &image);
             let name = format!("{}.png", f.id);
             link(&target, &images.join(&name)).map_err(|e| Error::io(&images.join(&name), e))?;
