@@ -112,3 +112,26 @@ pub fn coco_eval(instances: &Path, root: &Path) -> BTreeMap<String, f64> {
         })
         .collect()
 }
+
+/// (annotations, images) of a COCO-like file as pycocotools' COCO class indexes it.
+pub fn pycocotools_counts(path: &Path) -> (usize, usize) {
+    let code = "import sys, contextlib, io\nfrom pycocotools.coco import COCO\n\
+with contextlib.redirect_stdout(io.StringIO()):\n    c = COCO(sys.argv[1])\n\
+print(len(c.getAnnIds()), len(c.getImgIds()))";
+    let out = Command::new(python())
+        .args(["-c", code])
+        .arg(path)
+        .output()
+        .expect("cannot run the test python");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let n: Vec<usize> = stdout
+        .split_whitespace()
+        .map(|t| t.parse().unwrap())
+        .collect();
+    (n[0], n[1])
+}

@@ -45,6 +45,17 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
         &["--path-prefix", "kitti_persp/"],
     ));
     let file = read_json(&tmp.path().join("Omni3D_train.json"));
+    // Cube R-CNN's loader is pycocotools' COCO class: it must index the file.
+    let (anns, imgs) = (
+        file["annotations"].as_array().unwrap().len(),
+        file["images"].as_array().unwrap().len(),
+    );
+    let indexed = pycocotools_counts(&tmp.path().join("Omni3D_train.json"));
+    assert_eq!(
+        indexed,
+        (anns, imgs),
+        "pycocotools indexes every object and image"
+    );
     let by_image = omni3d_by_image(&file);
     let (mut checked, mut max_proj, mut max_corner, mut max_tight) = (0, 0.0f64, 0.0f64, 0.0f64);
     for image in file["images"].as_array().unwrap() {
