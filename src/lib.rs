@@ -12,6 +12,7 @@ pub mod depth;
 pub mod derived;
 pub mod error;
 pub mod eval;
+pub mod export;
 pub mod folder;
 pub mod geometry;
 pub mod image;

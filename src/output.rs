@@ -40,7 +40,7 @@ fn write_via_temporary(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
 }
 
 /// `path` made absolute and free of `.`/`..`, resolving symlinks as far as the path exists.
-fn resolve(path: &Path) -> Result<PathBuf> {
+pub(crate) fn resolve(path: &Path) -> Result<PathBuf> {
     let joined = if path.is_absolute() {
         path.to_path_buf()
     } else {

@@ -160,6 +160,10 @@ pub(super) struct ConvertArgs {
     #[arg(long, value_name = "N", requires = "style",
           value_parser = clap::value_parser!(u16).range(1..=panoconv::style::MAX_BATCH as i64))]
     style_batch: Option<u16>,
+    /// After a conversion with no failed frame, also export: coco and omni3d into
+    /// OUT/annotations, yolo into OUT_yolo beside OUT (see `panoconv export --help`).
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT,...")]
+    export: Vec<FormatArg>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -298,6 +302,11 @@ fn convert(
     image_set: Option<Vec<String>>,
     augment: Option<Augment>,
 ) -> Result<ExitCode> {
+    if (raw || args.shard.is_some()) && !args.export.is_empty() {
+        bail!(Error::Setup(
+            "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into()
+        ));
+    }
     let projection = projection_of(args.to);
     let fisheye = match (projection, &args.camera) {
         (Projection::Fisheye, Some(file)) => Some(fisheye_target(file)?),
@@ -438,6 +447,19 @@ fn convert(
     if summary.interrupted {
         eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
         return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
+    if summary.failed == 0 && !args.export.is_empty() {
+        let augmented = job.augment.is_some();
+        // A resumed run replaces the export of the run it continues.
+        let (overwrite, quiet) = (args.run.overwrite || args.resume, args.run.quiet);
+        return export_after_kitti(
+            &job.input,
+            &job.output,
+            &args.export,
+            augmented,
+            overwrite,
+            quiet,
+        );
     }
     Ok(if summary.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)

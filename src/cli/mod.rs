@@ -24,11 +24,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 mod camera;
 mod convert;
+mod export;
 mod folders;
 mod tools;
 
 use camera::*;
 use convert::*;
+use export::*;
 use folders::*;
 use tools::*;
 
@@ -104,6 +106,9 @@ enum Command {
     /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
     #[command(after_help = INSPECT_EXAMPLES)]
     Inspect(InspectArgs),
+    /// Write COCO, YOLO or Omni3D annotations of a converted (or plain KITTI) dataset.
+    #[command(after_help = EXPORT_EXAMPLES)]
+    Export(ExportArgs),
     /// Print a shell completion script for panoconv.
     #[command(after_help = COMPLETIONS_EXAMPLES)]
     Completions(CompletionsArgs),
@@ -247,6 +252,7 @@ fn run() -> Result<ExitCode> {
         Command::Pano(a) => pano(a),
         Command::Camera(a) => camera(a),
         Command::Inspect(a) => inspect(a),
+        Command::Export(a) => export(a),
         Command::Completions(a) => completions(a),
         Command::Man(a) => man(a),
     }

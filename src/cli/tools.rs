@@ -261,7 +261,11 @@ pub(super) fn folder_exit(
 
 /// Records files a tool wrote inside a converted dataset in its manifest, so that `verify`
 /// checks them (see `panoconv::derived`), and says so.
-fn record_derived(command: &str, target: &std::path::Path, files: &[PathBuf]) -> Result<()> {
+pub(super) fn record_derived(
+    command: &str,
+    target: &std::path::Path,
+    files: &[PathBuf],
+) -> Result<()> {
     if let Some(root) = panoconv::derived::record_if_inside(command, target, files)? {
         eprintln!(
             "panoconv: recorded in {} (checked by `panoconv verify`)",

@@ -1,0 +1,409 @@
+//! Exports of a converted (or plain KITTI) dataset to the formats trainers load as they are:
+//! COCO JSON, the Ultralytics YOLO layout, and Omni3D's JSON (docs/formats.md, "Exports").
+//!
+//! Everything comes from the *written* files: `label_2` for the objects, `calib` for the
+//! camera (`projection:`/`K2:`/`C2:`, or `P2` for plain KITTI), the image for its size. A
+//! frame is read whole or reported as failed; nothing is written until every frame has been
+//! read, and each file is written atomically.
+
+pub mod boxes;
+pub mod classes;
+pub mod coco;
+pub mod omni3d;
+pub mod split;
+pub mod yolo;
+
+pub use classes::{ClassLookup, ClassMap};
+pub use split::SplitRule;
+
+use crate::camera::{ImageSize, OutputCamera};
+use crate::error::{read_lines, Error, Result};
+use crate::kitti::{png_io, Calib, Dataset, FrameRef, Label};
+use crate::output::{hash_hex, write_atomic};
+use nalgebra::Vector3;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Coco,
+    Yolo,
+    Omni3d,
+}
+
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Coco => "coco",
+            Format::Yolo => "yolo",
+            Format::Omni3d => "omni3d",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct ExportOptions {
+    pub classes: ClassMap,
+    pub split_rule: SplitRule,
+    /// Replace export files (or a YOLO folder) that already exist.
+    pub overwrite: bool,
+    /// Put before every image path in COCO's `file_name` and Omni3D's `file_path` (which are
+    /// otherwise relative to the dataset root), e.g. `kitti_equi/` for Cube R-CNN's
+    /// `datasets/` image root.
+    pub path_prefix: String,
+}
+
+/// One file an export wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportedFile {
+    pub path: PathBuf,
+    /// The path relative to the dataset root, when the file is inside the dataset.
+    pub in_dataset: Option<String>,
+    pub blake3: String,
+}
+
+#[derive(Debug, Default)]
+pub struct ExportReport {
+    pub files: Vec<ExportedFile>,
+    /// Images per export split, in the order train, val, test.
+    pub images: Vec<(&'static str, usize)>,
+    pub objects: usize,
+    pub ignore_regions: usize,
+    /// Labelled frames in no image set (with [`SplitRule::ImageSets`]).
+    pub left_out: usize,
+    /// Frames that could not be read; they are not in the export.
+    pub failed: Vec<(FrameRef, Error)>,
+}
+
+/// A labelled object of a frame, with its category.
+#[derive(Debug, Clone)]
+pub struct Object {
+    pub label: Label,
+    /// Index into the categories (id = index + 1).
+    pub category: usize,
+}
+
+/// One image of the export with everything the formats need.
+#[derive(Debug)]
+pub struct Frame {
+    /// `train`, `val` or `test`.
+    pub split: &'static str,
+    pub id: String,
+    pub image_id: u64,
+    /// The image, as found under the dataset root.
+    pub image: PathBuf,
+    /// The image path relative to the dataset root (`/`-separated).
+    pub image_rel: String,
+    pub size: ImageSize,
+    pub camera: Box<dyn OutputCamera>,
+    /// Camera 2's optical centre in rect, metres.
+    pub centre: Vector3<f64>,
+    pub objects: Vec<Object>,
+    /// DontCare rectangles [left, top, right, bottom].
+    pub ignore_regions: Vec<[f64; 4]>,
+}
+
+/// A dataset read for export: frames in export order (train, val, test; ids sorted).
+#[derive(Debug)]
+pub struct ExportData {
+    pub root: PathBuf,
+    /// See [`ExportOptions::path_prefix`].
+    pub path_prefix: String,
+    pub categories: Vec<String>,
+    pub frames: Vec<Frame>,
+    pub left_out: usize,
+    pub failed: Vec<(FrameRef, Error)>,
+}
+
+impl ExportData {
+    /// The export splits present, in order, with their frames.
+    pub fn splits(&self) -> Vec<(&'static str, Vec<&Frame>)> {
+        [split::TRAIN, split::VAL, split::TEST]
+            .into_iter()
+            .map(|s| (s, self.frames.iter().filter(|f| f.split == s).collect()))
+            .filter(|(_, f): &(_, Vec<&Frame>)| !f.is_empty())
+            .collect()
+    }
+}
+
+/// Reads every frame of the dataset at `root` (KITTI layout) for export.
+pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> {
+    let dataset = Dataset::open(root, None)?;
+    let mut data = ExportData {
+        root: root.to_path_buf(),
+        path_prefix: options.path_prefix.clone(),
+        categories: options.classes.categories().to_vec(),
+        frames: Vec::new(),
+        left_out: 0,
+        failed: Vec::new(),
+    };
+    for s in &dataset.splits {
+        let frame_ref = |id: &str| FrameRef {
+            split: s.name.clone(),
+            id: id.to_owned(),
+        };
+        for name in &s.unusable {
+            let path = s.dir.join("image_2").join(name);
+            data.failed.push((
+                frame_ref(name),
+                Error::file(&path, "not a usable frame name (expected NNNNNN.png)"),
+            ));
+        }
+        let assigned = if s.has_labels {
+            for id in labels_without_image(&s.dir, &s.frames)? {
+                let label = s.label_path(&id);
+                let image = s.image_path(2, &id);
+                data.failed.push((
+                    frame_ref(&id),
+                    Error::file(&label, format!("no image {}", image.display())),
+                ));
+            }
+            let assigned = split::assign(&s.frames, &options.split_rule)?;
+            data.left_out += s.frames.len() - assigned.len();
+            assigned
+        } else {
+            s.frames
+                .iter()
+                .map(|id| (id.clone(), split::TEST))
+                .collect()
+        };
+        for (id, export_split) in assigned {
+            let image_rel = format!("{}/image_2/{id}.png", s.name);
+            let read = read_frame(s, &id, &options.classes);
+            match read {
+                Ok((size, camera, centre, objects, ignore_regions)) => data.frames.push(Frame {
+                    split: export_split,
+                    image_id: 0,
+                    image: s.image_path(2, &id),
+                    id,
+                    image_rel,
+                    size,
+                    camera,
+                    centre,
+                    objects,
+                    ignore_regions,
+                }),
+                Err(e) => data.failed.push((frame_ref(&id), e)),
+            }
+        }
+    }
+    let order = |s: &str| {
+        [split::TRAIN, split::VAL, split::TEST]
+            .iter()
+            .position(|x| *x == s)
+    };
+    data.frames
+        .sort_by(|a, b| order(a.split).cmp(&order(b.split)).then(a.id.cmp(&b.id)));
+    data.failed.sort_by(|a, b| a.0.cmp(&b.0));
+    // Each export split is a file of its own: ids are unique within it (KITTI's training/ and
+    // testing/ both count from 000000).
+    for split_frames in data.frames.chunk_by_mut(|a, b| a.split == b.split) {
+        assign_image_ids(split_frames);
+    }
+    Ok(data)
+}
+
+/// Image ids of one export split: the frame number when every id is one (KITTI's), else the
+/// position from 1.
+fn assign_image_ids(frames: &mut [Frame]) {
+    const MAX_EXACT: u64 = 1 << 53; // JSON readers hold numbers as doubles
+    let numbers: Option<Vec<u64>> = frames
+        .iter()
+        .map(|f| f.id.parse::<u64>().ok().filter(|&n| n < MAX_EXACT))
+        .collect();
+    let mut unique = numbers.clone().unwrap_or_default();
+    unique.sort_unstable();
+    unique.dedup();
+    match numbers {
+        Some(n) if unique.len() == frames.len() => {
+            for (f, n) in frames.iter_mut().zip(n) {
+                f.image_id = n;
+            }
+        }
+        _ => {
+            for (i, f) in frames.iter_mut().enumerate() {
+                f.image_id = i as u64 + 1;
+            }
+        }
+    }
+}
+
+/// Ids of `label_2/*.txt` with no image among `frames` (sorted).
+fn labels_without_image(split_dir: &Path, frames: &[String]) -> Result<Vec<String>> {
+    let dir = split_dir.join("label_2");
+    let entries = std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut orphans = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(&dir, e))?;
+        let name = entry.file_name();
+        let Some(id) = name.to_str().and_then(|n| n.strip_suffix(".txt")) else {
+            continue;
+        };
+        if !id.starts_with('.') && frames.binary_search(&id.to_owned()).is_err() {
+            orphans.push(id.to_owned());
+        }
+    }
+    orphans.sort();
+    Ok(orphans)
+}
+
+type FrameParts = (
+    ImageSize,
+    Box<dyn OutputCamera>,
+    Vector3<f64>,
+    Vec<Object>,
+    Vec<[f64; 4]>,
+);
+
+fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Result<FrameParts> {
+    let image = split.image_path(2, id);
+    let (w, h) = image_size(&image)?;
+    let size = ImageSize::new(w, h);
+    let calib = Calib::read(&split.calib_path(id))?;
+    let (camera, centre) = crate::preview::frame_camera(&calib, size)?;
+    let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
+    if split.has_labels {
+        let path = split.label_path(id);
+        for (i, line) in read_lines(&path)?.iter().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let label = Label::parse(&path, i + 1, line)?;
+            if label.kind == classes::DONT_CARE {
+                ignore_regions.push(label.bbox);
+                continue;
+            }
+            match classes.lookup(&label.kind) {
+                ClassLookup::Category(category) => objects.push(Object { label, category }),
+                ClassLookup::Dropped => {}
+                ClassLookup::Unknown => {
+                    let hint = format!(
+                        "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
+                        label.kind
+                    );
+                    return Err(Error::parse(&path, i + 1, "type", hint));
+                }
+            }
+        }
+    }
+    Ok((size, camera, centre, objects, ignore_regions))
+}
+
+/// The size from the PNG header; only the file's start is read unless the header is longer.
+fn image_size(path: &Path) -> Result<(u32, u32)> {
+    let mut head = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    match png_io::read_size(&head, path) {
+        Ok(size) => Ok(size),
+        Err(_) => png_io::read_size(&crate::error::read_file(path)?, path),
+    }
+}
+
+/// Writes a format's export of the dataset at `root` into `output`.
+pub fn export(
+    root: &Path,
+    format: Format,
+    output: &Path,
+    options: &ExportOptions,
+) -> Result<ExportReport> {
+    let data = read_dataset(root, options)?;
+    let files = match format {
+        Format::Coco => write_json_files(&data, output, options, coco::render)?,
+        Format::Omni3d => write_json_files(&data, output, options, omni3d::render)?,
+        Format::Yolo => yolo::write(&data, output, options)?,
+    };
+    let mut report = ExportReport {
+        files,
+        images: data
+            .splits()
+            .iter()
+            .map(|(s, frames)| (*s, frames.len()))
+            .collect(),
+        left_out: data.left_out,
+        ..Default::default()
+    };
+    for f in &data.frames {
+        report.objects += f.objects.len();
+        report.ignore_regions += f.ignore_regions.len();
+    }
+    report.failed = data.failed;
+    Ok(report)
+}
+
+/// Renders one export split: the file's name and bytes.
+type RenderSplit = fn(&ExportData, &str, &[&Frame]) -> Result<(String, Vec<u8>)>;
+
+/// One JSON file per export split (`render` gives its name and bytes), all rendered before any
+/// is written.
+fn write_json_files(
+    data: &ExportData,
+    output: &Path,
+    options: &ExportOptions,
+    render: RenderSplit,
+) -> Result<Vec<ExportedFile>> {
+    let mut rendered = Vec::new();
+    for (split, frames) in data.splits() {
+        let (name, bytes) = render(data, split, &frames)?;
+        rendered.push((output.join(name), bytes));
+    }
+    if rendered.is_empty() {
+        return Err(Error::Setup(format!(
+            "{}: no frame to export",
+            data.root.display()
+        )));
+    }
+    if output.exists() && !output.is_dir() {
+        return Err(Error::Setup(format!(
+            "output {} exists and is not a directory",
+            output.display()
+        )));
+    }
+    for (path, _) in &rendered {
+        if path.exists() && !options.overwrite {
+            return Err(Error::Setup(format!(
+                "{} exists (use --overwrite to replace it)",
+                path.display()
+            )));
+        }
+    }
+    std::fs::create_dir_all(output).map_err(|e| Error::io(output, e))?;
+    let mut files = Vec::new();
+    for (path, bytes) in rendered {
+        write_atomic(&path, &bytes)?;
+        files.push(exported_file(&data.root, path, &bytes)?);
+    }
+    Ok(files)
+}
+
+pub(crate) fn exported_file(root: &Path, path: PathBuf, bytes: &[u8]) -> Result<ExportedFile> {
+    Ok(ExportedFile {
+        in_dataset: relative_inside(root, &path)?,
+        blake3: hash_hex(bytes),
+        path,
+    })
+}
+
+/// `path` relative to `root` (`/`-separated) when it lies inside it.
+fn relative_inside(root: &Path, path: &Path) -> Result<Option<String>> {
+    let (root, path) = (crate::output::resolve(root)?, crate::output::resolve(path)?);
+    Ok(path.strip_prefix(&root).ok().map(|rel| {
+        rel.components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect::<Vec<_>>()
+            .join("/")
+    }))
+}
+
+/// `v` rounded to `decimals` places, so the JSON shows the precision the data has (a KITTI box
+/// is given to 0.01 px) instead of binary noise.
+pub(crate) fn round_to(v: f64, decimals: i32) -> f64 {
+    let s = 10f64.powi(decimals);
+    let r = (v * s).round() / s;
+    if r == 0.0 {
+        0.0 // no "-0.0" in the files
+    } else {
+        r
+    }
+}
