@@ -94,6 +94,12 @@ step 0 panoconv eval-depth --pred preds/ --gt O_depth/training/depth_2
 step "137|0" timeout -s KILL 2 "$bin" kitti --to equirect --input K --output O_resume --jobs 1
 step 0 panoconv kitti --to equirect --input K --output O_resume --resume
 step 0 "for k in \$(seq 0 15); do panoconv kitti --to equirect --input K --output O_shards --shard \$k/16 --quiet || exit; done && panoconv merge O_shards"
+step 0 panoconv export O --format coco --output O/annotations
+step 0 panoconv export O --format yolo --output O_yolo
+step 0 panoconv export O --format omni3d --output O/annotations
+step 0 panoconv kitti --to equirect --input K --output O_export --export coco,yolo
+step 0 panoconv kitti --to fisheye --camera front.json --mask --depth --input K --output O_fish
+step 0 panoconv camera convert front.json --to kannala_brandt --output kb.json
 step 0 panoconv fisheye --camera front.json --to cylindrical --input frames/ --output cyl/
 step 0 panoconv pano --to perspective --yaw 0,90,180,270 --fov 90 --input panos/ --output views/
 step 0 panoconv preview O --frame 000004 --output O/preview.png
@@ -104,7 +110,7 @@ step 0 panoconv man --output man1
 step 0 panoconv synth --output synthetic_kitti
 
 echo "# verify every output folder"
-for out in kitti_equi kitti_cyl O_2048 O_persp O O_depth R O_resume O_shards cyl views; do
+for out in kitti_equi kitti_cyl O_2048 O_persp O O_depth R O_resume O_shards O_export O_fish cyl views; do
     step 0 panoconv verify "$out"
     tail -n 1 step.out | sed 's/^/    /'
 done
