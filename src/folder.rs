@@ -261,7 +261,8 @@ impl Ctx<'_> {
 pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -> Result<Summary> {
     let started = std::time::Instant::now();
     let inputs = list_inputs(&job.input)?;
-    output::check_output_dir(&job.input, &job.output, job.overwrite)?;
+    // Held until the run returns: one process per output.
+    let _lock = crate::journal::claim_output(&job.input, &job.output, None, job.overwrite)?;
     // Two stems with different extensions would write the same outputs.
     let mut stems: Vec<&str> = inputs.iter().map(|i| i.stem.as_str()).collect();
     stems.sort_unstable();
@@ -283,8 +284,8 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         None,
         job.command,
         job.parameters.clone(),
-        Vec::new(),
-    );
+        false,
+    )?;
     inputs.par_iter().for_each(|input| {
         let mut written = Vec::new();
         let record = match ctx.convert(input, &mut written) {
@@ -307,15 +308,11 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         journal.record(record);
     });
     progress.finish();
-    let records = journal.finish(true)?;
-    let failed = records
-        .iter()
-        .filter(|r| r.status == FrameStatus::Failed)
-        .count();
+    let finished = journal.finish(true)?;
     let summary = Summary {
-        frames: records.len(),
-        converted: records.len() - failed,
-        failed,
+        frames: finished.frames,
+        converted: finished.frames - finished.failed,
+        failed: finished.failed,
         resumed: 0,
         interrupted: false,
         seconds: started.elapsed().as_secs_f64(),
