@@ -70,19 +70,24 @@ fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
 /// Starts a conversion and waits until it holds `lock` and its journal has `lines` lines or
 /// more (the header, then one per frame recorded).
 fn start_and_wait(c: &mut Command, out: &Path, lock: &str, journal: &str, lines: usize) -> Child {
-    let child = c.stderr(Stdio::piped()).spawn().unwrap();
+    let mut child = c.stderr(Stdio::piped()).spawn().unwrap();
     let t0 = Instant::now();
-    loop {
-        let have = std::fs::read_to_string(out.join(journal)).map_or(0, |j| j.lines().count());
-        if out.join(lock).exists() && have >= lines {
-            return child;
+    while !(out.join(lock).exists() && journal_lines(&out.join(journal)) >= lines) {
+        if t0.elapsed() > Duration::from_secs(120) || child.try_wait().unwrap().is_some() {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!(
+                "no {lines} journal lines: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
         }
-        assert!(
-            t0.elapsed() < Duration::from_secs(60),
-            "the conversion never took its lock"
-        );
         std::thread::sleep(Duration::from_millis(10));
     }
+    child
+}
+
+fn journal_lines(path: &Path) -> usize {
+    std::fs::read(path).map_or(0, |j| j.iter().filter(|&&b| b == b'\n').count())
 }
 
 #[test]
@@ -268,5 +273,105 @@ fn manifest_and_journal_together_resume_to_the_same_bytes_and_merge_waits_for_a_
     assert!(
         tree(&sharded) == expected,
         "2 shards + merge differ from one run"
+    );
+}
+
+/// Relative path → blake3 of every file under `root` (the trees are too big to hold).
+fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                let hash = blake3::hash(&std::fs::read(&p).unwrap())
+                    .to_hex()
+                    .to_string();
+                out.insert(rel, hash);
+            }
+        }
+    }
+    out
+}
+
+/// kill -9 at several moments of a long run (each resume killed in turn), then `--resume`:
+/// the bytes of one uninterrupted run. The real frames of ../shared/kitti/training hard-linked
+/// under PANOCONV_SCALE_FRAMES ids (default 20 000), outputs at 414×125 to spare the disk.
+/// Minutes long, so outside CI: `cargo test --release --test scale -- --ignored`.
+#[test]
+#[ignore = "minutes long: run by hand"]
+fn kill_nine_at_scale_then_resume_gives_the_uninterrupted_bytes() {
+    let n: usize = std::env::var("PANOCONV_SCALE_FRAMES").map_or(20_000, |v| v.parse().unwrap());
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training");
+    let ids: Vec<String> = {
+        let mut ids: Vec<String> = std::fs::read_dir(source.join("image_2"))
+            .unwrap()
+            .map(|e| {
+                e.unwrap()
+                    .path()
+                    .file_stem()
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect();
+        ids.sort();
+        ids
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let input = tmp.path().join("in");
+    for (sub, ext) in [("image_2", "png"), ("label_2", "txt"), ("calib", "txt")] {
+        let dir = input.join("training").join(sub);
+        std::fs::create_dir_all(&dir).unwrap();
+        for i in 0..n {
+            let src = source
+                .join(sub)
+                .join(format!("{}.{ext}", ids[i % ids.len()]));
+            std::fs::hard_link(src, dir.join(format!("{i:06}.{ext}"))).unwrap();
+        }
+    }
+    let options = ["--jobs", "2", "--resize", "414x125"];
+    let reference = tmp.path().join("reference");
+    let (code, err) = run(kitti(&input, &reference, &options));
+    assert_eq!(code, Some(0), "{err}");
+    let expected = tree_hashes(&reference);
+    std::fs::remove_dir_all(&reference).unwrap();
+
+    let out = tmp.path().join("o");
+    // killed after about 5 %, then 30 % and 60 % more of the frames recorded by each run
+    for (round, share) in [0.05, 0.3, 0.6].into_iter().enumerate() {
+        let resume: &[&str] = if round == 0 { &[] } else { &["--resume"] };
+        let before = journal_lines(&out.join("panoconv.journal"));
+        let wanted = before.max(1) + (share * n as f64) as usize;
+        let mut c = kitti(&input, &out, &options);
+        c.args(resume);
+        let mut child = start_and_wait(&mut c, &out, "panoconv.lock", "panoconv.journal", wanted);
+        child.kill().unwrap();
+        child.wait().unwrap();
+        eprintln!(
+            "round {round}: killed with {} journal lines",
+            journal_lines(&out.join("panoconv.journal"))
+        );
+    }
+    let mut c = kitti_with_summary(&input, &out, &options);
+    c.arg("--resume");
+    let (code, err) = run(c);
+    assert_eq!(code, Some(0), "{err}");
+    eprintln!("{err}");
+    let got = tree_hashes(&out);
+    assert_eq!(got.len(), expected.len());
+    let differ: Vec<&String> = expected
+        .iter()
+        .filter(|(k, v)| got.get(*k) != Some(v))
+        .map(|(k, _)| k)
+        .collect();
+    assert!(
+        differ.is_empty(),
+        "{} files differ: {:?}",
+        differ.len(),
+        &differ[..differ.len().min(5)]
     );
 }
