@@ -67,8 +67,15 @@ pub fn claim_output(
 ) -> Result<OutputLock> {
     lock::refuse_if_held(output, shard)?;
     crate::output::check_output_dir(input, output, allow_nonempty)?;
+    let existed = output.exists();
     std::fs::create_dir_all(output).map_err(|e| Error::io(output, e))?;
-    lock::acquire(output, shard)
+    let mut lock = lock::acquire(output, shard).inspect_err(|_| {
+        if !existed {
+            let _ = std::fs::remove_dir(output);
+        }
+    })?;
+    lock.created = (!existed).then(|| output.to_path_buf());
+    Ok(lock)
 }
 
 /// Where a frame's line is in the journal. Only this is kept per frame while a run goes on.

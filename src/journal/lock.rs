@@ -17,6 +17,9 @@ use std::path::{Path, PathBuf};
 pub struct OutputLock {
     path: PathBuf,
     _file: File,
+    /// The output folder, when taking the lock created it: removed again if the run wrote
+    /// nothing (a set-up error leaves no folder behind).
+    pub(super) created: Option<PathBuf>,
 }
 
 impl Drop for OutputLock {
@@ -24,6 +27,9 @@ impl Drop for OutputLock {
         // Removed while still held: a process that opened the old file finds it unlinked and
         // tries again (see `acquire`).
         let _ = std::fs::remove_file(&self.path);
+        if let Some(dir) = &self.created {
+            let _ = std::fs::remove_dir(dir); // only if empty
+        }
     }
 }
 
@@ -145,7 +151,11 @@ pub fn acquire(output: &Path, shard: Option<Shard>) -> Result<OutputLock> {
         file.rewind().map_err(|e| Error::io(&path, e))?;
         file.write_all(text.as_bytes())
             .map_err(|e| Error::io(&path, e))?;
-        return Ok(OutputLock { path, _file: file });
+        return Ok(OutputLock {
+            path,
+            _file: file,
+            created: None,
+        });
     }
 }
 
