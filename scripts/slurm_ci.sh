@@ -40,8 +40,8 @@ if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null \
 fi
 
 if [ -z "${PANOCONV:-}" ]; then
-    cargo build --release --locked --quiet
-    PANOCONV="$repo/target/release/panoconv"
+    cargo build --release --locked --quiet --bin panoconv
+    PANOCONV="${CARGO_TARGET_DIR:-$repo/target}/release/panoconv"
 fi
 PANOCONV="$(realpath "$PANOCONV")"
 export PANOCONV
