@@ -254,7 +254,8 @@ impl Ctx<'_> {
 pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -> Result<Summary> {
     let started = std::time::Instant::now();
     let inputs = list_inputs(&job.input)?;
-    output::check_output_dir(&job.input, &job.output, job.overwrite)?;
+    // Held until the run returns: one process per output.
+    let _lock = crate::journal::claim_output(&job.input, &job.output, None, job.overwrite)?;
     // Two stems with different extensions would write the same outputs.
     let mut stems: Vec<&str> = inputs.iter().map(|i| i.stem.as_str()).collect();
     stems.sort_unstable();
@@ -276,8 +277,8 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         None,
         job.command,
         job.parameters.clone(),
-        Vec::new(),
-    );
+        false,
+    )?;
     // As in the KITTI conversion: after the first write the output device refused for want of
     // space, no new image is taken.
     let device_full: std::sync::OnceLock<Error> = std::sync::OnceLock::new();
@@ -313,24 +314,19 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
     let device_full = device_full.into_inner().map(|e| {
         format!("output device full ({e}): free space, then convert the images not in the manifest again")
     });
-    let records = match (journal.finish(device_full.is_none()), &device_full) {
-        (Ok(records), _) => records,
-        (Err(e), Some(full)) => {
-            return Err(Error::DeviceFull(format!(
+    let finished = journal
+        .finish(device_full.is_none())
+        .map_err(|e| match &device_full {
+            Some(full) => Error::DeviceFull(format!(
                 "{full}; the manifest could not be written either ({e})"
-            )))
-        }
-        (Err(e), None) => return Err(e),
-    };
-    let failed = records
-        .iter()
-        .filter(|r| r.status == FrameStatus::Failed)
-        .count();
+            )),
+            None => e,
+        })?;
     let summary = Summary {
         device_full,
-        frames: records.len(),
-        converted: records.len() - failed,
-        failed,
+        frames: finished.frames,
+        converted: finished.frames - finished.failed,
+        failed: finished.failed,
         resumed: 0,
         interrupted: false,
         seconds: started.elapsed().as_secs_f64(),

@@ -1,18 +1,30 @@
-//! The run's manifest as a journal: rewritten atomically as frames finish, so a killed run
-//! leaves a valid manifest of what is complete; read back by `--resume`; split into one part
-//! per shard and joined by `merge`.
+//! The run's record of finished frames. While a conversion runs, each finished frame is
+//! appended as one JSON line to `OUT/panoconv.journal` (a write-ahead log, fsynced in batches),
+//! so the cost of a frame does not grow with the frames before it and a killed run leaves a
+//! record of what is complete. At the end the manifest `panoconv.json` is written once,
+//! streamed from the journal in frame order, and the journal removed. `--resume` reads
+//! whichever of the two exists (both, the journal being newer); shards write a part each,
+//! joined by `merge`.
+
+pub mod lock;
+mod pretty;
 
 use crate::error::{read_file, Error, Result};
-use crate::output::{hash_hex, write_atomic_durable, FrameRecord, FrameStatus};
+use crate::output::{hash_hex, FrameRecord, FrameStatus};
+use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+pub use lock::OutputLock;
+
 pub const MANIFEST: &str = "panoconv.json";
-/// How often a running conversion rewrites its manifest.
-const FLUSH_EVERY: Duration = Duration::from_secs(2);
+/// How often a running conversion makes its journal durable (fsync).
+const SYNC_EVERY: Duration = Duration::from_secs(2);
 
 /// `--shard K/N`: this process converts the frames whose key hashes to K modulo N (K from 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -35,126 +47,335 @@ impl Shard {
     }
 }
 
-/// The manifest being written by a run.
+fn manifest_name(shard: Option<Shard>) -> String {
+    shard.map_or(MANIFEST.to_owned(), |s| s.manifest_name())
+}
+
+/// The journal beside a manifest: `panoconv.json` → `panoconv.journal`.
+fn journal_path(manifest: &Path) -> PathBuf {
+    manifest.with_extension("journal")
+}
+
+/// Checks the output (see [`crate::output::check_output_dir`]) and takes its lock, so one
+/// process at a time converts into it (one per shard). A live holder is named in the
+/// refusal, before the folder is found non-empty.
+pub fn claim_output(
+    input: &Path,
+    output: &Path,
+    shard: Option<Shard>,
+    allow_nonempty: bool,
+) -> Result<OutputLock> {
+    lock::refuse_if_held(output, shard)?;
+    crate::output::check_output_dir(input, output, allow_nonempty)?;
+    let existed = output.exists();
+    std::fs::create_dir_all(output).map_err(|e| Error::io(output, e))?;
+    let mut lock = lock::acquire(output, shard).inspect_err(|_| {
+        if !existed {
+            let _ = std::fs::remove_dir(output);
+        }
+    })?;
+    lock.created = (!existed).then(|| output.to_path_buf());
+    Ok(lock)
+}
+
+/// Where a frame's line is in the journal. Only this is kept per frame while a run goes on.
+struct Entry {
+    /// Index into `State::splits` (a run has a handful of splits and many frames).
+    split: u32,
+    id: Box<str>,
+    offset: u64,
+    len: u32,
+}
+
+struct State {
+    file: File,
+    /// The journal's length: where the next line goes.
+    end: u64,
+    entries: Vec<Entry>,
+    splits: Vec<String>,
+    failed: usize,
+    last_sync: Instant,
+    /// The first failed append; `finish` reports it (the frame's line is not in the journal).
+    error: Option<std::io::Error>,
+}
+
+/// The record of a running conversion.
 pub struct Journal {
-    path: PathBuf,
+    manifest: PathBuf,
+    journal: PathBuf,
     /// tool, version, command, parameters (in that order).
     header: serde_json::Map<String, Value>,
-    state: Mutex<(Vec<FrameRecord>, Instant)>,
+    state: Mutex<State>,
+    /// A second handle on the journal, to fsync outside the lock the workers take.
+    sync: File,
 }
 
-fn sorted(mut records: Vec<FrameRecord>) -> Vec<FrameRecord> {
-    records.sort_by(|a, b| (&a.split, &a.id).cmp(&(&b.split, &b.id)));
-    records
+/// What `finish` wrote.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Finished {
+    pub frames: usize,
+    pub failed: usize,
 }
 
-fn document(
-    header: &serde_json::Map<String, Value>,
-    records: &[FrameRecord],
-    complete: bool,
-) -> Value {
-    let failed = records
-        .iter()
-        .filter(|r| r.status == FrameStatus::Failed)
-        .count();
-    let mut doc = header.clone();
-    doc.insert(
-        "summary".into(),
-        json!({"frames": records.len(), "converted": records.len() - failed, "failed": failed}),
-    );
-    doc.insert("complete".into(), Value::Bool(complete));
-    doc.insert(
-        "frames".into(),
-        serde_json::to_value(records).expect("records serialise"),
-    );
-    Value::Object(doc)
+/// A record's line as the manifest lays it out: through a `Value`, as the manifest of the
+/// whole run was always built (field order, numbers).
+fn compact(r: &FrameRecord) -> Vec<u8> {
+    serde_json::to_vec(&serde_json::to_value(r).expect("records serialise"))
+        .expect("records serialise")
 }
 
-fn write_document(path: &Path, doc: &Value) -> Result<()> {
-    let mut bytes = serde_json::to_vec_pretty(doc).expect("manifest serialises");
-    bytes.push(b'\n');
-    write_atomic_durable(path, &bytes)
+/// The length of `file` up to and including its last newline (a line torn by a kill is cut).
+fn whole_lines_len(file: &mut File) -> std::io::Result<u64> {
+    let len = file.seek(SeekFrom::End(0))?;
+    let mut end = len;
+    let mut buf = vec![0u8; 64 * 1024];
+    while end > 0 {
+        let start = end.saturating_sub(buf.len() as u64);
+        let chunk = &mut buf[..(end - start) as usize];
+        file.seek(SeekFrom::Start(start))?;
+        file.read_exact(chunk)?;
+        if let Some(i) = chunk.iter().rposition(|&b| b == b'\n') {
+            return Ok(start + i as u64 + 1);
+        }
+        end = start;
+    }
+    Ok(0)
 }
 
 impl Journal {
+    /// Starts the journal of a run into `output` (which the caller holds the lock of). With
+    /// `resume`, a journal a killed run left is continued (its lines stay readable by a later
+    /// `--resume` until the manifest is written); otherwise a new one is started.
     pub fn new(
         output: &Path,
         shard: Option<Shard>,
         command: &str,
         parameters: Value,
-        resumed: Vec<FrameRecord>,
-    ) -> Self {
+        resume: bool,
+    ) -> Result<Self> {
         let mut header = serde_json::Map::new();
         header.insert("tool".into(), json!("panoconv"));
         header.insert("version".into(), json!(env!("CARGO_PKG_VERSION")));
         header.insert("command".into(), json!(command));
         header.insert("parameters".into(), parameters);
-        let name = shard.map_or(MANIFEST.to_owned(), |s| s.manifest_name());
-        Self {
-            path: output.join(name),
+        let manifest = output.join(manifest_name(shard));
+        let journal = journal_path(&manifest);
+        let io = |e| Error::io(&journal, e);
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&journal)
+            .map_err(io)?;
+        let kept = if resume {
+            whole_lines_len(&mut file).map_err(io)?
+        } else {
+            0
+        };
+        file.set_len(kept).map_err(io)?;
+        file.seek(SeekFrom::Start(kept)).map_err(io)?;
+        let mut end = kept;
+        if kept == 0 {
+            let mut line =
+                serde_json::to_vec(&Value::Object(header.clone())).expect("header serialises");
+            line.push(b'\n');
+            file.write_all(&line).map_err(io)?;
+            file.sync_data().map_err(io)?;
+            end = line.len() as u64;
+        }
+        let sync = file.try_clone().map_err(io)?;
+        Ok(Self {
+            manifest,
+            journal,
             header,
-            state: Mutex::new((resumed, Instant::now())),
-        }
+            state: Mutex::new(State {
+                file,
+                end,
+                entries: Vec::new(),
+                splits: Vec::new(),
+                failed: 0,
+                last_sync: Instant::now(),
+                error: None,
+            }),
+            sync,
+        })
     }
 
-    /// Adds a finished frame; rewrites the manifest now and then. A failed intermediate write
-    /// is retried at the next one; the final write reports its errors.
+    /// Appends a finished frame's line; every ~2 s the journal is fsynced (outside the lock).
+    /// A failed append is reported by `finish`.
     pub fn record(&self, r: FrameRecord) {
-        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
-        state.0.push(r);
-        if state.1.elapsed() >= FLUSH_EVERY {
-            state.1 = Instant::now();
-            let doc = document(&self.header, &sorted(state.0.clone()), false);
-            let _ = write_document(&self.path, &doc);
+        let mut line = compact(&r);
+        line.push(b'\n');
+        let due = {
+            let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+            if s.error.is_some() {
+                return;
+            }
+            if let Err(e) = s.file.write_all(&line) {
+                // A partial line is cut by the next `--resume`; later lines would follow it.
+                s.error.get_or_insert(e);
+                return;
+            }
+            let split = match s.splits.iter().position(|x| *x == r.split) {
+                Some(i) => i,
+                None => {
+                    s.splits.push(r.split.clone());
+                    s.splits.len() - 1
+                }
+            };
+            let offset = s.end;
+            s.end += line.len() as u64;
+            s.entries.push(Entry {
+                split: split as u32,
+                id: r.id.into_boxed_str(),
+                offset,
+                len: line.len() as u32,
+            });
+            s.failed += usize::from(r.status == FrameStatus::Failed);
+            let due = s.last_sync.elapsed() >= SYNC_EVERY;
+            if due {
+                s.last_sync = Instant::now();
+            }
+            due
+        };
+        if due {
+            let _ = self.sync.sync_data();
         }
     }
 
-    /// Writes the final manifest; `complete` is false for an interrupted run. Returns the
-    /// records, sorted.
-    pub fn finish(self, complete: bool) -> Result<Vec<FrameRecord>> {
-        let records = sorted(self.state.into_inner().unwrap_or_else(|e| e.into_inner()).0);
-        write_document(&self.path, &document(&self.header, &records, complete))?;
-        Ok(records)
+    /// Calls `f` with every frame recorded so far, in manifest order (split, then id), read
+    /// back from the journal one at a time.
+    pub fn for_each_record(&self, mut f: impl FnMut(FrameRecord)) -> Result<()> {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let lines = self.sorted_lines(&mut s)?;
+        for line in lines {
+            let line = line?;
+            let r = serde_json::from_slice(&line)
+                .map_err(|e| Error::file(&self.journal, format!("malformed frame record: {e}")))?;
+            f(r);
+        }
+        Ok(())
+    }
+
+    /// This run's lines in manifest order, without their newline.
+    fn sorted_lines<'a>(
+        &self,
+        s: &'a mut State,
+    ) -> Result<impl Iterator<Item = Result<Vec<u8>>> + 'a> {
+        if let Some(e) = s.error.take() {
+            return Err(Error::io(&self.journal, e));
+        }
+        let State {
+            entries, splits, ..
+        } = s;
+        entries.sort_by(|a, b| {
+            (&splits[a.split as usize], &a.id).cmp(&(&splits[b.split as usize], &b.id))
+        });
+        let mut reader = File::open(&self.journal).map_err(|e| Error::io(&self.journal, e))?;
+        let path = self.journal.clone();
+        Ok(entries.iter().map(move |e| {
+            let mut line = vec![0u8; e.len as usize - 1];
+            reader
+                .seek(SeekFrom::Start(e.offset))
+                .and_then(|_| reader.read_exact(&mut line))
+                .map_err(|err| Error::io(&path, err))?;
+            Ok(line)
+        }))
+    }
+
+    /// Writes the manifest (streamed from the journal) and removes the journal; `complete` is
+    /// false for an interrupted run.
+    pub fn finish(self, complete: bool) -> Result<Finished> {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        let counts = (s.entries.len(), s.failed);
+        let lines = self.sorted_lines(&mut s)?;
+        pretty::write_manifest(&self.manifest, &self.header, counts, complete, lines)?;
+        // The manifest now holds every line: a kill before this removal leaves both, and
+        // `--resume` reads the same records from either.
+        let _ = std::fs::remove_file(&self.journal);
+        Ok(Finished {
+            frames: counts.0,
+            failed: counts.1,
+        })
     }
 }
 
-/// A previous run's records, for `--resume`: refuses when its parameters differ.
+/// A frame of a previous manifest, or `None` when it cannot be read as one (it is redone).
+struct Lenient(Option<FrameRecord>);
+
+impl<'de> Deserialize<'de> for Lenient {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let v = Value::deserialize(d)?;
+        Ok(Lenient(serde_json::from_value(v).ok()))
+    }
+}
+
+/// The part of a previous manifest `--resume` reads, one frame at a time.
+#[derive(Deserialize)]
+struct PreviousManifest {
+    #[serde(default)]
+    parameters: Value,
+    #[serde(default)]
+    frames: Vec<Lenient>,
+}
+
+fn check_parameters(path: &Path, old: &Value, parameters: &Value) -> Result<()> {
+    if old == parameters {
+        return Ok(());
+    }
+    let differ: Vec<String> = match (old, parameters) {
+        (Value::Object(a), Value::Object(b)) => b
+            .iter()
+            .filter(|(k, v)| a.get(*k) != Some(v))
+            .map(|(k, _)| k.clone())
+            .collect(),
+        _ => vec!["parameters".into()],
+    };
+    Err(Error::Setup(format!(
+        "cannot resume: {} was written with other parameters ({}); use the same options, or a new output folder",
+        path.display(),
+        differ.join(", ")
+    )))
+}
+
+/// A previous run's records, for `--resume`: from its manifest, then its journal (newer, when
+/// a later run was killed), a record of the journal replacing the manifest's. Refuses when
+/// the parameters differ. A line a kill tore is ignored.
 pub fn load_previous(
     output: &Path,
     shard: Option<Shard>,
     parameters: &Value,
 ) -> Result<HashMap<(String, String), FrameRecord>> {
-    let path = output.join(shard.map_or(MANIFEST.to_owned(), |s| s.manifest_name()));
-    if !path.exists() {
-        return Ok(HashMap::new());
-    }
-    let doc: Value = serde_json::from_slice(&read_file(&path)?)
-        .map_err(|e| Error::parse(&path, e.line(), "json", e.to_string()))?;
-    if doc.get("parameters") != Some(parameters) {
-        let old = doc.get("parameters").cloned().unwrap_or(Value::Null);
-        let differ: Vec<String> = match (&old, parameters) {
-            (Value::Object(a), Value::Object(b)) => b
-                .iter()
-                .filter(|(k, v)| a.get(*k) != Some(v))
-                .map(|(k, _)| k.clone())
-                .collect(),
-            _ => vec!["parameters".into()],
-        };
-        return Err(Error::Setup(format!(
-            "cannot resume: {} was written with other parameters ({}); use the same options, or a new output folder",
-            path.display(),
-            differ.join(", ")
-        )));
-    }
+    let manifest = output.join(manifest_name(shard));
     let mut out = HashMap::new();
-    for f in doc
-        .get("frames")
-        .and_then(Value::as_array)
-        .into_iter()
-        .flatten()
-    {
-        if let Ok(r) = serde_json::from_value::<FrameRecord>(f.clone()) {
+    if manifest.exists() {
+        let file = File::open(&manifest).map_err(|e| Error::io(&manifest, e))?;
+        let doc: PreviousManifest = serde_json::from_reader(std::io::BufReader::new(file))
+            .map_err(|e| Error::parse(&manifest, e.line(), "json", e.to_string()))?;
+        check_parameters(&manifest, &doc.parameters, parameters)?;
+        for r in doc.frames.into_iter().filter_map(|f| f.0) {
             out.insert((r.split.clone(), r.id.clone()), r);
+        }
+    }
+    let journal = journal_path(&manifest);
+    if journal.exists() {
+        let file = File::open(&journal).map_err(|e| Error::io(&journal, e))?;
+        let mut lines = std::io::BufReader::new(file).split(b'\n');
+        let header = lines
+            .next()
+            .transpose()
+            .map_err(|e| Error::io(&journal, e))?;
+        // A journal whose header line was torn holds no frame.
+        if let Some(Ok(header)) = header.map(|h| serde_json::from_slice::<Value>(&h)) {
+            let old = header.get("parameters").cloned().unwrap_or(Value::Null);
+            check_parameters(&journal, &old, parameters)?;
+            for line in lines {
+                let line = line.map_err(|e| Error::io(&journal, e))?;
+                if let Ok(r) = serde_json::from_slice::<FrameRecord>(&line) {
+                    out.insert((r.split.clone(), r.id.clone()), r);
+                }
+            }
         }
     }
     Ok(out)
@@ -174,7 +395,8 @@ pub fn still_valid(r: &FrameRecord, input: &Path, output: &Path) -> bool {
         && same(output, &r.outputs)
 }
 
-/// Removes temporary files a killed run left behind (`.NAME.tmp-PID`).
+/// Removes temporary files a killed run left behind (`.NAME.tmp-PID`). Those of a live process
+/// on this host (another shard writing into the same folder) are left alone.
 pub fn remove_stale_temporaries(dir: &Path) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
@@ -183,37 +405,53 @@ pub fn remove_stale_temporaries(dir: &Path) {
         let p = e.path();
         if p.is_dir() {
             remove_stale_temporaries(&p);
-        } else if e
-            .file_name()
+            continue;
+        }
+        let name = e.file_name();
+        let Some(pid) = name
             .to_str()
-            .is_some_and(|n| n.starts_with('.') && n.contains(".tmp-"))
-        {
+            .filter(|n| n.starts_with('.'))
+            .and_then(|n| n.rsplit_once(".tmp-"))
+            .map(|(_, pid)| pid)
+        else {
+            continue;
+        };
+        let live = pid
+            .parse::<u32>()
+            .is_ok_and(|pid| pid != std::process::id() && lock::pid_alive(pid));
+        if !live {
             let _ = std::fs::remove_file(&p);
         }
     }
 }
 
+/// `panoconv.shard-K-of-N.EXT` → (K, N).
+fn shard_part(name: &str, ext: &str) -> Option<(u32, u32)> {
+    let rest = name
+        .strip_prefix("panoconv.shard-")?
+        .strip_suffix(ext)?
+        .strip_suffix('.')?;
+    let (k, n) = rest.split_once("-of-")?;
+    Some((k.parse().ok()?, n.parse().ok()?))
+}
+
 /// Joins the shard manifests of `output` into `panoconv.json`: same parameters, every shard
-/// present once, no frame twice. Removes the parts afterwards. Returns the number of frames.
+/// present once and finished, no frame twice. Removes the parts afterwards. Returns the number
+/// of frames.
 pub fn merge(output: &Path) -> Result<usize> {
     let entries = std::fs::read_dir(output)
         .map_err(|e| Error::Setup(format!("{}: {e}", output.display())))?;
-    let mut parts: BTreeMap<u32, (PathBuf, Value)> = BTreeMap::new();
+    let mut parts: BTreeMap<u32, PathBuf> = BTreeMap::new();
+    let mut unfinished: Vec<PathBuf> = Vec::new();
     let mut count = None;
     for e in entries.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
-        let Some(rest) = name
-            .strip_prefix("panoconv.shard-")
-            .and_then(|r| r.strip_suffix(".json"))
-        else {
-            continue;
+        let (part, journal) = match (shard_part(&name, "json"), shard_part(&name, "journal")) {
+            (Some(p), _) => (p, false),
+            (None, Some(p)) => (p, true),
+            (None, None) => continue,
         };
-        let Some((k, n)) = rest.split_once("-of-") else {
-            continue;
-        };
-        let (Ok(k), Ok(n)) = (k.parse::<u32>(), n.parse::<u32>()) else {
-            continue;
-        };
+        let (k, n) = part;
         if count.is_some_and(|c| c != n) {
             return Err(Error::Setup(format!(
                 "{}: shards of different counts ({} and {n})",
@@ -222,10 +460,11 @@ pub fn merge(output: &Path) -> Result<usize> {
             )));
         }
         count = Some(n);
-        let path = e.path();
-        let doc: Value = serde_json::from_slice(&read_file(&path)?)
-            .map_err(|err| Error::parse(&path, err.line(), "json", err.to_string()))?;
-        parts.insert(k, (path, doc));
+        if journal {
+            unfinished.push(e.path());
+        } else {
+            parts.insert(k, e.path());
+        }
     }
     let n = count.ok_or_else(|| {
         Error::Setup(format!(
@@ -233,6 +472,12 @@ pub fn merge(output: &Path) -> Result<usize> {
             output.display()
         ))
     })?;
+    if let Some(j) = unfinished.first() {
+        return Err(Error::Setup(format!(
+            "cannot merge: {} is the journal of a shard that is running or was killed; resume it first",
+            j.display()
+        )));
+    }
     let missing: Vec<String> = (0..n)
         .filter(|k| !parts.contains_key(k))
         .map(|k| k.to_string())
@@ -250,13 +495,20 @@ pub fn merge(output: &Path) -> Result<usize> {
         }
         p
     };
-    let first = &parts[&0].1;
-    let parameters = strip_shard(first);
+    let mut header = serde_json::Map::new();
+    let mut parameters = Value::Null;
     let mut records: Vec<FrameRecord> = Vec::new();
     let mut seen = HashMap::new();
     let mut complete = true;
-    for (k, (path, doc)) in &parts {
-        if strip_shard(doc) != parameters {
+    for (k, path) in &parts {
+        let doc: Value = serde_json::from_slice(&read_file(path)?)
+            .map_err(|err| Error::parse(path, err.line(), "json", err.to_string()))?;
+        if *k == 0 {
+            for key in ["tool", "version", "command"] {
+                header.insert(key.into(), doc.get(key).cloned().unwrap_or(Value::Null));
+            }
+            parameters = strip_shard(&doc);
+        } else if strip_shard(&doc) != parameters {
             return Err(Error::Setup(format!(
                 "cannot merge: {} has other parameters than shard 0",
                 path.display()
@@ -285,14 +537,20 @@ pub fn merge(output: &Path) -> Result<usize> {
             "cannot merge: a shard did not finish (complete: false); resume it first".into(),
         ));
     }
-    let mut header = serde_json::Map::new();
-    for key in ["tool", "version", "command"] {
-        header.insert(key.into(), first.get(key).cloned().unwrap_or(Value::Null));
-    }
     header.insert("parameters".into(), parameters);
-    let records = sorted(records);
-    write_document(&output.join(MANIFEST), &document(&header, &records, true))?;
-    for (path, _) in parts.values() {
+    records.sort_by(|a, b| (&a.split, &a.id).cmp(&(&b.split, &b.id)));
+    let failed = records
+        .iter()
+        .filter(|r| r.status == FrameStatus::Failed)
+        .count();
+    pretty::write_manifest(
+        &output.join(MANIFEST),
+        &header,
+        (records.len(), failed),
+        true,
+        records.iter().map(|r| Ok(compact(r))),
+    )?;
+    for path in parts.values() {
         let _ = std::fs::remove_file(path);
     }
     Ok(records.len())

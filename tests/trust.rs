@@ -370,7 +370,17 @@ fn wrong_layouts_say_what_to_do() {
 
     let s = Scratch::synth();
     let run = kitti("fisheye", &s.input, &s.output, &[]);
-    assert_setup_error(&run, &s.output, &["`panoconv fisheye --camera"]);
+    assert_setup_error(&run, &s.output, &["--to fisheye needs --camera FILE"]);
+    let run = panoconv([
+        OsStr::new("pano"),
+        OsStr::new("--to"),
+        OsStr::new("fisheye"),
+        OsStr::new("--input"),
+        s.input.as_os_str(),
+        OsStr::new("--output"),
+        s.output.as_os_str(),
+    ]);
+    assert_setup_error(&run, &s.output, &["`panoconv kitti --to fisheye --camera"]);
 
     // JPEG bytes under a .png name are named as such.
     std::fs::copy(

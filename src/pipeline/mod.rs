@@ -144,9 +144,11 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         Dataset::open(&job.input, job.split.as_deref())?
     };
     // Resumed runs and shards write into a folder that already holds outputs.
-    output::check_output_dir(
+    // Held until the run returns: one process per output (per shard).
+    let _lock = journal::claim_output(
         &job.input,
         &job.output,
+        job.shard,
         job.overwrite || job.resume || job.shard.is_some(),
     )?;
     let (mut frames, missing) = dataset.select(job.frames.as_deref());
@@ -249,7 +251,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         ctx.write_split_calib(split)?;
     }
     let command = if is_raw { "kitti-raw" } else { "kitti" };
-    let journal = Journal::new(&job.output, job.shard, command, parameters, Vec::new());
+    let journal = Journal::new(&job.output, job.shard, command, parameters, job.resume)?;
     // Files that look like frames but cannot be read as one: reported, not silently skipped.
     // (With a frame selection they were not asked for; each shard reports its own share.)
     let unusable: Vec<(&Split, &String)> = dataset
@@ -344,28 +346,22 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
             frames.len()
         )
     });
-    let records = match (journal.finish(!interrupted), &device_full) {
-        (Ok(records), _) => records,
-        (Err(e), Some(full)) => {
-            return Err(Error::DeviceFull(format!(
-                "{full}; the manifest could not be written either ({e})"
-            )))
-        }
-        (Err(e), None) => return Err(e),
+    // On a full device the manifest may not fit either: then say so with the rest.
+    let when_full = |e: Error| match &device_full {
+        Some(full) => Error::DeviceFull(format!(
+            "{full}; the manifest could not be written either ({e})"
+        )),
+        None => e,
     };
-
     if job.augment.is_some() && job.shard.is_none() {
         // augmented ids are new: list them so KITTI loaders find the views
-        write_image_sets(&job.output, &dataset, &records)?;
+        write_image_sets(&job.output, &dataset, &journal).map_err(when_full)?;
     }
-    let failed = records
-        .iter()
-        .filter(|r| r.status == FrameStatus::Failed)
-        .count();
+    let finished = journal.finish(!interrupted).map_err(when_full)?;
     Ok(Summary {
-        frames: records.len(),
-        converted: records.len() - failed,
-        failed,
+        frames: finished.frames,
+        converted: finished.frames - finished.failed,
+        failed: finished.failed,
         resumed,
         interrupted: interrupted && device_full.is_none(),
         device_full,
@@ -379,21 +375,23 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
 }
 
 /// `OUT/ImageSets/<split>.txt`: the view ids written per split.
-fn write_image_sets(output: &Path, dataset: &Dataset, records: &[FrameRecord]) -> Result<()> {
+fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Result<()> {
     let dir = output.join("ImageSets");
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut by_split: HashMap<String, Vec<String>> = HashMap::new();
+    journal.for_each_record(|r| {
+        if r.status != FrameStatus::Ok {
+            return;
+        }
+        let ids = by_split.entry(r.split).or_default();
+        if r.views.iter().any(|v| v.view.is_some()) {
+            ids.extend(r.views.into_iter().map(|v| v.id));
+        } else {
+            ids.push(r.id);
+        }
+    })?;
     for split in &dataset.splits {
-        let mut ids: Vec<&str> = records
-            .iter()
-            .filter(|r| r.split == split.name && r.status == FrameStatus::Ok)
-            .flat_map(|r| {
-                if r.views.iter().any(|v| v.view.is_some()) {
-                    r.views.iter().map(|v| v.id.as_str()).collect()
-                } else {
-                    vec![r.id.as_str()]
-                }
-            })
-            .collect();
+        let mut ids = by_split.remove(&split.name).unwrap_or_default();
         ids.sort_unstable();
         let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
         output::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;

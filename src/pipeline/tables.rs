@@ -17,10 +17,17 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
+/// At most this many frames, evenly spaced, are read for their cameras: the first frame waits
+/// for the scan, which at 100 000 frames would read 200 000 files first. A camera that many
+/// frames share is still seen twice; one the sample misses is built by its first frame (the
+/// same table: `build_parallel` is exactly `build`).
+const SCAN_AT_MOST: usize = 2048;
+
 /// Builds, in parallel, the table of every (camera, image size) that several of `frames` share.
 pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[usize]) {
     let found: Vec<(Intrinsics, ImageSize)> = frames
         .par_iter()
+        .step_by(frames.len().div_ceil(SCAN_AT_MOST).max(1))
         .flat_map_iter(|&(split, id)| source_cameras(split, id, cameras))
         .collect();
     // Distinct, in a fixed order (the tables do not depend on it; the work split does).
