@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Runs two panoconv binaries on the same inputs and options and compares the whole output trees
+# byte for byte (diff -r): the check that a refactoring or a new feature left every existing
+# output as it was. Inputs: the real frames in ../shared/kitti, the synthetic sample and the
+# panoramas in ../shared/pano.
+#
+# Usage: scripts/compare_outputs.sh OLD_BINARY NEW_BINARY
+set -uo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+old="$(realpath "$1")" new="$(realpath "$2")"
+kitti="$(realpath ../shared/kitti)" synth="$(realpath data/synthetic_kitti)" pano="$(realpath ../shared/pano)"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+differ=0
+# compare NAME ARGS...: ARGS with --output appended, once per binary.
+compare() {
+    local name="$1"
+    shift
+    "$old" "$@" --output "$work/old-$name" --quiet 2>"$work/old-$name.err"
+    local a=$?
+    "$new" "$@" --output "$work/new-$name" --quiet 2>"$work/new-$name.err"
+    local b=$?
+    if [[ $a != "$b" ]]; then
+        echo "DIFFERENT EXIT ($a vs $b): $*"
+        differ=$((differ + 1))
+    elif diff -r "$work/old-$name" "$work/new-$name" >"$work/$name.diff" 2>&1; then
+        echo "identical ($(find "$work/new-$name" -type f | wc -l) files): $*"
+    else
+        echo "DIFFERENT: $*"
+        head -n 5 "$work/$name.diff"
+        differ=$((differ + 1))
+    fi
+}
+for to in equirect cylindrical perspective; do
+    compare "k-$to" kitti --to "$to" --depth --input "$kitti"
+done
+compare stereo kitti --to equirect --cameras 2,3 --pano-width 2048 --input "$synth"
+compare augment kitti --to cylindrical --augment 3 --seed 5 --scale-range 0.8,1.3 --crop-size 300x120 --input "$synth"
+compare crop kitti --to perspective --crop 10,20,600,200 --resize 300x100 --input "$synth"
+compare full kitti --to equirect --full-360 --png-compression best --input "$synth"
+compare pano pano --to perspective --yaw 0,90 --input "$pano"
+echo "$differ differences"
+[[ $differ -eq 0 ]]
