@@ -617,7 +617,7 @@ fn psnr(
 
 #[test]
 fn fisheye_to_cylindrical_matches_the_exact_render_for_the_new_models() {
-    use panoconv::camera::{rotation_ypr, Cylindrical, LinearCamera, Projection, Rotated};
+    use panoconv::camera::{rotation_ypr, Cylindrical, Projection, Rotated};
     use panoconv::pano::{FisheyeView, ViewScale};
     let scene = &panoconv::synth::frames()[0].scene;
     let centre = Vector3::new(0.0, panoconv::synth::GROUND_Y - 1.2, 0.0);
