@@ -35,8 +35,8 @@ pub const MAX_UNDISTORT_ITERATIONS: usize = 50;
 /// Largest accepted residual of the undistortion (normalised image coordinates).
 const UNDISTORT_TOLERANCE: f64 = 1e-12;
 /// Field-angle and azimuth samples of the Jacobian check.
-const FOV_SAMPLES: usize = 4096;
-const AZIMUTH_SAMPLES: usize = 32;
+const FOV_SAMPLES: usize = 1024;
+const AZIMUTH_SAMPLES: usize = 16;
 
 /// Mei's distortion: radial k1, k2 and tangential p1, p2 (OpenCV's omnidir `D`).
 #[derive(Debug, Clone, Copy, PartialEq)]
