@@ -220,12 +220,12 @@ pub fn fit(
     })
 }
 
+/// Sum of squares and residuals of a parameter vector; None where it is infeasible.
+type CostFn<'a> = dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)> + 'a;
+
 /// Levenberg-Marquardt from `params` on a sum of squares `cost_of` (None: infeasible):
 /// (parameters, cost, iterations), or None when the start itself is infeasible.
-fn levenberg_marquardt(
-    mut params: Vec<f64>,
-    cost_of: &dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)>,
-) -> Option<(Vec<f64>, f64, usize)> {
+fn levenberg_marquardt(mut params: Vec<f64>, cost_of: &CostFn) -> Option<(Vec<f64>, f64, usize)> {
     let (mut cost, mut r) = cost_of(&params)?;
     let n = params.len();
     let mut lambda: f64 = 1e-3;
