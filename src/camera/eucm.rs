@@ -51,7 +51,12 @@ impl Eucm {
         } else {
             PI - (1.0 - w * w).sqrt().atan2(w * beta.sqrt())
         };
-        (limit, alpha > 0.5)
+        // The bound above, checked: the image radius must exist and grow up to the limit.
+        super::lens::radial_limit(limit, alpha > 0.5, |t| {
+            let (s, c) = t.sin_cos();
+            let den = alpha * (beta * s * s + c * c).sqrt() + (1.0 - alpha) * c;
+            (den > 0.0).then(|| s / den)
+        })
     }
 
     /// A camera seeing up to `max_theta` (half field of view, radians) within
