@@ -9,10 +9,10 @@
 //! with α ∈ [0, 1], ξ ∈ (−1, 1). ξ = 0 is the EUCM with β = 1; α = 0 is the unified model
 //! without distortion (MEI) with the same ξ and fx, fy.
 //!
-//! Valid field of view (the paper's eq. 43): bearings with z > −w2·d1, w2 = (w1 + ξ) /
-//! sqrt(2·w1·ξ + ξ² + 1), w1 = α/(1 − α) for α ≤ 0.5, (1 − α)/α otherwise; for a unit bearing
-//! θ < acos(−w2). For α > 0.5 the image radius peaks there (r² = 1/(2α − 1)) and the limit is
-//! included; for α ≤ 0.5 the image is unbounded there. Bearings beyond the camera's
+//! Valid field of view: the paper's bound (eq. 43) z > −w2·d1, w2 = (w1 + ξ) /
+//! sqrt(2·w1·ξ + ξ² + 1), w1 = α/(1 − α) for α ≤ 0.5, (1 − α)/α otherwise, i.e. θ < acos(−w2),
+//! narrowed to where the denominator stays positive and the image radius keeps growing (checked
+//! numerically: the bound alone is not sufficient for ξ < 0). Bearings beyond the camera's
 //! `max_theta` are rejected.
 //!
 //! Inverse: closed-form (eqs. 47-49).
@@ -39,7 +39,14 @@ impl DoubleSphere {
     pub fn fov_limit(xi: f64, alpha: f64) -> (f64, bool) {
         let w1 = unified_w(alpha);
         let w2 = (w1 + xi) / (2.0 * w1 * xi + xi * xi + 1.0).sqrt();
-        ((-w2).clamp(-1.0, 1.0).acos(), alpha > 0.5)
+        // The paper's bound is not sufficient for ξ < 0 (with α = 0, for instance, the image
+        // exists only for z > −ξ): the image radius must exist and grow up to the limit.
+        super::lens::radial_limit((-w2).clamp(-1.0, 1.0).acos(), alpha > 0.5, |t| {
+            let (s, c) = t.sin_cos();
+            let shifted = xi + c;
+            let den = alpha * (s * s + shifted * shifted).sqrt() + (1.0 - alpha) * shifted;
+            (den > 0.0).then(|| s / den)
+        })
     }
 
     /// A camera seeing up to `max_theta` (half field of view, radians) within

@@ -13,7 +13,8 @@
 //! α ≤ 0.5, (1 − α)/α otherwise; for a unit bearing that is θ < π − atan2(sqrt(1 − w²), w·√β)
 //! (w < 1), the whole sphere but the backward axis when w ≥ 1. For α > 0.5 the image radius
 //! peaks at that limit (r² = 1/(β(2α − 1))), so the limit itself is included; for α ≤ 0.5 the
-//! image is unbounded there. Bearings beyond the camera's `max_theta` are rejected.
+//! image is unbounded there. The bound is checked numerically (positive denominator, growing
+//! image radius). Bearings beyond the camera's `max_theta` are rejected.
 //!
 //! Inverse: closed-form (eq. 25).
 
@@ -51,7 +52,12 @@ impl Eucm {
         } else {
             PI - (1.0 - w * w).sqrt().atan2(w * beta.sqrt())
         };
-        (limit, alpha > 0.5)
+        // The bound above, checked: the image radius must exist and grow up to the limit.
+        super::lens::radial_limit(limit, alpha > 0.5, |t| {
+            let (s, c) = t.sin_cos();
+            let den = alpha * (beta * s * s + c * c).sqrt() + (1.0 - alpha) * c;
+            (den > 0.0).then(|| s / den)
+        })
     }
 
     /// A camera seeing up to `max_theta` (half field of view, radians) within

@@ -107,18 +107,44 @@ fn build(
     })
 }
 
-/// Starting parameters: the source's scale at the centre with the target's simplest shape.
-fn initial(target: TargetModel, source: &Lens) -> Vec<f64> {
+/// Starting parameters: the source's scale at the centre with the target family's simplest
+/// members (several for MEI, whose ξ and k1 trade off and leave local minima), and the source's
+/// own parameters when it already belongs to the target family.
+fn initial(target: TargetModel, source: &Lens) -> Vec<Vec<f64>> {
     let c = source.centre_intrinsics();
-    match target {
+    let mut starts = match target {
         // r ≈ θ
-        TargetModel::KannalaBrandt => vec![c.fu, c.fv, c.cu, c.cv, 0.0, 0.0, 0.0, 0.0],
-        // ξ = 1: r = tan(θ/2), pixels per radian fx/2 at the centre
-        TargetModel::Mei => vec![2.0 * c.fu, 2.0 * c.fv, c.cu, c.cv, 1.0, 0.0, 0.0, 0.0, 0.0],
+        TargetModel::KannalaBrandt => vec![vec![c.fu, c.fv, c.cu, c.cv, 0.0, 0.0, 0.0, 0.0]],
+        // r ≈ θ/(1 + ξ) near the axis
+        TargetModel::Mei => [0.5, 1.0, 2.0, 3.0]
+            .iter()
+            .map(|xi| {
+                let f = 1.0 + xi;
+                vec![f * c.fu, f * c.fv, c.cu, c.cv, *xi, 0.0, 0.0, 0.0, 0.0]
+            })
+            .collect(),
         // α = 0.5, β = 1 (ξ = 0): r = 2 tan(θ/2)
-        TargetModel::Eucm => vec![c.fu, c.fv, c.cu, c.cv, 0.5, 1.0],
-        TargetModel::DoubleSphere => vec![c.fu, c.fv, c.cu, c.cv, 0.0, 0.5],
+        TargetModel::Eucm => vec![vec![c.fu, c.fv, c.cu, c.cv, 0.5, 1.0]],
+        TargetModel::DoubleSphere => vec![vec![c.fu, c.fv, c.cu, c.cv, 0.0, 0.5]],
+    };
+    let k = source.intrinsics();
+    let own = match (target, source) {
+        (TargetModel::KannalaBrandt, Lens::Radial(f)) => match f.model {
+            RadialModel::KannalaBrandt(c) => Some(vec![c[0], c[1], c[2], c[3]]),
+            _ => None,
+        },
+        (TargetModel::Mei, Lens::Unified(m)) if m.skew == 0.0 => {
+            let d = m.distortion;
+            Some(vec![m.xi, d.k1, d.k2, d.p1, d.p2])
+        }
+        (TargetModel::Eucm, Lens::Eucm(m)) => Some(vec![m.alpha, m.beta]),
+        (TargetModel::DoubleSphere, Lens::DoubleSphere(m)) => Some(vec![m.xi, m.alpha]),
+        _ => None,
+    };
+    if let Some(rest) = own {
+        starts.push([vec![k.fu, k.fv, k.cu, k.cv], rest].concat());
     }
+    starts
 }
 
 /// Residuals (target pixel − source pixel, x then y), or None when the candidate cannot be
@@ -159,14 +185,48 @@ pub fn fit(
         let r = residuals(&lens, &rays)?;
         Some((r.iter().map(|v| v * v).sum(), r))
     };
-    let mut params = initial(target, source);
-    let (mut cost, mut r) = cost_of(&params).ok_or_else(|| {
+    let mut best: Option<(Vec<f64>, f64, usize)> = None;
+    for start in initial(target, source) {
+        let Some(found) = levenberg_marquardt(start, &cost_of) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| found.1 < b.1) {
+            best = Some(found);
+        }
+    }
+    let (params, _, iterations) = best.ok_or_else(|| {
         FisheyeError::FieldOfView(format!(
             "the {} model cannot start from the source's field of view ({:.1}°)",
             target.name(),
             2.0 * widest.to_degrees()
         ))
     })?;
+    // The fitted lens sees the source's whole field of view when it can, else what was sampled.
+    let lens = build(target, &params, source, max_theta)
+        .or_else(|_| build(target, &params, source, widest))?;
+    let errors: Vec<f64> = check
+        .iter()
+        .map(|(d, p)| lens.project(d).map_or(f64::INFINITY, |q| (q - p).norm()))
+        .collect();
+    let rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    let max_px = errors.iter().copied().fold(0.0, f64::max);
+    Ok(FitReport {
+        lens,
+        rms_px,
+        max_px,
+        fit_rays: rays.len(),
+        eval_rays: check.len(),
+        iterations,
+    })
+}
+
+/// Sum of squares and residuals of a parameter vector; None where it is infeasible.
+type CostFn<'a> = dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)> + 'a;
+
+/// Levenberg-Marquardt from `params` on a sum of squares `cost_of` (None: infeasible):
+/// (parameters, cost, iterations), or None when the start itself is infeasible.
+fn levenberg_marquardt(mut params: Vec<f64>, cost_of: &CostFn) -> Option<(Vec<f64>, f64, usize)> {
+    let (mut cost, mut r) = cost_of(&params)?;
     let n = params.len();
     let mut lambda: f64 = 1e-3;
     let mut iterations = 0;
@@ -189,11 +249,11 @@ pub fn fit(
                         .collect::<Vec<f64>>(),
                 )
             });
-            columns.push(column.ok_or_else(|| {
-                FisheyeError::FieldOfView(
-                    "the fit reached the edge of the target model's parameter range".into(),
-                )
-            })?);
+            // Boxed in on both sides by the parameter range: stop here.
+            let Some(column) = column else {
+                return Some((params, cost, iterations));
+            };
+            columns.push(column);
         }
         let jtj = DMatrix::from_fn(n, n, |a, b| {
             columns[a]
@@ -230,28 +290,9 @@ pub fn fit(
                 _ => lambda *= 10.0,
             }
         }
-        if std::env::var_os("PANOCONV_FIT_TRACE").is_some() {
-            eprintln!("{iterations} cost {cost:e} lambda {lambda:e} {params:?}");
-        }
         if !accepted || converged {
             break;
         }
     }
-    // The fitted lens sees the source's whole field of view when it can, else what was sampled.
-    let lens = build(target, &params, source, max_theta)
-        .or_else(|_| build(target, &params, source, widest))?;
-    let errors: Vec<f64> = check
-        .iter()
-        .map(|(d, p)| lens.project(d).map_or(f64::INFINITY, |q| (q - p).norm()))
-        .collect();
-    let rms_px = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
-    let max_px = errors.iter().copied().fold(0.0, f64::max);
-    Ok(FitReport {
-        lens,
-        rms_px,
-        max_px,
-        fit_rays: rays.len(),
-        eval_rays: check.len(),
-        iterations,
-    })
+    Some((params, cost, iterations))
 }

@@ -53,6 +53,45 @@ pub(crate) fn check_fov(
     Ok(())
 }
 
+/// The half field of view over which a radially symmetric model is one-to-one, searched below
+/// `upper` (a closed-form bound, included when `finite_at_upper`): `radius(θ)` is the image
+/// radius of field angle θ in normalised units, None where the model has no image. The first
+/// angle where the radius is missing or stops increasing (4096 samples, then bisection) ends it.
+pub(crate) fn radial_limit(
+    upper: f64,
+    finite_at_upper: bool,
+    radius: impl Fn(f64) -> Option<f64>,
+) -> (f64, bool) {
+    const SAMPLES: usize = 4096;
+    let increasing = |t: f64| match (radius(t * (1.0 - 1e-9)), radius(t)) {
+        (Some(a), Some(b)) => b.is_finite() && b > a,
+        _ => false,
+    };
+    let mut previous = 0.0;
+    for i in 1..=SAMPLES {
+        if i == SAMPLES && !finite_at_upper {
+            break;
+        }
+        let t = upper * i as f64 / SAMPLES as f64;
+        match radius(t) {
+            Some(r) if r.is_finite() && r > previous && increasing(t) => previous = r,
+            _ => {
+                let (mut lo, mut hi) = (upper * (i - 1) as f64 / SAMPLES as f64, t);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if increasing(mid) && radius(mid).is_some_and(|r| r >= previous) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                return (lo, true);
+            }
+        }
+    }
+    (upper, finite_at_upper)
+}
+
 impl Lens {
     /// The model's name as in the camera description's `model` field.
     pub fn name(&self) -> &'static str {
