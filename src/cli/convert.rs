@@ -25,9 +25,14 @@ pub(super) const KITTI_EXAMPLES: &str = "Examples:
   panoconv kitti --to equirect --pano-width 2048 --crop 0,20,469,128 --input K --output O
   panoconv kitti --to cylindrical --resize 620x200 --input K --output O
   panoconv kitti --to equirect --augment 4 --seed 7 --scale-range 0.8,1.25 --crop-size 448x128 --input K --output O
+  panoconv kitti --to fisheye --camera front.json --mask --depth --input K --output O_fish
+  panoconv kitti --to fisheye --camera kitti360_image_02.yaml --input K --output O_kitti360
+  panoconv kitti --to equirect --export coco,yolo --input K --output O
 
 Output: OUT/<split>/{image_2,label_2,calib}/NNNNNN.* in KITTI's format, and OUT/panoconv.json.
-The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README).";
+The calib keeps every input line and adds `projection:`, `K2:` and `C2:` (see the README); a
+fisheye output adds the lens: `model2:`, `D2:` (its parameters), `fov2:` and `R2:` (its axes in
+rect), documented in docs/formats.md.";
 
 /// `panoconv kitti`: a KITTI object root.
 #[derive(Args)]

@@ -10,7 +10,9 @@ pub(super) const FISHEYE_EXAMPLES: &str = "Examples:
   panoconv fisheye --camera front.json --to cylindrical --vfov 90 --px-per-deg 4 --input F --output O
   panoconv fisheye --camera rear.json --to perspective --fov 100 --input F --output O
 
-The camera description (JSON, \"version\": 1) is documented in docs/fisheye.md. The output is
+The camera file is a camera description (JSON, \"version\": 1) or a KITTI-360 (image_0x.yaml),
+WoodScape (calibration JSON) or OpenCV FileStorage (K/D, K/D/xi) file, recognised by its
+content; all are documented in docs/fisheye.md. The output is
 levelled (the camera's pitch and roll undone) and turned to the camera's heading. Each image
 NAME.png gives NAME.png and NAME.txt (projection:, K:, R:) in OUTPUT, plus OUTPUT/panoconv.json.
 Inputs are PNG or JPEG.";
@@ -53,8 +55,9 @@ pub(super) struct FolderArgs {
 
 #[derive(Args)]
 pub(super) struct FisheyeArgs {
-    /// Camera description (JSON, see docs/fisheye.md).
-    #[arg(long, value_name = "CAMERA.json")]
+    /// Camera description (JSON) or a KITTI-360, WoodScape or OpenCV calibration file
+    /// (docs/fisheye.md).
+    #[arg(long, value_name = "FILE")]
     camera: PathBuf,
     #[command(flatten)]
     common: FolderArgs,
