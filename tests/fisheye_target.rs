@@ -177,10 +177,10 @@ fn every_model_matches_the_exact_render_over_the_covered_area() {
         let camera = fisheye_camera(&cam_path);
         let exact = frame.scene.render(&camera, &centre);
         let (db, n) = psnr(&warped, &exact, |u, v| mask[(v * mw + u) as usize]);
-        // Outside the mask the image is black where no tap reaches the source.
         report.push(format!("{model}: {db:.2} dB over {n} px"));
         assert!(n > 200_000, "{model}: only {n} covered pixels");
         assert!(db >= MIN_PSNR_DB, "{model}: {db:.2} dB < {MIN_PSNR_DB} dB");
+        assert_success(&panoconv(["verify".as_ref(), out.as_os_str()]));
     }
     eprintln!("{}", report.join("\n"));
 }
@@ -342,6 +342,17 @@ fn boxes_all_around_a_190_degree_fisheye_match_the_dense_projection() {
             write_camera(dir.path(), &format!("{model}.json"), &json),
         ));
     }
+    // A narrower one too: 150°, which only sees its front half-space.
+    cameras.push((
+        "equisolid 150°",
+        write_camera(
+            dir.path(),
+            "narrow.json",
+            &WIDE_EQUIDISTANT
+                .replace("equidistant", "equisolid")
+                .replace("190", "150"),
+        ),
+    ));
     let centre = SynthCalib::standard().centre();
     // Not used by transform_label's 3D path beyond its domain checks.
     let source = panoconv::camera::Perspective::new(
@@ -609,6 +620,7 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
             "{model}: file off by {worst_py_file} px"
         );
         assert!(objects >= 5, "{model}: only {objects} objects compared");
+        assert_success(&panoconv(["verify".as_ref(), out.as_os_str()]));
     }
     eprintln!("{}", report.join("\n"));
 }
