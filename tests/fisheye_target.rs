@@ -980,3 +980,44 @@ fn a_kitti_360_yaml_is_a_fisheye_target() {
     assert!(lit > 20_000, "only {lit} pixels with data");
     assert_success(&panoconv(["verify".as_ref(), out.as_os_str()]));
 }
+
+#[test]
+fn camera_3_sits_at_its_own_centre() {
+    let dir = tempfile::tempdir().unwrap();
+    let cam = kb_camera(dir.path());
+    let out = dir.path().join("out");
+    convert(
+        &cam,
+        synth_source(),
+        &out,
+        &["--frames", "000000", "--cameras", "2,3", "--mask"],
+    );
+    let calib_path = out.join("training/calib/000000.txt");
+    let text = read_text(&calib_path);
+    for key in ["model3", "D3", "fov3", "R3", "C3", "K3"] {
+        assert!(
+            text.contains(&format!("\n{key}: ")),
+            "no {key} line:\n{text}"
+        );
+    }
+    let calib = panoconv::kitti::Calib::read(&calib_path).unwrap();
+    let (camera, centre) = calib
+        .output_camera(3, panoconv::camera::ImageSize::new(1360, 560))
+        .unwrap();
+    let truth = SynthCalib::standard().centre3();
+    assert!(
+        (centre - truth).norm() < 1e-9,
+        "C3 {centre:?}, truth {truth:?}"
+    );
+    // The right image against the scene rendered from camera 3's centre.
+    let exact = frames()[0].scene.render(camera.as_ref(), &truth);
+    let warped = read_image(&out.join("training/image_3/000000.png"));
+    let (mw, _, mask) = read_mask(&out.join("training/mask_3/000000.png"));
+    let (db, n) = psnr(&warped, &exact, |u, v| mask[(v * mw + u) as usize]);
+    eprintln!("camera 3: {db:.2} dB over {n} px");
+    assert!(
+        n > 200_000 && db >= MIN_PSNR_DB,
+        "camera 3: {db:.2} dB over {n} px"
+    );
+    assert_success(&panoconv(["verify".as_ref(), out.as_os_str()]));
+}
