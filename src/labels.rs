@@ -16,6 +16,11 @@ const EDGE_SAMPLES: usize = 32;
 const REFINE_STEPS: usize = 28;
 /// Bisection steps for where an edge leaves the camera's domain (2^-40 of the edge).
 const BOUNDARY_STEPS: usize = 40;
+/// Grid of a face whose inside leaves the camera's domain: a coarse one to find out, then a
+/// fine one along whose lines the domain's edge is bisected (the edge's image is the rim of
+/// a fisheye's circle: 64 steps keep the rim's chords within ~0.1 px of it).
+const FACE_PROBE: usize = 16;
+const FACE_GRID: usize = 64;
 
 /// Pixel bounds [left, top, right, bottom]; may extend beyond the image or be infinite.
 pub type Bounds = [f64; 4];
@@ -112,6 +117,66 @@ impl<'a> Accumulator<'a> {
                 if let Ok(px) = self.pixel(&at(t)) {
                     self.add(px);
                 }
+            }
+        }
+    }
+}
+
+impl Accumulator<'_> {
+    /// Adds the points where the face (a parallelogram p0 p1 p2 p3) leaves the camera's
+    /// domain, bisected along the lines of a grid over it; only points in front of the near
+    /// plane count.
+    fn add_domain_edge(&mut self, face: &[Vector3<f64>; 4], front: Option<Vector3<f64>>) {
+        let [p0, p1, _, p3] = *face;
+        let at = |s: f64, t: f64| p0 + (p1 - p0) * s + (p3 - p0) * t;
+        let usable = |p: &Vector3<f64>| front.is_none_or(|n| n.dot(p) >= NEAR);
+        // None: behind the near plane; Some(ok): whether the point has a pixel.
+        let probe = |s: f64, t: f64| {
+            let p = at(s, t);
+            usable(&p).then(|| self.pixel(&p).is_ok())
+        };
+        let grid = |n: usize| -> Vec<Vec<Option<bool>>> {
+            (0..=n)
+                .map(|j| {
+                    (0..=n)
+                        .map(|i| probe(i as f64 / n as f64, j as f64 / n as f64))
+                        .collect()
+                })
+                .collect()
+        };
+        let coarse = grid(FACE_PROBE);
+        if !coarse.iter().flatten().any(|p| *p == Some(false)) {
+            return;
+        }
+        let n = FACE_GRID;
+        let fine = grid(n);
+        let coords = |i: usize, j: usize| (i as f64 / n as f64, j as f64 / n as f64);
+        let mut found = Vec::new();
+        for j in 0..=n {
+            for i in 0..n {
+                // along s (row j) and along t (column j)
+                for (a, b) in [((i, j), (i + 1, j)), ((j, i), (j, i + 1))] {
+                    let (pa, pb) = (fine[a.1][a.0], fine[b.1][b.0]);
+                    let (mut inside, mut outside) = match (pa, pb) {
+                        (Some(true), Some(false)) => (coords(a.0, a.1), coords(b.0, b.1)),
+                        (Some(false), Some(true)) => (coords(b.0, b.1), coords(a.0, a.1)),
+                        _ => continue,
+                    };
+                    for _ in 0..BOUNDARY_STEPS {
+                        let mid = ((inside.0 + outside.0) / 2.0, (inside.1 + outside.1) / 2.0);
+                        if probe(mid.0, mid.1) == Some(true) {
+                            inside = mid;
+                        } else {
+                            outside = mid;
+                        }
+                    }
+                    found.push(at(inside.0, inside.1));
+                }
+            }
+        }
+        for p in found {
+            if let Ok(px) = self.pixel(&p) {
+                self.add(px);
             }
         }
     }
@@ -235,6 +300,14 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
     edges.dedup();
     for e in &edges {
         acc.add_segment(&e.0, &e.1);
+    }
+    // A fisheye's field of view can cut a face inside: that part of its outline is the rim of
+    // the fisheye's circle, which the edges never reach. (Cameras whose domain holds every
+    // point in front of the near plane, the linear projections, find nothing here.)
+    if camera.horizontal_period().is_none() {
+        for face in FACES {
+            acc.add_domain_edge(&face.map(|i| corners[i]), front);
+        }
     }
     let b = acc.bounds;
     (b[0] <= b[2] && b[1] <= b[3]).then_some(b)

@@ -317,7 +317,8 @@ fn convert(
         (Projection::Fisheye, Some(file)) => Some(fisheye_target(file)?),
         (Projection::Fisheye, None) => bail!(Error::Setup(
             "--to fisheye needs --camera FILE: a camera description or a KITTI-360, WoodScape \
-             or OpenCV calibration file (docs/fisheye.md)"
+             or OpenCV calibration file (docs/fisheye.md); to convert fisheye images instead, \
+             `panoconv fisheye --camera CAMERA.json --to cylindrical`"
                 .into()
         )),
         (_, Some(_)) => bail!(Error::Setup(
