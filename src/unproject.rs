@@ -9,8 +9,8 @@
 //!
 //! (u, v) is the output-image pixel of the 3D box's centre (its geometric centre, half the
 //! height above the KITTI location); `distance` is the projection's own distance from the
-//! camera centre C to that point (z for perspective, the range for equirect, the cylindrical
-//! rho = sqrt(x² + z²) for cylindrical); height/width/length are metres; `alpha` is the
+//! camera centre C to that point (z for perspective, the range for equirect and fisheye, the
+//! cylindrical rho = sqrt(x² + z²) for cylindrical); height/width/length are metres; `alpha` is the
 //! observation angle relative to the ray from C: rotation_y = alpha + atan2(x − Cx, z − Cz).
 //! Going back, the location is C + t·bearing(u, v) with t chosen so that the distance matches,
 //! moved down by half the height.
