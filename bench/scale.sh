@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Scale benchmark of issue 18: the release binary of this checkout against the one of OLD_REF
-# (default: where this branch left main), 1 000 and 100 000 frames, same file system, same run (bench/scale.py).
-#   bench/scale.sh [--frames 1000 100000] [--tmp DIR] [-- panoconv options]
+# (a commit: the "before"), 1 000 and 100 000 frames, same file system, same run (bench/scale.py).
+#   OLD_REF=7464402 bench/scale.sh [--frames 1000 100000] [--tmp DIR] [-- panoconv options]
 # The old binary is built from `git archive OLD_REF` into $OLD_DIR (default /tmp/panoconv-old),
 # outside the repository. Output folders and frame sets live in --tmp and are removed after.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"
-old_ref="${OLD_REF:-$(git -C "$root" merge-base HEAD main)}"
+old_ref="${OLD_REF:?set OLD_REF to the commit to compare against}"
 old_dir="${OLD_DIR:-/tmp/panoconv-old}"
 (cd "$root" && cargo build --release --quiet --bin panoconv)
 rev="$(git -C "$root" rev-parse --short "$old_ref")"

@@ -177,8 +177,8 @@ submit() {
 array=$(submit --array="0-$((shards - 1))" scripts/shard_job.sh)
 say "submitted job array $array (tasks 0-$((shards - 1)))"
 
-# SIGKILL task $victim's panoconv once it has finished some frames ($SLURM_CONF's
-# `scancel --signal=KILL` arrives as a cancel, so the PID from `scontrol listpids`).
+# SIGKILL task $victim's panoconv once it has finished some frames: the PID comes from
+# `scontrol listpids` (`scancel --signal=KILL` arrives as a cancel, not as a kill).
 journal="$out/panoconv.shard-$victim-of-$shards.journal"
 deadline=$((SECONDS + 120))
 victim_pid=""

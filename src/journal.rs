@@ -6,21 +6,25 @@
 //! whichever of the two exists (both, the journal being newer); shards write a part each,
 //! joined by `merge`.
 
+mod index;
 pub mod lock;
+mod merge;
 mod pretty;
 
-use crate::error::{read_file, Error, Result};
+use crate::error::{Error, Result};
 use crate::output::{hash_hex, FrameRecord, FrameStatus};
 use serde::Deserialize;
 use serde_json::{json, Value};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufRead, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use index::LineIndex;
 pub use lock::OutputLock;
+pub use merge::merge;
 
 pub const MANIFEST: &str = "panoconv.json";
 /// How often a running conversion makes its journal durable (fsync).
@@ -78,22 +82,11 @@ pub fn claim_output(
     Ok(lock)
 }
 
-/// Where a frame's line is in the journal. Only this is kept per frame while a run goes on.
-struct Entry {
-    /// Index into `State::splits` (a run has a handful of splits and many frames).
-    split: u32,
-    id: Box<str>,
-    offset: u64,
-    len: u32,
-}
-
 struct State {
     file: File,
     /// The journal's length: where the next line goes.
     end: u64,
-    entries: Vec<Entry>,
-    splits: Vec<String>,
-    failed: usize,
+    index: LineIndex,
     last_sync: Instant,
     /// The first failed append; `finish` reports it (the frame's line is not in the journal).
     error: Option<std::io::Error>,
@@ -192,9 +185,7 @@ impl Journal {
             state: Mutex::new(State {
                 file,
                 end,
-                entries: Vec::new(),
-                splits: Vec::new(),
-                failed: 0,
+                index: LineIndex::default(),
                 last_sync: Instant::now(),
                 error: None,
             }),
@@ -217,22 +208,10 @@ impl Journal {
                 s.error.get_or_insert(e);
                 return;
             }
-            let split = match s.splits.iter().position(|x| *x == r.split) {
-                Some(i) => i,
-                None => {
-                    s.splits.push(r.split.clone());
-                    s.splits.len() - 1
-                }
-            };
-            let offset = s.end;
+            let at = (s.end, line.len());
             s.end += line.len() as u64;
-            s.entries.push(Entry {
-                split: split as u32,
-                id: r.id.into_boxed_str(),
-                offset,
-                len: line.len() as u32,
-            });
-            s.failed += usize::from(r.status == FrameStatus::Failed);
+            let failed = r.status == FrameStatus::Failed;
+            s.index.push(&r.split, &r.id, failed, at, 0);
             let due = s.last_sync.elapsed() >= SYNC_EVERY;
             if due {
                 s.last_sync = Instant::now();
@@ -248,56 +227,39 @@ impl Journal {
     /// back from the journal one at a time.
     pub fn for_each_record(&self, mut f: impl FnMut(FrameRecord)) -> Result<()> {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
-        let lines = self.sorted_lines(&mut s)?;
-        for line in lines {
-            let line = line?;
-            let r = serde_json::from_slice(&line)
+        if let Some(e) = s.error.take() {
+            return Err(Error::io(&self.journal, e));
+        }
+        s.index.sort();
+        for line in s.index.lines(&self.journal)? {
+            let r = serde_json::from_slice(&line?)
                 .map_err(|e| Error::file(&self.journal, format!("malformed frame record: {e}")))?;
             f(r);
         }
         Ok(())
     }
 
-    /// This run's lines in manifest order, without their newline.
-    fn sorted_lines<'a>(
-        &self,
-        s: &'a mut State,
-    ) -> Result<impl Iterator<Item = Result<Vec<u8>>> + 'a> {
-        if let Some(e) = s.error.take() {
-            return Err(Error::io(&self.journal, e));
-        }
-        let State {
-            entries, splits, ..
-        } = s;
-        entries.sort_by(|a, b| {
-            (&splits[a.split as usize], &a.id).cmp(&(&splits[b.split as usize], &b.id))
-        });
-        let mut reader = File::open(&self.journal).map_err(|e| Error::io(&self.journal, e))?;
-        let path = self.journal.clone();
-        Ok(entries.iter().map(move |e| {
-            let mut line = vec![0u8; e.len as usize - 1];
-            reader
-                .seek(SeekFrom::Start(e.offset))
-                .and_then(|_| reader.read_exact(&mut line))
-                .map_err(|err| Error::io(&path, err))?;
-            Ok(line)
-        }))
-    }
-
     /// Writes the manifest (streamed from the journal) and removes the journal; `complete` is
     /// false for an interrupted run.
     pub fn finish(self, complete: bool) -> Result<Finished> {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
-        let counts = (s.entries.len(), s.failed);
-        let lines = self.sorted_lines(&mut s)?;
-        pretty::write_manifest(&self.manifest, &self.header, counts, complete, lines)?;
+        if let Some(e) = s.error.take() {
+            return Err(Error::io(&self.journal, e));
+        }
+        s.index.sort();
+        let (frames, failed) = s.index.counts();
+        let lines = s.index.lines(&self.journal)?;
+        pretty::write_manifest(
+            &self.manifest,
+            &self.header,
+            (frames, failed),
+            complete,
+            lines,
+        )?;
         // The manifest now holds every line: a kill before this removal leaves both, and
         // `--resume` reads the same records from either.
         let _ = std::fs::remove_file(&self.journal);
-        Ok(Finished {
-            frames: counts.0,
-            failed: counts.1,
-        })
+        Ok(Finished { frames, failed })
     }
 }
 
@@ -423,135 +385,4 @@ pub fn remove_stale_temporaries(dir: &Path) {
             let _ = std::fs::remove_file(&p);
         }
     }
-}
-
-/// `panoconv.shard-K-of-N.EXT` → (K, N).
-fn shard_part(name: &str, ext: &str) -> Option<(u32, u32)> {
-    let rest = name
-        .strip_prefix("panoconv.shard-")?
-        .strip_suffix(ext)?
-        .strip_suffix('.')?;
-    let (k, n) = rest.split_once("-of-")?;
-    Some((k.parse().ok()?, n.parse().ok()?))
-}
-
-/// Joins the shard manifests of `output` into `panoconv.json`: same parameters, every shard
-/// present once and finished, no frame twice. Removes the parts afterwards. Returns the number
-/// of frames.
-pub fn merge(output: &Path) -> Result<usize> {
-    let entries = std::fs::read_dir(output)
-        .map_err(|e| Error::Setup(format!("{}: {e}", output.display())))?;
-    let mut parts: BTreeMap<u32, PathBuf> = BTreeMap::new();
-    let mut unfinished: Vec<PathBuf> = Vec::new();
-    let mut count = None;
-    for e in entries.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        let (part, journal) = match (shard_part(&name, "json"), shard_part(&name, "journal")) {
-            (Some(p), _) => (p, false),
-            (None, Some(p)) => (p, true),
-            (None, None) => continue,
-        };
-        let (k, n) = part;
-        if count.is_some_and(|c| c != n) {
-            return Err(Error::Setup(format!(
-                "{}: shards of different counts ({} and {n})",
-                output.display(),
-                count.unwrap_or(0)
-            )));
-        }
-        count = Some(n);
-        if journal {
-            unfinished.push(e.path());
-        } else {
-            parts.insert(k, e.path());
-        }
-    }
-    let n = count.ok_or_else(|| {
-        Error::Setup(format!(
-            "{}: no shard manifests (panoconv.shard-K-of-N.json)",
-            output.display()
-        ))
-    })?;
-    if let Some(j) = unfinished.first() {
-        return Err(Error::Setup(format!(
-            "cannot merge: {} is the journal of a shard that is running or was killed; resume it first",
-            j.display()
-        )));
-    }
-    let missing: Vec<String> = (0..n)
-        .filter(|k| !parts.contains_key(k))
-        .map(|k| k.to_string())
-        .collect();
-    if !missing.is_empty() {
-        return Err(Error::Setup(format!(
-            "cannot merge: shard(s) {} of {n} missing",
-            missing.join(", ")
-        )));
-    }
-    let strip_shard = |doc: &Value| -> Value {
-        let mut p = doc.get("parameters").cloned().unwrap_or(Value::Null);
-        if let Some(o) = p.as_object_mut() {
-            o.insert("shard".into(), Value::Null);
-        }
-        p
-    };
-    let mut header = serde_json::Map::new();
-    let mut parameters = Value::Null;
-    let mut records: Vec<FrameRecord> = Vec::new();
-    let mut seen = HashMap::new();
-    let mut complete = true;
-    for (k, path) in &parts {
-        let doc: Value = serde_json::from_slice(&read_file(path)?)
-            .map_err(|err| Error::parse(path, err.line(), "json", err.to_string()))?;
-        if *k == 0 {
-            for key in ["tool", "version", "command"] {
-                header.insert(key.into(), doc.get(key).cloned().unwrap_or(Value::Null));
-            }
-            parameters = strip_shard(&doc);
-        } else if strip_shard(&doc) != parameters {
-            return Err(Error::Setup(format!(
-                "cannot merge: {} has other parameters than shard 0",
-                path.display()
-            )));
-        }
-        complete &= doc.get("complete") == Some(&Value::Bool(true));
-        for f in doc
-            .get("frames")
-            .and_then(Value::as_array)
-            .into_iter()
-            .flatten()
-        {
-            let r: FrameRecord = serde_json::from_value(f.clone())
-                .map_err(|e| Error::file(path, format!("malformed frame record: {e}")))?;
-            if let Some(other) = seen.insert((r.split.clone(), r.id.clone()), *k) {
-                return Err(Error::Setup(format!(
-                    "cannot merge: frame {}/{} is in shards {other} and {k}",
-                    r.split, r.id
-                )));
-            }
-            records.push(r);
-        }
-    }
-    if !complete {
-        return Err(Error::Setup(
-            "cannot merge: a shard did not finish (complete: false); resume it first".into(),
-        ));
-    }
-    header.insert("parameters".into(), parameters);
-    records.sort_by(|a, b| (&a.split, &a.id).cmp(&(&b.split, &b.id)));
-    let failed = records
-        .iter()
-        .filter(|r| r.status == FrameStatus::Failed)
-        .count();
-    pretty::write_manifest(
-        &output.join(MANIFEST),
-        &header,
-        (records.len(), failed),
-        true,
-        records.iter().map(|r| Ok(compact(r))),
-    )?;
-    for path in parts.values() {
-        let _ = std::fs::remove_file(path);
-    }
-    Ok(records.len())
 }
