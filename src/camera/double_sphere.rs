@@ -19,9 +19,9 @@
 
 use super::eucm::unified_w;
 use super::fisheye::{check_intrinsics, FisheyeError};
+use super::lens::{bearing_within, field_angle, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
-use std::f64::consts::PI;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct DoubleSphere {
@@ -85,14 +85,7 @@ impl DoubleSphere {
 
 impl CameraModel for DoubleSphere {
     fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let n = d.norm();
-        if !(n.is_finite() && n > 0.0) {
-            return Err(ProjectionReject::Singular);
-        }
-        let s = d / n;
-        if s.x.hypot(s.y).atan2(s.z) > self.max_theta * (1.0 + 1e-12) {
-            return Err(ProjectionReject::OutsideDomain);
-        }
+        let s = bearing_within(d, self.max_theta)?;
         let shifted = self.xi + s.z;
         let d2 = (s.x * s.x + s.y * s.y + shifted * shifted).sqrt();
         let den = self.alpha * d2 + (1.0 - self.alpha) * shifted;
@@ -117,9 +110,7 @@ impl CameraModel for DoubleSphere {
         let mz = (1.0 - a * a * r2) / (a * inside.max(0.0).sqrt() + 1.0 - a);
         let scale = (mz * xi + (mz * mz + (1.0 - xi * xi) * r2).max(0.0).sqrt()) / (mz * mz + r2);
         let d = Vector3::new(scale * mx, scale * my, scale * mz - xi).normalize();
-        if !(d.iter().all(|v| v.is_finite())
-            && d.x.hypot(d.y).atan2(d.z) <= self.max_theta * (1.0 + 1e-9))
-        {
+        if !(d.iter().all(|v| v.is_finite()) && field_angle(&d) <= self.max_theta * (1.0 + 1e-9)) {
             return Err(ProjectionReject::OutsideDomain);
         }
         Ok(d)
@@ -134,6 +125,6 @@ impl CameraModel for DoubleSphere {
     }
 
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        (self.max_theta <= PI / 2.0).then(Vector3::z)
+        front_halfspace_of(self.max_theta)
     }
 }

@@ -19,6 +19,7 @@
 //! Inverse: closed-form (eq. 25).
 
 use super::fisheye::{check_intrinsics, FisheyeError};
+use super::lens::{bearing_within, field_angle, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
@@ -103,14 +104,7 @@ impl Eucm {
 
 impl CameraModel for Eucm {
     fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let n = d.norm();
-        if !(n.is_finite() && n > 0.0) {
-            return Err(ProjectionReject::Singular);
-        }
-        let s = d / n;
-        if s.x.hypot(s.y).atan2(s.z) > self.max_theta * (1.0 + 1e-12) {
-            return Err(ProjectionReject::OutsideDomain);
-        }
+        let s = bearing_within(d, self.max_theta)?;
         let (mx, my) = self.normalised(&s).ok_or(ProjectionReject::OutsideDomain)?;
         Ok(Point2::new(
             self.k.fu * mx + self.k.cu,
@@ -129,9 +123,7 @@ impl CameraModel for Eucm {
         }
         let mz = (1.0 - b * a * a * r2) / (a * inside.max(0.0).sqrt() + (1.0 - a));
         let d = Vector3::new(mx, my, mz).normalize();
-        if !(d.iter().all(|v| v.is_finite())
-            && d.x.hypot(d.y).atan2(d.z) <= self.max_theta * (1.0 + 1e-9))
-        {
+        if !(d.iter().all(|v| v.is_finite()) && field_angle(&d) <= self.max_theta * (1.0 + 1e-9)) {
             return Err(ProjectionReject::OutsideDomain);
         }
         Ok(d)
@@ -146,6 +138,6 @@ impl CameraModel for Eucm {
     }
 
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        (self.max_theta <= PI / 2.0).then(Vector3::z)
+        front_halfspace_of(self.max_theta)
     }
 }

@@ -28,6 +28,33 @@ impl From<Fisheye> for Lens {
     }
 }
 
+/// The angle between a bearing and the optical axis (+z).
+pub(crate) fn field_angle(d: &Vector3<f64>) -> f64 {
+    d.x.hypot(d.y).atan2(d.z)
+}
+
+/// The unit bearing of `d` when a lens seeing up to `max_theta` (half field of view) has an
+/// image of it: the first step of every wide-angle model's `project`.
+pub(crate) fn bearing_within(
+    d: &Vector3<f64>,
+    max_theta: f64,
+) -> Result<Vector3<f64>, ProjectionReject> {
+    let n = d.norm();
+    if !(n.is_finite() && n > 0.0) {
+        return Err(ProjectionReject::Singular);
+    }
+    let s = d / n;
+    if field_angle(&s) > max_theta * (1.0 + 1e-12) {
+        return Err(ProjectionReject::OutsideDomain);
+    }
+    Ok(s)
+}
+
+/// The front half-space (+z) of a lens seeing up to `max_theta`, when it sees no further.
+pub(crate) fn front_halfspace_of(max_theta: f64) -> Option<Vector3<f64>> {
+    (max_theta <= PI / 2.0).then(Vector3::z)
+}
+
 /// Refuses a half field of view outside (0, limit] (or (0, limit) when the image is unbounded
 /// at the limit), naming the limit in degrees.
 pub(crate) fn check_fov(
@@ -285,7 +312,7 @@ impl Lens {
         let mut widest: f64 = 0.0;
         for corner in [(-0.5, -0.5), (w, -0.5), (-0.5, h), (w, h)] {
             match self.unproject(&Point2::new(corner.0, corner.1)) {
-                Ok(d) => widest = widest.max(d.x.hypot(d.y).atan2(d.z)),
+                Ok(d) => widest = widest.max(field_angle(&d)),
                 Err(_) => return Ok(self.clone()),
             }
         }
@@ -331,6 +358,6 @@ impl CameraModel for Lens {
     }
 
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        (self.max_theta() <= PI / 2.0).then(Vector3::z)
+        front_halfspace_of(self.max_theta())
     }
 }

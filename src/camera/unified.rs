@@ -28,6 +28,7 @@
 //! back to the sphere is closed-form.
 
 use super::fisheye::{check_intrinsics, FisheyeError};
+use super::lens::{bearing_within, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
@@ -229,15 +230,7 @@ impl Unified {
 
 impl CameraModel for Unified {
     fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let n = d.norm();
-        if !(n.is_finite() && n > 0.0) {
-            return Err(ProjectionReject::Singular);
-        }
-        let s = d / n;
-        let theta = s.x.hypot(s.y).atan2(s.z);
-        if theta > self.max_theta * (1.0 + 1e-12) {
-            return Err(ProjectionReject::OutsideDomain);
-        }
+        let s = bearing_within(d, self.max_theta)?;
         let den = s.z + self.xi;
         if !(den > 0.0) {
             return Err(ProjectionReject::OutsideDomain);
@@ -283,6 +276,6 @@ impl CameraModel for Unified {
     }
 
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        (self.max_theta <= PI / 2.0).then(Vector3::z)
+        front_halfspace_of(self.max_theta)
     }
 }
