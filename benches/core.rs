@@ -3,11 +3,11 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Matrix3;
 use panoconv::camera::{Perspective, Projection};
+use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
-use panoconv::kitti::png_io::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::kitti::Label;
-use panoconv::labels::transform_label;
-use panoconv::synth::{frames, label_lines};
+use panoconv::reproject::labels::transform_label;
+use panoconv::tools::synth::{frames, label_lines};
 use panoconv::warp::{RemapTable, Wrap};
 use std::hint::black_box;
 use std::path::Path;
@@ -15,7 +15,7 @@ use std::path::Path;
 fn setup() -> (
     Perspective,
     panoconv::image::RgbImage,
-    panoconv::synth::SynthFrame,
+    panoconv::tools::synth::SynthFrame,
 ) {
     let frame = frames().into_iter().next().unwrap();
     let src = Perspective::new(frame.calib.intrinsics(), frame.calib.size);

@@ -10,8 +10,8 @@
 //! FILE lists one frame a line: `INPUT.png WARPED.png` (the warped images are decoded once,
 //! before the clock starts).
 
+use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::image::RgbImage;
-use panoconv::kitti::png_io::{decode_rgb8, encode_rgb8, PngCompression};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -204,7 +204,7 @@ fn remap(image: &Path, calib: &Path) {
     let bytes = std::fs::read(image).unwrap_or_else(|e| die(&e.to_string()));
     let decode = min_ms(40, || decode_rgb8(&bytes, image).unwrap());
     let crate_decode = min_ms(40, || {
-        panoconv::kitti::png_io::decode_rgb8_with_png_crate(&bytes, image).unwrap()
+        panoconv::codec::png::decode_rgb8_with_png_crate(&bytes, image).unwrap()
     });
     println!("decode_rgb8      {decode:7.3} ms (the png crate's decoder: {crate_decode:.3} ms)");
 }
@@ -212,7 +212,7 @@ fn remap(image: &Path, calib: &Path) {
 fn main() {
     // The same allocator settings as `panoconv` (src/main.rs), so the floor is not slowed by
     // page faults that the conversion avoids.
-    panoconv::alloc::keep_freed_memory();
+    panoconv::run::alloc::keep_freed_memory();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut pairs = None;
     let mut compression = PngCompression::Default;

@@ -7,10 +7,10 @@
 
 use nalgebra::{Matrix3, Matrix3x4, Point2, Vector3};
 use panoconv::camera::{Perspective, Projection};
-use panoconv::depth::{depth_map, rect_from_velo, OcclusionFilter};
+use panoconv::codec::png::{encode_rgb8, PngCompression};
 use panoconv::geometry::{output_camera, OutputSpec};
-use panoconv::kitti::png_io::{encode_rgb8, PngCompression};
-use panoconv::synth::{frames, SynthCalib};
+use panoconv::reproject::depth::{depth_map, rect_from_velo, OcclusionFilter};
+use panoconv::tools::synth::{frames, SynthCalib};
 use panoconv::warp::{RemapTable, Wrap};
 
 fn main() {

@@ -5,29 +5,17 @@
 // `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod alloc;
-pub mod augment;
 pub mod camera;
-pub mod depth;
-pub mod derived;
+pub mod codec;
+pub mod convert;
 pub mod error;
-pub mod eval;
 pub mod export;
-pub mod folder;
+pub mod fs;
 pub mod geometry;
 pub mod image;
-pub mod inspect;
-pub mod journal;
-pub mod jpeg;
 pub mod kitti;
-pub mod labels;
-pub mod output;
-pub mod pano;
-pub mod pipeline;
-pub mod predictions;
-pub mod preview;
+pub mod reproject;
+pub mod run;
 pub mod style;
-pub mod synth;
-pub mod unproject;
-pub mod verify;
+pub mod tools;
 pub mod warp;

@@ -3,6 +3,6 @@
 mod cli;
 
 fn main() -> std::process::ExitCode {
-    panoconv::alloc::keep_freed_memory();
+    panoconv::run::alloc::keep_freed_memory();
     cli::main()
 }

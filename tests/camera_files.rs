@@ -503,7 +503,7 @@ fn fisheye_command_reads_a_native_file() {
     }
     std::fs::write(
         input.join("0000000000.png"),
-        panoconv::kitti::png_io::encode_rgb8(&img, panoconv::kitti::png_io::PngCompression::Fast),
+        panoconv::codec::png::encode_rgb8(&img, panoconv::codec::png::PngCompression::Fast),
     )
     .unwrap();
     let out = dir.path().join("cyl");

@@ -618,9 +618,9 @@ fn psnr(
 #[test]
 fn fisheye_to_cylindrical_matches_the_exact_render_for_the_new_models() {
     use panoconv::camera::{rotation_ypr, Cylindrical, Projection, Rotated};
-    use panoconv::pano::{FisheyeView, ViewScale};
-    let scene = &panoconv::synth::frames()[0].scene;
-    let centre = Vector3::new(0.0, panoconv::synth::GROUND_Y - 1.2, 0.0);
+    use panoconv::convert::pano::{FisheyeView, ViewScale};
+    let scene = &panoconv::tools::synth::frames()[0].scene;
+    let centre = Vector3::new(0.0, panoconv::tools::synth::GROUND_Y - 1.2, 0.0);
     for (name, cam) in cameras() {
         // A 480-pixel-wide version of each camera (the affine part scaled by the half-pixel
         // rule), so that the renders stay quick.

@@ -5,8 +5,8 @@ use panoconv::camera::{ImageSize, Intrinsics, LinearCamera, Perspective, Project
 use panoconv::geometry::{output_camera, Crop, OutputSpec, Scale};
 use panoconv::image::RgbImage;
 use panoconv::kitti::{Calib, LabelFile};
-use panoconv::labels::{box_bounds, clip};
-use panoconv::synth::{frames, SynthCalib};
+use panoconv::reproject::labels::{box_bounds, clip};
+use panoconv::tools::synth::{frames, SynthCalib};
 use panoconv::warp::{RemapTable, Wrap};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -205,7 +205,7 @@ fn check_written_boxes(out: &Path) -> (usize, usize) {
         let id = label_path.file_stem().unwrap().to_str().unwrap().to_owned();
         let calib = Calib::read(&out.join(format!("training/calib/{id}.txt"))).unwrap();
         let png = std::fs::read(out.join(format!("training/image_2/{id}.png"))).unwrap();
-        let (w, h) = panoconv::kitti::png_io::read_size(&png, Path::new("x")).unwrap();
+        let (w, h) = panoconv::codec::png::read_size(&png, Path::new("x")).unwrap();
         let (cam, centre) = calib.output_camera(2, ImageSize::new(w, h)).unwrap();
         for l in LabelFile::read(&label_path)
             .unwrap()

@@ -5,9 +5,9 @@
 
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::{CameraModel, LinearCamera, Perspective, Projection};
-use panoconv::depth::{depth_map, rect_from_velo, DepthMap, OcclusionFilter};
 use panoconv::geometry::{output_camera, OutputSpec};
-use panoconv::synth::{frames, SynthCalib};
+use panoconv::reproject::depth::{depth_map, rect_from_velo, DepthMap, OcclusionFilter};
+use panoconv::tools::synth::{frames, SynthCalib};
 
 /// The bars.
 const MIN_CORRECT: f64 = 0.995;
@@ -24,7 +24,7 @@ fn score(
     map: &DepthMap,
     cam: &dyn CameraModel,
     centre: &Vector3<f64>,
-    scene: &panoconv::synth::Scene,
+    scene: &panoconv::tools::synth::Scene,
 ) -> Score {
     let mut s = Score {
         pixels: 0,
@@ -125,7 +125,7 @@ fn occlusion_filter_removes_see_through_points() {
 // ---------------------------------------------------------------------------------------------
 // Through the binary.
 
-use panoconv::kitti::png_io::{decode_gray16, decode_rgb8};
+use panoconv::codec::png::{decode_gray16, decode_rgb8};
 use panoconv::kitti::{Calib, LabelFile};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,6 +1,6 @@
 //! eval-depth against metrics computed by hand on a tiny fixture.
 
-use panoconv::kitti::png_io::{encode_gray16, PngCompression};
+use panoconv::codec::png::{encode_gray16, PngCompression};
 use std::path::Path;
 use std::process::Command;
 

@@ -10,10 +10,10 @@ use panoconv::camera::fisheye::FisheyeError;
 use panoconv::camera::{
     rotation_ypr, CameraModel, Fisheye, ImageSize, Intrinsics, Projection, RadialModel, Rotated,
 };
+use panoconv::codec::png::{encode_rgb8, PngCompression};
+use panoconv::convert::pano::{FisheyeView, ViewScale};
 use panoconv::image::RgbImage;
-use panoconv::kitti::png_io::{encode_rgb8, PngCompression};
-use panoconv::pano::{FisheyeView, ViewScale};
-use panoconv::synth::{frames, GROUND_Y};
+use panoconv::tools::synth::{frames, GROUND_Y};
 use proptest::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;

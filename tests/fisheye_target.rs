@@ -11,7 +11,7 @@ use nalgebra::{Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::{CameraModel, FisheyeCamera};
 use panoconv::image::RgbImage;
-use panoconv::synth::{frames, SynthCalib};
+use panoconv::tools::synth::{frames, SynthCalib};
 use std::path::{Path, PathBuf};
 
 /// The bar for a conversion against the exact render, over the covered area.
@@ -322,7 +322,7 @@ const WIDE_EQUIDISTANT: &str = "{\"version\": 1, \"model\": \"equidistant\", \"w
 
 #[test]
 fn boxes_all_around_a_190_degree_fisheye_match_the_dense_projection() {
-    use panoconv::labels::transform_label;
+    use panoconv::reproject::labels::transform_label;
     let dir = tempfile::tempdir().unwrap();
     let mut cameras = vec![(
         "equidistant",
@@ -585,7 +585,8 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
             let mut in_file = file.iter();
             for (line, p) in labels.iter().zip(&py) {
                 let label = parse_label(line);
-                let lib = panoconv::unproject::label_to_pixel(&label, read.as_ref(), &centre);
+                let lib =
+                    panoconv::reproject::unproject::label_to_pixel(&label, read.as_ref(), &centre);
                 match (p, lib) {
                     (Some((u, v)), Some(o)) => {
                         worst_py_lib = worst_py_lib.max((u - o.u).hypot(v - o.v));

@@ -4,8 +4,8 @@ use nalgebra::Vector3;
 use panoconv::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::kitti::{Calib, Label};
-use panoconv::labels::{box_bounds, clip, Bounds};
-use panoconv::synth::{frames, label_lines, SynthCalib, SynthFrame};
+use panoconv::reproject::labels::{box_bounds, clip, Bounds};
+use panoconv::tools::synth::{frames, label_lines, SynthCalib, SynthFrame};
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -289,7 +289,12 @@ fn pano_scale_canvas_keeps_every_synthetic_object() {
         let text = label_lines(&calib, &scene, dc);
         for line in text.lines() {
             let l = Label::parse(Path::new("x"), 1, line).unwrap();
-            let t = panoconv::labels::transform_label(&l, &calib.centre(), &src, out.as_ref());
+            let t = panoconv::reproject::labels::transform_label(
+                &l,
+                &calib.centre(),
+                &src,
+                out.as_ref(),
+            );
             let t = t.unwrap_or_else(|| panic!("object lost: {line}"));
             let new = Label::parse(Path::new("y"), 1, &t).unwrap();
             // nothing but bbox and truncation changes

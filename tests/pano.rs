@@ -5,10 +5,10 @@ mod common;
 
 use common::{panoconv, read_text, Run};
 use panoconv::camera::{ImageSize, Projection};
-use panoconv::error::read_file;
+use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
+use panoconv::convert::pano::{PanoViews, ViewScale};
+use panoconv::fs::read_file;
 use panoconv::image::RgbImage;
-use panoconv::kitti::png_io::{decode_rgb8, encode_rgb8, PngCompression};
-use panoconv::pano::{PanoViews, ViewScale};
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -252,8 +252,8 @@ fn coarse_outputs_are_antialiased() {
     v.scale = ViewScale::PanoWidth(200);
     let aa = &warp(&img, &v)[0];
     assert_eq!((aa.width(), aa.height()), (200, 100));
-    let src = panoconv::pano::PanoSource::new(ImageSize::new(800, 400));
-    let out = panoconv::folder::view_camera(
+    let src = panoconv::convert::pano::PanoSource::new(ImageSize::new(800, 400));
+    let out = panoconv::convert::folder::view_camera(
         Projection::Equirect,
         200.0 / (2.0 * PI),
         100.0 / PI,

@@ -6,13 +6,13 @@
 
 mod common;
 
-use panoconv::image::RgbImage;
-use panoconv::kitti::png_decode;
-use panoconv::kitti::png_io::{
+use panoconv::codec::png::decode;
+use panoconv::codec::png::{
     decode_gray16, decode_rgb8, decode_rgb8_with_png_crate, encode_gray16,
     encode_gray16_with_png_crate, encode_rgb8, encode_rgb8_with_png_crate, PngCompression,
     MAX_PIXELS,
 };
+use panoconv::image::RgbImage;
 use std::path::Path;
 
 const PRESETS: [PngCompression; 2] = [PngCompression::Fast, PngCompression::Default];
@@ -126,7 +126,7 @@ fn streamed_gray16_equals_the_png_crate() {
 
 /// The direct decoder takes `png` and gives the png crate's pixels.
 fn assert_direct_decode(png: &[u8], what: &str) -> RgbImage {
-    let (w, h, data) = png_decode::decode_rgb8(png, MAX_PIXELS)
+    let (w, h, data) = decode::decode_rgb8(png, MAX_PIXELS)
         .unwrap_or_else(|| panic!("{what}: the direct decoder did not take the file"));
     let reference = decode_rgb8_with_png_crate(png, Path::new(what)).expect("png crate decodes");
     assert_eq!((w, h), (reference.width(), reference.height()), "{what}");
@@ -226,7 +226,7 @@ fn direct_decoder_undoes_every_filter_type() {
 fn files_the_direct_decoder_does_not_take_go_to_the_png_crate() {
     let img = camera_like(16, 8, 3);
     let good = encode_rgb8(&img, PngCompression::Default);
-    assert!(png_decode::decode_rgb8(&good, MAX_PIXELS).is_some());
+    assert!(decode::decode_rgb8(&good, MAX_PIXELS).is_some());
     // a flipped bit in the image data: CRC mismatch
     let mut bad_crc = good.clone();
     let n = bad_crc.len();
@@ -258,7 +258,7 @@ fn files_the_direct_decoder_does_not_take_go_to_the_png_crate() {
         ("short stream", &short),
     ] {
         assert!(
-            png_decode::decode_rgb8(png, MAX_PIXELS).is_none(),
+            decode::decode_rgb8(png, MAX_PIXELS).is_none(),
             "{what}: the direct decoder took it"
         );
         // and decode_rgb8 gives exactly what the png crate gives (error or pixels)
@@ -365,7 +365,7 @@ fn damaged_files_are_decoded_as_the_png_crate_decodes_them() {
         }
         fix_crcs(&mut png);
         let what = format!("damaged file {round}");
-        taken += png_decode::decode_rgb8(&png, MAX_PIXELS).is_some() as usize;
+        taken += decode::decode_rgb8(&png, MAX_PIXELS).is_some() as usize;
         let ours = decode_rgb8(&png, Path::new(&what)).map(|i| i.into_raw());
         let theirs = decode_rgb8_with_png_crate(&png, Path::new(&what)).map(|i| i.into_raw());
         errors += theirs.is_err() as usize;

@@ -8,7 +8,7 @@ use common::*;
 use panoconv::camera::{ImageSize, Intrinsics, Projection};
 use panoconv::image::RgbImage;
 use panoconv::kitti::{Calib, Label, LabelFile};
-use panoconv::preview::{
+use panoconv::tools::preview::{
     depth_colour, draw_box_3d, draw_text, frame_camera, label_text, text_size,
 };
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! dataset does (same images, same depth), with one KITTI-object calib per drive.
 
 use panoconv::kitti::calib::format_sci;
-use panoconv::synth::SynthCalib;
+use panoconv::tools::synth::SynthCalib;
 use std::path::Path;
 use std::process::Command;
 

@@ -66,7 +66,7 @@ fn assert_no_partial_file(root: &Path) {
             continue; // a temporary being written: never read by anyone
         }
         if name.ends_with(".png") {
-            panoconv::kitti::png_io::decode_rgb8(&bytes, Path::new(&name))
+            panoconv::codec::png::decode_rgb8(&bytes, Path::new(&name))
                 .unwrap_or_else(|e| panic!("partial file: {e}"));
         } else if name.ends_with(".json") {
             serde_json::from_slice::<serde_json::Value>(&bytes)

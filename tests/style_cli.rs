@@ -2,8 +2,8 @@
 //! must equal Python onnxruntime's own result under the CycleGAN convention (references made by
 //! scripts/make_style_model.py), and set-up problems stop the run before anything is written.
 
-use panoconv::kitti::png_io::decode_rgb8;
-use panoconv::synth::SynthCalib;
+use panoconv::codec::png::decode_rgb8;
+use panoconv::tools::synth::SynthCalib;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

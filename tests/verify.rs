@@ -2,7 +2,7 @@
 //! each kind of output, a deleted file, an added file and a broken manifest are each caught and
 //! named, with the documented exit codes (0 match, 1 problems, 2 manifest unusable).
 
-use panoconv::verify::{verify, Problem};
+use panoconv::tools::verify::{verify, Problem};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;

@@ -5,7 +5,7 @@ use nalgebra::{Matrix3, Point2};
 use panoconv::camera::{rotation_ypr, CameraModel, ImageSize, Intrinsics, Perspective, Projection};
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::image::RgbImage;
-use panoconv::synth::{frames, SynthCalib};
+use panoconv::tools::synth::{frames, SynthCalib};
 use panoconv::warp::{Kernel, RemapTable, Wrap};
 
 /// PSNR the issue asks for inside the source field of view (bilinear alone reaches ~54 dB).

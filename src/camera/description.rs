@@ -130,7 +130,7 @@ impl CameraDescription {
     /// Reads and validates a camera description file, or a native calibration file (KITTI-360
     /// YAML, WoodScape JSON, OpenCV FileStorage), recognised by its content.
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes = crate::error::read_file(path)?;
+        let bytes = crate::fs::read_file(path)?;
         let text = String::from_utf8(bytes)
             .map_err(|_| Error::file(path, "camera description is not valid UTF-8"))?;
         Self::parse_any(&text, path)

@@ -110,7 +110,7 @@ fn convert_camera(a: ConvertCameraArgs) -> Result<ExitCode> {
         camera: report.lens.clone(),
         output_from_camera: source.output_from_camera,
     };
-    panoconv::output::write_atomic(
+    panoconv::fs::write_atomic(
         &a.output,
         written
             .to_json(Some(&format!("panoconv camera convert: {summary}")))

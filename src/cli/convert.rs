@@ -477,10 +477,10 @@ fn convert(
 /// The fisheye target of `--camera FILE`.
 fn fisheye_target(file: &std::path::Path) -> Result<FisheyeTarget> {
     let desc = CameraDescription::read(file)?;
-    let bytes = panoconv::error::read_file(file)?;
+    let bytes = panoconv::fs::read_file(file)?;
     Ok(FisheyeTarget {
         camera: file.to_path_buf(),
-        camera_blake3: panoconv::output::hash_hex(&bytes),
+        camera_blake3: panoconv::fs::hash_hex(&bytes),
         model: desc.camera.name().to_owned(),
         lens: desc.camera,
         rect_from_camera: desc.output_from_camera,
@@ -501,10 +501,10 @@ pub(super) fn install_stop_handler() {
 }
 
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
-    let n = panoconv::journal::merge(&a.output)?;
+    let n = panoconv::run::journal::merge(&a.output)?;
     eprintln!(
         "panoconv: merged {n} frames into {}",
-        a.output.join(panoconv::journal::MANIFEST).display()
+        a.output.join(panoconv::run::journal::MANIFEST).display()
     );
     Ok(ExitCode::SUCCESS)
 }

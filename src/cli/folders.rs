@@ -97,8 +97,8 @@ fn folder_projection(to: To) -> Result<Projection> {
     }
 }
 
-pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::pano::ViewScale> {
-    use panoconv::pano::ViewScale;
+pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::convert::pano::ViewScale> {
+    use panoconv::convert::pano::ViewScale;
     Ok(match (a.pano_width, a.px_per_deg) {
         (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
         (Some(w), _) => ViewScale::PanoWidth(w),
@@ -121,12 +121,12 @@ pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
 
 pub(super) fn run_folder_job(
     common: &FolderArgs,
-    job: &panoconv::folder::FolderJob,
-    planner: &panoconv::folder::Planner,
+    job: &panoconv::convert::folder::FolderJob,
+    planner: &panoconv::convert::folder::Planner,
 ) -> Result<ExitCode> {
     let bar = Bar::new(common.run.quiet);
     let summary = with_pool(common.run.jobs, || {
-        panoconv::folder::run_folder(job, planner, &bar)
+        panoconv::convert::folder::run_folder(job, planner, &bar)
     })??;
     if !common.run.quiet {
         eprintln!(
@@ -150,7 +150,7 @@ pub(super) fn run_folder_job(
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     use panoconv::camera::description::CameraDescription;
-    use panoconv::pano::FisheyeView;
+    use panoconv::convert::pano::FisheyeView;
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
@@ -163,7 +163,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     // Built before anything is written (one camera, one table): errors are set-up errors.
     let view = spec.plan(&desc)?;
     let (hfov, vfov) = spec.fov(&desc);
-    let job = panoconv::folder::FolderJob {
+    let job = panoconv::convert::folder::FolderJob {
         command: "fisheye",
         input: a.input.clone(),
         output: a.output.clone(),
@@ -192,7 +192,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
-    use panoconv::pano::PanoViews;
+    use panoconv::convert::pano::PanoViews;
     let a = &args.common;
     let projection = folder_projection(a.to)?;
     let yaws: Vec<f64> = args
@@ -225,7 +225,7 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
         scale: view_scale(a)?,
     };
     views.validate()?;
-    let job = panoconv::folder::FolderJob {
+    let job = panoconv::convert::folder::FolderJob {
         command: "pano",
         input: a.input.clone(),
         output: a.output.clone(),

@@ -161,7 +161,7 @@ pub(super) struct SynthArgs {
 }
 
 pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
-    panoconv::synth::write_dataset(&args.output, args.overwrite, &Bar::new(false))?;
+    panoconv::tools::synth::write_dataset(&args.output, args.overwrite, &Bar::new(false))?;
     eprintln!(
         "panoconv: synthetic KITTI dataset written to {}",
         args.output.display()
@@ -170,8 +170,8 @@ pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
-    use panoconv::kitti::png_io;
-    use panoconv::preview::{contact_sheet, render_frame, PreviewOptions};
+    use panoconv::codec::png;
+    use panoconv::tools::preview::{contact_sheet, render_frame, PreviewOptions};
     let options = PreviewOptions {
         depth: !args.no_depth,
         text_scale: args.no_text.then_some(0),
@@ -215,8 +215,8 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
                 if opts.text_scale.is_none() {
                     let dir = args.dataset.join(split).join("image_2");
                     let path = dir.join(format!("{id}.png"));
-                    let bytes = panoconv::error::read_file(&path)?;
-                    let (w, _) = png_io::read_size(&bytes, &path)?;
+                    let bytes = panoconv::fs::read_file(&path)?;
+                    let (w, _) = png::read_size(&bytes, &path)?;
                     opts.text_scale = Some(w.div_ceil(args.tile_width).max(1));
                 }
                 let tile = render_frame(&args.dataset, split, id, &opts)?;
@@ -226,21 +226,21 @@ pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
         }
         (None, Some(frame)) => {
             let (split, id) =
-                panoconv::preview::find_frame(&args.dataset, args.split.as_deref(), frame)?;
+                panoconv::tools::preview::find_frame(&args.dataset, args.split.as_deref(), frame)?;
             render_frame(&args.dataset, &split, &id, &options)?
         }
         (None, None) => unreachable!("clap requires --frame or --grid"),
     };
-    panoconv::output::write_atomic(
+    panoconv::fs::write_atomic(
         &args.output,
-        &png_io::encode_rgb8(&image, PngCompression::Default),
+        &png::encode_rgb8(&image, PngCompression::Default),
     )?;
     record_derived("preview", &args.output, std::slice::from_ref(&args.output))?;
     Ok(ExitCode::SUCCESS)
 }
 
 pub(super) fn folder_exit(
-    summary: panoconv::predictions::FolderSummary,
+    summary: panoconv::tools::predictions::FolderSummary,
     output: &std::path::Path,
 ) -> ExitCode {
     for (id, e) in &summary.failed {
@@ -260,13 +260,13 @@ pub(super) fn folder_exit(
 }
 
 /// Records files a tool wrote inside a converted dataset in its manifest, so that `verify`
-/// checks them (see `panoconv::derived`), and says so.
+/// checks them (see `panoconv::run::derived`), and says so.
 pub(super) fn record_derived(
     command: &str,
     target: &std::path::Path,
     files: &[PathBuf],
 ) -> Result<()> {
-    if let Some(root) = panoconv::derived::record_if_inside(command, target, files)? {
+    if let Some(root) = panoconv::run::derived::record_if_inside(command, target, files)? {
         eprintln!(
             "panoconv: recorded in {} (checked by `panoconv verify`)",
             root.join("panoconv.json").display()
@@ -276,7 +276,8 @@ pub(super) fn record_derived(
 }
 
 pub(super) fn labels_to_pixels(a: LabelsToPixelsArgs) -> Result<ExitCode> {
-    let summary = panoconv::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
+    let summary =
+        panoconv::tools::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
     record_derived("labels-to-pixels", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
 }
@@ -290,15 +291,20 @@ pub(super) fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
     let images = a
         .images
         .clone()
-        .unwrap_or_else(|| panoconv::predictions::default_images_dir(&a.calib));
-    let summary =
-        panoconv::predictions::unproject(&a.calib, &images, &a.input, &a.output, a.trained_focal)?;
+        .unwrap_or_else(|| panoconv::tools::predictions::default_images_dir(&a.calib));
+    let summary = panoconv::tools::predictions::unproject(
+        &a.calib,
+        &images,
+        &a.input,
+        &a.output,
+        a.trained_focal,
+    )?;
     record_derived("unproject", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
 }
 
 pub(super) fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
-    let e = panoconv::eval::evaluate(&a.pred, &a.gt, a.min_depth, a.max_depth)?;
+    let e = panoconv::tools::eval_depth::evaluate(&a.pred, &a.gt, a.min_depth, a.max_depth)?;
     for (name, err) in &e.failed {
         eprintln!("panoconv: {name} not evaluated: {err}");
     }
@@ -337,7 +343,7 @@ pub(super) fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn inspect(args: InspectArgs) -> Result<ExitCode> {
-    let report = panoconv::inspect::inspect(&args.dataset, args.split.as_deref())?;
+    let report = panoconv::tools::inspect::inspect(&args.dataset, args.split.as_deref())?;
     if args.json {
         print!("{}", report.to_json());
     } else {
@@ -378,7 +384,7 @@ pub(super) fn man(args: ManArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode> {
-    let report = panoconv::verify::verify(&a.output)?;
+    let report = panoconv::tools::verify::verify(&a.output)?;
     for problem in &report.problems {
         println!("{problem}");
     }

@@ -4,7 +4,7 @@
 use crate::camera::CameraModel;
 use crate::export::round_to;
 use crate::kitti::Label;
-use crate::labels::{box_bounds, clip};
+use crate::reproject::labels::{box_bounds, clip};
 use nalgebra::Vector3;
 
 /// [left, top, right, bottom], pixel centres at integers (panoconv's and KITTI's convention).

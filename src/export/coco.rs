@@ -152,8 +152,12 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
                 iscrowd: 0,
                 truncated: label.truncated,
                 occluded: label.occluded,
-                distance: crate::preview::label_distance(label, f.camera.as_ref(), &f.centre)
-                    .map(|d| round_to(d, 4)),
+                distance: crate::tools::preview::label_distance(
+                    label,
+                    f.camera.as_ref(),
+                    &f.centre,
+                )
+                .map(|d| round_to(d, 4)),
                 wraps_seam,
             });
             next_id += 1;

@@ -17,9 +17,11 @@ pub use classes::{ClassLookup, ClassMap};
 pub use split::SplitRule;
 
 use crate::camera::{ImageSize, OutputCamera};
-use crate::error::{read_lines, Error, Result};
-use crate::kitti::{png_io, Calib, Dataset, FrameRef, Label};
-use crate::output::{hash_hex, write_atomic};
+use crate::codec::png;
+use crate::error::{Error, Result};
+use crate::fs::read_lines;
+use crate::fs::{hash_hex, write_atomic};
+use crate::kitti::{Calib, Dataset, FrameRef, Label};
 use nalgebra::Vector3;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -260,7 +262,7 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
     let (w, h) = image_size(&image)?;
     let size = ImageSize::new(w, h);
     let calib = Calib::read(&split.calib_path(id))?;
-    let (camera, centre) = crate::preview::frame_camera(&calib, size)?;
+    let (camera, centre) = crate::tools::preview::frame_camera(&calib, size)?;
     let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
     if split.has_labels {
         let path = split.label_path(id);
@@ -295,9 +297,9 @@ fn image_size(path: &Path) -> Result<(u32, u32)> {
     std::fs::File::open(path)
         .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
         .map_err(|e| Error::io(path, e))?;
-    match png_io::read_size(&head, path) {
+    match png::read_size(&head, path) {
         Ok(size) => Ok(size),
-        Err(_) => png_io::read_size(&crate::error::read_file(path)?, path),
+        Err(_) => png::read_size(&crate::fs::read_file(path)?, path),
     }
 }
 
@@ -387,7 +389,7 @@ pub(crate) fn exported_file(root: &Path, path: PathBuf, bytes: &[u8]) -> Result<
 
 /// `path` relative to `root` (`/`-separated) when it lies inside it.
 fn relative_inside(root: &Path, path: &Path) -> Result<Option<String>> {
-    let (root, path) = (crate::output::resolve(root)?, crate::output::resolve(path)?);
+    let (root, path) = (crate::fs::resolve(root)?, crate::fs::resolve(path)?);
     Ok(path.strip_prefix(&root).ok().map(|rel| {
         rel.components()
             .map(|c| c.as_os_str().to_string_lossy().into_owned())

@@ -11,7 +11,7 @@
 use crate::camera::OutputCamera;
 use crate::error::{Error, Result};
 use crate::export::{round_to, ExportData, Frame, Object};
-use crate::labels::{box_bounds, clip};
+use crate::reproject::labels::{box_bounds, clip};
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 

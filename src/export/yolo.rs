@@ -13,7 +13,7 @@
 use crate::error::{Error, Result};
 use crate::export::coco::{frame_boxes, COCO_FROM_KITTI_PIXEL};
 use crate::export::{exported_file, split, ExportData, ExportOptions, ExportedFile, Frame};
-use crate::output::resolve;
+use crate::fs::resolve;
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
 

@@ -7,7 +7,8 @@
 use crate::camera::{
     FisheyeCamera, ImageSize, Intrinsics, Lens, OutputCamera, Perspective, Projection,
 };
-use crate::error::{read_lines, Error, Result};
+use crate::error::{Error, Result};
+use crate::fs::read_lines;
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use std::path::{Path, PathBuf};
 
@@ -367,7 +368,7 @@ mod tests {
     use super::*;
 
     fn standard() -> Calib {
-        let text = crate::synth::SynthCalib::standard().text();
+        let text = crate::tools::synth::SynthCalib::standard().text();
         Calib::parse(
             Path::new("c.txt"),
             text.lines().map(str::to_owned).collect(),

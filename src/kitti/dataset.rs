@@ -381,7 +381,7 @@ impl Dataset {
 
 /// Frame ids from a list file (one per line, `#` comments and blank lines ignored).
 pub fn read_id_list(path: &Path) -> Result<Vec<String>> {
-    let lines = crate::error::read_lines(path)?;
+    let lines = crate::fs::read_lines(path)?;
     let mut ids = Vec::new();
     for (i, line) in lines.iter().enumerate() {
         let t = line.split('#').next().unwrap_or("").trim();

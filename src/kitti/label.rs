@@ -3,7 +3,8 @@
 //! The original tokens are kept so that the fields panoconv does not change (everything but the
 //! 2D box and the truncation) are written back byte for byte.
 
-use crate::error::{read_lines, Error, Result};
+use crate::error::{Error, Result};
+use crate::fs::read_lines;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 

@@ -1,11 +1,8 @@
-//! KITTI object-dataset files: calibration, labels, PNG images, and the folder layout.
+//! KITTI object-dataset files: calibration, labels, LiDAR scans, and the folder layout.
 
 pub mod calib;
 pub mod dataset;
 pub mod label;
-pub mod png_decode;
-pub mod png_encode;
-pub mod png_io;
 pub mod raw;
 pub mod velodyne;
 

@@ -3,7 +3,8 @@
 //! split whose single calibration is written in KITTI object form (P0..P3 = P_rect_0x,
 //! R0_rect = R_rect_00, Tr_velo_to_cam = [R | T]), so object-format readers take it.
 
-use crate::error::{read_lines, Error, Result};
+use crate::error::{Error, Result};
+use crate::fs::read_lines;
 use crate::kitti::dataset::{Dataset, Layout, Split};
 use crate::kitti::Calib;
 use std::collections::HashMap;

@@ -42,7 +42,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
 }
 
 pub fn read(path: &Path) -> Result<Scan> {
-    parse(&crate::error::read_file(path)?, path)
+    parse(&crate::fs::read_file(path)?, path)
 }
 
 /// Encodes points (for synthetic scans and tests).

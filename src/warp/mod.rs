@@ -1,11 +1,9 @@
 //! Image reprojection: a remap table built once per (source camera, output camera) and applied
 //! to every frame that shares them.
 
-mod cache;
 mod kernel;
 mod table;
 
-pub use cache::OnceMap;
 #[doc(hidden)]
 pub use kernel::Kernel;
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

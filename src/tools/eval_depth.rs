@@ -5,8 +5,9 @@
 //! metrics are computed per image and then averaged over images (the monodepth convention).
 //! Depth maps are KITTI 16-bit PNGs, value = round(d·256), 0 = no depth.
 
-use crate::error::{read_file, Error, Result};
-use crate::kitti::png_io::decode_gray16;
+use crate::codec::png::decode_gray16;
+use crate::error::{Error, Result};
+use crate::fs::read_file;
 use serde::Serialize;
 use std::path::Path;
 

@@ -6,15 +6,17 @@ mod batch;
 mod frame;
 mod tables;
 
-use crate::augment::Augment;
-use crate::depth::OcclusionFilter;
+use crate::codec::png::PngCompression;
 use crate::error::{Error, Result};
+use crate::fs;
+use crate::geometry::augment::Augment;
 use crate::geometry::{FisheyeTarget, OutputSpec};
-use crate::journal::{self, Journal, Shard};
-use crate::kitti::png_io::PngCompression;
 use crate::kitti::{raw, Layout, OutputKind};
 use crate::kitti::{Dataset, FrameRef, Split};
-use crate::output::{self, FrameRecord, FrameStatus};
+use crate::reproject::depth::OcclusionFilter;
+use crate::run::journal::{self, Journal, Shard};
+use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::{Progress, Summary};
 use crate::style::{Device, StyleInfo, StyleModel, StyleOptions};
 use batch::StylePass;
 use frame::Context;
@@ -92,46 +94,6 @@ struct Parameters<'a> {
     #[serde(flatten)]
     job: &'a KittiJob,
     style: Option<StyleRecord<'a>>,
-}
-
-/// Reports progress; the CLI passes an indicatif bar, tests a no-op.
-pub trait Progress: Sync {
-    fn start(&self, total: usize);
-    fn frame_done(&self);
-    /// A frame failed: report it (once) without disturbing the bar.
-    fn frame_failed(&self, frame: &FrameRef, error: &Error);
-    fn finish(&self);
-}
-
-/// A progress reporter that says nothing.
-pub struct Silent;
-
-impl Progress for Silent {
-    fn start(&self, _: usize) {}
-    fn frame_done(&self) {}
-    fn frame_failed(&self, _: &FrameRef, _: &Error) {}
-    fn finish(&self) {}
-}
-
-#[derive(Debug)]
-pub struct Summary {
-    pub frames: usize,
-    pub converted: usize,
-    pub failed: usize,
-    /// Frames a previous run had completed (--resume).
-    pub resumed: usize,
-    /// Stopped by SIGINT/SIGTERM before every frame was taken.
-    pub interrupted: bool,
-    /// Stopped because the output device refused writes: what to tell the user.
-    pub device_full: Option<String>,
-    pub seconds: f64,
-    /// Distinct (source camera → output camera) mappings built.
-    pub tables_built: usize,
-    /// Style model runs and the images they took (batch checks included), if styled.
-    pub style_runs: Option<(usize, usize)>,
-    /// With --augment: the views holding fewer objects than asked (at least one), and that
-    /// minimum.
-    pub thin_views: Option<(usize, usize)>,
 }
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
@@ -394,7 +356,7 @@ fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Resu
         let mut ids = by_split.remove(&split.name).unwrap_or_default();
         ids.sort_unstable();
         let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
-        output::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
+        fs::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
     }
     Ok(())
 }

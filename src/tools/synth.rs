@@ -6,12 +6,12 @@
 //! footprint, so the images are band-limited the way real camera images are.
 
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Perspective};
+use crate::codec::png::{encode_rgb8, PngCompression};
 use crate::error::{Error, Result};
+use crate::fs::write_atomic;
 use crate::image::RgbImage;
 use crate::kitti::calib::format_sci;
-use crate::kitti::png_io::{encode_rgb8, PngCompression};
-use crate::labels::{box_bounds, clip, clipped_fraction};
-use crate::output::write_atomic;
+use crate::reproject::labels::{box_bounds, clip, clipped_fraction};
 use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
 use std::path::Path;
@@ -466,7 +466,7 @@ pub fn label_lines(calib: &SynthCalib, scene: &Scene, dont_care: Option<[f64; 4]
 pub fn write_dataset(
     root: &Path,
     overwrite: bool,
-    progress: &dyn crate::pipeline::Progress,
+    progress: &dyn crate::run::Progress,
 ) -> Result<()> {
     if root.exists()
         && !overwrite

@@ -1,8 +1,8 @@
 //! JPEG decoding to RGB8, for panorama and fisheye inputs (KITTI itself is PNG).
 
+use crate::codec::png::MAX_PIXELS;
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
-use crate::kitti::png_io::MAX_PIXELS;
 use std::path::Path;
 use zune_core::colorspace::ColorSpace;
 use zune_core::options::DecoderOptions;

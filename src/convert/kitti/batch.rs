@@ -11,8 +11,8 @@ use super::frame::{Context, FrameOutput, Prepared};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use crate::kitti::Split;
+use crate::run::OnceMap;
 use crate::style::{StyleError, StyleModel};
-use crate::warp::OnceMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// The style pass of a run.

@@ -9,7 +9,7 @@
 
 use super::frame::Context;
 use crate::camera::{ImageSize, Intrinsics};
-use crate::kitti::png_io;
+use crate::codec::png;
 use crate::kitti::{Calib, Layout, Split};
 use crate::warp::{RemapTable, MAX_SUPERSAMPLE};
 use rayon::prelude::*;
@@ -72,7 +72,7 @@ fn source_cameras(split: &Split, id: &str, cameras: &[usize]) -> Vec<(Intrinsics
             let Ok(bytes) = std::fs::read(&path) else {
                 return Vec::new();
             };
-            let Ok(lines) = crate::error::split_lines(&bytes, &path) else {
+            let Ok(lines) = crate::fs::split_lines(&bytes, &path) else {
                 return Vec::new();
             };
             match Calib::parse(&path, lines) {
@@ -106,5 +106,5 @@ fn png_size(path: &Path) -> Option<ImageSize> {
     let size = ImageSize::new(be(16), be(20));
     // The header is untrusted: an image the decoder will refuse gets no table.
     let pixels = size.width as u64 * size.height as u64;
-    (pixels > 0 && pixels <= png_io::MAX_PIXELS).then_some(size)
+    (pixels > 0 && pixels <= png::MAX_PIXELS).then_some(size)
 }

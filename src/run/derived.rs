@@ -7,8 +7,9 @@
 //! replaces its entry. A new conversion into the folder (`--overwrite`, `--resume`) writes a
 //! new manifest without them.
 
-use crate::error::{read_file, Error, Result};
-use crate::output::{hash_hex, write_atomic_durable};
+use crate::error::{Error, Result};
+use crate::fs::read_file;
+use crate::fs::{hash_hex, write_atomic_durable};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 

@@ -21,7 +21,7 @@ struct ManifestView {
     #[serde(default)]
     parameters: Option<ParametersView>,
     frames: Vec<FrameView>,
-    /// What tools wrote into the dataset afterwards (see [`crate::derived`]).
+    /// What tools wrote into the dataset afterwards (see [`crate::run::derived`]).
     #[serde(default)]
     derived: Vec<FrameView>,
 }
@@ -154,7 +154,7 @@ pub const MANIFEST: &str = "panoconv.json";
 /// error names the line and column).
 fn read_manifest(root: &Path) -> Result<ManifestView> {
     let path = root.join(MANIFEST);
-    let bytes = crate::error::read_file(&path)?;
+    let bytes = crate::fs::read_file(&path)?;
     serde_json::from_slice::<ManifestView>(&bytes).map_err(|e| {
         let text = e.to_string();
         let suffix = format!(" at line {} column {}", e.line(), e.column());

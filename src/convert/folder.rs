@@ -7,14 +7,17 @@
 //! image is reported with its path, leaves no output, and the others are converted.
 
 use crate::camera::{ImageSize, Intrinsics, LinearCamera, Projection};
-use crate::error::{read_file, Error, Result};
-use crate::journal::Journal;
+use crate::codec::png::{self as png, PngCompression};
+use crate::error::{Error, Result};
+use crate::fs;
+use crate::fs::read_file;
 use crate::kitti::calib::format_sci;
-use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::FrameRef;
-use crate::output::{self, FrameRecord, FrameStatus};
-use crate::pipeline::{Progress, Summary};
-use crate::warp::{OnceMap, RemapTable};
+use crate::run::journal::Journal;
+use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::OnceMap;
+use crate::run::{Progress, Summary};
+use crate::warp::RemapTable;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -203,9 +206,9 @@ impl Ctx<'_> {
             )
         });
         let image = if is_jpeg {
-            crate::jpeg::decode_rgb8(&bytes, &input.path)?
+            crate::codec::jpeg::decode_rgb8(&bytes, &input.path)?
         } else {
-            png_io::decode_rgb8(&bytes, &input.path)?
+            png::decode_rgb8(&bytes, &input.path)?
         };
         let size = ImageSize::new(image.width(), image.height());
         let views = self
@@ -220,7 +223,7 @@ impl Ctx<'_> {
         for view in views.iter() {
             // warped row by row as the encoder takes the rows (one image per worker already)
             let size = view.table.size();
-            let png = png_io::encode_rgb8_rows(
+            let png = png::encode_rgb8_rows(
                 size.width,
                 size.height,
                 self.job.png_compression,
@@ -231,8 +234,8 @@ impl Ctx<'_> {
                 let name = format!("{}{}.{ext}", input.stem, view.suffix);
                 let path = self.job.output.join(&name);
                 written.push(path.clone());
-                output::write_atomic(&path, &data)?;
-                outputs.push((name, output::hash_hex(&data)));
+                fs::write_atomic(&path, &data)?;
+                outputs.push((name, fs::hash_hex(&data)));
             }
         }
         Ok(FrameRecord {
@@ -240,7 +243,7 @@ impl Ctx<'_> {
             id: input.name.clone(),
             status: FrameStatus::Ok,
             error: None,
-            inputs: vec![(input.name.clone(), output::hash_hex(&bytes))],
+            inputs: vec![(input.name.clone(), fs::hash_hex(&bytes))],
             outputs,
             views: Vec::new(),
             lidar: None,
@@ -255,7 +258,7 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
     let started = std::time::Instant::now();
     let inputs = list_inputs(&job.input)?;
     // Held until the run returns: one process per output.
-    let _lock = crate::journal::claim_output(&job.input, &job.output, None, job.overwrite)?;
+    let _lock = crate::run::journal::claim_output(&job.input, &job.output, None, job.overwrite)?;
     // Two stems with different extensions would write the same outputs.
     let mut stems: Vec<&str> = inputs.iter().map(|i| i.stem.as_str()).collect();
     stems.sort_unstable();

@@ -6,7 +6,7 @@
 use super::index::LineIndex;
 use super::{pretty, MANIFEST};
 use crate::error::{Error, Result};
-use crate::output::{FrameRecord, FrameStatus};
+use crate::run::manifest::{FrameRecord, FrameStatus};
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::value::RawValue;
 use serde_json::{Map, Value};

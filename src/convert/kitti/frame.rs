@@ -3,20 +3,23 @@
 //! style pass can take several frames' images at once.
 
 use super::KittiJob;
-use crate::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
-use crate::depth::{depth_map, rect_from_velo};
-use crate::error::{read_file, read_file_into, split_lines, Error, Result};
+use crate::codec::png::{self as png, PngCompression};
+use crate::error::{Error, Result};
+use crate::fs;
+use crate::fs::{read_file, read_file_into, split_lines};
+use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::geometry::target_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
-use crate::kitti::png_io::{self, PngCompression};
 use crate::kitti::{velodyne, Layout, OutputKind};
 use crate::kitti::{Calib, Dataset, LabelFile, Split};
-use crate::labels::transform_label;
-use crate::output::{self, FrameRecord, FrameStatus, LidarRecord, ViewRecord};
+use crate::reproject::depth::{depth_map, rect_from_velo};
+use crate::reproject::labels::transform_label;
+use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
+use crate::run::OnceMap;
 use crate::style::StyleModel;
-use crate::warp::{OnceMap, RemapTable, Wrap};
+use crate::warp::{RemapTable, Wrap};
 use nalgebra::{Matrix3, Vector3};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -157,7 +160,7 @@ impl<'a> Context<'a> {
             |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
         let size_of = |cam: usize| -> Result<ImageSize> {
             let path = split.image_path(cam, first);
-            let (w, h) = png_io::read_size(&read_file(&path)?, &path)?;
+            let (w, h) = png::read_size(&read_file(&path)?, &path)?;
             Ok(ImageSize::new(w, h))
         };
         let mut cameras = Vec::new();
@@ -174,10 +177,10 @@ impl<'a> Context<'a> {
             .collect();
         let text = calib.render_output(&cameras);
         let path = self.job.output.join(&split.name).join(rel);
-        output::write_atomic(&path, text.as_bytes())?;
+        fs::write_atomic(&path, text.as_bytes())?;
         let entry = (
             relative(&self.job.output, &path),
-            output::hash_hex(text.as_bytes()),
+            fs::hash_hex(text.as_bytes()),
         );
         self.split_files
             .lock()
@@ -196,7 +199,7 @@ impl<'a> Context<'a> {
             Layout::Object => {
                 let path = split.calib_path(id);
                 let bytes = read_file(&path)?;
-                inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+                inputs.push((relative(root, &path), fs::hash_hex(&bytes)));
                 (Calib::parse(&path, split_lines(&bytes, &path)?)?, path)
             }
             Layout::Raw { calib } => ((**calib).clone(), calib.path.clone()),
@@ -212,7 +215,7 @@ impl<'a> Context<'a> {
         let labels = if split.has_labels {
             let path = split.label_path(id);
             let bytes = read_file(&path)?;
-            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            inputs.push((relative(root, &path), fs::hash_hex(&bytes)));
             Some(LabelFile::parse(&path, split_lines(&bytes, &path)?)?)
         } else {
             None
@@ -220,7 +223,7 @@ impl<'a> Context<'a> {
 
         let image_path = split.image_path(2, id);
         let image = read_png(&image_path, |bytes| {
-            inputs.push((relative(root, &image_path), output::hash_hex(bytes)));
+            inputs.push((relative(root, &image_path), fs::hash_hex(bytes)));
         })?;
         let size = ImageSize::new(image.width(), image.height());
         let objects = |camera: &dyn CameraModel| -> u32 {
@@ -250,7 +253,7 @@ impl<'a> Context<'a> {
             let cam3 = calib.camera(3)?;
             let path = split.image_path(3, id);
             let img = read_png(&path, |bytes| {
-                inputs.push((relative(root, &path), output::hash_hex(bytes)));
+                inputs.push((relative(root, &path), fs::hash_hex(bytes)));
             })?;
             let size3 = ImageSize::new(img.width(), img.height());
             let views3 = self.views(split, id, &calib_path, cam3.k, size3, Draw::As(&attempts))?;
@@ -263,7 +266,7 @@ impl<'a> Context<'a> {
         let lidar = if self.job.depth.is_some() {
             let path = split.velodyne_path(id);
             let bytes = read_file(&path)?;
-            inputs.push((relative(root, &path), output::hash_hex(&bytes)));
+            inputs.push((relative(root, &path), fs::hash_hex(&bytes)));
             let scan = velodyne::parse(&bytes, &path)?;
             let r0 = calib
                 .r0_rect
@@ -322,7 +325,7 @@ impl<'a> Context<'a> {
         // source warped row by row as the encoder takes the rows.
         let encode_view = |i: usize, cam: usize, table: &RemapTable| {
             if after_warp {
-                png_io::encode_rgb8(&images[i * cameras_per_view + cam], compression)
+                png::encode_rgb8(&images[i * cameras_per_view + cam], compression)
             } else {
                 warp_encode(table, &images[cam], compression)
             }
@@ -377,7 +380,7 @@ impl<'a> Context<'a> {
                 });
                 outputs.push((
                     out(OutputKind::Depth, &view_id).expect("every layout has depth maps"),
-                    png_io::encode_gray16(
+                    png::encode_gray16(
                         map.width,
                         map.height,
                         &map.to_u16(),
@@ -414,8 +417,8 @@ impl<'a> Context<'a> {
 
         let mut record_outputs = Vec::new();
         for (path, bytes) in &outputs {
-            output::write_atomic(path, bytes)?;
-            record_outputs.push((relative(&self.job.output, path), output::hash_hex(bytes)));
+            fs::write_atomic(path, bytes)?;
+            record_outputs.push((relative(&self.job.output, path), fs::hash_hex(bytes)));
         }
         if let Some(file) = self
             .split_files
@@ -551,7 +554,7 @@ fn read_png(path: &Path, seen: impl FnOnce(&[u8])) -> Result<RgbImage> {
         let buf = borrowed.as_deref_mut().unwrap_or(&mut own);
         read_file_into(path, buf)?;
         seen(buf);
-        png_io::decode_rgb8(buf, path)
+        png::decode_rgb8(buf, path)
     })
 }
 
@@ -576,14 +579,14 @@ pub(super) struct Prepared {
 /// The mask of a table's output: white where every tap of the pixel lies inside the source.
 fn encode_mask(table: &RemapTable) -> Vec<u8> {
     let size = table.size();
-    png_io::encode_mask(size.width, size.height, |u, v| table.is_inside(u, v))
+    png::encode_mask(size.width, size.height, |u, v| table.is_inside(u, v))
 }
 
 /// Warps `src` row by row as the PNG encoder takes the rows, so that the warped image never
 /// has to exist whole.
 fn warp_encode(table: &RemapTable, src: &RgbImage, compression: PngCompression) -> Vec<u8> {
     let size = table.size();
-    png_io::encode_rgb8_rows(size.width, size.height, compression, |v, row| {
+    png::encode_rgb8_rows(size.width, size.height, compression, |v, row| {
         table.apply_row(src, v, row)
     })
 }

@@ -6,9 +6,11 @@
 //! writes, or, for a plain KITTI calib, the perspective camera of `P2`.
 
 use crate::camera::{CameraModel, ImageSize, OutputCamera};
-use crate::error::{read_file, Error, Result};
+use crate::codec::png;
+use crate::error::{Error, Result};
+use crate::fs::read_file;
 use crate::image::RgbImage;
-use crate::kitti::{png_io, Calib, Label};
+use crate::kitti::{Calib, Label};
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -416,12 +418,12 @@ pub fn render_frame(
     let calib_path = dir.join("calib").join(format!("{id}.txt"));
     let label_path = dir.join("label_2").join(format!("{id}.txt"));
     let depth_path = dir.join("depth_2").join(format!("{id}.png"));
-    let mut image = png_io::decode_rgb8(&read_file(&image_path)?, &image_path)?;
+    let mut image = png::decode_rgb8(&read_file(&image_path)?, &image_path)?;
     let calib = Calib::read(&calib_path)?;
     let size = ImageSize::new(image.width(), image.height());
     let (camera, centre) = frame_camera(&calib, size)?;
     if options.depth && depth_path.is_file() {
-        let (w, h, values) = png_io::decode_gray16(&read_file(&depth_path)?, &depth_path)?;
+        let (w, h, values) = png::decode_gray16(&read_file(&depth_path)?, &depth_path)?;
         if !overlay_depth(&mut image, w, h, &values) {
             return Err(Error::file(
                 &depth_path,

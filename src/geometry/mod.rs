@@ -5,6 +5,8 @@
 //! and the canvas is the tight bounding box of the source field of view in the target
 //! projection, rounded outward to whole pixels.
 
+pub mod augment;
+
 use crate::camera::{
     CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, LinearCamera, OutputCamera, Projection,
 };

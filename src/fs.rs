@@ -1,9 +1,51 @@
-//! Writing outputs: atomic files, the output-folder checks, and the manifest.
+//! File-system access with the error tagging of `error.rs`: reading whole files and lines,
+//! atomic writes, the output-folder checks and content hashes.
 
 use crate::error::{Error, Result};
-use serde::Serialize;
 use std::io::Write;
 use std::path::{Component, Path, PathBuf};
+
+/// Reads a whole file, tagging failures with its path.
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
+/// Reads a whole file into `buf` (cleared first), reusing its allocation.
+pub fn read_file_into(path: &Path, buf: &mut Vec<u8>) -> Result<()> {
+    use std::io::Read;
+    buf.clear();
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    if let Ok(meta) = file.metadata() {
+        buf.reserve(meta.len() as usize);
+    }
+    file.read_to_end(buf).map_err(|e| Error::io(path, e))?;
+    Ok(())
+}
+
+/// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
+pub fn read_lines(path: &Path) -> Result<Vec<String>> {
+    split_lines(&read_file(path)?, path)
+}
+
+/// The lines of a text file already read (LF or CRLF); `path` tags a non-UTF-8 line.
+pub fn split_lines(bytes: &[u8], path: &Path) -> Result<Vec<String>> {
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .map(|(i, raw)| {
+            let raw = raw.strip_suffix(b"\r").unwrap_or(raw);
+            String::from_utf8(raw.to_vec())
+                .map_err(|_| Error::parse(path, i + 1, "text", "line is not valid UTF-8"))
+        })
+        .collect::<Result<Vec<_>>>()
+        .map(|mut lines| {
+            // A final newline leaves one empty element behind, not a line.
+            if lines.last().is_some_and(|l| l.is_empty()) {
+                lines.pop();
+            }
+            lines
+        })
+}
 
 /// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so a
 /// reader (or a killed process) never sees a half-written file. Not fsynced: a frame's files
@@ -122,61 +164,4 @@ pub fn check_output_dir(input: &Path, output: &Path, overwrite: bool) -> Result<
 
 pub fn hash_hex(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
-}
-
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct FrameRecord {
-    pub split: String,
-    pub id: String,
-    pub status: FrameStatus,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub error: Option<String>,
-    /// Input file (relative to the input root) → blake3.
-    pub inputs: Vec<(String, String)>,
-    /// Output file (relative to the output root) → blake3.
-    pub outputs: Vec<(String, String)>,
-    /// With --augment: each view's output id and how it was drawn.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub views: Vec<ViewRecord>,
-    /// With --depth: what happened to the LiDAR points (of the last view).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lidar: Option<LidarRecord>,
-}
-
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct LidarRecord {
-    pub points: usize,
-    pub dropped_non_finite: usize,
-    pub dropped_occluded: usize,
-    pub depth_pixels: usize,
-}
-
-impl FrameRecord {
-    /// The record of a frame that failed: its error, no outputs.
-    pub fn failed(split: &str, id: &str, error: &crate::error::Error) -> Self {
-        Self {
-            split: split.to_owned(),
-            id: id.to_owned(),
-            status: FrameStatus::Failed,
-            error: Some(error.to_string()),
-            inputs: Vec::new(),
-            outputs: Vec::new(),
-            views: Vec::new(),
-            lidar: None,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct ViewRecord {
-    pub id: String,
-    #[serde(flatten, skip_serializing_if = "Option::is_none")]
-    pub view: Option<crate::augment::View>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FrameStatus {
-    Ok,
-    Failed,
 }

@@ -1,9 +1,11 @@
 //! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
 
-use super::png_decode;
-use super::png_encode::{encode_rows, Header, RowFilter};
+pub mod decode;
+pub mod encode;
+
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
+use encode::{encode_rows, Header, RowFilter};
 use std::path::Path;
 
 /// Largest image accepted (a 16384x8192 panorama is 134 Mpx).
@@ -32,7 +34,7 @@ pub enum PngCompression {
 /// Decodes a PNG, tagging any failure with `path`. Alpha is dropped (KITTI images are opaque);
 /// 16-bit samples are rounded to 8 bits.
 pub fn decode_rgb8(bytes: &[u8], path: &Path) -> Result<RgbImage> {
-    if let Some((width, height, data)) = png_decode::decode_rgb8(bytes, MAX_PIXELS) {
+    if let Some((width, height, data)) = decode::decode_rgb8(bytes, MAX_PIXELS) {
         return Ok(RgbImage::from_raw(width, height, data).expect("width · height · 3 bytes"));
     }
     decode_rgb8_with_png_crate(bytes, path)

@@ -12,7 +12,8 @@ mod merge;
 mod pretty;
 
 use crate::error::{Error, Result};
-use crate::output::{hash_hex, FrameRecord, FrameStatus};
+use crate::fs::hash_hex;
+use crate::run::manifest::{FrameRecord, FrameStatus};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::HashMap;
@@ -60,7 +61,7 @@ fn journal_path(manifest: &Path) -> PathBuf {
     manifest.with_extension("journal")
 }
 
-/// Checks the output (see [`crate::output::check_output_dir`]) and takes its lock, so one
+/// Checks the output (see [`crate::fs::check_output_dir`]) and takes its lock, so one
 /// process at a time converts into it (one per shard). A live holder is named in the
 /// refusal, before the folder is found non-empty.
 pub fn claim_output(
@@ -70,7 +71,7 @@ pub fn claim_output(
     allow_nonempty: bool,
 ) -> Result<OutputLock> {
     lock::refuse_if_held(output, shard)?;
-    crate::output::check_output_dir(input, output, allow_nonempty)?;
+    crate::fs::check_output_dir(input, output, allow_nonempty)?;
     let existed = output.exists();
     std::fs::create_dir_all(output).map_err(|e| Error::io(output, e))?;
     let mut lock = lock::acquire(output, shard).inspect_err(|_| {

@@ -1,11 +1,11 @@
 //! Views of equirect panoramas and of fisheye cameras: the planners `panoconv pano` and
-//! `panoconv fisheye` hand to [`crate::folder::run_folder`].
+//! `panoconv fisheye` hand to [`crate::convert::folder::run_folder`].
 
 use crate::camera::description::CameraDescription;
 use crate::camera::rotated::rotation_ypr;
 use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, ProjectionReject};
+use crate::convert::folder::{view_camera, View};
 use crate::error::{Error, Result};
-use crate::folder::{view_camera, View};
 use crate::warp::{RemapTable, Wrap};
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::f64::consts::PI;

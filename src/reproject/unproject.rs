@@ -18,7 +18,7 @@
 use crate::camera::{CameraModel, OutputCamera};
 use crate::error::{Error, Result};
 use crate::kitti::Label;
-use crate::labels::{box_bounds, clip};
+use crate::reproject::labels::{box_bounds, clip};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
 use std::path::Path;

@@ -1,13 +1,15 @@
-//! Folder commands around the pixel-object format (see [`crate::unproject`]):
+//! Folder commands around the pixel-object format (see [`crate::reproject::unproject`]):
 //! `labels-to-pixels` (training targets from a converted dataset) and `unproject` (detector
 //! outputs back to KITTI 3D results). Each frame needs the calib panoconv wrote and the image
 //! beside it (for its size).
 
 use crate::camera::{ImageSize, OutputCamera};
-use crate::error::{read_file, read_lines, Error, Result};
-use crate::kitti::{png_io, Calib, LabelFile};
-use crate::output::write_atomic;
-use crate::unproject::{
+use crate::codec::png;
+use crate::error::{Error, Result};
+use crate::fs::write_atomic;
+use crate::fs::{read_file, read_lines};
+use crate::kitti::{Calib, LabelFile};
+use crate::reproject::unproject::{
     format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale,
 };
 use nalgebra::Vector3;
@@ -47,7 +49,7 @@ fn frame_camera(
 ) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
     let calib = Calib::read(&calib_dir.join(format!("{id}.txt")))?;
     let image = images_dir.join(format!("{id}.png"));
-    let (w, h) = png_io::read_size(&read_file(&image)?, &image)?;
+    let (w, h) = png::read_size(&read_file(&image)?, &image)?;
     calib.output_camera(2, ImageSize::new(w, h))
 }
 

@@ -2,8 +2,10 @@
 //! calibrations, small objects) and what is wrong with it (missing files, malformed lines),
 //! using the same parsers as the conversion.
 
-use crate::error::{read_lines, Error, Result};
-use crate::kitti::{png_io, Calib, Dataset, Label};
+use crate::codec::png;
+use crate::error::{Error, Result};
+use crate::fs::read_lines;
+use crate::kitti::{Calib, Dataset, Label};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -147,9 +149,9 @@ fn png_size(path: &Path) -> Result<(u32, u32)> {
     std::fs::File::open(path)
         .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
         .map_err(|e| Error::io(path, e))?;
-    match png_io::read_size(&head, path) {
+    match png::read_size(&head, path) {
         Ok(s) => Ok(s),
-        Err(_) => png_io::read_size(&crate::error::read_file(path)?, path),
+        Err(_) => png::read_size(&crate::fs::read_file(path)?, path),
     }
 }
 

@@ -1,0 +1,53 @@
+//! Running many items: progress reporting, the run's summary, values built once and shared
+//! between frames, the manifest's records, the journal, and files derived from an output.
+
+pub mod alloc;
+pub mod derived;
+pub mod journal;
+pub mod manifest;
+mod once_map;
+
+pub use once_map::OnceMap;
+
+use crate::error::Error;
+use crate::kitti::FrameRef;
+
+/// Reports progress; the CLI passes an indicatif bar, tests a no-op.
+pub trait Progress: Sync {
+    fn start(&self, total: usize);
+    fn frame_done(&self);
+    /// A frame failed: report it (once) without disturbing the bar.
+    fn frame_failed(&self, frame: &FrameRef, error: &Error);
+    fn finish(&self);
+}
+
+/// A progress reporter that says nothing.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn start(&self, _: usize) {}
+    fn frame_done(&self) {}
+    fn frame_failed(&self, _: &FrameRef, _: &Error) {}
+    fn finish(&self) {}
+}
+
+#[derive(Debug)]
+pub struct Summary {
+    pub frames: usize,
+    pub converted: usize,
+    pub failed: usize,
+    /// Frames a previous run had completed (--resume).
+    pub resumed: usize,
+    /// Stopped by SIGINT/SIGTERM before every frame was taken.
+    pub interrupted: bool,
+    /// Stopped because the output device refused writes: what to tell the user.
+    pub device_full: Option<String>,
+    pub seconds: f64,
+    /// Distinct (source camera → output camera) mappings built.
+    pub tables_built: usize,
+    /// Style model runs and the images they took (batch checks included), if styled.
+    pub style_runs: Option<(usize, usize)>,
+    /// With --augment: the views holding fewer objects than asked (at least one), and that
+    /// minimum.
+    pub thin_views: Option<(usize, usize)>,
+}
