@@ -25,8 +25,10 @@ pub enum Error {
     /// A problem with the run's set-up (paths, options); nothing has been written.
     #[error("{0}")]
     Setup(String),
+    /// A failure of the style model (a `style::StyleError`), boxed so that this lowest layer
+    /// does not depend on the ONNX code above it.
     #[error(transparent)]
-    Style(#[from] crate::style::StyleError),
+    Style(Box<dyn std::error::Error + Send + Sync>),
     /// The output device refused writes (full, over quota, read-only) and the run stopped;
     /// the message says how far it got and what to do.
     #[error("{0}")]

@@ -6,7 +6,6 @@
 use super::lens::Lens;
 use super::{CameraModel, ImageSize, Intrinsics, Projection, ProjectionReject};
 use nalgebra::{Matrix3, Point2, Vector3};
-use std::f64::consts::PI;
 
 /// A camera an image is written in. Bearings in and out are in the frame the labels live in
 /// (KITTI's rect axes: x right, y down, z forward), relative to the camera's optical centre.
@@ -26,10 +25,9 @@ pub trait OutputCamera: CameraModel {
     fn centre_intrinsics(&self) -> Intrinsics {
         self.intrinsics()
     }
-    /// The calib lines of camera `n` besides `K{n}:` and `C{n}:` (none for the linear
-    /// projections, whose K says everything).
-    fn calib_lines(&self, _n: usize) -> Vec<String> {
-        Vec::new()
+    /// The fisheye lens and its axes, when this is one (the calib writer adds their lines).
+    fn as_fisheye(&self) -> Option<&FisheyeCamera> {
+        None
     }
     /// A boxed copy.
     fn boxed_output(&self) -> Box<dyn OutputCamera>;
@@ -70,15 +68,6 @@ impl CameraModel for FisheyeCamera {
     }
 }
 
-/// KITTI's number style (`%.12e`).
-fn join_sci(values: &[f64]) -> String {
-    values
-        .iter()
-        .map(|&v| crate::kitti::calib::format_sci(v))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
 impl OutputCamera for FisheyeCamera {
     fn projection(&self) -> Projection {
         Projection::Fisheye
@@ -107,24 +96,8 @@ impl OutputCamera for FisheyeCamera {
         self.lens.centre_intrinsics()
     }
 
-    /// `model{n}:` the lens model, `D{n}:` its parameters (in [`Lens::parameters`]'s order),
-    /// `fov{n}:` its full field of view in degrees, `R{n}:` the camera's axes in rect (row-major).
-    fn calib_lines(&self, n: usize) -> Vec<String> {
-        let values: Vec<f64> = self.lens.parameters().iter().map(|(_, v)| *v).collect();
-        let r = &self.rect_from_camera;
-        let rows: Vec<f64> = (0..3)
-            .flat_map(|i| (0..3).map(move |j| r[(i, j)]))
-            .collect();
-        let mut lines = vec![format!("model{n}: {}", self.lens.name())];
-        if !values.is_empty() {
-            lines.push(format!("D{n}: {}", join_sci(&values)));
-        }
-        lines.push(format!(
-            "fov{n}: {}",
-            join_sci(&[2.0 * self.lens.max_theta() * 180.0 / PI])
-        ));
-        lines.push(format!("R{n}: {}", join_sci(&rows)));
-        lines
+    fn as_fisheye(&self) -> Option<&FisheyeCamera> {
+        Some(self)
     }
 
     fn boxed_output(&self) -> Box<dyn OutputCamera> {

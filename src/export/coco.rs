@@ -152,7 +152,7 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
                 iscrowd: 0,
                 truncated: label.truncated,
                 occluded: label.occluded,
-                distance: crate::tools::preview::label_distance(
+                distance: crate::reproject::labels::label_distance(
                     label,
                     f.camera.as_ref(),
                     &f.centre,

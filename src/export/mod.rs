@@ -262,7 +262,7 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
     let (w, h) = image_size(&image)?;
     let size = ImageSize::new(w, h);
     let calib = Calib::read(&split.calib_path(id))?;
-    let (camera, centre) = crate::tools::preview::frame_camera(&calib, size)?;
+    let (camera, centre) = calib.image_camera(2, size)?;
     let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
     if split.has_labels {
         let path = split.label_path(id);

@@ -259,6 +259,21 @@ impl Calib {
         Ok(SourceCamera { k, centre: -t })
     }
 
+    /// The camera image `n` was taken or written with: the output camera when panoconv's lines
+    /// are present (a converted dataset), else the perspective camera of `Pn` (plain KITTI).
+    pub fn image_camera(
+        &self,
+        n: usize,
+        size: ImageSize,
+    ) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
+        if self.projection.is_some() {
+            self.output_camera(n, size)
+        } else {
+            let c = self.camera(n)?;
+            Ok((Box::new(c.camera(size)), c.centre))
+        }
+    }
+
     /// The camera `n` a converted image was written with (`projection:`, `Kn:`, `Cn:` lines,
     /// and for a fisheye the lens lines), and its centre.
     pub fn output_camera(
@@ -334,9 +349,8 @@ impl Calib {
         for (n, cam, c) in cameras {
             out.push_str(&format!("K{n}: {}\n", join_sci(&cam.intrinsics().matrix())));
             out.push_str(&format!("C{n}: {}\n", join_sci(&[c.x, c.y, c.z])));
-            for line in cam.calib_lines(*n) {
-                out.push_str(&line);
-                out.push('\n');
+            if let Some(fisheye) = cam.as_fisheye() {
+                out.push_str(&lens_lines(*n, fisheye));
             }
         }
         out
@@ -355,6 +369,27 @@ pub fn format_sci(v: f64) -> String {
     format!("{mantissa}e{sign}{:02}", exp.abs())
 }
 
+/// `model{n}:` the lens model, `D{n}:` its parameters (in [`Lens::parameters`]'s order, absent
+/// when there are none), `fov{n}:` its full field of view in degrees, `R{n}:` the camera's axes
+/// in rect (row-major).
+///
+/// [`Lens::parameters`]: crate::camera::Lens::parameters
+fn lens_lines(n: usize, camera: &FisheyeCamera) -> String {
+    let values: Vec<f64> = camera.lens.parameters().iter().map(|(_, v)| *v).collect();
+    let r = &camera.rect_from_camera;
+    let rows: Vec<f64> = (0..3)
+        .flat_map(|i| (0..3).map(move |j| r[(i, j)]))
+        .collect();
+    let mut out = format!("model{n}: {}\n", camera.lens.name());
+    if !values.is_empty() {
+        out.push_str(&format!("D{n}: {}\n", join_sci(&values)));
+    }
+    let fov_deg = 2.0 * camera.lens.max_theta() * 180.0 / std::f64::consts::PI;
+    out.push_str(&format!("fov{n}: {}\n", join_sci(&[fov_deg])));
+    out.push_str(&format!("R{n}: {}\n", join_sci(&rows)));
+    out
+}
+
 fn join_sci(values: &[f64]) -> String {
     values
         .iter()
@@ -367,13 +402,43 @@ fn join_sci(values: &[f64]) -> String {
 mod tests {
     use super::*;
 
+    /// KITTI's most common calibration: f = 721.5377, camera 2 six cm left of camera 0,
+    /// camera 3 0.537 m right of camera 2; P = K·[I | −C].
     fn standard() -> Calib {
-        let text = crate::tools::synth::SynthCalib::standard().text();
-        Calib::parse(
-            Path::new("c.txt"),
-            text.lines().map(str::to_owned).collect(),
-        )
-        .unwrap()
+        let k = Intrinsics::new(721.5377, 721.5377, 609.5593, 172.854);
+        let p = |c: Vector3<f64>| {
+            let t = -c;
+            join_sci(&[
+                k.fu,
+                0.0,
+                k.cu,
+                k.fu * t.x + k.cu * t.z,
+                0.0,
+                k.fv,
+                k.cv,
+                k.fv * t.y + k.cv * t.z,
+                0.0,
+                0.0,
+                1.0,
+                t.z,
+            ])
+        };
+        let c2 = Vector3::new(-0.0598, 0.0004, -0.0027);
+        let lines = vec![
+            format!("P0: {}", p(Vector3::zeros())),
+            format!("P1: {}", p(Vector3::new(0.537, 0.0, 0.0))),
+            format!("P2: {}", p(c2)),
+            format!("P3: {}", p(c2 + Vector3::new(0.537, 0.0, 0.0))),
+            format!(
+                "R0_rect: {}",
+                join_sci(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+            ),
+            format!(
+                "Tr_velo_to_cam: {}",
+                join_sci(&[0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, -0.08, 1.0, 0.0, 0.0, -0.27])
+            ),
+        ];
+        Calib::parse(Path::new("c.txt"), lines).unwrap()
     }
 
     #[test]

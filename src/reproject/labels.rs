@@ -423,3 +423,17 @@ pub fn transform_label(
         (label.truncated >= 0.0).then(|| label.truncated.max(clipped_fraction(unclipped, clipped)));
     Some(label.to_line_with(clipped, truncated))
 }
+
+/// The distance the projection pairs with (z, range or cylindrical rho, see the spec) of the
+/// centre of the label's 3D box, seen from the camera centre; None without a 3D box.
+pub fn label_distance(
+    label: &Label,
+    camera: &dyn CameraModel,
+    centre: &Vector3<f64>,
+) -> Option<f64> {
+    if !label.has_box_3d() {
+        return None;
+    }
+    let mid = label.location - Vector3::new(0.0, label.dimensions[0] / 2.0, 0.0) - centre;
+    Some(camera.distance(&mid))
+}

@@ -156,6 +156,12 @@ pub enum StyleError {
     },
 }
 
+impl From<StyleError> for crate::error::Error {
+    fn from(e: StyleError) -> Self {
+        crate::error::Error::Style(Box::new(e))
+    }
+}
+
 /// One spatial axis of the model input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Axis {

@@ -5,12 +5,13 @@
 //! The camera comes from the calib alone: the `projection:`, `K2:` and `C2:` lines panoconv
 //! writes, or, for a plain KITTI calib, the perspective camera of `P2`.
 
-use crate::camera::{CameraModel, ImageSize, OutputCamera};
+use crate::camera::{CameraModel, ImageSize};
 use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_file;
 use crate::image::RgbImage;
 use crate::kitti::{Calib, Label};
+use crate::reproject::labels::label_distance;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -110,20 +111,6 @@ pub fn draw_box_2d(img: &mut RgbImage, bbox: [f64; 4], colour: [u8; 3]) {
     draw_segment(img, (r, t), (r, b), colour);
     draw_segment(img, (r, b), (l, b), colour);
     draw_segment(img, (l, b), (l, t), colour);
-}
-
-/// The distance the projection pairs with (z, range or cylindrical rho, see the spec) of the
-/// centre of the label's 3D box, seen from the camera centre; None without a 3D box.
-pub fn label_distance(
-    label: &Label,
-    camera: &dyn CameraModel,
-    centre: &Vector3<f64>,
-) -> Option<f64> {
-    if !label.has_box_3d() {
-        return None;
-    }
-    let mid = label.location - Vector3::new(0.0, label.dimensions[0] / 2.0, 0.0) - centre;
-    Some(camera.distance(&mid))
 }
 
 /// The text drawn next to a box: class and distance, e.g. `Car 12.3m`.
@@ -373,20 +360,6 @@ pub fn overlay_depth(img: &mut RgbImage, width: u32, height: u32, values: &[u16]
 // ---------------------------------------------------------------------------------------------
 // Frames and contact sheets
 
-/// The camera a frame's image was written with: from panoconv's added lines when present,
-/// else the perspective camera of `P2` (plain KITTI).
-pub fn frame_camera(
-    calib: &Calib,
-    size: ImageSize,
-) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
-    if calib.projection.is_some() {
-        calib.output_camera(2, size)
-    } else {
-        let c = calib.camera(2)?;
-        Ok((Box::new(c.camera(size)), c.centre))
-    }
-}
-
 /// What to draw on a preview.
 #[derive(Debug, Clone, Copy)]
 pub struct PreviewOptions {
@@ -421,7 +394,7 @@ pub fn render_frame(
     let mut image = png::decode_rgb8(&read_file(&image_path)?, &image_path)?;
     let calib = Calib::read(&calib_path)?;
     let size = ImageSize::new(image.width(), image.height());
-    let (camera, centre) = frame_camera(&calib, size)?;
+    let (camera, centre) = calib.image_camera(2, size)?;
     if options.depth && depth_path.is_file() {
         let (w, h, values) = png::decode_gray16(&read_file(&depth_path)?, &depth_path)?;
         if !overlay_depth(&mut image, w, h, &values) {
