@@ -376,7 +376,7 @@ fn convert(
         raw,
         frames,
         overwrite: args.run.overwrite,
-        png_compression: args.run.png_compression,
+        png_compression: args.run.png_compression(),
         cameras: {
             let mut c = args.cameras.clone();
             c.sort_unstable();

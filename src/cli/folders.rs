@@ -168,7 +168,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
         input: a.input.clone(),
         output: a.output.clone(),
         overwrite: a.run.overwrite,
-        png_compression: a.run.png_compression,
+        png_compression: a.run.png_compression(),
         parameters: serde_json::json!({
             "input": a.input,
             "camera": args.camera,
@@ -177,7 +177,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
             "hfov_deg": hfov.to_degrees(),
             "vfov_deg": vfov.to_degrees(),
             "scale": spec.scale,
-            "png_compression": a.run.png_compression,
+            "png_compression": a.run.png_compression(),
         }),
     };
     let planner = move |s: panoconv::camera::ImageSize| {
@@ -230,11 +230,11 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
         input: a.input.clone(),
         output: a.output.clone(),
         overwrite: a.run.overwrite,
-        png_compression: a.run.png_compression,
+        png_compression: a.run.png_compression(),
         parameters: serde_json::json!({
             "input": a.input,
             "views": &views,
-            "png_compression": a.run.png_compression,
+            "png_compression": a.run.png_compression(),
         }),
     };
     let planner = |s: panoconv::camera::ImageSize| views.plan(s);

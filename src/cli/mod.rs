@@ -168,11 +168,30 @@ struct RunArgs {
     #[arg(long)]
     pub(super) overwrite: bool,
     /// PNG compression effort.
-    #[arg(long, value_enum, default_value_t = PngCompression::Default)]
-    pub(super) png_compression: PngCompression,
+    #[arg(long, value_enum, default_value_t = CompressionArg::Default)]
+    png_compression: CompressionArg,
     /// No progress bar and no summary line.
     #[arg(long, short = 'q')]
     pub(super) quiet: bool,
+}
+
+impl RunArgs {
+    /// The encoder setting `--png-compression` names.
+    fn png_compression(&self) -> PngCompression {
+        match self.png_compression {
+            CompressionArg::Fast => PngCompression::Fast,
+            CompressionArg::Default => PngCompression::Default,
+            CompressionArg::Best => PngCompression::Best,
+        }
+    }
+}
+
+/// `--png-compression`'s values (the library's `PngCompression` knows nothing of clap).
+#[derive(Clone, Copy, ValueEnum)]
+enum CompressionArg {
+    Fast,
+    Default,
+    Best,
 }
 
 /// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean).

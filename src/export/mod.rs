@@ -23,7 +23,6 @@ use crate::fs::read_lines;
 use crate::fs::{hash_hex, write_atomic};
 use crate::kitti::{Calib, Dataset, FrameRef, Label};
 use nalgebra::Vector3;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -259,7 +258,7 @@ type FrameParts = (
 
 fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Result<FrameParts> {
     let image = split.image_path(2, id);
-    let (w, h) = image_size(&image)?;
+    let (w, h) = png::read_file_size(&image)?;
     let size = ImageSize::new(w, h);
     let calib = Calib::read(&split.calib_path(id))?;
     let (camera, centre) = calib.image_camera(2, size)?;
@@ -289,18 +288,6 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
         }
     }
     Ok((size, camera, centre, objects, ignore_regions))
-}
-
-/// The size from the PNG header; only the file's start is read unless the header is longer.
-fn image_size(path: &Path) -> Result<(u32, u32)> {
-    let mut head = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
-        .map_err(|e| Error::io(path, e))?;
-    match png::read_size(&head, path) {
-        Ok(size) => Ok(size),
-        Err(_) => png::read_size(&crate::fs::read_file(path)?, path),
-    }
 }
 
 /// Writes a format's export of the dataset at `root` into `output`.

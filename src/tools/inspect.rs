@@ -9,7 +9,6 @@ use crate::kitti::{Calib, Dataset, Label};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::io::Read as _;
 use std::path::Path;
 
 /// Objects whose 2D box is less tall than this are ignored in training (Payen de La Garanderie
@@ -143,18 +142,6 @@ impl Problem {
     }
 }
 
-/// Image size from the PNG header (only the first 64 KiB are read unless the header is longer).
-fn png_size(path: &Path) -> Result<(u32, u32)> {
-    let mut head = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(64 * 1024).read_to_end(&mut head))
-        .map_err(|e| Error::io(path, e))?;
-    match png::read_size(&head, path) {
-        Ok(s) => Ok(s),
-        Err(_) => png::read_size(&crate::fs::read_file(path)?, path),
-    }
-}
-
 fn ids_in(dir: &Path, ext: &str) -> Vec<String> {
     let mut ids: Vec<String> = std::fs::read_dir(dir)
         .into_iter()
@@ -203,7 +190,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
         for id in &split.frames {
             let frame = format!("{}/{id}", split.name);
             let image_rel = rel("image_2", id, ".png");
-            match png_size(&split.image_path(2, id)) {
+            match png::read_file_size(&split.image_path(2, id)) {
                 Ok(s) => *sizes.entry(s).or_default() += 1,
                 Err(e) => problems.push(Problem::from_error(&image_rel, e)),
             }

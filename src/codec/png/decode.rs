@@ -8,9 +8,11 @@
 //! crate, whose errors panoconv reports. `tests/png.rs` checks the pixels equal the png
 //! crate's.
 
+use super::ColourType;
 use std::cell::RefCell;
 
-const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
+/// Bytes from the file's start to the end of the IHDR chunk.
+const HEADER_LEN: usize = 33;
 
 thread_local! {
     /// The IDAT data of the frame being decoded, gathered into one stream (a camera PNG has
@@ -21,24 +23,19 @@ thread_local! {
 /// The image's (width, height, RGB bytes), or `None` when this decoder does not take the file.
 /// `max_pixels` bounds what the header may ask for.
 pub fn decode_rgb8(bytes: &[u8], max_pixels: u64) -> Option<(u32, u32, Vec<u8>)> {
-    let rest = bytes.strip_prefix(&SIGNATURE)?;
-    let mut chunks = Chunks { rest };
-    let (kind, ihdr) = chunks.next()?;
-    if &kind != b"IHDR" || ihdr.len() != 13 {
-        return None;
-    }
-    let width = u32::from_be_bytes(ihdr[0..4].try_into().ok()?);
-    let height = u32::from_be_bytes(ihdr[4..8].try_into().ok()?);
-    // 8-bit, RGB, deflate, adaptive filtering, not interlaced
-    if ihdr[8..] != [8, 2, 0, 0, 0]
-        || width == 0
-        || height == 0
-        || width > i32::MAX as u32
-        || height > i32::MAX as u32
+    let header = super::read_header(bytes)?;
+    let (width, height) = (header.width, header.height);
+    // 8-bit RGB, not interlaced (read_header checked the rest)
+    if header.bit_depth != 8
+        || header.colour != ColourType::Rgb
+        || header.interlaced
         || width as u64 * height as u64 > max_pixels
     {
         return None;
     }
+    let mut chunks = Chunks {
+        rest: &bytes[HEADER_LEN..],
+    };
     STREAM.with_borrow_mut(|stream| {
         stream.clear();
         let mut seen_idat = false;

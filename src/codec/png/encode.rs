@@ -7,9 +7,9 @@
 //! (`tests/png.rs` compares them), including its fallback to stored blocks when deflate would
 //! be larger than the raw data.
 
+use super::{ColourType, SIGNATURE};
 use std::io::{Cursor, Write};
 
-const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
 /// The png crate's largest IDAT chunk (2^31 - 1 bytes); larger streams span several chunks.
 const MAX_CHUNK: usize = (u32::MAX >> 1) as usize;
 
@@ -25,8 +25,8 @@ pub enum RowFilter {
 pub struct Header {
     pub width: u32,
     pub height: u32,
-    /// PNG colour type: 0 grey, 2 RGB.
-    pub color_type: u8,
+    /// Grey or RGB.
+    pub colour: ColourType,
     pub bit_depth: u8,
     /// Bytes per pixel.
     pub bpp: usize,
@@ -37,7 +37,7 @@ impl Header {
         Self {
             width,
             height,
-            color_type: 2,
+            colour: ColourType::Rgb,
             bit_depth: 8,
             bpp: 3,
         }
@@ -47,7 +47,7 @@ impl Header {
         Self {
             width,
             height,
-            color_type: 0,
+            colour: ColourType::Grey,
             bit_depth: 16,
             bpp: 2,
         }
@@ -75,7 +75,7 @@ pub fn encode_rows(
     ihdr[..4].copy_from_slice(&header.width.to_be_bytes());
     ihdr[4..8].copy_from_slice(&header.height.to_be_bytes());
     ihdr[8] = header.bit_depth;
-    ihdr[9] = header.color_type;
+    ihdr[9] = header.colour as u8;
     write_chunk(&mut out, b"IHDR", &ihdr);
     let idat = out.len();
     // IDAT length and type, filled in once the stream's length is known

@@ -2,6 +2,9 @@
 
 pub mod decode;
 pub mod encode;
+mod header;
+
+pub use header::{read_file_size, read_header, read_size, ColourType, ImageHeader, SIGNATURE};
 
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
@@ -12,17 +15,7 @@ use std::path::Path;
 pub const MAX_PIXELS: u64 = 150_000_000;
 
 /// How hard the PNG encoder works: files are smaller or written faster.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    serde::Serialize,
-    serde::Deserialize,
-    clap::ValueEnum,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum PngCompression {
     Fast,
@@ -120,15 +113,6 @@ pub fn decode_rgb8_with_png_crate(bytes: &[u8], path: &Path) -> Result<RgbImage>
     RgbImage::from_raw(width, height, out).ok_or_else(|| bad("truncated image data".into()))
 }
 
-/// Reads just the image size from the header.
-pub fn read_size(bytes: &[u8], path: &Path) -> Result<(u32, u32)> {
-    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-    let reader = decoder
-        .read_info()
-        .map_err(|e| Error::file(path, format!("cannot decode PNG: {e}")))?;
-    Ok((reader.info().width, reader.info().height))
-}
-
 fn encoder_settings(
     c: PngCompression,
 ) -> (png::Compression, png::FilterType, png::AdaptiveFilterType) {
@@ -180,8 +164,8 @@ fn row_filter(c: PngCompression) -> Option<RowFilter> {
 /// The png crate's encoder with the settings of `c` (for `fast` and `default`, the reference
 /// that `tests/png.rs` compares the streamed encoder with).
 fn encode_with_png_crate(header: Header, data: &[u8], c: PngCompression) -> Vec<u8> {
-    let (color, depth) = match header.color_type {
-        2 => (png::ColorType::Rgb, png::BitDepth::Eight),
+    let (color, depth) = match header.colour {
+        ColourType::Rgb => (png::ColorType::Rgb, png::BitDepth::Eight),
         _ => (png::ColorType::Grayscale, png::BitDepth::Sixteen),
     };
     // Room for a typical camera image (about half its raw size) up front: growing the Vec by

@@ -95,16 +95,13 @@ fn source_cameras(split: &Split, id: &str, cameras: &[usize]) -> Vec<(Intrinsics
     found
 }
 
-/// Width and height from a PNG's IHDR chunk (the first 24 bytes).
+/// Width and height from the PNG's header.
 fn png_size(path: &Path) -> Option<ImageSize> {
-    let mut head = [0u8; 24];
+    let mut head = [0u8; 33];
     std::fs::File::open(path).ok()?.read_exact(&mut head).ok()?;
-    if head[..8] != *b"\x89PNG\r\n\x1a\n" || head[12..16] != *b"IHDR" {
-        return None;
-    }
-    let be = |at: usize| u32::from_be_bytes(head[at..at + 4].try_into().expect("4 bytes"));
-    let size = ImageSize::new(be(16), be(20));
+    let header = png::read_header(&head)?;
+    let size = ImageSize::new(header.width, header.height);
     // The header is untrusted: an image the decoder will refuse gets no table.
     let pixels = size.width as u64 * size.height as u64;
-    (pixels > 0 && pixels <= png::MAX_PIXELS).then_some(size)
+    (pixels <= png::MAX_PIXELS).then_some(size)
 }
