@@ -341,15 +341,7 @@ fn convert(
             }
         }
     }
-    let scale = match (args.pano_width, args.px_per_deg) {
-        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
-        (Some(w), _) => Scale::PanoWidth(w),
-        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
-            bail!(Error::Setup("--px-per-deg must be positive".into()))
-        }
-        (None, Some(d)) => Scale::PixelsPerDegree(d),
-        (None, None) => Scale::SourceFocal,
-    };
+    let scale = scale_of(args.pano_width, args.px_per_deg)?;
     let canvas = match (args.full_360, args.size) {
         (true, _) => Canvas::Full360,
         (false, Some(s)) => Canvas::Size(s),
@@ -418,17 +410,17 @@ fn convert(
     let bar = Bar::new(args.run.quiet);
     let summary = with_pool(args.run.jobs, || run_kitti(&job, &bar, &STOP))??;
     if !args.run.quiet {
-        let resumed = if summary.resumed > 0 {
-            format!(" ({} kept from the previous run)", summary.resumed)
+        let resumed = if summary.run.resumed > 0 {
+            format!(" ({} kept from the previous run)", summary.run.resumed)
         } else {
             String::new()
         };
         eprintln!(
             "panoconv: {} converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
-            count(summary.converted, "frame"),
-            summary.failed,
-            summary.seconds,
-            (summary.converted - summary.resumed) as f64 / summary.seconds.max(1e-9),
+            count(summary.run.converted, "frame"),
+            summary.run.failed,
+            summary.run.seconds,
+            (summary.run.converted - summary.run.resumed) as f64 / summary.run.seconds.max(1e-9),
             job.output.display()
         );
         if let Some((views, min)) = summary.thin_views {
@@ -446,15 +438,15 @@ fn convert(
             );
         }
     }
-    if let Some(full) = &summary.device_full {
+    if let Some(full) = &summary.run.device_full {
         eprintln!("panoconv: {full}");
         return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
     }
-    if summary.interrupted {
+    if summary.run.interrupted {
         eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
         return Ok(ExitCode::from(EXIT_INTERRUPTED));
     }
-    if summary.failed == 0 && !args.export.is_empty() {
+    if summary.run.failed == 0 && !args.export.is_empty() {
         let augmented = job.augment.is_some();
         // A resumed run replaces the export of the run it continues.
         let (overwrite, quiet) = (args.run.overwrite || args.resume, args.run.quiet);
@@ -467,7 +459,7 @@ fn convert(
             quiet,
         );
     }
-    Ok(if summary.failed > 0 {
+    Ok(if summary.run.failed > 0 {
         ExitCode::from(EXIT_FRAMES_FAILED)
     } else {
         ExitCode::SUCCESS

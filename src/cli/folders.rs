@@ -97,19 +97,6 @@ fn folder_projection(to: To) -> Result<Projection> {
     }
 }
 
-pub(super) fn view_scale(a: &FolderArgs) -> Result<panoconv::convert::pano::ViewScale> {
-    use panoconv::convert::pano::ViewScale;
-    Ok(match (a.pano_width, a.px_per_deg) {
-        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
-        (Some(w), _) => ViewScale::PanoWidth(w),
-        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
-            bail!(Error::Setup("--px-per-deg must be positive".into()))
-        }
-        (None, Some(d)) => ViewScale::PixelsPerDegree(d),
-        (None, None) => ViewScale::Source,
-    })
-}
-
 pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
     match v {
         Some(d) if !(d > 0.0 && d <= 360.0) => {
@@ -150,18 +137,17 @@ pub(super) fn run_folder_job(
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     use panoconv::camera::description::CameraDescription;
-    use panoconv::convert::pano::FisheyeView;
+    use panoconv::convert::pano::{FisheyeView, FolderScale};
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
         projection: folder_projection(a.to)?,
         hfov: degrees(a.fov, "--fov")?,
         vfov: degrees(a.vfov, "--vfov")?,
-        scale: view_scale(a)?,
+        scale: scale_of(a.pano_width, a.px_per_deg)?,
     };
-    let size = panoconv::camera::CameraModel::size(&desc.camera);
     // Built before anything is written (one camera, one table): errors are set-up errors.
-    let view = spec.plan(&desc)?;
+    let planner = spec.planner(&desc)?;
     let (hfov, vfov) = spec.fov(&desc);
     let job = panoconv::convert::folder::FolderJob {
         command: "fisheye",
@@ -176,17 +162,9 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
             "projection": spec.projection,
             "hfov_deg": hfov.to_degrees(),
             "vfov_deg": vfov.to_degrees(),
-            "scale": spec.scale,
+            "scale": FolderScale(spec.scale),
             "png_compression": a.run.png_compression(),
         }),
-    };
-    let planner = move |s: panoconv::camera::ImageSize| {
-        if s != size {
-            return Err(Error::Setup(format!(
-                "image is {s}, the camera description says {size}"
-            )));
-        }
-        Ok(vec![view.clone()])
     };
     run_folder_job(a, &job, &planner)
 }
@@ -222,7 +200,7 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
         pitch: args.pitch.to_radians(),
         hfov,
         vfov,
-        scale: view_scale(a)?,
+        scale: scale_of(a.pano_width, a.px_per_deg)?,
     };
     views.validate()?;
     let job = panoconv::convert::folder::FolderJob {

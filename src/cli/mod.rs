@@ -13,7 +13,6 @@ use panoconv::error::Error;
 use panoconv::geometry::augment::Augment;
 use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
 use panoconv::kitti::dataset::read_id_list;
-use panoconv::kitti::FrameRef;
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::run::journal::Shard;
 use panoconv::run::Progress;
@@ -137,6 +136,19 @@ fn projection_of(to: To) -> Projection {
     }
 }
 
+/// The output scale `--pano-width` or `--px-per-deg` asks for (default: the source's own).
+fn scale_of(pano_width: Option<u32>, px_per_deg: Option<f64>) -> Result<Scale> {
+    Ok(match (pano_width, px_per_deg) {
+        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
+        (Some(w), _) => Scale::PanoWidth(w),
+        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+            bail!(Error::Setup("--px-per-deg must be positive".into()))
+        }
+        (None, Some(d)) => Scale::PixelsPerDegree(d),
+        (None, None) => Scale::SourceFocal,
+    })
+}
+
 /// `1 frame`, `2 frames`.
 fn count(n: usize, noun: &str) -> String {
     if n == 1 {
@@ -228,14 +240,9 @@ impl Progress for Bar {
     fn frame_done(&self) {
         self.bar.inc(1);
     }
-    fn frame_failed(&self, frame: &FrameRef, error: &Error) {
-        let what = if frame.split.is_empty() {
-            format!("frame {}", frame.id)
-        } else {
-            format!("frame {}/{}", frame.split, frame.id)
-        };
+    fn frame_failed(&self, item: &str, error: &Error) {
         self.bar
-            .suspend(|| eprintln!("panoconv: {what} failed: {error}"));
+            .suspend(|| eprintln!("panoconv: frame {item} failed: {error}"));
         self.bar.inc(1);
     }
     fn finish(&self) {

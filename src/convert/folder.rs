@@ -6,13 +6,12 @@
 //! Same rules as the KITTI conversion: set-up problems fail before anything is written; a bad
 //! image is reported with its path, leaves no output, and the others are converted.
 
-use crate::camera::{ImageSize, Intrinsics, LinearCamera, Projection};
+use crate::camera::{ImageSize, LinearCamera};
 use crate::codec::png::{self as png, PngCompression};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
 use crate::kitti::calib::format_sci;
-use crate::kitti::FrameRef;
 use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::OnceMap;
@@ -20,7 +19,6 @@ use crate::run::{Progress, Summary};
 use crate::warp::RemapTable;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
-use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -48,81 +46,6 @@ pub struct FolderJob {
     pub png_compression: PngCompression,
     /// Recorded in the manifest as `parameters`.
     pub parameters: serde_json::Value,
-}
-
-/// Rounds up, forgiving floating-point noise so that an exact fit is not one pixel wider.
-fn ceil_px(x: f64) -> u32 {
-    (x - 1e-6).ceil().max(1.0) as u32
-}
-
-/// The output camera of a view centred on its own optical axis: `hfov`/`vfov` in radians,
-/// `fu`/`fv` in pixels per radian at the centre (per unit of tangent for perspective and for
-/// the cylindrical height). A 360° cylindrical or equirect view gets a width of exactly 2π·fu
-/// (fu rounded to fit) so that it wraps without a seam; an equirect view of 360°×180° is 2:1.
-pub fn view_camera(
-    projection: Projection,
-    fu: f64,
-    fv: f64,
-    hfov: f64,
-    vfov: f64,
-) -> Result<Box<dyn LinearCamera>> {
-    if !(fu > 0.0 && fu.is_finite() && fv > 0.0 && fv.is_finite()) {
-        return Err(Error::Setup(format!(
-            "invalid output scale {fu}x{fv} px/rad"
-        )));
-    }
-    let full = (hfov - 2.0 * PI).abs() < 1e-9;
-    let (max_h, max_v) = match projection {
-        Projection::Perspective => (PI, PI),
-        Projection::Cylindrical => (2.0 * PI, PI),
-        Projection::Equirect => (2.0 * PI, PI),
-        Projection::Fisheye => {
-            return Err(Error::Setup(
-                "folder views are equirect, cylindrical or perspective; a fisheye target is \
-                 `panoconv kitti --to fisheye --camera FILE`"
-                    .into(),
-            ))
-        }
-    };
-    let h_ok = hfov > 0.0 && (hfov < max_h || (full && projection != Projection::Perspective));
-    let v_ok = vfov > 0.0
-        && (vfov < max_v || (projection == Projection::Equirect && (vfov - PI).abs() < 1e-9));
-    if !h_ok || !v_ok {
-        return Err(Error::Setup(format!(
-            "a {projection} view cannot cover {:.3}°x{:.3}° (perspective: both below 180°; \
-             cylindrical: up to 360° wide and below 180° tall; equirect: up to 360°x180°)",
-            hfov.to_degrees(),
-            vfov.to_degrees()
-        )));
-    }
-    let (a_half, b_half) = match projection {
-        Projection::Perspective => ((hfov / 2.0).tan(), (vfov / 2.0).tan()),
-        Projection::Cylindrical => (hfov / 2.0, (vfov / 2.0).tan()),
-        Projection::Equirect | Projection::Fisheye => (hfov / 2.0, (vfov / 2.0).min(PI / 2.0)),
-    };
-    let (width, fu, cu) = if full {
-        let w = (2.0 * PI * fu).round().max(1.0) as u32;
-        (w, w as f64 / (2.0 * PI), w as f64 / 2.0 - 0.5)
-    } else {
-        let w = ceil_px(2.0 * a_half * fu);
-        (w, fu, (w as f64 - 1.0) / 2.0)
-    };
-    let (height, fv) = if projection == Projection::Equirect && full && vfov >= PI - 1e-9 {
-        let h = width.div_ceil(2);
-        (h, h as f64 / PI)
-    } else {
-        (ceil_px(2.0 * b_half * fv), fv)
-    };
-    if width > 65535 || height > 65535 {
-        return Err(Error::Setup(format!(
-            "output of {width}x{height} pixels is too large"
-        )));
-    }
-    let cv = (height as f64 - 1.0) / 2.0;
-    Ok(projection.camera(
-        Intrinsics::new(fu, fv, cu, cv),
-        ImageSize::new(width, height),
-    ))
 }
 
 /// The text written beside each output image.
@@ -303,11 +226,7 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
                     let _ = device_full.set(e);
                     return;
                 }
-                let f = FrameRef {
-                    split: String::new(),
-                    id: input.name.clone(),
-                };
-                progress.frame_failed(&f, &e);
+                progress.frame_failed(&input.name, &e);
                 FrameRecord::failed("", &input.name, &e)
             }
         };
@@ -334,8 +253,6 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
         interrupted: false,
         seconds: started.elapsed().as_secs_f64(),
         tables_built: ctx.views.len(),
-        style_runs: None,
-        thin_views: None,
     };
     Ok(summary)
 }

@@ -4,10 +4,12 @@
 use crate::camera::description::CameraDescription;
 use crate::camera::rotated::rotation_ypr;
 use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, ProjectionReject};
-use crate::convert::folder::{view_camera, View};
+use crate::convert::folder::View;
 use crate::error::{Error, Result};
+use crate::geometry::{view_camera, Scale};
 use crate::warp::{RemapTable, Wrap};
 use nalgebra::{Matrix3, Point2, Vector3};
+use serde::Serialize;
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -57,24 +59,24 @@ impl CameraModel for PanoSource {
     }
 }
 
-/// Output scale: pixels per radian at the view centre.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ViewScale {
-    /// The source's own resolution at its centre.
-    Source,
-    /// The width of a full 360° at this scale.
-    PanoWidth(u32),
-    PixelsPerDegree(f64),
+/// A scale as folder manifests write it (see [`serialize_scale`]).
+pub struct FolderScale(pub Scale);
+
+impl Serialize for FolderScale {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        serialize_scale(&self.0, s)
+    }
 }
 
-impl ViewScale {
-    fn px_per_rad(self, source: f64) -> f64 {
-        match self {
-            ViewScale::Source => source,
-            ViewScale::PanoWidth(w) => w as f64 / (2.0 * PI),
-            ViewScale::PixelsPerDegree(d) => d * 180.0 / PI,
-        }
+/// Folder manifests call the source's own scale `source` (KITTI manifests `source_focal`):
+/// the names of manifests already written.
+fn serialize_scale<S: serde::Serializer>(
+    scale: &Scale,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match scale {
+        Scale::SourceFocal => s.serialize_unit_variant("Scale", 0, "source"),
+        other => other.serialize(s),
     }
 }
 
@@ -88,7 +90,8 @@ pub struct PanoViews {
     pub pitch: f64,
     pub hfov: f64,
     pub vfov: f64,
-    pub scale: ViewScale,
+    #[serde(serialize_with = "serialize_scale")]
+    pub scale: Scale,
 }
 
 /// `_yaw90`, `_yaw-45`, `_yaw22.5` (degrees as given) when there are several views.
@@ -152,7 +155,8 @@ pub struct FisheyeView {
     /// projection).
     pub hfov: Option<f64>,
     pub vfov: Option<f64>,
-    pub scale: ViewScale,
+    #[serde(serialize_with = "serialize_scale")]
+    pub scale: Scale,
 }
 
 impl FisheyeView {
@@ -176,6 +180,24 @@ impl FisheyeView {
             _ => full.min(120f64.to_radians()),
         });
         (hfov, vfov)
+    }
+
+    /// The planner of a fisheye folder: the single view, built now (its errors are set-up
+    /// errors), for every image of the camera's size; an image of another size fails.
+    pub fn planner(
+        &self,
+        desc: &CameraDescription,
+    ) -> Result<impl Fn(ImageSize) -> Result<Vec<View>> + Sync> {
+        let view = self.plan(desc)?;
+        let size = desc.camera.size();
+        Ok(move |s: ImageSize| {
+            if s != size {
+                return Err(Error::Setup(format!(
+                    "image is {s}, the camera description says {size}"
+                )));
+            }
+            Ok(vec![view.clone()])
+        })
     }
 
     /// The single view of every image of the camera (built at set-up: errors are set-up errors).

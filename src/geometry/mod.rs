@@ -6,6 +6,9 @@
 //! projection, rounded outward to whole pixels.
 
 pub mod augment;
+mod view;
+
+pub use view::view_camera;
 
 use crate::camera::{
     CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, LinearCamera, OutputCamera, Projection,
@@ -24,7 +27,19 @@ pub enum Scale {
     SourceFocal,
     /// The width of a full 360° panorama at this scale (2048 gives 325.95 px/rad).
     PanoWidth(u32),
+    /// Pixels per degree at the centre.
     PixelsPerDegree(f64),
+}
+
+impl Scale {
+    /// Pixels per radian, given the source's own at its centre.
+    pub fn px_per_rad(self, source: f64) -> f64 {
+        match self {
+            Scale::SourceFocal => source,
+            Scale::PanoWidth(w) => w as f64 / (2.0 * PI),
+            Scale::PixelsPerDegree(d) => d * 180.0 / PI,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -254,11 +269,7 @@ fn canvas_camera(
     {
         return Ok(proj.camera(src_k, source.size()));
     }
-    let fu = match spec.scale {
-        Scale::SourceFocal => src_k.fu,
-        Scale::PanoWidth(w) => w as f64 / (2.0 * PI),
-        Scale::PixelsPerDegree(d) => d * 180.0 / PI,
-    };
+    let fu = spec.scale.px_per_rad(src_k.fu);
     if !(fu > 0.0 && fu.is_finite()) {
         return Err(Error::Setup(format!("invalid output scale {fu} px/rad")));
     }

@@ -46,8 +46,17 @@ pub struct Dataset {
 /// One frame to convert.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub struct FrameRef {
+    /// The split's name (`training`, `testing`, or a raw drive).
     pub split: String,
+    /// The frame id (the image's file stem).
     pub id: String,
+}
+
+impl std::fmt::Display for FrameRef {
+    /// `split/id`, as in messages and progress reports.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.split, self.id)
+    }
 }
 
 pub const SPLITS: [&str; 2] = ["training", "testing"];

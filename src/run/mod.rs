@@ -10,14 +10,14 @@ mod once_map;
 pub use once_map::OnceMap;
 
 use crate::error::Error;
-use crate::kitti::FrameRef;
 
 /// Reports progress; the CLI passes an indicatif bar, tests a no-op.
 pub trait Progress: Sync {
     fn start(&self, total: usize);
     fn frame_done(&self);
-    /// A frame failed: report it (once) without disturbing the bar.
-    fn frame_failed(&self, frame: &FrameRef, error: &Error);
+    /// An item failed: report it (once) without disturbing the bar. `item` names it: a KITTI
+    /// frame as `split/id`, a folder image by its file name.
+    fn frame_failed(&self, item: &str, error: &Error);
     fn finish(&self);
 }
 
@@ -27,10 +27,11 @@ pub struct Silent;
 impl Progress for Silent {
     fn start(&self, _: usize) {}
     fn frame_done(&self) {}
-    fn frame_failed(&self, _: &FrameRef, _: &Error) {}
+    fn frame_failed(&self, _: &str, _: &Error) {}
     fn finish(&self) {}
 }
 
+/// What a run did, for the summary line and the exit code.
 #[derive(Debug)]
 pub struct Summary {
     pub frames: usize,
@@ -43,11 +44,6 @@ pub struct Summary {
     /// Stopped because the output device refused writes: what to tell the user.
     pub device_full: Option<String>,
     pub seconds: f64,
-    /// Distinct (source camera → output camera) mappings built.
+    /// Distinct remap tables built (one per source camera and output camera).
     pub tables_built: usize,
-    /// Style model runs and the images they took (batch checks included), if styled.
-    pub style_runs: Option<(usize, usize)>,
-    /// With --augment: the views holding fewer objects than asked (at least one), and that
-    /// minimum.
-    pub thin_views: Option<(usize, usize)>,
 }

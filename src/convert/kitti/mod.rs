@@ -98,7 +98,23 @@ struct Parameters<'a> {
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
-pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> Result<Summary> {
+/// What a KITTI conversion did: the run's counts and what only a KITTI conversion has.
+#[derive(Debug)]
+pub struct KittiSummary {
+    /// Frames, failures, time, tables.
+    pub run: Summary,
+    /// Style model runs and the images they took (batch checks included), if styled.
+    pub style_runs: Option<(usize, usize)>,
+    /// With --augment: the views holding fewer objects than asked (at least one), and that
+    /// minimum.
+    pub thin_views: Option<(usize, usize)>,
+}
+
+pub fn run_kitti(
+    job: &KittiJob,
+    progress: &dyn Progress,
+    stop: &AtomicBool,
+) -> Result<KittiSummary> {
     let started = std::time::Instant::now();
     let dataset = if job.raw {
         raw::open(&job.input, job.split.as_deref())?
@@ -274,7 +290,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
                             outcomes[i] = None;
                             continue;
                         }
-                        progress.frame_failed(f, &e);
+                        progress.frame_failed(&f.to_string(), &e);
                         FrameRecord::failed(&f.split, &f.id, &e)
                     }
                 };
@@ -296,7 +312,7 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
             &split.image_path(2, "x").with_file_name(name),
             "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
         );
-        progress.frame_failed(&f, &e);
+        progress.frame_failed(&f.to_string(), &e);
         journal.record(FrameRecord::failed(&f.split, &f.id, &e));
     }
     progress.finish();
@@ -320,15 +336,17 @@ pub fn run_kitti(job: &KittiJob, progress: &dyn Progress, stop: &AtomicBool) -> 
         write_image_sets(&job.output, &dataset, &journal).map_err(when_full)?;
     }
     let finished = journal.finish(!interrupted).map_err(when_full)?;
-    Ok(Summary {
-        frames: finished.frames,
-        converted: finished.frames - finished.failed,
-        failed: finished.failed,
-        resumed,
-        interrupted: interrupted && device_full.is_none(),
-        device_full,
-        seconds: started.elapsed().as_secs_f64(),
-        tables_built: ctx.tables_built(),
+    Ok(KittiSummary {
+        run: Summary {
+            frames: finished.frames,
+            converted: finished.frames - finished.failed,
+            failed: finished.failed,
+            resumed,
+            interrupted: interrupted && device_full.is_none(),
+            device_full,
+            seconds: started.elapsed().as_secs_f64(),
+            tables_built: ctx.tables_built(),
+        },
         style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job
             .augment
