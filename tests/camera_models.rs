@@ -618,7 +618,8 @@ fn psnr(
 #[test]
 fn fisheye_to_cylindrical_matches_the_exact_render_for_the_new_models() {
     use panoconv::camera::{rotation_ypr, Cylindrical, Projection, Rotated};
-    use panoconv::convert::pano::{FisheyeView, ViewScale};
+    use panoconv::convert::pano::FisheyeView;
+    use panoconv::geometry::Scale;
     let scene = &panoconv::tools::synth::frames()[0].scene;
     let centre = Vector3::new(0.0, panoconv::tools::synth::GROUND_Y - 1.2, 0.0);
     for (name, cam) in cameras() {
@@ -644,9 +645,7 @@ fn fisheye_to_cylindrical_matches_the_exact_render_for_the_new_models() {
             projection: Projection::Cylindrical,
             hfov: Some(160f64.to_radians()),
             vfov: Some(80f64.to_radians()),
-            scale: ViewScale::PixelsPerDegree(
-                desc.camera.centre_intrinsics().fu.to_radians() / 1.5,
-            ),
+            scale: Scale::PixelsPerDegree(desc.camera.centre_intrinsics().fu.to_radians() / 1.5),
         };
         let view = spec.plan(&desc).unwrap();
         let warped = view.table.apply(&fisheye_image);

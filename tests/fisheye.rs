@@ -11,7 +11,8 @@ use panoconv::camera::{
     rotation_ypr, CameraModel, Fisheye, ImageSize, Intrinsics, Projection, RadialModel, Rotated,
 };
 use panoconv::codec::png::{encode_rgb8, PngCompression};
-use panoconv::convert::pano::{FisheyeView, ViewScale};
+use panoconv::convert::pano::FisheyeView;
+use panoconv::geometry::Scale;
 use panoconv::image::RgbImage;
 use panoconv::tools::synth::{frames, GROUND_Y};
 use proptest::prelude::*;
@@ -239,9 +240,7 @@ fn fisheye_to_cylindrical_matches_the_exact_render() {
             projection: Projection::Cylindrical,
             hfov: Some(160f64.to_radians()),
             vfov: Some(90f64.to_radians()),
-            scale: ViewScale::PixelsPerDegree(
-                desc.camera.centre_intrinsics().fu.to_radians() / 1.5,
-            ),
+            scale: Scale::PixelsPerDegree(desc.camera.centre_intrinsics().fu.to_radians() / 1.5),
         };
         let view = spec.plan(&desc).unwrap();
         let warped = view.table.apply(&fisheye_image);

@@ -6,8 +6,9 @@ mod common;
 use common::{panoconv, read_text, Run};
 use panoconv::camera::{ImageSize, Projection};
 use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
-use panoconv::convert::pano::{PanoViews, ViewScale};
+use panoconv::convert::pano::PanoViews;
 use panoconv::fs::read_file;
+use panoconv::geometry::Scale;
 use panoconv::image::RgbImage;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -30,7 +31,7 @@ fn views(projection: Projection, yaws: &[f64], pitch: f64, hfov: f64, vfov: f64)
         pitch: pitch.to_radians(),
         hfov: hfov.to_radians(),
         vfov: vfov.to_radians(),
-        scale: ViewScale::Source,
+        scale: Scale::SourceFocal,
     }
 }
 
@@ -122,7 +123,7 @@ fn the_seam_is_invisible_in_360_outputs() {
         // An equirect at a coarser, non-integer scale turned by 180°: the source seam is between
         // columns W/2-1 and W/2; a cylindrical 360° output wraps between its last and first column.
         let mut strip = views(Projection::Equirect, &[180.0], 0.0, 360.0, 120.0);
-        strip.scale = ViewScale::PanoWidth(img.width() * 7 / 10);
+        strip.scale = Scale::PanoWidth(img.width() * 7 / 10);
         let cyl = views(Projection::Cylindrical, &[0.0], 0.0, 360.0, 100.0);
         for (what, out, left, right) in [
             ("equirect yaw 180", &warp(&img, &strip)[0], None, None),
@@ -159,7 +160,7 @@ fn poles_clamp_and_views_cover_everything() {
     for pitch in [90.0, -90.0, 60.0, -75.0] {
         // Odd size: the centre pixel looks exactly at the pole for ±90°.
         let mut v = views(Projection::Perspective, &[0.0, 37.0], pitch, 91.0, 91.0);
-        v.scale = ViewScale::PixelsPerDegree(1.0);
+        v.scale = Scale::PixelsPerDegree(1.0);
         for out in warp(&img, &v) {
             assert_eq!(out.width() % 2, 1);
             for y in 0..out.height() {
@@ -176,7 +177,7 @@ fn poles_clamp_and_views_cover_everything() {
     // Straight up sees the top row's mean colour: the pole rows are repeated, not wrapped to
     // the other pole.
     let mut up = views(Projection::Perspective, &[0.0], 90.0, 11.0, 11.0);
-    up.scale = ViewScale::PixelsPerDegree(1.0);
+    up.scale = Scale::PixelsPerDegree(1.0);
     let out = &warp(&img, &up)[0];
     let c = out.pixel(out.width() / 2, out.height() / 2);
     let (w, h) = (img.width(), img.height());
@@ -249,11 +250,11 @@ fn coarse_outputs_are_antialiased() {
     // the supersampled table is much closer than a single bilinear tap per pixel.
     let img = load("worldmap_800x400.png");
     let mut v = views(Projection::Equirect, &[0.0], 0.0, 360.0, 180.0);
-    v.scale = ViewScale::PanoWidth(200);
+    v.scale = Scale::PanoWidth(200);
     let aa = &warp(&img, &v)[0];
     assert_eq!((aa.width(), aa.height()), (200, 100));
     let src = panoconv::convert::pano::PanoSource::new(ImageSize::new(800, 400));
-    let out = panoconv::convert::folder::view_camera(
+    let out = panoconv::geometry::view_camera(
         Projection::Equirect,
         200.0 / (2.0 * PI),
         100.0 / PI,
