@@ -12,6 +12,7 @@
 
 use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::image::RgbImage;
+use panoconv::kitti::Cam;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -172,7 +173,10 @@ fn remap(image: &Path, calib: &Path) {
     use panoconv::warp::{RemapTable, Wrap};
     let img = load(image);
     let calib = panoconv::kitti::calib::Calib::read(calib).unwrap_or_else(|e| die(&e.to_string()));
-    let k = calib.camera(2).unwrap_or_else(|e| die(&e.to_string())).k;
+    let k = calib
+        .camera(Cam::C2)
+        .unwrap_or_else(|e| die(&e.to_string()))
+        .k;
     let src = Perspective::new(k, ImageSize::new(img.width(), img.height()));
     let out = output_camera(&OutputSpec::new(Projection::Equirect), k, &src)
         .unwrap_or_else(|e| die(&e.to_string()));

@@ -28,7 +28,10 @@ fn layers() -> BTreeMap<String, u32> {
             );
         }
     }
-    assert!(out.len() > 5, "no layer table found in docs/architecture.md");
+    assert!(
+        out.len() > 5,
+        "no layer table found in docs/architecture.md"
+    );
     out
 }
 
@@ -138,7 +141,11 @@ fn no_module_imports_from_its_own_layer_or_above() {
             }
         }
     }
-    assert!(broken.is_empty(), "imports against the layers:\n{}", broken.join("\n"));
+    assert!(
+        broken.is_empty(),
+        "imports against the layers:\n{}",
+        broken.join("\n")
+    );
 }
 
 #[test]
@@ -156,10 +163,16 @@ fn every_library_module_is_in_the_table() {
         .collect();
     assert!(modules.len() > 5);
     for m in &modules {
-        assert!(layers.contains_key(*m), "src/lib.rs declares {m}, which docs/architecture.md's table lacks");
+        assert!(
+            layers.contains_key(*m),
+            "src/lib.rs declares {m}, which docs/architecture.md's table lacks"
+        );
     }
     for m in layers.keys() {
-        assert!(modules.contains(&m.as_str()), "the table names {m}, which src/lib.rs does not declare");
+        assert!(
+            modules.contains(&m.as_str()),
+            "the table names {m}, which src/lib.rs does not declare"
+        );
     }
 }
 

@@ -4,6 +4,7 @@ use nalgebra::Matrix3;
 use panoconv::camera::{ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, Crop, OutputSpec, Scale};
 use panoconv::image::RgbImage;
+use panoconv::kitti::Cam;
 use panoconv::kitti::{Calib, LabelFile};
 use panoconv::reproject::labels::{box_bounds, clip};
 use panoconv::tools::synth::{frames, SynthCalib};
@@ -206,7 +207,7 @@ fn check_written_boxes(out: &Path) -> (usize, usize) {
         let calib = Calib::read(&out.join(format!("training/calib/{id}.txt"))).unwrap();
         let png = std::fs::read(out.join(format!("training/image_2/{id}.png"))).unwrap();
         let (w, h) = panoconv::codec::png::read_size(&png, Path::new("x")).unwrap();
-        let (cam, centre) = calib.output_camera(2, ImageSize::new(w, h)).unwrap();
+        let (cam, centre) = calib.output_camera(Cam::C2, ImageSize::new(w, h)).unwrap();
         for l in LabelFile::read(&label_path)
             .unwrap()
             .labels

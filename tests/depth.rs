@@ -6,6 +6,7 @@
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::{CameraModel, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, OutputSpec};
+use panoconv::kitti::Cam;
 use panoconv::reproject::depth::{depth_map, rect_from_velo, DepthMap, OcclusionFilter};
 use panoconv::tools::synth::{frames, SynthCalib};
 
@@ -199,7 +200,7 @@ fn real_kitti_depth_lies_on_cars_and_road() {
             let (w, h, depth) = decode_gray16(&png, Path::new(id)).unwrap();
             let calib = Calib::read(&out.join(format!("training/calib/{id}.txt"))).unwrap();
             let (cam, centre) = calib
-                .output_camera(2, panoconv::camera::ImageSize::new(w, h))
+                .output_camera(Cam::C2, panoconv::camera::ImageSize::new(w, h))
                 .unwrap();
             for l in LabelFile::read(&out.join(format!("training/label_2/{id}.txt")))
                 .unwrap()
@@ -375,7 +376,7 @@ fn right_camera_matches_the_exact_render_from_c3() {
     .unwrap();
     let (cam, centre) = calib
         .output_camera(
-            3,
+            Cam::C3,
             panoconv::camera::ImageSize::new(img.width(), img.height()),
         )
         .unwrap();

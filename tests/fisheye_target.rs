@@ -11,6 +11,7 @@ use nalgebra::{Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::{CameraModel, FisheyeCamera};
 use panoconv::image::RgbImage;
+use panoconv::kitti::Cam;
 use panoconv::tools::synth::{frames, SynthCalib};
 use std::path::{Path, PathBuf};
 
@@ -420,7 +421,7 @@ fn the_sample_converted_to_a_turned_190_degree_fisheye_has_exact_boxes() {
         let calib =
             panoconv::kitti::Calib::read(&out.join(format!("training/calib/{id}.txt"))).unwrap();
         let (camera, centre) = calib
-            .output_camera(2, panoconv::camera::ImageSize::new(900, 900))
+            .output_camera(Cam::C2, panoconv::camera::ImageSize::new(900, 900))
             .unwrap();
         let written: Vec<String> =
             label_lines(&read_text(&out.join(format!("training/label_2/{id}.txt"))))
@@ -550,7 +551,7 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
         for (_, id) in SYNTH_FRAMES.iter().filter(|(s, _)| *s == "training") {
             let calib_path = out.join(format!("training/calib/{id}.txt"));
             let calib = panoconv::kitti::Calib::read(&calib_path).unwrap();
-            let (read, centre) = calib.output_camera(2, writer.size()).unwrap();
+            let (read, centre) = calib.output_camera(Cam::C2, writer.size()).unwrap();
             let truth = frames()
                 .into_iter()
                 .find(|f| f.id == *id)
@@ -757,7 +758,7 @@ fn augmented_fisheye_views_keep_exact_intrinsics_and_boxes() {
             assert_eq!((image.width, image.height), (640, 320));
             let calib = panoconv::kitti::Calib::read(&calib_path).unwrap();
             let (camera, centre) = calib
-                .output_camera(2, panoconv::camera::ImageSize::new(640, 320))
+                .output_camera(Cam::C2, panoconv::camera::ImageSize::new(640, 320))
                 .unwrap();
             let written: Vec<String> =
                 label_lines(&read_text(&out.join(format!("training/label_2/{id}.txt"))))
@@ -801,7 +802,7 @@ fn depth_pixel_objects_verify_and_jobs_on_a_fisheye_output() {
         let calib =
             panoconv::kitti::Calib::read(&out.join(format!("training/calib/{id}.txt"))).unwrap();
         let (camera, centre) = calib
-            .output_camera(2, panoconv::camera::ImageSize::new(1360, 560))
+            .output_camera(Cam::C2, panoconv::camera::ImageSize::new(1360, 560))
             .unwrap();
         let png = read_png(&out.join(format!("training/depth_2/{id}.png")));
         assert_eq!(png.depth, png::BitDepth::Sixteen);
@@ -1003,7 +1004,7 @@ fn camera_3_sits_at_its_own_centre() {
     }
     let calib = panoconv::kitti::Calib::read(&calib_path).unwrap();
     let (camera, centre) = calib
-        .output_camera(3, panoconv::camera::ImageSize::new(1360, 560))
+        .output_camera(Cam::C3, panoconv::camera::ImageSize::new(1360, 560))
         .unwrap();
     let truth = SynthCalib::standard().centre3();
     assert!(

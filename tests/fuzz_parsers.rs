@@ -3,6 +3,7 @@
 //! near-valid lines built from a vocabulary of tricky tokens. None of them may panic.
 
 use panoconv::camera::{ImageSize, Projection};
+use panoconv::kitti::Cam;
 use panoconv::kitti::{velodyne, Calib, Label};
 use proptest::prelude::*;
 use std::path::Path;
@@ -56,7 +57,7 @@ fn check_calib(lines: Vec<String>) {
     let Ok(calib) = Calib::parse(Path::new("calib/000000.txt"), lines) else {
         return;
     };
-    for n in 0..4 {
+    for n in Cam::ALL {
         if let Ok(cam) = calib.camera(n) {
             assert!(cam.k.fu > 0.0 && cam.k.fv > 0.0);
             // A non-finite centre or K is accepted by `camera` and makes `render_output` panic:
@@ -150,14 +151,14 @@ fn calib_with_non_finite_centre_is_refused() {
         "1e10 0 7.5e-300 0 0 1e10 3.5e-300 0 0 0 1e-300 0",
     ] {
         let calib = Calib::parse(Path::new("c.txt"), vec![format!("P2: {p}")]).unwrap();
-        match calib.camera(2) {
+        match calib.camera(Cam::C2) {
             Err(e) => assert!(e.to_string().starts_with("c.txt: P2: "), "{e}"),
             Ok(cam) => {
                 let k = [cam.k.fu, cam.k.fv, cam.k.cu, cam.k.cv];
                 let finite = k.iter().chain(cam.centre.iter()).all(|v| v.is_finite());
                 assert!(finite, "accepted {cam:?}");
                 let out = Projection::Perspective.camera(cam.k, ImageSize::new(1242, 375));
-                let _ = calib.render_output(&[(2, out.as_ref(), cam.centre)]);
+                let _ = calib.render_output(&[(Cam::C2, out.as_ref(), cam.centre)]);
             }
         }
     }

@@ -3,6 +3,7 @@
 use nalgebra::Vector3;
 use panoconv::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
+use panoconv::kitti::Cam;
 use panoconv::kitti::{Calib, Label};
 use panoconv::reproject::labels::{box_bounds, clip, Bounds};
 use panoconv::tools::synth::{frames, label_lines, SynthCalib, SynthFrame};
@@ -230,10 +231,10 @@ fn camera_centre_is_recovered_within_a_millimetre() {
     for calib in [SynthCalib::standard(), SynthCalib::narrow()] {
         let lines = calib.text().lines().map(str::to_owned).collect();
         let parsed = Calib::parse(Path::new("synthetic"), lines).unwrap();
-        let cam2 = parsed.camera(2).unwrap();
+        let cam2 = parsed.camera(Cam::C2).unwrap();
         let err = (cam2.centre - calib.centre()).norm();
         assert!(err < 1e-3, "C2 off by {err} m");
-        let cam3 = parsed.camera(3).unwrap();
+        let cam3 = parsed.camera(Cam::C3).unwrap();
         let baseline = (cam3.centre - cam2.centre).norm();
         assert!(
             (baseline - 0.537).abs() < 1e-3,

@@ -7,6 +7,7 @@ mod common;
 use common::*;
 use panoconv::camera::{ImageSize, Intrinsics, Projection};
 use panoconv::image::RgbImage;
+use panoconv::kitti::Cam;
 use panoconv::kitti::{Calib, Label, LabelFile};
 use panoconv::tools::preview::{depth_colour, draw_box_3d, draw_text, label_text, text_size};
 use std::path::{Path, PathBuf};
@@ -45,7 +46,7 @@ fn check_boxes_inside(out: &Path, what: &str) -> usize {
         let size = png_size(&split.join("image_2").join(format!("{id}.png")));
         let calib = Calib::read(&split.join("calib").join(format!("{id}.txt"))).unwrap();
         assert!(calib.projection.is_some(), "{what}: written calib");
-        let (camera, centre) = calib.image_camera(2, size).unwrap();
+        let (camera, centre) = calib.image_camera(Cam::C2, size).unwrap();
         for label in LabelFile::read(&label_path).unwrap().labels {
             if !label.has_box_3d() {
                 continue;
@@ -118,7 +119,7 @@ fn edges_are_split_at_the_seam_of_a_360_output() {
     let out = dir.path().join("out/training");
     let size = png_size(&out.join("image_2/000000.png"));
     let calib = Calib::read(&out.join("calib/000000.txt")).unwrap();
-    let (camera, centre) = calib.image_camera(2, size).unwrap();
+    let (camera, centre) = calib.image_camera(Cam::C2, size).unwrap();
     let period = 2.0 * std::f64::consts::PI * calib.k_out[2].unwrap().fu;
     assert!(
         (period - size.width as f64).abs() <= 1.0,

@@ -2,7 +2,9 @@
 
 use super::*;
 use panoconv::camera::description::CameraDescription;
+use panoconv::convert::kitti::{KittiSource, StyleOrder};
 use panoconv::geometry::FisheyeTarget;
+use panoconv::kitti::Cam;
 
 pub(super) const RAW_EXAMPLES: &str = "Examples:
   panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
@@ -131,7 +133,7 @@ pub(super) struct ConvertArgs {
     resize: Option<ImageSize>,
     /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
     #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
-    cameras: Vec<usize>,
+    cameras: Vec<Cam>,
     /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/.
     #[arg(long)]
     depth: bool,
@@ -201,10 +203,10 @@ pub(super) fn parse_shard(s: &str) -> std::result::Result<Shard, String> {
     Ok(Shard { index: k, count: n })
 }
 
-pub(super) fn parse_camera(s: &str) -> std::result::Result<usize, String> {
+pub(super) fn parse_camera(s: &str) -> std::result::Result<Cam, String> {
     match s.trim() {
-        "2" => Ok(2),
-        "3" => Ok(3),
+        "2" => Ok(Cam::C2),
+        "3" => Ok(Cam::C3),
         other => Err(format!(
             "camera {other:?}: expected 2 or 3 (KITTI's colour cameras)"
         )),
@@ -275,15 +277,20 @@ pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
     convert(
         args.common,
         args.input,
-        false,
-        args.split,
+        KittiSource::Object { split: args.split },
         image_set,
         augment,
     )
 }
 
 pub(super) fn kitti_raw(args: RawArgs) -> Result<ExitCode> {
-    convert(args.common, args.input, true, args.drive, None, None)
+    convert(
+        args.common,
+        args.input,
+        KittiSource::Raw { drive: args.drive },
+        None,
+        None,
+    )
 }
 
 /// An id list that names at least one frame (an empty list selects nothing: a set-up error).
@@ -302,11 +309,11 @@ fn read_id_list_nonempty(file: &std::path::Path) -> Result<Vec<String>> {
 fn convert(
     args: ConvertArgs,
     input: PathBuf,
-    raw: bool,
-    split: Option<String>,
+    source: KittiSource,
     image_set: Option<Vec<String>>,
     augment: Option<Augment>,
 ) -> Result<ExitCode> {
+    let raw = matches!(source, KittiSource::Raw { .. });
     if (raw || args.shard.is_some()) && !args.export.is_empty() {
         bail!(Error::Setup(
             "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into()
@@ -364,8 +371,7 @@ fn convert(
         },
         fisheye,
         mask: args.mask,
-        split,
-        raw,
+        source,
         frames,
         overwrite: args.run.overwrite,
         png_compression: args.run.png_compression(),
@@ -373,7 +379,7 @@ fn convert(
             let mut c = args.cameras.clone();
             c.sort_unstable();
             c.dedup();
-            if !c.contains(&2) {
+            if !c.contains(&Cam::C2) {
                 bail!(Error::Setup(
                     "--cameras must include 2 (labels and depth belong to camera 2)".into()
                 ));
@@ -396,7 +402,11 @@ fn convert(
                 },
                 intra_threads: 1,
             },
-            after_warp: args.style_after_warp,
+            order: if args.style_after_warp {
+                StyleOrder::AfterWarp
+            } else {
+                StyleOrder::BeforeWarp
+            },
             batch: args.style_batch.map_or(
                 match args.device {
                     DeviceArg::Cpu => 1,

@@ -21,6 +21,7 @@ use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
 use crate::fs::{hash_hex, write_atomic};
+use crate::kitti::Cam;
 use crate::kitti::{Calib, Dataset, FrameRef, Label};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -153,7 +154,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
         let assigned = if s.has_labels {
             for id in labels_without_image(&s.dir, &s.frames)? {
                 let label = s.label_path(&id);
-                let image = s.image_path(2, &id);
+                let image = s.image_path(Cam::C2, &id);
                 data.failed.push((
                     frame_ref(&id),
                     Error::file(&label, format!("no image {}", image.display())),
@@ -175,7 +176,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
                 Ok((size, camera, centre, objects, ignore_regions)) => data.frames.push(Frame {
                     split: export_split,
                     image_id: 0,
-                    image: s.image_path(2, &id),
+                    image: s.image_path(Cam::C2, &id),
                     id,
                     image_rel,
                     size,
@@ -257,11 +258,11 @@ type FrameParts = (
 );
 
 fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Result<FrameParts> {
-    let image = split.image_path(2, id);
+    let image = split.image_path(Cam::C2, id);
     let (w, h) = png::read_file_size(&image)?;
     let size = ImageSize::new(w, h);
     let calib = Calib::read(&split.calib_path(id))?;
-    let (camera, centre) = calib.image_camera(2, size)?;
+    let (camera, centre) = calib.image_camera(Cam::C2, size)?;
     let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
     if split.has_labels {
         let path = split.label_path(id);

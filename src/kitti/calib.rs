@@ -9,6 +9,7 @@ use crate::camera::{
 };
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
+use crate::kitti::Cam;
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use std::path::{Path, PathBuf};
 
@@ -223,9 +224,10 @@ impl Calib {
     }
 
     /// Camera `n` (2 = left colour, 3 = right colour) from `Pn = K [I | t]`.
-    pub fn camera(&self, n: usize) -> Result<SourceCamera> {
+    pub fn camera(&self, n: Cam) -> Result<SourceCamera> {
         let field = format!("P{n}");
-        let p = self.p[n].ok_or_else(|| Error::file(&self.path, format!("no {field} line")))?;
+        let p = self.p[n.number()]
+            .ok_or_else(|| Error::file(&self.path, format!("no {field} line")))?;
         let bad = |msg: &str| Error::file(&self.path, format!("{field}: {msg}"));
         let w = p[(2, 2)];
         if !(w > 0.0) {
@@ -263,7 +265,7 @@ impl Calib {
     /// are present (a converted dataset), else the perspective camera of `Pn` (plain KITTI).
     pub fn image_camera(
         &self,
-        n: usize,
+        n: Cam,
         size: ImageSize,
     ) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
         if self.projection.is_some() {
@@ -278,7 +280,7 @@ impl Calib {
     /// and for a fisheye the lens lines), and its centre.
     pub fn output_camera(
         &self,
-        n: usize,
+        n: Cam,
         size: ImageSize,
     ) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
         let missing = |what: &str| {
@@ -288,12 +290,12 @@ impl Calib {
             )
         };
         let projection = self.projection.ok_or_else(|| missing("projection:"))?;
-        let k = self.k_out[n].ok_or_else(|| missing(&format!("K{n}:")))?;
-        let c = self.c_out[n].ok_or_else(|| missing(&format!("C{n}:")))?;
+        let k = self.k_out[n.number()].ok_or_else(|| missing(&format!("K{n}:")))?;
+        let c = self.c_out[n.number()].ok_or_else(|| missing(&format!("C{n}:")))?;
         if projection.is_linear() {
             return Ok((projection.camera(k, size), c));
         }
-        let lines = &self.lens_out[n];
+        let lines = &self.lens_out[n.number()];
         let model = lines
             .model
             .as_deref()
@@ -316,7 +318,7 @@ impl Calib {
     /// The output calib: every input line verbatim, then the description of the output cameras
     /// (all of one projection). For a perspective output, `Pn` is rewritten as K_out·[I | −C]
     /// for the converted cameras.
-    pub fn render_output(&self, cameras: &[(usize, &dyn OutputCamera, Vector3<f64>)]) -> String {
+    pub fn render_output(&self, cameras: &[(Cam, &dyn OutputCamera, Vector3<f64>)]) -> String {
         let projection = cameras
             .first()
             .map_or(Projection::Perspective, |(_, cam, _)| cam.projection());
@@ -374,7 +376,7 @@ pub fn format_sci(v: f64) -> String {
 /// in rect (row-major).
 ///
 /// [`Lens::parameters`]: crate::camera::Lens::parameters
-fn lens_lines(n: usize, camera: &FisheyeCamera) -> String {
+fn lens_lines(n: Cam, camera: &FisheyeCamera) -> String {
     let values: Vec<f64> = camera.lens.parameters().iter().map(|(_, v)| *v).collect();
     let r = &camera.rect_from_camera;
     let rows: Vec<f64> = (0..3)
@@ -452,9 +454,9 @@ mod tests {
     fn written_lines_read_back_exactly() {
         let calib = standard();
         let k = Intrinsics::new(325.949, 325.949, 230.5, 80.25);
-        let c = calib.camera(2).unwrap().centre;
+        let c = calib.camera(Cam::C2).unwrap().centre;
         let cam = Projection::Equirect.camera(k, ImageSize::new(460, 160));
-        let text = calib.render_output(&[(2, cam.as_ref(), c)]);
+        let text = calib.render_output(&[(Cam::C2, cam.as_ref(), c)]);
         // every input line first, verbatim
         assert!(text.starts_with(&(calib.lines.join("\n") + "\n")));
         let back = Calib::parse(
@@ -473,16 +475,16 @@ mod tests {
     #[test]
     fn perspective_output_rewrites_p2_as_k_out_i_minus_c() {
         let calib = standard();
-        let src = calib.camera(2).unwrap();
+        let src = calib.camera(Cam::C2).unwrap();
         let k = Intrinsics::new(600.0, 600.0, 700.0, 200.0);
         let cam = Projection::Perspective.camera(k, ImageSize::new(1400, 400));
-        let text = calib.render_output(&[(2, cam.as_ref(), src.centre)]);
+        let text = calib.render_output(&[(Cam::C2, cam.as_ref(), src.centre)]);
         let back = Calib::parse(
             Path::new("o.txt"),
             text.lines().map(str::to_owned).collect(),
         )
         .unwrap();
-        let cam = back.camera(2).unwrap();
+        let cam = back.camera(Cam::C2).unwrap();
         assert!((cam.k.fu - 600.0).abs() < 1e-9 && (cam.k.cu - 700.0).abs() < 1e-9);
         assert!(
             (cam.centre - src.centre).norm() < 1e-9,
@@ -526,14 +528,17 @@ mod tests {
             vec!["P0: 1 0 0 0 0 1 0 0 0 0 1 0".into()],
         )
         .unwrap();
-        assert_eq!(c.camera(2).unwrap_err().to_string(), "c.txt: no P2 line");
+        assert_eq!(
+            c.camera(Cam::C2).unwrap_err().to_string(),
+            "c.txt: no P2 line"
+        );
         let c = Calib::parse(
             Path::new("c.txt"),
             vec!["P2: 0 0 0 0 0 0 0 0 0 0 1 0".into()],
         )
         .unwrap();
         assert!(c
-            .camera(2)
+            .camera(Cam::C2)
             .unwrap_err()
             .to_string()
             .contains("focal lengths must be positive"));

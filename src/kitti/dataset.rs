@@ -1,6 +1,7 @@
 //! The KITTI object layout: `ROOT/{training,testing}/{image_2,calib,label_2}/NNNNNN.*`.
 
 use crate::error::{Error, Result};
+use crate::kitti::Cam;
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone)]
@@ -29,9 +30,9 @@ pub enum Layout {
 /// The files a conversion writes for a frame, relative to the split's output folder.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {
-    Image(usize),
+    Image(Cam),
     /// Where camera n's output pixels have source data (`--mask`).
-    Mask(usize),
+    Mask(Cam),
     Depth,
     Label,
     Calib,
@@ -154,7 +155,7 @@ fn id_range(frames: &[String]) -> String {
 }
 
 impl Split {
-    pub fn image_path(&self, camera: usize, id: &str) -> PathBuf {
+    pub fn image_path(&self, camera: Cam, id: &str) -> PathBuf {
         match self.layout {
             Layout::Object => self
                 .dir
@@ -320,12 +321,12 @@ impl Dataset {
 
     /// Checks, before anything is written, that every split with frames has the folders the
     /// options read: `image_3/` for the right camera, `velodyne/` for depth.
-    pub fn check_folders(&self, cameras: &[usize], depth: bool) -> Result<()> {
+    pub fn check_folders(&self, cameras: &[Cam], depth: bool) -> Result<()> {
         for split in self.splits.iter().filter(|s| !s.frames.is_empty()) {
             let first = &split.frames[0];
             let mut needed = Vec::new();
-            if cameras.contains(&3) {
-                needed.push((split.image_path(3, first), "--cameras 2,3"));
+            if cameras.contains(&Cam::C3) {
+                needed.push((split.image_path(Cam::C3, first), "--cameras 2,3"));
             }
             if depth {
                 needed.push((split.velodyne_path(first), "--depth"));

@@ -1,11 +1,13 @@
 //! KITTI object-dataset files: calibration, labels, LiDAR scans, and the folder layout.
 
 pub mod calib;
+mod cam;
 pub mod dataset;
 pub mod label;
 pub mod raw;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};
+pub use cam::Cam;
 pub use dataset::{Dataset, FrameRef, Layout, OutputKind, Split};
 pub use label::{Label, LabelFile};

@@ -5,6 +5,7 @@
 use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
+use crate::kitti::Cam;
 use crate::kitti::{Calib, Dataset, Label};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -190,7 +191,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
         for id in &split.frames {
             let frame = format!("{}/{id}", split.name);
             let image_rel = rel("image_2", id, ".png");
-            match png::read_file_size(&split.image_path(2, id)) {
+            match png::read_file_size(&split.image_path(Cam::C2, id)) {
                 Ok(s) => *sizes.entry(s).or_default() += 1,
                 Err(e) => problems.push(Problem::from_error(&image_rel, e)),
             }
@@ -205,7 +206,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
             } else {
                 let calib = read_lines(&calib_path)
                     .and_then(|lines| Calib::parse(Path::new(&calib_rel), lines))
-                    .and_then(|c| c.camera(2).map(|cam| (c, cam)));
+                    .and_then(|c| c.camera(Cam::C2).map(|cam| (c, cam)));
                 match calib {
                     Ok((calib, cam)) => {
                         let name = calib.projection.map_or("kitti", |p| p.name());

@@ -8,6 +8,7 @@ use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::write_atomic;
 use crate::fs::{read_file, read_lines};
+use crate::kitti::Cam;
 use crate::kitti::{Calib, LabelFile};
 use crate::reproject::unproject::{
     format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale,
@@ -50,7 +51,7 @@ fn frame_camera(
     let calib = Calib::read(&calib_dir.join(format!("{id}.txt")))?;
     let image = images_dir.join(format!("{id}.png"));
     let (w, h) = png::read_size(&read_file(&image)?, &image)?;
-    calib.output_camera(2, ImageSize::new(w, h))
+    calib.output_camera(Cam::C2, ImageSize::new(w, h))
 }
 
 fn prepare_output(output: &Path) -> Result<()> {

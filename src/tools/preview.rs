@@ -10,6 +10,7 @@ use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_file;
 use crate::image::RgbImage;
+use crate::kitti::Cam;
 use crate::kitti::{Calib, Label};
 use crate::reproject::labels::label_distance;
 use nalgebra::Vector3;
@@ -394,7 +395,7 @@ pub fn render_frame(
     let mut image = png::decode_rgb8(&read_file(&image_path)?, &image_path)?;
     let calib = Calib::read(&calib_path)?;
     let size = ImageSize::new(image.width(), image.height());
-    let (camera, centre) = calib.image_camera(2, size)?;
+    let (camera, centre) = calib.image_camera(Cam::C2, size)?;
     if options.depth && depth_path.is_file() {
         let (w, h, values) = png::decode_gray16(&read_file(&depth_path)?, &depth_path)?;
         if !overlay_depth(&mut image, w, h, &values) {

@@ -10,6 +10,7 @@
 use super::frame::{Context, FrameOutput, Prepared};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
+use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::run::OnceMap;
 use crate::style::{StyleError, StyleModel};
@@ -121,7 +122,7 @@ fn guarded<T>(split: &Split, id: &str, f: impl FnOnce() -> Result<T>) -> Result<
             .or_else(|| panic.downcast_ref::<String>().cloned())
             .unwrap_or_default();
         Err(Error::file(
-            &split.image_path(2, id),
+            &split.image_path(Cam::C2, id),
             format!("internal error (please report): {what}"),
         ))
     })

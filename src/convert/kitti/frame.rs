@@ -2,7 +2,7 @@
 //! parse, decode) and [`Context::finish`] (warp, labels, depth, encode, write), so that the
 //! style pass can take several frames' images at once.
 
-use super::KittiJob;
+use super::{KittiJob, StyleOrder};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::codec::png::{self as png, PngCompression};
 use crate::error::{Error, Result};
@@ -12,6 +12,7 @@ use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::geometry::target_camera;
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
+use crate::kitti::Cam;
 use crate::kitti::{velodyne, Layout, OutputKind};
 use crate::kitti::{Calib, Dataset, LabelFile, Split};
 use crate::reproject::depth::{depth_map, rect_from_velo};
@@ -127,10 +128,10 @@ impl<'a> Context<'a> {
             None => vec![id.to_owned()],
         };
         let kinds = [
-            OutputKind::Image(2),
-            OutputKind::Image(3),
-            OutputKind::Mask(2),
-            OutputKind::Mask(3),
+            OutputKind::Image(Cam::C2),
+            OutputKind::Image(Cam::C3),
+            OutputKind::Mask(Cam::C2),
+            OutputKind::Mask(Cam::C3),
             OutputKind::Depth,
             OutputKind::Label,
             OutputKind::Calib,
@@ -158,7 +159,7 @@ impl<'a> Context<'a> {
         };
         let setup =
             |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
-        let size_of = |cam: usize| -> Result<ImageSize> {
+        let size_of = |cam: Cam| -> Result<ImageSize> {
             let path = split.image_path(cam, first);
             let (w, h) = png::read_size(&read_file(&path)?, &path)?;
             Ok(ImageSize::new(w, h))
@@ -171,7 +172,7 @@ impl<'a> Context<'a> {
                 .map_err(setup)?;
             cameras.push((n, mapping.output.clone(), cam.centre));
         }
-        let cameras: Vec<(usize, &dyn OutputCamera, Vector3<f64>)> = cameras
+        let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
             .iter()
             .map(|(n, c, v)| (*n, c.as_ref(), *v))
             .collect();
@@ -210,7 +211,7 @@ impl<'a> Context<'a> {
                 "this calib was written by panoconv (it has a projection: line): convert the original dataset",
             ));
         }
-        let cam2 = calib.camera(2)?;
+        let cam2 = calib.camera(Cam::C2)?;
 
         let labels = if split.has_labels {
             let path = split.label_path(id);
@@ -221,7 +222,7 @@ impl<'a> Context<'a> {
             None
         };
 
-        let image_path = split.image_path(2, id);
+        let image_path = split.image_path(Cam::C2, id);
         let image = read_png(&image_path, |bytes| {
             inputs.push((relative(root, &image_path), fs::hash_hex(bytes)));
         })?;
@@ -249,9 +250,9 @@ impl<'a> Context<'a> {
         let mut images = vec![image];
 
         // The right camera, converted about its own centre C3 (labels stay with camera 2).
-        let right = if self.job.cameras.contains(&3) {
-            let cam3 = calib.camera(3)?;
-            let path = split.image_path(3, id);
+        let right = if self.job.cameras.contains(&Cam::C3) {
+            let cam3 = calib.camera(Cam::C3)?;
+            let path = split.image_path(Cam::C3, id);
             let img = read_png(&path, |bytes| {
                 inputs.push((relative(root, &path), fs::hash_hex(bytes)));
             })?;
@@ -301,7 +302,12 @@ impl<'a> Context<'a> {
 
     /// Whether the style pass takes the warped views (else the source images).
     pub(super) fn style_after_warp(&self) -> bool {
-        self.style.is_some() && self.job.style.as_ref().is_some_and(|s| s.after_warp)
+        self.style.is_some()
+            && self
+                .job
+                .style
+                .as_ref()
+                .is_some_and(|s| s.order == StyleOrder::AfterWarp)
     }
 
     /// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
@@ -339,12 +345,12 @@ impl<'a> Context<'a> {
         let mut lidar_record = None;
         let source = cam2.camera(size);
         for (i, (view_id, mapping, view)) in views2.into_iter().enumerate() {
-            if let Some(path) = out(OutputKind::Image(2), &view_id) {
+            if let Some(path) = out(OutputKind::Image(Cam::C2), &view_id) {
                 outputs.push((path, encode_view(i, 0, &mapping.table)));
             }
             if self.job.mask {
                 outputs.push((
-                    out(OutputKind::Mask(2), &view_id).expect("every layout has masks"),
+                    out(OutputKind::Mask(Cam::C2), &view_id).expect("every layout has masks"),
                     encode_mask(&mapping.table),
                 ));
             }
@@ -388,21 +394,21 @@ impl<'a> Context<'a> {
                     ),
                 ));
             }
-            let mut cameras = vec![(2, mapping.output.clone(), cam2.centre)];
+            let mut cameras = vec![(Cam::C2, mapping.output.clone(), cam2.centre)];
             if let Some((cam3, views3)) = &right {
                 outputs.push((
-                    out(OutputKind::Image(3), &view_id).expect("every layout has image 3"),
+                    out(OutputKind::Image(Cam::C3), &view_id).expect("every layout has image 3"),
                     encode_view(i, 1, &views3[i].1.table),
                 ));
                 if self.job.mask {
                     outputs.push((
-                        out(OutputKind::Mask(3), &view_id).expect("every layout has masks"),
+                        out(OutputKind::Mask(Cam::C3), &view_id).expect("every layout has masks"),
                         encode_mask(&views3[i].1.table),
                     ));
                 }
-                cameras.push((3, views3[i].1.output.clone(), cam3.centre));
+                cameras.push((Cam::C3, views3[i].1.output.clone(), cam3.centre));
             }
-            let cameras: Vec<(usize, &dyn OutputCamera, Vector3<f64>)> = cameras
+            let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
                 .iter()
                 .map(|(n, c, v)| (*n, c.as_ref(), *v))
                 .collect();
@@ -474,7 +480,7 @@ impl<'a> Context<'a> {
             .map(|i| {
                 let view_id = view_id(id, aug.count, i).ok_or_else(|| {
                     Error::file(
-                        &split.image_path(2, id),
+                        &split.image_path(Cam::C2, id),
                         "--augment needs numeric frame ids (e.g. 000123)",
                     )
                 })?;

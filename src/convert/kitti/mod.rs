@@ -11,7 +11,8 @@ use crate::error::{Error, Result};
 use crate::fs;
 use crate::geometry::augment::Augment;
 use crate::geometry::{FisheyeTarget, OutputSpec};
-use crate::kitti::{raw, Layout, OutputKind};
+use crate::kitti::Cam;
+use crate::kitti::{raw, OutputKind};
 use crate::kitti::{Dataset, FrameRef, Split};
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::journal::{self, Journal, Shard};
@@ -26,41 +27,125 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// Everything a `kitti` conversion needs; also recorded in the manifest.
-#[derive(Debug, Clone, Serialize)]
+/// Everything a `kitti` or `kitti-raw` conversion needs (the manifest records its
+/// [`Parameters`]).
+#[derive(Debug, Clone)]
 pub struct KittiJob {
+    /// The dataset's root: an object root or a raw date folder, as `source` says.
     pub input: PathBuf,
-    #[serde(skip)]
+    /// Where the converted dataset goes.
     pub output: PathBuf,
+    /// Which layout `input` has and what part of it is converted.
+    pub source: KittiSource,
+    /// The target projection, scale, canvas, crop and resize.
     pub output_spec: OutputSpec,
     /// The fisheye camera of `--to fisheye`.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub fisheye: Option<FisheyeTarget>,
     /// Write `mask_2/` (and `mask_3/`): where each output pixel has source data.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub mask: bool,
-    pub split: Option<String>,
     /// Restrict to these frame ids.
     pub frames: Option<Vec<String>>,
-    #[serde(skip)]
+    /// Write into a non-empty output folder.
     pub overwrite: bool,
+    /// PNG encoder effort.
     pub png_compression: PngCompression,
     /// The CycleGAN style pass, if any.
-    #[serde(skip)]
     pub style: Option<StyleJob>,
     /// Random scale-and-crop views instead of the whole frame.
     pub augment: Option<Augment>,
     /// Cameras to convert: 2 (left colour), and 3 (right colour) for stereo pairs.
-    pub cameras: Vec<usize>,
+    pub cameras: Vec<Cam>,
     /// LiDAR depth maps (`depth_2/`), if asked for.
     pub depth: Option<DepthJob>,
     /// This process converts one shard of the frames.
     pub shard: Option<Shard>,
     /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
-    #[serde(skip)]
     pub resume: bool,
-    /// The input is a KITTI raw date folder (splits are its drives).
-    pub raw: bool,
+}
+
+/// The input of a KITTI conversion.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum KittiSource {
+    /// A KITTI object root (`training/`, `testing/`): all of it, or the split named.
+    Object {
+        /// `training` or `testing`.
+        split: Option<String>,
+    },
+    /// A KITTI raw date folder: all its drives, or the drive named.
+    Raw {
+        /// A drive folder's name (`2011_09_26_drive_0001_sync`).
+        drive: Option<String>,
+    },
+}
+
+impl KittiSource {
+    /// The dataset at `root`, restricted as asked.
+    fn open(&self, root: &Path) -> Result<Dataset> {
+        match self {
+            KittiSource::Object { split } => Dataset::open(root, split.as_deref()),
+            KittiSource::Raw { drive } => raw::open(root, drive.as_deref()),
+        }
+    }
+
+    /// The subcommand the manifest names.
+    fn command(&self) -> &'static str {
+        match self {
+            KittiSource::Object { .. } => "kitti",
+            KittiSource::Raw { .. } => "kitti-raw",
+        }
+    }
+}
+
+/// The manifest's `parameters`: what decides the outputs (docs/formats.md), so a `--resume`
+/// or a `merge` can tell a run with other options. Field order is the file's.
+#[derive(Debug, Serialize)]
+struct Parameters<'a> {
+    input: &'a Path,
+    output_spec: &'a OutputSpec,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fisheye: Option<&'a FisheyeTarget>,
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    mask: bool,
+    /// The object split or the raw drive.
+    split: Option<&'a str>,
+    frames: Option<&'a [String]>,
+    png_compression: PngCompression,
+    augment: Option<&'a Augment>,
+    cameras: &'a [Cam],
+    depth: Option<&'a DepthJob>,
+    shard: Option<Shard>,
+    raw: bool,
+    style: Option<StyleRecord<'a>>,
+}
+
+impl<'a> Parameters<'a> {
+    fn new(job: &'a KittiJob, style: Option<&'a StyleModel>) -> Self {
+        let (split, raw) = match &job.source {
+            KittiSource::Object { split } => (split.as_deref(), false),
+            KittiSource::Raw { drive } => (drive.as_deref(), true),
+        };
+        Parameters {
+            input: &job.input,
+            output_spec: &job.output_spec,
+            fisheye: job.fisheye.as_ref(),
+            mask: job.mask,
+            split,
+            frames: job.frames.as_deref(),
+            png_compression: job.png_compression,
+            augment: job.augment.as_ref(),
+            cameras: &job.cameras,
+            depth: job.depth.as_ref(),
+            shard: job.shard,
+            raw,
+            style: style.map(|m| StyleRecord {
+                model: m.info(),
+                order: job
+                    .style
+                    .as_ref()
+                    .map_or(StyleOrder::BeforeWarp, |s| s.order),
+            }),
+        }
+    }
 }
 
 /// The depth output of a conversion.
@@ -74,8 +159,8 @@ pub struct DepthJob {
 #[derive(Debug, Clone)]
 pub struct StyleJob {
     pub options: StyleOptions,
-    /// Style the warped image instead of the source (the paper styles before the warp).
-    pub after_warp: bool,
+    /// Before or after the warp.
+    pub order: StyleOrder,
     /// Equal-size images of up to this many consecutive frames go through the model in one
     /// run (1: frame by frame). Outputs do not depend on it (see `batch`).
     pub batch: usize,
@@ -85,15 +170,17 @@ pub struct StyleJob {
 #[derive(Debug, Serialize)]
 struct StyleRecord<'a> {
     model: &'a StyleInfo,
-    order: &'static str,
+    order: StyleOrder,
 }
 
-/// The manifest's parameters: the job and the style model that was actually loaded.
-#[derive(Debug, Serialize)]
-struct Parameters<'a> {
-    #[serde(flatten)]
-    job: &'a KittiJob,
-    style: Option<StyleRecord<'a>>,
+/// Whether the style pass takes the source images or the warped ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StyleOrder {
+    /// Style the source image, then warp it (as the paper does).
+    BeforeWarp,
+    /// Warp, then style the output image.
+    AfterWarp,
 }
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
@@ -116,11 +203,7 @@ pub fn run_kitti(
     stop: &AtomicBool,
 ) -> Result<KittiSummary> {
     let started = std::time::Instant::now();
-    let dataset = if job.raw {
-        raw::open(&job.input, job.split.as_deref())?
-    } else {
-        Dataset::open(&job.input, job.split.as_deref())?
-    };
+    let dataset = job.source.open(&job.input)?;
     // Resumed runs and shards write into a folder that already holds outputs.
     // Held until the run returns: one process per output (per shard).
     let _lock = journal::claim_output(
@@ -156,40 +239,26 @@ pub fn run_kitti(
         }
         None => None,
     };
-    let parameters = serde_json::to_value(Parameters {
-        job,
-        style: style.as_ref().map(|m| StyleRecord {
-            model: m.info(),
-            order: if job.style.as_ref().is_some_and(|s| s.after_warp) {
-                "after_warp"
-            } else {
-                "before_warp"
-            },
-        }),
-    })
-    .expect("parameters serialise");
+    let parameters =
+        serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
     let previous = if job.resume {
         journal::load_previous(&job.output, job.shard, &parameters)?
     } else {
         HashMap::new()
     };
 
-    let is_raw = dataset
-        .splits
-        .iter()
-        .any(|s| matches!(s.layout, Layout::Raw { .. }));
-    if is_raw && job.augment.is_some() {
+    if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
         return Err(Error::Setup(
             "--augment is not available for KITTI raw drives (one calib per drive)".into(),
         ));
     }
     for split in &dataset.splits {
-        let mut kinds = vec![OutputKind::Image(2), OutputKind::Calib];
+        let mut kinds = vec![OutputKind::Image(Cam::C2), OutputKind::Calib];
         if split.has_labels {
             kinds.push(OutputKind::Label);
         }
-        if job.cameras.contains(&3) {
-            kinds.push(OutputKind::Image(3));
+        if job.cameras.contains(&Cam::C3) {
+            kinds.push(OutputKind::Image(Cam::C3));
         }
         if job.mask {
             kinds.extend(job.cameras.iter().map(|&c| OutputKind::Mask(c)));
@@ -228,8 +297,13 @@ pub fn run_kitti(
     for split in &dataset.splits {
         ctx.write_split_calib(split)?;
     }
-    let command = if is_raw { "kitti-raw" } else { "kitti" };
-    let journal = Journal::new(&job.output, job.shard, command, parameters, job.resume)?;
+    let journal = Journal::new(
+        &job.output,
+        job.shard,
+        job.source.command(),
+        parameters,
+        job.resume,
+    )?;
     // Files that look like frames but cannot be read as one: reported, not silently skipped.
     // (With a frame selection they were not asked for; each shard reports its own share.)
     let unusable: Vec<(&Split, &String)> = dataset
@@ -309,7 +383,7 @@ pub fn run_kitti(
             id: name.clone(),
         };
         let e = Error::file(
-            &split.image_path(2, "x").with_file_name(name),
+            &split.image_path(Cam::C2, "x").with_file_name(name),
             "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
         );
         progress.frame_failed(&f.to_string(), &e);

@@ -10,6 +10,7 @@
 use super::frame::Context;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::codec::png;
+use crate::kitti::Cam;
 use crate::kitti::{Calib, Layout, Split};
 use crate::warp::{RemapTable, MAX_SUPERSAMPLE};
 use rayon::prelude::*;
@@ -24,7 +25,7 @@ use std::path::Path;
 const SCAN_AT_MOST: usize = 2048;
 
 /// Builds, in parallel, the table of every (camera, image size) that several of `frames` share.
-pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[usize]) {
+pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[Cam]) {
     let found: Vec<(Intrinsics, ImageSize)> = frames
         .par_iter()
         .step_by(frames.len().div_ceil(SCAN_AT_MOST).max(1))
@@ -65,7 +66,7 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[u
 }
 
 /// The (K, image size) of each camera of a frame, as far as its files can be read.
-fn source_cameras(split: &Split, id: &str, cameras: &[usize]) -> Vec<(Intrinsics, ImageSize)> {
+fn source_cameras(split: &Split, id: &str, cameras: &[Cam]) -> Vec<(Intrinsics, ImageSize)> {
     let calib = match &split.layout {
         Layout::Object => {
             let path = split.calib_path(id);
