@@ -506,7 +506,7 @@ pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
     let n = panoconv::run::journal::merge(&a.output)?;
     eprintln!(
         "panoconv: merged {n} frames into {}",
-        a.output.join(panoconv::run::journal::MANIFEST).display()
+        a.output.join(panoconv::run::manifest::MANIFEST).display()
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 /// One output of each source image.
 #[derive(Clone)]
-pub struct View {
+pub struct FolderView {
     /// Appended to the input's file stem ("" for a single view).
     pub suffix: String,
     pub camera: Arc<dyn LinearCamera>,
@@ -34,7 +34,7 @@ pub struct View {
 }
 
 /// Builds the views of a source image of the given size (an error fails that image).
-pub type Planner<'a> = dyn Fn(ImageSize) -> Result<Vec<View>> + Sync + 'a;
+pub type Planner<'a> = dyn Fn(ImageSize) -> Result<Vec<FolderView>> + Sync + 'a;
 
 /// A folder conversion.
 pub struct FolderJob {
@@ -49,7 +49,7 @@ pub struct FolderJob {
 }
 
 /// The text written beside each output image.
-pub fn camera_text(view: &View) -> String {
+pub fn camera_text(view: &FolderView) -> String {
     let join = |v: &[f64]| {
         v.iter()
             .map(|&x| format_sci(x))
@@ -116,7 +116,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
 struct Ctx<'a> {
     job: &'a FolderJob,
     planner: &'a Planner<'a>,
-    views: OnceMap<ImageSize, std::result::Result<Arc<Vec<View>>, String>>,
+    views: OnceMap<ImageSize, std::result::Result<Arc<Vec<FolderView>>, String>>,
 }
 
 impl Ctx<'_> {

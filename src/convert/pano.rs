@@ -4,7 +4,7 @@
 use crate::camera::description::CameraDescription;
 use crate::camera::rotated::rotation_ypr;
 use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, ProjectionReject};
-use crate::convert::folder::View;
+use crate::convert::folder::FolderView;
 use crate::error::{Error, Result};
 use crate::geometry::{view_camera, Scale};
 use crate::warp::{RemapTable, Wrap};
@@ -115,7 +115,7 @@ impl PanoViews {
     }
 
     /// The views of a panorama of `size` (which must be 2:1).
-    pub fn plan(&self, size: ImageSize) -> Result<Vec<View>> {
+    pub fn plan(&self, size: ImageSize) -> Result<Vec<FolderView>> {
         if size.width != 2 * size.height {
             return Err(Error::Setup(format!(
                 "image is {size}, not a 2:1 equirect panorama"
@@ -136,7 +136,7 @@ impl PanoViews {
                     &source_from_output,
                     Wrap::Horizontal,
                 );
-                View {
+                FolderView {
                     suffix: yaw_suffix(&self.yaws, yaw),
                     camera: camera.clone(),
                     source_from_output,
@@ -187,7 +187,7 @@ impl FisheyeView {
     pub fn planner(
         &self,
         desc: &CameraDescription,
-    ) -> Result<impl Fn(ImageSize) -> Result<Vec<View>> + Sync> {
+    ) -> Result<impl Fn(ImageSize) -> Result<Vec<FolderView>> + Sync> {
         let view = self.plan(desc)?;
         let size = desc.camera.size();
         Ok(move |s: ImageSize| {
@@ -201,7 +201,7 @@ impl FisheyeView {
     }
 
     /// The single view of every image of the camera (built at set-up: errors are set-up errors).
-    pub fn plan(&self, desc: &CameraDescription) -> Result<View> {
+    pub fn plan(&self, desc: &CameraDescription) -> Result<FolderView> {
         let centre = desc.camera.centre_intrinsics();
         let fu = self.scale.px_per_rad(centre.fu);
         let fv = match self.projection {
@@ -218,7 +218,7 @@ impl FisheyeView {
             &source_from_output,
             Wrap::None,
         );
-        Ok(View {
+        Ok(FolderView {
             suffix: String::new(),
             camera,
             source_from_output,

@@ -10,11 +10,9 @@
 use crate::error::{Error, Result};
 use crate::fs::read_file;
 use crate::fs::{hash_hex, write_atomic_durable};
+use crate::run::manifest::MANIFEST;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
-
-/// The manifest's file name inside an output folder.
-const MANIFEST: &str = "panoconv.json";
 
 /// The converted dataset that `path` (a file or folder, existing or not) lies in: the nearest
 /// enclosing folder holding a manifest.

@@ -2,6 +2,9 @@
 
 use serde::Serialize;
 
+/// The manifest's file name, at the output's root.
+pub const MANIFEST: &str = "panoconv.json";
+
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct FrameRecord {
     pub split: String,

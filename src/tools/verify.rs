@@ -9,6 +9,7 @@
 //! `ImageSets/<split>.txt` lists the conversion writes beside the frames.
 
 use crate::error::{Error, Result};
+use crate::run::manifest::MANIFEST;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -146,9 +147,6 @@ impl Report {
         s
     }
 }
-
-/// The manifest's file name inside an output folder.
-pub const MANIFEST: &str = "panoconv.json";
 
 /// Reads `root/panoconv.json`: `Err` when it is missing, unreadable or not a manifest (a JSON
 /// error names the line and column).

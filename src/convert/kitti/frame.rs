@@ -28,21 +28,21 @@ use std::sync::Arc;
 
 /// The output camera and remap table of one source camera.
 #[derive(Clone)]
-pub(super) struct Mapping {
+pub(super) struct CameraMapping {
     output: Arc<dyn OutputCamera>,
     table: Arc<RemapTable>,
 }
 
-type MappingKey = ([u64; 4], ImageSize);
+type CameraMappingKey = ([u64; 4], ImageSize);
 
 /// One output view of a camera: its id, mapping, and augmentation (None: the whole frame).
-type OutputView = (String, Mapping, Option<View>);
+type OutputView = (String, CameraMapping, Option<View>);
 
 pub(super) struct Context<'a> {
     job: &'a KittiJob,
     style: Option<&'a StyleModel>,
     dataset: &'a Dataset,
-    mappings: OnceMap<MappingKey, std::result::Result<Mapping, String>>,
+    mappings: OnceMap<CameraMappingKey, std::result::Result<CameraMapping, String>>,
     /// Per split: the file written once for the whole split (raw drives' `calib.txt`), as
     /// (path relative to the output, blake3). Every frame of the split lists it, so the
     /// manifest covers it whichever frames a shard or a resumed run converts.
@@ -82,7 +82,7 @@ impl<'a> Context<'a> {
         self.mappings.len()
     }
 
-    fn mapping(&self, calib_path: &Path, k: Intrinsics, size: ImageSize) -> Result<Mapping> {
+    fn mapping(&self, calib_path: &Path, k: Intrinsics, size: ImageSize) -> Result<CameraMapping> {
         self.mappings
             .get_or_build(&(k.key(), size), || {
                 self.build_mapping(k, size, RemapTable::build)
@@ -97,12 +97,12 @@ impl<'a> Context<'a> {
         k: Intrinsics,
         size: ImageSize,
         build: fn(&dyn CameraModel, &dyn CameraModel, &Matrix3<f64>, Wrap) -> RemapTable,
-    ) -> std::result::Result<Mapping, String> {
+    ) -> std::result::Result<CameraMapping, String> {
         let source = Perspective::new(k, size);
         let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
             .map_err(|e| e.to_string())?;
         let table = build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
-        Ok(Mapping {
+        Ok(CameraMapping {
             output: Arc::from(output),
             table: Arc::new(table),
         })
@@ -113,7 +113,7 @@ impl<'a> Context<'a> {
         &self,
         k: Intrinsics,
         size: ImageSize,
-        mapping: std::result::Result<Mapping, String>,
+        mapping: std::result::Result<CameraMapping, String>,
     ) {
         self.mappings.insert((k.key(), size), mapping);
     }
@@ -518,7 +518,7 @@ impl<'a> Context<'a> {
                 // Every view has its own camera, so its table is not shared.
                 let table =
                     RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
-                let mapping = Mapping {
+                let mapping = CameraMapping {
                     output: Arc::from(output),
                     table: Arc::new(table),
                 };

@@ -4,8 +4,9 @@
 //! memory does not grow with the frames and the bytes are those one run writes.
 
 use super::index::LineIndex;
-use super::{pretty, MANIFEST};
+use super::pretty;
 use crate::error::{Error, Result};
+use crate::run::manifest::MANIFEST;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::value::RawValue;

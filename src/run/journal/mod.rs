@@ -13,6 +13,7 @@ mod pretty;
 
 use crate::error::{Error, Result};
 use crate::fs::hash_hex;
+use crate::run::manifest::MANIFEST;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use serde::Deserialize;
 use serde_json::{json, Value};
@@ -27,7 +28,6 @@ use index::LineIndex;
 pub use lock::OutputLock;
 pub use merge::merge;
 
-pub const MANIFEST: &str = "panoconv.json";
 /// How often a running conversion makes its journal durable (fsync).
 const SYNC_EVERY: Duration = Duration::from_secs(2);
 
