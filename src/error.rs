@@ -3,23 +3,36 @@
 
 use std::path::{Path, PathBuf};
 
+/// Any failure of the library: displayed as `path:line: field: message`, `path: message` or
+/// the message alone.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A malformed value inside a text file.
     #[error("{}:{line}: {field}: {message}", path.display())]
     Parse {
+        /// The file the value is in.
         path: PathBuf,
+        /// 1-based line of the value.
         line: usize,
+        /// The field (key, column or record name) the value belongs to.
         field: String,
+        /// What is wrong with the value.
         message: String,
     },
     /// A file that is unusable as a whole (missing, empty, undecodable, inconsistent).
     #[error("{}: {message}", path.display())]
-    File { path: PathBuf, message: String },
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// The OS error is part of the message, not a separate cause, so that it is printed once.
     #[error("{}: {cause}", path.display())]
     Io {
+        /// The file or directory the operation was on.
         path: PathBuf,
+        /// The operating system's error.
         cause: std::io::Error,
     },
     /// A problem with the run's set-up (paths, options); nothing has been written.
@@ -36,6 +49,7 @@ pub enum Error {
 }
 
 impl Error {
+    /// An [`Error::Parse`]: `message` about `field` at 1-based `line` of `path`.
     pub fn parse(
         path: &Path,
         line: usize,
@@ -50,6 +64,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::File`]: `message` about `path` as a whole.
     pub fn file(path: &Path, message: impl Into<String>) -> Self {
         Error::File {
             path: path.to_path_buf(),
@@ -57,6 +72,7 @@ impl Error {
         }
     }
 
+    /// An [`Error::Io`]: the OS error `cause` of an operation on `path`.
     pub fn io(path: &Path, cause: std::io::Error) -> Self {
         Error::Io {
             path: path.to_path_buf(),
@@ -77,4 +93,5 @@ impl Error {
     }
 }
 
+/// A result whose error is, by default, the library's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -162,6 +162,7 @@ pub fn check_output_dir(input: &Path, output: &Path, overwrite: bool) -> Result<
     Ok(())
 }
 
+/// The BLAKE3 hash of `bytes` as 64 lowercase hex digits (the hashes in manifests).
 pub fn hash_hex(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
 }

@@ -9,9 +9,11 @@ use nalgebra::Vector3;
 /// Rays within this angle-tangent of the axis (rho/|p|) are treated as on the axis.
 const MIN_RHO: f64 = 1e-9;
 
+/// The cylindrical (a, b) mapping; see the module documentation.
 #[derive(Debug, PartialEq)]
 pub struct CylindricalMapping;
 
+/// A cylindrical camera: `CylindricalMapping` with K.
 pub type Cylindrical = Linear<CylindricalMapping>;
 
 impl Mapping for CylindricalMapping {

@@ -75,6 +75,7 @@ struct CameraFile {
 /// A loaded camera description.
 #[derive(Debug, Clone)]
 pub struct CameraDescription {
+    /// The lens: model, intrinsics, image size and field of view.
     pub camera: Lens,
     /// The camera's axes in the output frame: a camera bearing d is `output_from_camera · d`.
     pub output_from_camera: Matrix3<f64>,

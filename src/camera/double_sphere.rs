@@ -23,12 +23,16 @@ use super::lens::{bearing_within, field_angle, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 
+/// A double sphere camera (formula in the module documentation).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DoubleSphere {
+    /// ξ: the offset between the two unit spheres' centres, in (−1, 1).
     pub xi: f64,
+    /// α: the blend between the second sphere and the image plane, in [0, 1].
     pub alpha: f64,
     /// fx, fy, cx, cy (pixel centres at integers).
     pub k: Intrinsics,
+    /// Image size in pixels.
     pub size: ImageSize,
     /// Half the field of view (radians); bearings beyond it are rejected.
     pub max_theta: f64,

@@ -7,9 +7,11 @@ use super::{Projection, ProjectionReject};
 use nalgebra::Vector3;
 use std::f64::consts::FRAC_PI_2;
 
+/// The equirectangular (a, b) mapping; see the module documentation.
 #[derive(Debug, PartialEq)]
 pub struct EquirectMapping;
 
+/// An equirectangular camera: `EquirectMapping` with K (fu, fv in pixels per radian).
 pub type Equirect = Linear<EquirectMapping>;
 
 impl Mapping for EquirectMapping {

@@ -24,12 +24,16 @@ use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
 
+/// An extended unified (EUCM) camera (formula in the module documentation).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Eucm {
+    /// α: the blend between the ellipsoid term d and z, in [0, 1].
     pub alpha: f64,
+    /// β: the ellipsoid's shape (> 0; 1 is a sphere, the unified model).
     pub beta: f64,
     /// fx, fy, cx, cy (pixel centres at integers).
     pub k: Intrinsics,
+    /// Image size in pixels.
     pub size: ImageSize,
     /// Half the field of view (radians); bearings beyond it are rejected.
     pub max_theta: f64,

@@ -32,6 +32,8 @@ pub enum RadialModel {
 }
 
 impl RadialModel {
+    /// The model's name as in a camera description's `"model"` key (`woodscape` for
+    /// [`RadialModel::Polynomial`]).
     pub fn name(&self) -> &'static str {
         match self {
             RadialModel::Equidistant => "equidistant",
@@ -197,9 +199,11 @@ pub(crate) fn check_intrinsics(k: &Intrinsics, size: ImageSize) -> Result<(), Fi
 /// A fisheye camera: a radial model, the affine part (fx, fy, cx, cy) and the field of view.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fisheye {
+    /// The radial function R(θ).
     pub model: RadialModel,
     /// fx, fy: pixels per unit of r; cx, cy: principal point (pixel centres at integers).
     pub k: Intrinsics,
+    /// Image size in pixels.
     pub size: ImageSize,
     /// Half the maximum field of view (radians): rays beyond it have no image.
     pub max_theta: f64,

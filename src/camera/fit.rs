@@ -17,13 +17,18 @@ use nalgebra::{DMatrix, DVector, Point2, Vector3};
 /// The models a lens can be converted to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TargetModel {
+    /// Kannala-Brandt / OpenCV fisheye ([`RadialModel::KannalaBrandt`]).
     KannalaBrandt,
+    /// The unified model with Mei's distortion ([`Unified`]).
     Mei,
+    /// The extended unified camera model ([`Eucm`]).
     Eucm,
+    /// The double sphere model ([`DoubleSphere`]).
     DoubleSphere,
 }
 
 impl TargetModel {
+    /// The model's name as in a camera description's `"model"` key.
     pub fn name(self) -> &'static str {
         match self {
             TargetModel::KannalaBrandt => "kannala_brandt",
@@ -37,12 +42,18 @@ impl TargetModel {
 /// A fitted lens and its reprojection errors (pixels) over the evaluation grid.
 #[derive(Debug, Clone)]
 pub struct FitReport {
+    /// The fitted lens in the target model.
     pub lens: Lens,
+    /// Root mean square reprojection error over the evaluation grid, in pixels.
     pub rms_px: f64,
+    /// Largest reprojection error over the evaluation grid, in pixels (infinite when some
+    /// evaluation ray has no image in the fitted lens).
     pub max_px: f64,
-    /// Rays of the fit and of the evaluation.
+    /// Rays the fit minimised the error over.
     pub fit_rays: usize,
+    /// Rays of the evaluation grid (offset by half a step from the fit's).
     pub eval_rays: usize,
+    /// Levenberg-Marquardt iterations of the best start.
     pub iterations: usize,
 }
 

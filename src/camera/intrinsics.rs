@@ -2,13 +2,17 @@
 
 use serde::{Deserialize, Serialize};
 
+/// An image's size in pixels; displayed as `WIDTHxHEIGHT`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct ImageSize {
+    /// Columns, in pixels.
     pub width: u32,
+    /// Rows, in pixels.
     pub height: u32,
 }
 
 impl ImageSize {
+    /// A size of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         Self { width, height }
     }
@@ -24,22 +28,29 @@ impl std::fmt::Display for ImageSize {
 /// principal point, with pixel centres at integers.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
+    /// Horizontal focal length: pixels per unit of `a` (`K[0][0]`).
     pub fu: f64,
+    /// Vertical focal length: pixels per unit of `b` (`K[1][1]`).
     pub fv: f64,
+    /// Column of the principal point, in pixels (`K[0][2]`).
     pub cu: f64,
+    /// Row of the principal point, in pixels (`K[1][2]`).
     pub cv: f64,
 }
 
 impl Intrinsics {
+    /// K from its four entries: focal lengths `fu`, `fv` and principal point (`cu`, `cv`).
     pub fn new(fu: f64, fv: f64, cu: f64, cv: f64) -> Self {
         Self { fu, fv, cu, cv }
     }
 
+    /// Pixel (u, v) of projection coordinates (a, b): K · (a, b, 1).
     #[inline]
     pub fn to_pixel(&self, a: f64, b: f64) -> (f64, f64) {
         (self.fu * a + self.cu, self.fv * b + self.cv)
     }
 
+    /// Projection coordinates (a, b) of pixel (u, v): the inverse of [`Intrinsics::to_pixel`].
     #[inline]
     pub fn from_pixel(&self, u: f64, v: f64) -> (f64, f64) {
         ((u - self.cu) / self.fu, (v - self.cv) / self.fv)

@@ -11,6 +11,7 @@ use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
 
+/// A wide-angle lens of any supported model.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Lens {
     /// Radially symmetric r = R(θ): equidistant, equisolid, stereographic, orthographic,
@@ -18,7 +19,9 @@ pub enum Lens {
     Radial(Fisheye),
     /// Unified model with Mei's distortion (KITTI-360, OpenCV omnidir).
     Unified(Unified),
+    /// Extended unified camera model (Khomutenko et al.).
     Eucm(Eucm),
+    /// Double sphere model (Usenko et al.).
     DoubleSphere(DoubleSphere),
 }
 

@@ -10,12 +10,15 @@ use std::marker::PhantomData;
 
 /// A projection's coordinates (a, b) of a bearing, and the distance it pairs with.
 pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
+    /// The projection this mapping implements.
     const PROJECTION: Projection;
     /// `a` is an angle about the y axis, so u is periodic with 2π·fu (360° images wrap).
     const PERIODIC: bool;
     /// Only bearings with z > 0 have an image.
     const FRONT_ONLY: bool;
+    /// Projection coordinates (a, b) of a bearing (any non-zero length); angles in radians.
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
+    /// Unit bearing of projection coordinates (a, b).
     fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
     /// The distance this projection pairs with, for a point relative to the centre.
     fn distance(p: &Vector3<f64>) -> f64;
@@ -24,7 +27,9 @@ pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
 /// A linear camera of projection `M` with intrinsics `k` and image `size`.
 #[derive(Debug, PartialEq)]
 pub struct Linear<M> {
+    /// The affine map from projection coordinates (a, b) to pixels.
     pub k: Intrinsics,
+    /// Image size in pixels.
     pub size: ImageSize,
     mapping: PhantomData<M>,
 }
@@ -36,6 +41,7 @@ impl<M> Clone for Linear<M> {
 }
 
 impl<M> Linear<M> {
+    /// A camera of projection `M` with intrinsics `k` and an image of `size` pixels.
     pub fn new(k: Intrinsics, size: ImageSize) -> Self {
         Self {
             k,

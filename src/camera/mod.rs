@@ -55,14 +55,18 @@ pub enum ProjectionReject {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Projection {
+    /// Pinhole: (a, b) = (x/z, y/z); sees only the front half-space.
     Perspective,
+    /// Equirectangular: (a, b) = (longitude, latitude) in radians; longitude wraps.
     Equirect,
+    /// Cylindrical: (a, b) = (azimuth in radians, y / rho); azimuth wraps.
     Cylindrical,
     /// A real fisheye lens ([`FisheyeCamera`]), described by its own calib lines.
     Fisheye,
 }
 
 impl Projection {
+    /// The lowercase name written in calib `projection:` lines and exports.
     pub fn name(self) -> &'static str {
         match self {
             Projection::Perspective => "perspective",

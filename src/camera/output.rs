@@ -37,7 +37,9 @@ pub trait OutputCamera: CameraModel {
 /// `rect_from_camera · d` in rect.
 #[derive(Debug, Clone)]
 pub struct FisheyeCamera {
+    /// The lens in its own axes (optical axis +z).
     pub lens: Lens,
+    /// The lens's axes in KITTI's rectified camera frame (a rotation).
     pub rect_from_camera: Matrix3<f64>,
 }
 

@@ -7,9 +7,11 @@ use nalgebra::Vector3;
 /// Rays closer than this to the image plane's horizon (z/|b| below it) have no image.
 const MIN_FORWARD: f64 = 1e-9;
 
+/// The pinhole (a, b) = (x/z, y/z) mapping.
 #[derive(Debug, PartialEq)]
 pub struct PinholeMapping;
 
+/// A pinhole camera: `PinholeMapping` with K, as KITTI's rectified cameras.
 pub type Perspective = Linear<PinholeMapping>;
 
 impl Mapping for PinholeMapping {

@@ -29,11 +29,15 @@ pub fn is_rotation(m: &Matrix3<f64>, tol: f64) -> bool {
 /// in and out of this model are in the reference frame.
 #[derive(Debug, Clone)]
 pub struct Rotated<C> {
+    /// The camera in its own axes.
     pub inner: C,
+    /// The camera's axes in the reference frame: a camera bearing d is
+    /// `reference_from_camera · d` there.
     pub reference_from_camera: Matrix3<f64>,
 }
 
 impl<C: CameraModel> Rotated<C> {
+    /// `inner` with its axes `reference_from_camera` in the reference frame (a rotation).
     pub fn new(inner: C, reference_from_camera: Matrix3<f64>) -> Self {
         Self {
             inner,

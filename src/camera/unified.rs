@@ -46,13 +46,18 @@ const AZIMUTH_SAMPLES: usize = 16;
 /// Mei's distortion: radial k1, k2 and tangential p1, p2 (OpenCV's omnidir `D`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeiDistortion {
+    /// Radial coefficient of r² (`D[0]`).
     pub k1: f64,
+    /// Radial coefficient of r⁴ (`D[1]`).
     pub k2: f64,
+    /// First tangential coefficient (`D[2]`).
     pub p1: f64,
+    /// Second tangential coefficient (`D[3]`).
     pub p2: f64,
 }
 
 impl MeiDistortion {
+    /// No distortion: the plain unified model.
     pub const NONE: Self = Self {
         k1: 0.0,
         k2: 0.0,
@@ -145,11 +150,13 @@ impl MeiDistortion {
 pub struct Unified {
     /// ξ: the projection centre's offset behind the sphere's centre (≥ 0).
     pub xi: f64,
+    /// The distortion applied on the lifted plane.
     pub distortion: MeiDistortion,
     /// γ1, γ2, u0, v0 (pixel centres at integers, as OpenCV).
     pub k: Intrinsics,
-    /// OpenCV omnidir's skew s (K[0][1]); 0 for KITTI-360.
+    /// OpenCV omnidir's skew s (`K[0][1]`); 0 for KITTI-360.
     pub skew: f64,
+    /// Image size in pixels.
     pub size: ImageSize,
     /// Half the field of view (radians); bearings beyond it are rejected.
     pub max_theta: f64,

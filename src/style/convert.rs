@@ -108,7 +108,9 @@ pub fn chw_to_image(src: &[f32], pw: u32, ph: u32, w: u32, h: u32) -> RgbImage {
 /// overlap, and [`AxisTiles::weights`] ramps across each overlap).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AxisTiles {
+    /// Length of every tile, in pixels.
     pub tile: u32,
+    /// Pixel offset of each tile's first row or column, increasing.
     pub starts: Vec<u32>,
 }
 
@@ -195,6 +197,7 @@ pub struct Blender {
 }
 
 impl Blender {
+    /// An empty accumulator for a `w` × `h` pixel image.
     pub fn new(w: u32, h: u32) -> Blender {
         let n = w as usize * h as usize;
         Blender {
@@ -229,6 +232,8 @@ impl Blender {
         }
     }
 
+    /// The weighted mean of the tiles at each pixel, converted to RGB8 by the output
+    /// convention; pixels no tile covered are black.
     pub fn finish(self) -> RgbImage {
         let plane = self.w as usize * self.h as usize;
         let mut out = vec![0u8; plane * 3];

@@ -23,8 +23,11 @@ pub const HOW_TO_GET: &str = "get it with `scripts/install_ort.sh` (installs lib
 /// Where the library came from (for messages).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum LibSource {
+    /// The path given with `--ort-lib`.
     Explicit,
+    /// The `ORT_DYLIB_PATH` environment variable.
     EnvVar,
+    /// A `libonnxruntime.so*` in the running executable's folder.
     BesideExe,
 }
 
@@ -41,8 +44,15 @@ impl std::fmt::Display for LibSource {
 /// Why no usable library could be found or loaded (`model` is added by the caller).
 #[derive(Debug)]
 pub enum LibError {
+    /// No library file: the message says which path is missing or where it was looked for.
     Missing(String),
-    Load { lib: PathBuf, detail: String },
+    /// The library file `lib` cannot be loaded, initialised, or used beside another one.
+    Load {
+        /// The library file.
+        lib: PathBuf,
+        /// What failed.
+        detail: String,
+    },
 }
 
 /// Resolves the library path: `explicit`, then `ORT_DYLIB_PATH`, then `libonnxruntime.so*`

@@ -14,6 +14,7 @@ use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2};
 use rayon::prelude::*;
 
+/// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
@@ -129,10 +130,12 @@ impl RemapTable {
         b.finish(bands)
     }
 
+    /// Size of the output image the table fills, in pixels.
     pub fn size(&self) -> ImageSize {
         self.size
     }
 
+    /// Size of the source image the table samples, in pixels.
     pub fn source_size(&self) -> ImageSize {
         self.source_size
     }

@@ -16,23 +16,29 @@ const MAX_CHUNK: usize = (u32::MAX >> 1) as usize;
 /// The filter applied to every row (PNG filter types 1 and 4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RowFilter {
+    /// Type 1: each byte minus the byte one pixel to its left.
     Sub,
+    /// Type 4: each byte minus the Paeth predictor of its left, upper and upper-left bytes.
     Paeth,
 }
 
 /// The image header: size and sample layout (8-bit RGB or 16-bit grey here).
 #[derive(Debug, Clone, Copy)]
 pub struct Header {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Grey or RGB.
     pub colour: ColourType,
+    /// Bits per sample (8 for RGB, 16 for grey).
     pub bit_depth: u8,
     /// Bytes per pixel.
     pub bpp: usize,
 }
 
 impl Header {
+    /// An 8-bit RGB image of `width` × `height` pixels.
     pub fn rgb8(width: u32, height: u32) -> Self {
         Self {
             width,
@@ -43,6 +49,7 @@ impl Header {
         }
     }
 
+    /// A 16-bit greyscale image of `width` × `height` pixels (depth maps).
     pub fn gray16(width: u32, height: u32) -> Self {
         Self {
             width,
