@@ -8,7 +8,7 @@
 //! Cases that expose a bug carry `bug: Some(..)`: the main test skips them and an `#[ignore]`d
 //! test of the same name runs them (`cargo test --test corpus -- --ignored`).
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::ffi::OsString;

@@ -11,7 +11,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
 /// `n` frames: the shipped synthetic training frames hard-linked under new ids.
 fn dataset(root: &Path, n: usize) -> PathBuf {
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti/training");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti/training");
     let d = root.join("in");
     for sub in ["image_2", "calib", "label_2"] {
         std::fs::create_dir_all(d.join("training").join(sub)).unwrap();
@@ -305,7 +305,7 @@ fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
 #[ignore = "minutes long: run by hand"]
 fn kill_nine_at_scale_then_resume_gives_the_uninterrupted_bytes() {
     let n: usize = std::env::var("PANOCONV_SCALE_FRAMES").map_or(20_000, |v| v.parse().unwrap());
-    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training");
+    let source = crate::common::real_kitti().join("training");
     let ids: Vec<String> = {
         let mut ids: Vec<String> = std::fs::read_dir(source.join("image_2"))
             .unwrap()
