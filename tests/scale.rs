@@ -300,7 +300,7 @@ fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
 /// kill -9 at several moments of a long run (each resume killed in turn), then `--resume`:
 /// the bytes of one uninterrupted run. The real frames of ../shared/kitti/training hard-linked
 /// under PANOCONV_SCALE_FRAMES ids (default 20 000), outputs at 414×125 to spare the disk.
-/// Minutes long, so outside CI: `cargo test --release --test scale -- --ignored`.
+/// Minutes long, so outside CI: `cargo test --release --test tests scale:: -- --ignored`.
 #[test]
 #[ignore = "minutes long: run by hand"]
 fn kill_nine_at_scale_then_resume_gives_the_uninterrupted_bytes() {

@@ -11,24 +11,8 @@ use std::sync::OnceLock;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
-/// The repository root.
-pub fn repo() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The real KITTI frames (read only; never copied into the repo): `$PANOCONV_KITTI`, else
-/// `../shared/kitti`; a relative path is taken from the repository root.
-pub fn real_kitti() -> PathBuf {
-    let dir = std::env::var_os("PANOCONV_KITTI")
-        .filter(|v| !v.is_empty())
-        .map_or_else(|| PathBuf::from("../shared/kitti"), PathBuf::from);
-    repo().join(dir)
-}
-
-/// The panoramas of `../shared/pano` (read only).
-pub fn real_panos() -> PathBuf {
-    repo().join("../shared/pano")
-}
+mod paths;
+pub use paths::*;
 
 /// The outcome of one run of the binary.
 #[derive(Debug)]
