@@ -12,6 +12,10 @@ use panoconv::warp::{RemapTable, Wrap};
 use std::hint::black_box;
 use std::path::Path;
 
+#[path = "../tests/common/paths.rs"]
+#[allow(dead_code)]
+mod paths;
+
 fn setup() -> (
     Perspective,
     panoconv::image::RgbImage,
@@ -136,10 +140,10 @@ fn bench(c: &mut Criterion) {
     .unwrap();
     let pano_img =
         RemapTable::build(pano.as_ref(), &src, &Matrix3::identity(), Wrap::None).apply(&image);
-    // A real KITTI frame when ../shared/kitti is there (the synthetic one is far smoother, so
-    // its codec figures are optimistic); decoded from its original file, as the CLI does.
-    let real =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training/image_2/000001.png");
+    // A real KITTI frame when $PANOCONV_KITTI (default ../shared/kitti) is there (the synthetic
+    // one is far smoother, so its codec figures are optimistic); decoded from its original file,
+    // as the CLI does.
+    let real = paths::real_kitti().join("training/image_2/000001.png");
     if let Ok(bytes) = std::fs::read(&real) {
         let img = decode_rgb8(&bytes, &real).unwrap();
         g.bench_function(BenchmarkId::new("decode", "real_kitti_original"), |b| {

@@ -17,7 +17,7 @@ use panoconv::image::RgbImage;
 use panoconv::style::{convert, runtime, Device, StyleModel, StyleOptions};
 
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/style")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
 }
 
 fn ort_lib() -> PathBuf {

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Runs two panoconv binaries on the same inputs and options and compares the whole output trees
 # byte for byte (diff -r): the check that a refactoring or a new feature left every existing
-# output as it was. Inputs: the real frames in ../shared/kitti, the synthetic sample and the
-# panoramas in ../shared/pano.
+# output as it was. Inputs: the real frames in $PANOCONV_KITTI (default ../shared/kitti), the
+# synthetic sample and the panoramas in ../shared/pano.
 #
 # Usage: scripts/compare_outputs.sh OLD_BINARY NEW_BINARY
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 old="$(realpath "$1")" new="$(realpath "$2")"
-kitti="$(realpath ../shared/kitti)" synth="$(realpath data/synthetic_kitti)" pano="$(realpath ../shared/pano)"
+kitti="${PANOCONV_KITTI:-../shared/kitti}"
+kitti="$(realpath "$kitti")" synth="$(realpath fixtures/synthetic_kitti)" pano="$(realpath ../shared/pano)"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 differ=0

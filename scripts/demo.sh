@@ -16,7 +16,7 @@ if [[ -e "$out" ]]; then
 fi
 echo "demo: building panoconv (release; the first build takes a few minutes)" >&2
 cargo build --release --locked
-./target/release/panoconv kitti --to equirect --input data/synthetic_kitti --output "$out/equirect"
+./target/release/panoconv kitti --to equirect --input fixtures/synthetic_kitti --output "$out/equirect"
 ./target/release/panoconv verify "$out/equirect"
 ./target/release/panoconv preview "$out/equirect" --frame 000000 --output "$out/preview_000000.png"
 echo "wrote $out/equirect and $out/preview_000000.png"

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Builds the style-transfer test fixtures of panoconv (tests/fixtures/style/).
+"""Builds the style-transfer test fixtures of panoconv (fixtures/style/).
 
 Everything here is deterministic (fixed numpy seed, formula images, zlib level 9 with a fixed
 PNG filter choice), so running it twice gives byte-identical files.
@@ -25,7 +25,7 @@ The convention (the same as panoconv::style):
 
 Usage (from the repository root):
   python3 -m venv .venv && .venv/bin/pip install onnx numpy onnxruntime==1.31.1
-  .venv/bin/python scripts/make_style_model.py [--out tests/fixtures/style]
+  .venv/bin/python scripts/make_style_model.py [--out fixtures/style]
 """
 
 import argparse
@@ -282,7 +282,7 @@ def stylize_reference(sess, img):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     here = os.path.dirname(os.path.abspath(__file__))
-    ap.add_argument("--out", default=os.path.join(here, "..", "tests", "fixtures", "style"))
+    ap.add_argument("--out", default=os.path.join(here, "..", "fixtures", "style"))
     args = ap.parse_args()
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs the README's "Use" examples top to bottom on a copy of the real KITTI frames in
-# ../shared/kitti (and the panoramas in ../shared/pano), printing each command with its exit
+# $PANOCONV_KITTI, default ../shared/kitti (and the panoramas in ../shared/pano), printing each command with its exit
 # code, then `panoconv verify` on every output folder the examples create. A transcript for
 # people; the test suite checks the same behaviours one by one.
 #
@@ -17,10 +17,12 @@ if [[ -z "$bin" ]]; then
 fi
 [[ -x "$bin" ]] || { echo "no panoconv binary: cargo build first" >&2; exit 2; }
 shared="$repo/../shared"
+kitti="${PANOCONV_KITTI:-../shared/kitti}"
+kitti="$(realpath "$kitti")"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 cd "$work"
-cp -r "$shared/kitti" K
+cp -r "$kitti" K
 mkdir -p panos frames home
 cp "$shared"/pano/*.jpg "$shared"/pano/*.png panos/
 

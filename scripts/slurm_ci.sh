@@ -3,7 +3,8 @@
 #   1. installs Slurm and MUNGE from Debian's packages when missing (as root, apt-get);
 #   2. starts munged, slurmctld and slurmd with a private configuration in a work folder
 #      (nothing under /etc is changed);
-#   3. submits scripts/shard_job.sh as a 4-task array over copies of ../shared/kitti's frames,
+#   3. submits scripts/shard_job.sh as a 4-task array over copies of the real frames
+#      ($PANOCONV_KITTI, default ../shared/kitti),
 #      SIGKILLs one task's panoconv mid-run, re-submits that index (--resume completes it and
 #      keeps the frames it had finished), and runs `merge` and `verify` as a dependent job;
 #   4. compares every byte with one single-process run;
@@ -18,7 +19,8 @@ fail() {
     exit 1
 }
 
-kitti_src="$repo/../shared/kitti"
+kitti_src="${PANOCONV_KITTI:-../shared/kitti}"
+kitti_src="$(realpath -m "$kitti_src")"
 [ -d "$kitti_src/training/image_2" ] || fail "no KITTI frames in $kitti_src"
 # docs/scaling.md shows scripts/shard_job.sh as it is
 awk '/^## Slurm job array/ {on = 1} on && /^```bash$/ {getline; while ($0 != "```") {print; getline}; exit}' \

@@ -5,12 +5,9 @@
 // Calibration values are written digit for digit as published.
 #![allow(clippy::excessive_precision)]
 
-mod common;
-mod opencv_ref;
-
-use common::{panoconv, read_text};
+use crate::common::{panoconv, read_text};
+use crate::opencv_ref::{opencv_project, run_python};
 use nalgebra::{Point2, Vector3};
-use opencv_ref::{opencv_project, run_python};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::CameraModel;
 use std::f64::consts::PI;

@@ -15,8 +15,7 @@ use panoconv::camera::{
 use std::f64::consts::PI;
 use std::path::Path;
 
-mod opencv_ref;
-use opencv_ref::opencv_project;
+use crate::opencv_ref::opencv_project;
 
 /// Round trip pixel → ray → pixel, pixels.
 const ROUND_TRIP_PX: f64 = 1e-6;

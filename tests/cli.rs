@@ -1,9 +1,7 @@
 //! Integration tests of the `panoconv` command line: exit codes, what is written (and what is
 //! not), error reports, accepted input variants, and the conversion of real KITTI frames.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::collections::BTreeSet;
 use std::path::Path;
 
@@ -1131,7 +1129,7 @@ fn tight_size(projection: &str, k: [f64; 4], w: f64, h: f64) -> (u32, u32) {
 
 #[test]
 fn real_kitti_converts_and_boxes_match() {
-    let kitti_root = kitti_dir();
+    let kitti_root = real_kitti();
     assert!(
         kitti_root.join("training/image_2/000000.png").is_file(),
         "the real KITTI frames are missing at {}",

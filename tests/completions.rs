@@ -4,9 +4,7 @@
 //! `fish --no-execute`); elsewhere only their content is checked. The test prints which shells
 //! really ran (visible with --nocapture).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::process::Command;
 
 /// The subcommands `panoconv --help` lists (all but `help`): every one must have its

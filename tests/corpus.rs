@@ -6,9 +6,9 @@
 //! in `tests/corpus/README.md`; a test keeps the two in step.
 //!
 //! Cases that expose a bug carry `bug: Some(..)`: the main test skips them and an `#[ignore]`d
-//! test of the same name runs them (`cargo test --test corpus -- --ignored`).
+//! test of the same name runs them (`cargo test --test tests corpus:: -- --ignored`).
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::ffi::OsString;

@@ -183,7 +183,7 @@ fn run(args: &[&str], input: &Path, output: &Path) {
 }
 
 fn sample() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti")
 }
 
 fn iou(a: [f64; 4], b: [f64; 4]) -> f64 {

@@ -184,7 +184,7 @@ fn convert(input: &Path, output: &Path, extra: &[&str]) -> Output {
 /// the road in front of the car follows the ground plane.
 #[test]
 fn real_kitti_depth_lies_on_cars_and_road() {
-    let kitti = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti");
+    let kitti = crate::common::real_kitti();
     let tmp = tempfile::tempdir().unwrap();
     for to in ["equirect", "cylindrical"] {
         let out = tmp.path().join(to);

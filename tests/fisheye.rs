@@ -1,9 +1,9 @@
 //! Fisheye cameras: every model's round trips and inversion, refusals, the camera description
 //! file, fisheye → cylindrical against exact renders, and the `fisheye` subcommand.
 
-mod common;
+use crate::common;
 
-use common::{panoconv, read_text};
+use crate::common::{panoconv, read_text};
 use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::fisheye::FisheyeError;

@@ -3,10 +3,9 @@
 //! written calib read back (by panoconv and by the Python function of docs/formats.md), crops,
 //! resizes, augmentation, depth along the ray, determinism and the set-up errors.
 
-mod common;
-mod opencv_ref;
+use crate::opencv_ref;
 
-use common::*;
+use crate::common::*;
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::{CameraModel, FisheyeCamera};

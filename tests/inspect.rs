@@ -1,9 +1,7 @@
 //! `panoconv inspect`: the facts of ../shared/kitti against counts made independently here by
 //! plain string splitting, problems reported as file:line: field, exit codes, stable JSON.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
@@ -36,7 +34,7 @@ fn ihdr(path: &Path) -> (u32, u32) {
 
 #[test]
 fn reports_the_shared_kitti_facts() {
-    let root = kitti_dir();
+    let root = real_kitti();
     // expected, by simple string splitting
     let mut frames = 0;
     let mut classes: BTreeMap<String, u64> = BTreeMap::new();
@@ -243,7 +241,7 @@ fn set_up_errors_exit_2() {
     let run = inspect(&[dir.path().as_os_str()]);
     assert_eq!(run.code, 2, "{}", run.stderr);
     assert!(run.stdout.is_empty());
-    let run = inspect(&[kitti_dir().as_os_str(), "--split".as_ref(), "val".as_ref()]);
+    let run = inspect(&[real_kitti().as_os_str(), "--split".as_ref(), "val".as_ref()]);
     assert_eq!(run.code, 2, "{}", run.stderr);
 }
 
@@ -251,7 +249,7 @@ fn set_up_errors_exit_2() {
 fn inspects_a_converted_dataset() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    assert_success(&kitti("cylindrical", &kitti_dir(), &out, &["--quiet"]));
+    assert_success(&kitti("cylindrical", &real_kitti(), &out, &["--quiet"]));
     let run = inspect(&[out.as_os_str(), "--json".as_ref()]);
     assert_eq!(run.code, 0, "{}", run.stdout);
     let j = json(&run);

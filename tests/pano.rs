@@ -1,9 +1,9 @@
 //! Equirect panoramas: the ±180° seam wraps, latitudes clamp at the poles, the axes picture's
 //! orientation, and the `pano` subcommand on ../shared/pano.
 
-mod common;
+use crate::common;
 
-use common::{panoconv, read_text, Run};
+use crate::common::{panoconv, read_text, Run};
 use panoconv::camera::{ImageSize, Projection};
 use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::convert::pano::PanoViews;
@@ -14,7 +14,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 fn pano_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/pano"))
+    common::real_panos()
 }
 
 fn load(name: &str) -> RgbImage {

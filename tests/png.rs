@@ -4,7 +4,7 @@
 //! The direct RGB8 decoder against the png crate's decoder: the same pixels for every filter
 //! type and every encoder, and files it must not take are left to the png crate.
 
-mod common;
+use crate::common;
 
 use panoconv::codec::png::decode;
 use panoconv::codec::png::{
@@ -65,7 +65,7 @@ fn assert_same_rgb(img: &RgbImage, what: &str) {
 
 #[test]
 fn streamed_encoder_equals_the_png_crate_on_kitti_frames() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training/image_2");
+    let dir = common::real_kitti().join("training/image_2");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.expect("entry").path())
@@ -139,7 +139,7 @@ fn assert_direct_decode(png: &[u8], what: &str) -> RgbImage {
 
 #[test]
 fn direct_decoder_equals_the_png_crate_on_kitti_frames() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training/image_2");
+    let dir = common::real_kitti().join("training/image_2");
     let mut n = 0;
     for entry in std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
         let path = entry.expect("entry").path();

@@ -2,9 +2,7 @@
 //! (synthetic and real KITTI frames, equirect, cylindrical and perspective), edges are split at
 //! the ±180° seam, text labels, depth overlays and contact sheets.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use panoconv::camera::{ImageSize, Intrinsics, Projection};
 use panoconv::image::RgbImage;
 use panoconv::kitti::Cam;
@@ -13,7 +11,10 @@ use panoconv::tools::preview::{depth_colour, draw_box_3d, draw_text, label_text,
 use std::path::{Path, PathBuf};
 
 fn synthetic_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/data/synthetic_kitti"))
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/synthetic_kitti"
+    ))
 }
 
 const MARK: [u8; 3] = [0, 255, 0];
@@ -100,7 +101,7 @@ fn drawn_boxes_lie_inside_the_written_2d_boxes_synthetic() {
 #[test]
 fn drawn_boxes_lie_inside_the_written_2d_boxes_real_kitti() {
     for to in ["equirect", "cylindrical"] {
-        let dir = convert(&kitti_dir(), to, &[]);
+        let dir = convert(&real_kitti(), to, &[]);
         let n = check_boxes_inside(&dir.path().join("out"), &format!("KITTI {to}"));
         // 10 objects with a 3D box in the 6 labelled frames
         assert_eq!(n, 10, "KITTI {to}");
@@ -364,7 +365,7 @@ fn preview_cli_contact_sheet_and_plain_kitti() {
     let p = dir.path().join("k.png");
     let run = panoconv([
         "preview".as_ref(),
-        kitti_dir().as_os_str(),
+        real_kitti().as_os_str(),
         "--frame".as_ref(),
         "000003".as_ref(),
         "--output".as_ref(),
@@ -372,7 +373,7 @@ fn preview_cli_contact_sheet_and_plain_kitti() {
     ]);
     assert_success(&run);
     let shown = read_rgb8(&p);
-    let src = read_rgb8(&kitti_dir().join("training/image_2/000003.png"));
+    let src = read_rgb8(&real_kitti().join("training/image_2/000003.png"));
     assert_eq!((shown.width, shown.height), (src.width, src.height));
     // the car's 2D box (614.24 181.78 727.31 284.77) is outlined in white
     let px = |x: u32, y: u32| {

@@ -17,7 +17,7 @@ fn row(v: &[f64]) -> String {
 
 /// The shipped synthetic training frames 000000 and 000002 (same calibration) as a raw date folder.
 fn raw_date_folder(root: &Path) -> std::path::PathBuf {
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti/training");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti/training");
     let date = root.join("2011_09_26");
     let drive = date.join(DRIVE);
     for d in ["image_02/data", "image_03/data", "velodyne_points/data"] {
@@ -81,7 +81,7 @@ fn raw_drive_converts_like_the_object_dataset() {
     let tmp = tempfile::tempdir().unwrap();
     let date = raw_date_folder(tmp.path());
     let (raw_out, obj_out) = (tmp.path().join("raw_out"), tmp.path().join("obj_out"));
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti");
     let common = ["--to", "equirect", "--cameras", "2,3", "--depth", "-q"];
     let mut a: Vec<&std::ffi::OsStr> = vec![
         "kitti-raw".as_ref(),

@@ -10,7 +10,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
 /// A 24-frame dataset: the shipped synthetic training frames under new ids.
 fn dataset(root: &Path) -> PathBuf {
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti/training");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti/training");
     let d = root.join("in");
     for sub in ["image_2", "calib", "label_2"] {
         std::fs::create_dir_all(d.join("training").join(sub)).unwrap();

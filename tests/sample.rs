@@ -1,4 +1,4 @@
-//! The sample dataset the repository ships (data/synthetic_kitti) is exactly what the
+//! The sample dataset the repository ships (fixtures/synthetic_kitti) is exactly what the
 //! project's own generator makes: `panoconv synth` regenerates it byte for byte.
 
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ fn files(root: &Path) -> Vec<PathBuf> {
 
 #[test]
 fn shipped_sample_is_regenerated_byte_for_byte() {
-    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti");
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti");
     let tmp = tempfile::tempdir().unwrap();
     let fresh = tmp.path().join("synthetic_kitti");
     let status = Command::new(env!("CARGO_BIN_EXE_panoconv"))

@@ -11,7 +11,7 @@ const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
 /// `n` frames: the shipped synthetic training frames hard-linked under new ids.
 fn dataset(root: &Path, n: usize) -> PathBuf {
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti/training");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti/training");
     let d = root.join("in");
     for sub in ["image_2", "calib", "label_2"] {
         std::fs::create_dir_all(d.join("training").join(sub)).unwrap();
@@ -300,12 +300,12 @@ fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
 /// kill -9 at several moments of a long run (each resume killed in turn), then `--resume`:
 /// the bytes of one uninterrupted run. The real frames of ../shared/kitti/training hard-linked
 /// under PANOCONV_SCALE_FRAMES ids (default 20 000), outputs at 414×125 to spare the disk.
-/// Minutes long, so outside CI: `cargo test --release --test scale -- --ignored`.
+/// Minutes long, so outside CI: `cargo test --release --test tests scale:: -- --ignored`.
 #[test]
 #[ignore = "minutes long: run by hand"]
 fn kill_nine_at_scale_then_resume_gives_the_uninterrupted_bytes() {
     let n: usize = std::env::var("PANOCONV_SCALE_FRAMES").map_or(20_000, |v| v.parse().unwrap());
-    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/kitti/training");
+    let source = crate::common::real_kitti().join("training");
     let ids: Vec<String> = {
         let mut ids: Vec<String> = std::fs::read_dir(source.join("image_2"))
             .unwrap()

@@ -12,7 +12,7 @@ use panoconv::image::RgbImage;
 use panoconv::style::{Device, StyleError, StyleModel, StyleOptions};
 
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/style")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
 }
 
 /// The ONNX Runtime library the tests use; panics (fails the test) when there is none.
@@ -496,7 +496,8 @@ fn run_child(exe: &Path, env: &[(&str, Option<&std::ffi::OsStr>)], expect: &str)
     cmd.args([
         "--ignored",
         "--exact",
-        "child_load_without_explicit_path",
+        // The test's full name in the one test crate (tests/tests.rs): `style::` + the function.
+        "style::child_load_without_explicit_path",
         "--nocapture",
     ])
     .env("PANOCONV_STYLE_CHILD_EXPECT", expect);

@@ -28,7 +28,7 @@ const SOURCES: [&str; 6] = ["000000", "000002", "000000", "000001", "000002", "0
 
 /// Six frames (sizes A A A B A B) with both colour cameras, copied from the shipped sample.
 fn dataset(root: &Path) {
-    let from = repo().join("data/synthetic_kitti/training");
+    let from = repo().join("fixtures/synthetic_kitti/training");
     let to = root.join("training");
     for (id, src) in SOURCES.iter().enumerate() {
         let id = format!("{id:06}");
@@ -56,7 +56,7 @@ fn convert(input: &Path, output: &Path, args: &[&str]) -> String {
         .arg("--output")
         .arg(output)
         .arg("--style")
-        .arg(repo().join("tests/fixtures/style/generator.onnx"))
+        .arg(repo().join("fixtures/style/generator.onnx"))
         .arg("--ort-lib")
         .arg(ort_lib())
         .args(args)

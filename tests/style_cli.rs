@@ -11,7 +11,7 @@ use std::process::{Command, Output};
 const MAX_LSB: i32 = 1;
 
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/style")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
 }
 
 fn ort_lib() -> PathBuf {

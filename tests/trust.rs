@@ -3,9 +3,7 @@
 //! device stops the run with one line, and impossible labels are frame errors. Each test drives
 //! the real binary on copies of the synthetic sample or of the real frames in ../shared/kitti.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::ffi::OsStr;
 use std::path::Path;
 use std::process::Command;
@@ -232,7 +230,7 @@ fn a_full_output_device_stops_the_run_with_one_line_and_resume_completes_it() {
     // 36 real KITTI frames (the sample's, under more ids) into a 3 MB file system.
     let tmp = tempfile::tempdir().unwrap();
     let input = tmp.path().join("in");
-    let real = kitti_dir().join("training");
+    let real = real_kitti().join("training");
     for sub in ["image_2", "label_2", "calib"] {
         std::fs::create_dir_all(input.join("training").join(sub)).unwrap();
     }
@@ -384,7 +382,7 @@ fn wrong_layouts_say_what_to_do() {
 
     // JPEG bytes under a .png name are named as such.
     std::fs::copy(
-        kitti_dir().join("../pano/street_pano_512x256.jpg"),
+        real_panos().join("street_pano_512x256.jpg"),
         s.input_file("training/image_2/000001.png"),
     )
     .unwrap();

@@ -122,7 +122,7 @@ fn trained_focal_rescales_distance_to_the_output_camera() {
 
 #[test]
 fn cli_labels_to_pixels_then_unproject_returns_the_labels() {
-    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti");
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti");
     let tmp = tempfile::tempdir().unwrap();
     let bin = env!("CARGO_BIN_EXE_panoconv");
     for to in ["perspective", "equirect", "cylindrical"] {

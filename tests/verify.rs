@@ -1,4 +1,4 @@
-//! `panoconv verify`: a fresh conversion of `data/synthetic_kitti` verifies; a flipped byte in
+//! `panoconv verify`: a fresh conversion of `fixtures/synthetic_kitti` verifies; a flipped byte in
 //! each kind of output, a deleted file, an added file and a broken manifest are each caught and
 //! named, with the documented exit codes (0 match, 1 problems, 2 manifest unusable).
 
@@ -28,13 +28,13 @@ fn run_verify(dir: &Path) -> Run {
     panoconv(&["verify".as_ref(), dir.as_os_str()])
 }
 
-/// `data/synthetic_kitti` converted once to equirect; tests work on copies.
+/// `fixtures/synthetic_kitti` converted once to equirect; tests work on copies.
 fn converted() -> &'static Path {
     static DIR: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
     &DIR.get_or_init(|| {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("out");
-        let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti");
+        let input = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti");
         let run = panoconv(&[
             "kitti".as_ref(),
             "--to".as_ref(),
@@ -296,7 +296,7 @@ fn a_failed_frame_leaves_a_folder_that_verifies() {
     let tmp = tempfile::tempdir().unwrap();
     let input = tmp.path().join("in");
     copy_tree(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("data/synthetic_kitti"),
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti"),
         &input,
     );
     std::fs::write(input.join("training/label_2/000001.txt"), "Car 1 2 3\n").unwrap();

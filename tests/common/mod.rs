@@ -11,10 +11,8 @@ use std::sync::OnceLock;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
-/// The real KITTI sample frames (read only; never copied into the repo).
-pub fn kitti_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/kitti"))
-}
+mod paths;
+pub use paths::*;
 
 /// The outcome of one run of the binary.
 #[derive(Debug)]

@@ -6,11 +6,11 @@ use std::path::Path;
 
 #[test]
 fn pycocotools_reads_the_coco_export_and_self_evaluation_gives_ap_1() {
-    let (_real_equi_dir, real_equi) = convert(&kitti_dir(), "equirect", &["--split", "training"]);
+    let (_real_equi_dir, real_equi) = convert(&real_kitti(), "equirect", &["--split", "training"]);
     let (_synth_dir, synth_persp) =
         convert(&synthetic_dir(), "perspective", &["--split", "training"]);
     // A plain KITTI root is read as it is: P2 is a perspective camera.
-    for (dataset, images) in [(kitti_dir(), 6.0), (real_equi, 6.0), (synth_persp, 3.0)] {
+    for (dataset, images) in [(real_kitti(), 6.0), (real_equi, 6.0), (synth_persp, 3.0)] {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("annotations");
         assert_success(&export(&dataset, "coco", &out, &[]));
@@ -36,7 +36,7 @@ fn pycocotools_reads_the_coco_export_and_self_evaluation_gives_ap_1() {
         assert_eq!(figures["ap50_shifted"], 1.0, "IoU 0.6 still matches at 0.5");
     }
     let tmp = tempfile::tempdir().unwrap();
-    assert_success(&export(&kitti_dir(), "coco", tmp.path(), &[]));
+    assert_success(&export(&real_kitti(), "coco", tmp.path(), &[]));
     let real = read_json(&tmp.path().join("instances_train.json"));
     // The real frames hold DontCare regions: one crowd annotation per category each.
     let crowd = real["annotations"]
@@ -47,7 +47,7 @@ fn pycocotools_reads_the_coco_export_and_self_evaluation_gives_ap_1() {
         .count();
     let dont_care: usize = (0..6)
         .map(|i| {
-            read_text(&kitti_dir().join(format!("training/label_2/00000{i}.txt")))
+            read_text(&real_kitti().join(format!("training/label_2/00000{i}.txt")))
                 .lines()
                 .filter(|l| l.starts_with("DontCare"))
                 .count()
@@ -62,7 +62,7 @@ fn pycocotools_reads_the_coco_export_and_self_evaluation_gives_ap_1() {
 /// image links, checked against the COCO export of the same dataset.
 #[test]
 fn yolo_labels_match_the_coco_boxes() {
-    let (_dir, equi) = convert(&kitti_dir(), "equirect", &["--split", "training"]);
+    let (_dir, equi) = convert(&real_kitti(), "equirect", &["--split", "training"]);
     let (_dir2, synth) = convert(&synthetic_dir(), "cylindrical", &[]);
     let mut max_diff = 0.0f64;
     let mut boxes = 0;

@@ -33,7 +33,7 @@ fn omni3d_by_image(file: &Value) -> BTreeMap<u64, Vec<&Value>> {
 #[test]
 fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
     let (_dir, persp) = convert(
-        &kitti_dir(),
+        &real_kitti(),
         "perspective",
         &["--split", "training", "--px-per-deg", "11"],
     );
@@ -159,7 +159,7 @@ fn omni3d_perspective_3d_boxes_project_with_k_onto_bbox2d_proj() {
 
 #[test]
 fn omni3d_equirect_centres_project_to_the_labels_to_pixels_pixel() {
-    let (dir, equi) = convert(&kitti_dir(), "equirect", &["--split", "training"]);
+    let (dir, equi) = convert(&real_kitti(), "equirect", &["--split", "training"]);
     let pixels = dir.path().join("pixels");
     let run = panoconv([
         "labels-to-pixels",

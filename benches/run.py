@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Side-by-side run of issue 8 (called by bench/run.sh, which builds and sets up the venv).
+"""Side-by-side run of issue 8 (called by benches/run.sh, which builds and sets up the venv).
 
-Builds an N-frame KITTI set from ../shared/kitti (the 7 real frames copied under N ids, in a
-temporary folder), then runs, alternately for several rounds:
+Builds an N-frame KITTI set from $PANOCONV_KITTI, default ../shared/kitti (the 7 real frames
+copied under N ids, in a temporary folder), then runs, alternately for several rounds:
   panoconv     `panoconv kitti --to equirect --quiet` (release build)
-  opencv       bench/opencv_convert.py (cv2.imread / remap CV_16SC2 / imwrite, Pool of J)
-  floor        examples/codec_floor: read + decode every input, encode its warped image, no warp
+  opencv       benches/opencv_convert.py (cv2.imread / remap CV_16SC2 / imwrite, Pool of J)
+  floor        benches/codec_floor.rs: read + decode every input, encode its warped image, no warp
 and prints medians of wall time, frames/s, CPU seconds (user+sys of the process tree, from
 wait4) and peak RSS (largest single process), plus output bytes and the ratios.
 """
@@ -73,7 +73,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", required=True)
     ap.add_argument("--floor", required=True)
-    ap.add_argument("--kitti", default=os.path.join(ROOT, "..", "shared", "kitti"))
+    ap.add_argument("--kitti", default=os.path.join(ROOT, os.environ.get("PANOCONV_KITTI") or "../shared/kitti"))
     ap.add_argument("--frames", type=int, default=210)
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--jobs", type=int, default=os.cpu_count())

@@ -3,12 +3,12 @@
 `panoconv kitti --to equirect` at 1 000 and 100 000 frames, for two binaries (before and
 after), on one file system in one run.
 
-The frame sets are the real frames of ../shared/kitti/training hard-linked round-robin under
-new ids (no image data is copied). Each run writes into a fresh output folder, removed after.
+The frame sets are the real frames of $PANOCONV_KITTI/training (default ../shared/kitti)
+hard-linked round-robin under new ids (no image data is copied). Each run writes into a fresh output folder, removed after.
 Peak RSS is the child's ru_maxrss from wait4; the first frame is the first complete PNG in
 OUT/training/image_2 (written by rename, so a visible name is a whole file).
 
-    bench/scale.py --bin new=target/release/panoconv --bin old=/tmp/old/panoconv \
+    benches/scale.py --bin new=target/release/panoconv --bin old=/tmp/old/panoconv \
         --frames 1000 100000 --tmp /tmp/scale-bench [-- extra panoconv options]
 """
 
@@ -104,7 +104,7 @@ def main() -> None:
     ap.add_argument("--bin", action="append", required=True, help="NAME=PATH (repeatable)")
     ap.add_argument("--frames", type=int, nargs="+", default=[1000, 100000])
     ap.add_argument("--tmp", type=Path, default=Path("/tmp/panoconv-scale-bench"))
-    ap.add_argument("--source", type=Path, default=ROOT.parent / "shared/kitti/training")
+    ap.add_argument("--source", type=Path, default=ROOT / (os.environ.get("PANOCONV_KITTI") or "../shared/kitti") / "training")
     ap.add_argument("--timeout", type=float, default=1200, help="seconds a run may take")
     ap.add_argument("--keep-data", action="store_true")
     ap.add_argument("extra", nargs="*", help="more panoconv options (after --)")

@@ -3,22 +3,22 @@
 //! boxes, Omni3D's 3D boxes projected with K (perspective) and through the written calib
 //! (equirect, against `labels-to-pixels`), the ±180° seam, splits, determinism, bad input.
 
-#[path = "../common/mod.rs"]
-mod common;
-
 mod coco_yolo;
 mod errors;
 mod layout;
 mod omni3d;
 
-use common::*;
+use crate::common::*;
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 pub fn synthetic_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/data/synthetic_kitti"))
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/synthetic_kitti"
+    ))
 }
 
 /// The Python with pycocotools: $PANOCONV_TEST_PYTHON, else the repository's .venv-test.

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # End-to-end benchmark of issue 8: panoconv vs the OpenCV-Python converter vs the codec floor.
-#   bench/run.sh [--frames N] [--rounds R] [--jobs J] [--tmp DIR] [--compression default]
-# Sets up bench/.venv (opencv-python-headless, numpy) on first use, builds the release binary and
-# the codec_floor example, and runs bench/run.py. Nothing is written into the repository except
-# bench/.venv (ignored by git); the frame sets live in a temporary folder that is removed after.
+#   benches/run.sh [--frames N] [--rounds R] [--jobs J] [--tmp DIR] [--compression default]
+# Sets up benches/.venv (opencv-python-headless, numpy) on first use, builds the release binary and
+# the codec_floor example, and runs benches/run.py. Nothing is written into the repository except
+# benches/.venv (ignored by git); the frame sets live in a temporary folder that is removed after.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Scale benchmark of issue 18: the release binary of this checkout against the one of OLD_REF
-# (a commit: the "before"), 1 000 and 100 000 frames, same file system, same run (bench/scale.py).
-#   OLD_REF=7464402 bench/scale.sh [--frames 1000 100000] [--tmp DIR] [-- panoconv options]
+# (a commit: the "before"), 1 000 and 100 000 frames, same file system, same run (benches/scale.py).
+#   OLD_REF=7464402 benches/scale.sh [--frames 1000 100000] [--tmp DIR] [-- panoconv options]
 # The old binary is built from `git archive OLD_REF` into $OLD_DIR (default /tmp/panoconv-old),
 # outside the repository. Output folders and frame sets live in --tmp and are removed after.
 set -euo pipefail

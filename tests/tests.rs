@@ -1,0 +1,41 @@
+//! The integration tests, one crate: every file of tests/ is a module here, so the suite links
+//! once instead of once per file. Run one file's tests with `cargo test --test tests FILE::`
+//! (for example `cargo test --test tests corpus::`).
+//!
+//! Proptest keeps its regression files next to the file that holds the test
+//! (`tests/FILE.proptest-regressions`), whatever the crate root.
+
+mod common;
+mod opencv_ref;
+
+mod camera;
+mod camera_files;
+mod camera_lens;
+mod camera_models;
+mod camera_models_random;
+mod cli;
+mod completions;
+mod corpus;
+mod crop;
+mod depth;
+mod eval_depth;
+mod export;
+mod fisheye;
+mod fisheye_target;
+mod fuzz_parsers;
+mod inspect;
+mod labels;
+mod pano;
+mod png;
+mod preview;
+mod raw;
+mod resume;
+mod sample;
+mod scale;
+mod style;
+mod style_batch;
+mod style_cli;
+mod trust;
+mod unproject;
+mod verify;
+mod warp;
