@@ -8,6 +8,7 @@
 mod common;
 mod opencv_ref;
 
+mod architecture;
 mod camera;
 mod camera_files;
 mod camera_lens;
