@@ -22,6 +22,22 @@ pub fn read_file_into(path: &Path, buf: &mut Vec<u8>) -> Result<()> {
     Ok(())
 }
 
+/// The stems of the files named `*{ext}` in `dir` (`ext` with its dot), sorted; hidden files
+/// and names that are not UTF-8 are left out.
+pub fn file_stems(dir: &Path, ext: &str) -> std::io::Result<Vec<String>> {
+    let mut stems = Vec::new();
+    for entry in std::fs::read_dir(dir)? {
+        let name = entry?.file_name();
+        if let Some(stem) = name.to_str().and_then(|n| n.strip_suffix(ext)) {
+            if !stem.starts_with('.') {
+                stems.push(stem.to_owned());
+            }
+        }
+    }
+    stems.sort();
+    Ok(stems)
+}
+
 /// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
 pub fn read_lines(path: &Path) -> Result<Vec<String>> {
     split_lines(&read_file(path)?, path)

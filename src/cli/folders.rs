@@ -108,12 +108,18 @@ pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
 
 pub(super) fn run_folder_job(
     common: &FolderArgs,
-    job: &panoconv::convert::folder::FolderJob,
-    planner: &panoconv::convert::folder::Planner,
+    plan: &dyn panoconv::convert::folder::FolderPlan,
 ) -> Result<ExitCode> {
+    let job = panoconv::convert::folder::FolderJob {
+        input: common.input.clone(),
+        output: common.output.clone(),
+        overwrite: common.run.overwrite,
+        png_compression: common.run.png_compression(),
+    };
+
     let bar = Bar::new(common.run.quiet);
     let summary = with_pool(common.run.jobs, || {
-        panoconv::convert::folder::run_folder(job, planner, &bar)
+        panoconv::convert::folder::run_folder(&job, plan, &bar)
     })??;
     if !common.run.quiet {
         eprintln!(
@@ -137,7 +143,7 @@ pub(super) fn run_folder_job(
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     use panoconv::camera::description::CameraDescription;
-    use panoconv::convert::pano::{FisheyeView, FolderScale};
+    use panoconv::convert::pano::FisheyeView;
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
@@ -147,26 +153,8 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
         scale: scale_of(a.pano_width, a.px_per_deg)?,
     };
     // Built before anything is written (one camera, one table): errors are set-up errors.
-    let planner = spec.planner(&desc)?;
-    let (hfov, vfov) = spec.fov(&desc);
-    let job = panoconv::convert::folder::FolderJob {
-        command: "fisheye",
-        input: a.input.clone(),
-        output: a.output.clone(),
-        overwrite: a.run.overwrite,
-        png_compression: a.run.png_compression(),
-        parameters: serde_json::json!({
-            "input": a.input,
-            "camera": args.camera,
-            "camera_model": desc.camera.name(),
-            "projection": spec.projection,
-            "hfov_deg": hfov.to_degrees(),
-            "vfov_deg": vfov.to_degrees(),
-            "scale": FolderScale(spec.scale),
-            "png_compression": a.run.png_compression(),
-        }),
-    };
-    run_folder_job(a, &job, &planner)
+    let plan = spec.plan_folder(&args.camera, &desc)?;
+    run_folder_job(a, &plan)
 }
 
 pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
@@ -203,18 +191,5 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
         scale: scale_of(a.pano_width, a.px_per_deg)?,
     };
     views.validate()?;
-    let job = panoconv::convert::folder::FolderJob {
-        command: "pano",
-        input: a.input.clone(),
-        output: a.output.clone(),
-        overwrite: a.run.overwrite,
-        png_compression: a.run.png_compression(),
-        parameters: serde_json::json!({
-            "input": a.input,
-            "views": &views,
-            "png_compression": a.run.png_compression(),
-        }),
-    };
-    let planner = |s: panoconv::camera::ImageSize| views.plan(s);
-    run_folder_job(a, &job, &planner)
+    run_folder_job(a, &views)
 }

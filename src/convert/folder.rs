@@ -27,25 +27,35 @@ use std::sync::Arc;
 pub struct FolderView {
     /// Appended to the input's file stem ("" for a single view).
     pub suffix: String,
+    /// The output image's camera.
     pub camera: Arc<dyn LinearCamera>,
     /// Rotation from the output camera's axes to the source camera's: d_src = R · d_out.
     pub source_from_output: Matrix3<f64>,
+    /// The remap table from the source image to this view.
     pub table: Arc<RemapTable>,
 }
 
-/// Builds the views of a source image of the given size (an error fails that image).
-pub type Planner<'a> = dyn Fn(ImageSize) -> Result<Vec<FolderView>> + Sync + 'a;
+/// What a folder conversion makes of each image (`pano`, `fisheye`): its views, and how the
+/// manifest names the command and its parameters.
+pub trait FolderPlan: Sync {
+    /// The subcommand, as the manifest's `command` records it.
+    fn command(&self) -> &'static str;
+    /// The manifest's `parameters` for a run of `job` with this plan.
+    fn parameters(&self, job: &FolderJob) -> serde_json::Value;
+    /// The views of a source image of `size` (an error fails that image).
+    fn views(&self, size: ImageSize) -> Result<Vec<FolderView>>;
+}
 
-/// A folder conversion.
+/// A folder conversion: where from, where to, how to write.
 pub struct FolderJob {
-    /// Subcommand name, recorded in the manifest.
-    pub command: &'static str,
+    /// The folder of input images.
     pub input: PathBuf,
+    /// The output folder.
     pub output: PathBuf,
+    /// Write into a non-empty output folder.
     pub overwrite: bool,
+    /// PNG encoder effort.
     pub png_compression: PngCompression,
-    /// Recorded in the manifest as `parameters`.
-    pub parameters: serde_json::Value,
 }
 
 /// The text written beside each output image.
@@ -115,7 +125,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
 
 struct Ctx<'a> {
     job: &'a FolderJob,
-    planner: &'a Planner<'a>,
+    plan: &'a dyn FolderPlan,
     views: OnceMap<ImageSize, std::result::Result<Arc<Vec<FolderView>>, String>>,
 }
 
@@ -137,7 +147,8 @@ impl Ctx<'_> {
         let views = self
             .views
             .get_or_build(&size, || {
-                (self.planner)(size)
+                self.plan
+                    .views(size)
                     .map(Arc::new)
                     .map_err(|e| e.to_string())
             })
@@ -177,7 +188,11 @@ impl Ctx<'_> {
 /// Converts every image of `job.input`. Set-up problems return `Err` before anything is
 /// written; a bad image is reported through `progress` and counted in the summary.
 /// Must run inside the caller's rayon pool.
-pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -> Result<Summary> {
+pub fn run_folder(
+    job: &FolderJob,
+    plan: &dyn FolderPlan,
+    progress: &dyn Progress,
+) -> Result<Summary> {
     let started = std::time::Instant::now();
     let inputs = list_inputs(&job.input)?;
     // Held until the run returns: one process per output.
@@ -194,15 +209,15 @@ pub fn run_folder(job: &FolderJob, planner: &Planner, progress: &dyn Progress) -
     std::fs::create_dir_all(&job.output).map_err(|e| Error::io(&job.output, e))?;
     let ctx = Ctx {
         job,
-        planner,
+        plan,
         views: OnceMap::default(),
     };
     progress.start(inputs.len());
     let journal = Journal::new(
         &job.output,
         None,
-        job.command,
-        job.parameters.clone(),
+        plan.command(),
+        plan.parameters(job),
         false,
     )?;
     // As in the KITTI conversion: after the first write the output device refused for want of

@@ -4,13 +4,14 @@
 use crate::camera::description::CameraDescription;
 use crate::camera::rotated::rotation_ypr;
 use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, ProjectionReject};
-use crate::convert::folder::FolderView;
+use crate::convert::folder::{FolderJob, FolderPlan, FolderView};
 use crate::error::{Error, Result};
 use crate::geometry::{view_camera, Scale};
 use crate::warp::{RemapTable, Wrap};
 use nalgebra::{Matrix3, Point2, Vector3};
 use serde::Serialize;
 use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// A full 360°×180° equirect panorama as a source camera: longitude wraps (the table's
@@ -18,6 +19,7 @@ use std::sync::Arc;
 /// wrapped, and a ray exactly at the pole reads the last row instead of falling off the image.
 #[derive(Debug, Clone)]
 pub struct PanoSource {
+    /// The panorama's camera (fu = width / 2π).
     pub equirect: Equirect,
 }
 
@@ -60,7 +62,7 @@ impl CameraModel for PanoSource {
 }
 
 /// A scale as folder manifests write it (see [`serialize_scale`]).
-pub struct FolderScale(pub Scale);
+struct FolderScale(Scale);
 
 impl Serialize for FolderScale {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
@@ -83,13 +85,17 @@ fn serialize_scale<S: serde::Serializer>(
 /// What `panoconv pano` makes of each panorama.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct PanoViews {
+    /// Equirect, cylindrical or perspective.
     pub projection: Projection,
     /// View centres (radians): one output per yaw, right positive.
     pub yaws: Vec<f64>,
     /// Up positive (radians).
     pub pitch: f64,
+    /// Horizontal field of view of each view, radians.
     pub hfov: f64,
+    /// Vertical field of view of each view, radians.
     pub vfov: f64,
+    /// Pixels per radian at the view centre (default: the panorama's own).
     #[serde(serialize_with = "serialize_scale")]
     pub scale: Scale,
 }
@@ -147,14 +153,35 @@ impl PanoViews {
     }
 }
 
+impl FolderPlan for PanoViews {
+    fn command(&self) -> &'static str {
+        "pano"
+    }
+
+    fn parameters(&self, job: &FolderJob) -> serde_json::Value {
+        serde_json::json!({
+            "input": job.input,
+            "views": self,
+            "png_compression": job.png_compression,
+        })
+    }
+
+    fn views(&self, size: ImageSize) -> Result<Vec<FolderView>> {
+        self.plan(size)
+    }
+}
+
 /// What `panoconv fisheye` makes of each fisheye image.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct FisheyeView {
+    /// Equirect, cylindrical or perspective.
     pub projection: Projection,
     /// Radians; None: the camera's own (horizontal up to 360°, vertical capped for the
     /// projection).
     pub hfov: Option<f64>,
+    /// Radians; None: the camera's own, capped for the projection.
     pub vfov: Option<f64>,
+    /// Pixels per radian at the view centre (default: the lens's own at its centre).
     #[serde(serialize_with = "serialize_scale")]
     pub scale: Scale,
 }
@@ -182,21 +209,19 @@ impl FisheyeView {
         (hfov, vfov)
     }
 
-    /// The planner of a fisheye folder: the single view, built now (its errors are set-up
-    /// errors), for every image of the camera's size; an image of another size fails.
-    pub fn planner(
-        &self,
-        desc: &CameraDescription,
-    ) -> Result<impl Fn(ImageSize) -> Result<Vec<FolderView>> + Sync> {
-        let view = self.plan(desc)?;
-        let size = desc.camera.size();
-        Ok(move |s: ImageSize| {
-            if s != size {
-                return Err(Error::Setup(format!(
-                    "image is {s}, the camera description says {size}"
-                )));
-            }
-            Ok(vec![view.clone()])
+    /// The plan of a fisheye folder of `camera_file`'s camera: the single view, built now
+    /// (its errors are set-up errors), for every image of the camera's size; an image of
+    /// another size fails.
+    pub fn plan_folder(&self, camera_file: &Path, desc: &CameraDescription) -> Result<FisheyePlan> {
+        let (hfov, vfov) = self.fov(desc);
+        Ok(FisheyePlan {
+            camera_file: camera_file.to_path_buf(),
+            camera_model: desc.camera.name(),
+            size: desc.camera.size(),
+            view: self.plan(desc)?,
+            spec: self.clone(),
+            hfov,
+            vfov,
         })
     }
 
@@ -224,5 +249,45 @@ impl FisheyeView {
             source_from_output,
             table: Arc::new(table),
         })
+    }
+}
+
+/// A fisheye folder's plan: one view for every image of the camera.
+pub struct FisheyePlan {
+    camera_file: PathBuf,
+    camera_model: &'static str,
+    size: ImageSize,
+    view: FolderView,
+    spec: FisheyeView,
+    hfov: f64,
+    vfov: f64,
+}
+
+impl FolderPlan for FisheyePlan {
+    fn command(&self) -> &'static str {
+        "fisheye"
+    }
+
+    fn parameters(&self, job: &FolderJob) -> serde_json::Value {
+        serde_json::json!({
+            "input": job.input,
+            "camera": self.camera_file,
+            "camera_model": self.camera_model,
+            "projection": self.spec.projection,
+            "hfov_deg": self.hfov.to_degrees(),
+            "vfov_deg": self.vfov.to_degrees(),
+            "scale": FolderScale(self.spec.scale),
+            "png_compression": job.png_compression,
+        })
+    }
+
+    fn views(&self, size: ImageSize) -> Result<Vec<FolderView>> {
+        if size != self.size {
+            return Err(Error::Setup(format!(
+                "image is {size}, the camera description says {}",
+                self.size
+            )));
+        }
+        Ok(vec![self.view.clone()])
     }
 }

@@ -233,20 +233,9 @@ fn assign_image_ids(frames: &mut [Frame]) {
 /// Ids of `label_2/*.txt` with no image among `frames` (sorted).
 fn labels_without_image(split_dir: &Path, frames: &[String]) -> Result<Vec<String>> {
     let dir = split_dir.join("label_2");
-    let entries = std::fs::read_dir(&dir).map_err(|e| Error::io(&dir, e))?;
-    let mut orphans = Vec::new();
-    for entry in entries {
-        let entry = entry.map_err(|e| Error::io(&dir, e))?;
-        let name = entry.file_name();
-        let Some(id) = name.to_str().and_then(|n| n.strip_suffix(".txt")) else {
-            continue;
-        };
-        if !id.starts_with('.') && frames.binary_search(&id.to_owned()).is_err() {
-            orphans.push(id.to_owned());
-        }
-    }
-    orphans.sort();
-    Ok(orphans)
+    let mut ids = crate::fs::file_stems(&dir, ".txt").map_err(|e| Error::io(&dir, e))?;
+    ids.retain(|id| frames.binary_search(id).is_err());
+    Ok(ids)
 }
 
 type FrameParts = (

@@ -13,28 +13,39 @@ use crate::kitti::Cam;
 use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use std::path::{Path, PathBuf};
 
+/// A KITTI calibration file (`calib/NNNNNN.txt`): the numbers panoconv uses, and its lines
+/// verbatim so a converted calib can repeat them.
 #[derive(Debug, Clone)]
 pub struct Calib {
+    /// The file it was read from (errors name it).
     pub path: PathBuf,
     /// The input's lines, verbatim (line terminators removed).
     pub lines: Vec<String>,
     /// P0..P3, rectified projection matrices of cameras 0..3.
     pub p: [Option<Matrix3x4<f64>>; 4],
+    /// `R0_rect`: rect from camera 0's unrectified axes.
     pub r0_rect: Option<Matrix3<f64>>,
+    /// `Tr_velo_to_cam`: camera 0 from Velodyne, [R | t] in metres.
     pub tr_velo_to_cam: Option<Matrix3x4<f64>>,
+    /// `Tr_imu_to_velo`: Velodyne from the IMU, [R | t] in metres.
     pub tr_imu_to_velo: Option<Matrix3x4<f64>>,
-    /// Lines panoconv adds (present when the file describes a converted image).
+    /// The `projection:` line panoconv adds (present when the file describes a converted image).
     pub projection: Option<Projection>,
+    /// `K0:`..`K3:`: the intrinsics of each converted camera's output image.
     pub k_out: [Option<Intrinsics>; 4],
+    /// `C0:`..`C3:`: each converted camera's optical centre in rect, metres.
     pub c_out: [Option<Vector3<f64>>; 4],
     /// A fisheye output's lens lines (`model2:`, `D2:`, `fov2:`, `R2:`) per camera.
     pub lens_out: [LensLines; 4],
 }
 
-/// What the lens lines of one camera of a fisheye output say (see `FisheyeCamera::calib_lines`).
+/// What the lens lines of one camera of a fisheye output say (written by the calib writer's
+/// `lens_lines`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LensLines {
+    /// `model2:`: the lens model's name (as in a camera description).
     pub model: Option<String>,
+    /// `D2:`: the model's parameters, in `Lens::parameters`' order.
     pub parameters: Vec<f64>,
     /// Full field of view, degrees.
     pub fov_deg: Option<f64>,
@@ -45,12 +56,14 @@ pub struct LensLines {
 /// A rectified camera of the dataset: intrinsics and optical centre in rect.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SourceCamera {
+    /// The intrinsics of `P`: pixel = K · (x/z, y/z, 1).
     pub k: Intrinsics,
     /// Optical centre in the rect frame, metres: C = -K⁻¹ · P[:, 3].
     pub centre: Vector3<f64>,
 }
 
 impl SourceCamera {
+    /// The perspective camera of an image of `size` taken with it (about its own centre).
     pub fn camera(&self, size: ImageSize) -> Perspective {
         Perspective::new(self.k, size)
     }
@@ -125,11 +138,13 @@ fn parse_numbers(
 }
 
 impl Calib {
+    /// Reads and parses a calib file; errors name the file, line and field.
     pub fn read(path: &Path) -> Result<Calib> {
         let lines = read_lines(path)?;
         Self::parse(path, lines)
     }
 
+    /// Parses the lines of a calib file (`path` tags errors). Unknown keys are kept verbatim.
     pub fn parse(path: &Path, lines: Vec<String>) -> Result<Calib> {
         let mut calib = Calib {
             path: path.to_path_buf(),

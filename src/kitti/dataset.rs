@@ -4,16 +4,21 @@ use crate::error::{Error, Result};
 use crate::kitti::Cam;
 use std::path::{Path, PathBuf};
 
+/// One split of a dataset: an object split (`training`, `testing`) or a raw drive.
 #[derive(Debug, Clone)]
 pub struct Split {
+    /// `training`, `testing`, or the drive folder's name; also its output folder's name.
     pub name: String,
+    /// The split's folder in the input.
     pub dir: PathBuf,
+    /// Whether `label_2/` exists (testing and raw drives have no labels).
     pub has_labels: bool,
     /// Frame ids (file stems of image_2/*.png), sorted.
     pub frames: Vec<String>,
     /// Image file names that look like frames but cannot be (`.PNG`, a name that is not
     /// UTF-8), sorted: each is reported as a failed frame rather than silently left out.
     pub unusable: Vec<String>,
+    /// Where the split keeps its files.
     pub layout: Layout,
 }
 
@@ -24,23 +29,33 @@ pub enum Layout {
     Object,
     /// A KITTI raw drive: `image_02/data/ID.png`, `velodyne_points/data/ID.bin`, and one
     /// calibration for the whole drive (composed from the date folder's files).
-    Raw { calib: Box<crate::kitti::Calib> },
+    Raw {
+        /// The drive's calibration, composed once from the date folder.
+        calib: Box<crate::kitti::Calib>,
+    },
 }
 
 /// The files a conversion writes for a frame, relative to the split's output folder.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {
+    /// Camera n's image (`image_2/`, `image_3/`).
     Image(Cam),
     /// Where camera n's output pixels have source data (`--mask`).
     Mask(Cam),
+    /// The LiDAR depth map of camera 2 (`depth_2/`).
     Depth,
+    /// The labels (`label_2/`).
     Label,
+    /// The calib (`calib/`).
     Calib,
 }
 
+/// A KITTI dataset on disk: its root and the splits found there.
 #[derive(Debug, Clone)]
 pub struct Dataset {
+    /// The folder given as input.
     pub root: PathBuf,
+    /// Its splits, in name order (training before testing).
     pub splits: Vec<Split>,
 }
 
@@ -60,6 +75,7 @@ impl std::fmt::Display for FrameRef {
     }
 }
 
+/// The object dataset's split folders.
 pub const SPLITS: [&str; 2] = ["training", "testing"];
 
 /// The frame ids (stems of `*.png`) of an image folder, sorted, and the file names that look
@@ -155,6 +171,7 @@ fn id_range(frames: &[String]) -> String {
 }
 
 impl Split {
+    /// Camera `camera`'s image of frame `id`.
     pub fn image_path(&self, camera: Cam, id: &str) -> PathBuf {
         match self.layout {
             Layout::Object => self
@@ -165,6 +182,7 @@ impl Split {
         }
     }
 
+    /// The Velodyne scan of frame `id`.
     pub fn velodyne_path(&self, id: &str) -> PathBuf {
         match self.layout {
             Layout::Object => self.dir.join("velodyne").join(format!("{id}.bin")),
@@ -193,9 +211,11 @@ impl Split {
     pub fn split_calib_output(&self) -> Option<PathBuf> {
         matches!(self.layout, Layout::Raw { .. }).then(|| PathBuf::from("calib.txt"))
     }
+    /// The calib of frame `id` (object layout).
     pub fn calib_path(&self, id: &str) -> PathBuf {
         self.dir.join("calib").join(format!("{id}.txt"))
     }
+    /// The labels of frame `id` (object layout).
     pub fn label_path(&self, id: &str) -> PathBuf {
         self.dir.join("label_2").join(format!("{id}.txt"))
     }
@@ -345,6 +365,7 @@ impl Dataset {
         Ok(())
     }
 
+    /// The split named `name`.
     pub fn split(&self, name: &str) -> Option<&Split> {
         self.splits.iter().find(|s| s.name == name)
     }

@@ -27,13 +27,18 @@ const FIELD_NAMES: [&str; 16] = [
     "score",
 ];
 
+/// One object of a KITTI label file (`label_2/NNNNNN.txt`), in camera 2's rect frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Label {
     /// The line's tokens as read (15 or 16).
     pub tokens: Vec<String>,
+    /// The class: `Car`, `Pedestrian`, ..., or `DontCare` for an ignored region.
     pub kind: String,
+    /// How much of the object leaves the image, 0 (inside) to 1.
     pub truncated: f64,
+    /// 0 visible, 1 partly occluded, 2 largely occluded, 3 unknown.
     pub occluded: i32,
+    /// Observation angle, radians in [−π, π].
     pub alpha: f64,
     /// left, top, right, bottom in pixels.
     pub bbox: [f64; 4],
@@ -41,17 +46,23 @@ pub struct Label {
     pub dimensions: [f64; 3],
     /// Bottom centre of the 3D box in rect, metres.
     pub location: Vector3<f64>,
+    /// Heading about rect's y axis, radians in [−π, π] (0: facing the camera's x axis).
     pub rotation_y: f64,
+    /// The 16th column of detections, absent from ground truth.
     pub score: Option<f64>,
 }
 
+/// A label file: its objects in line order (blank lines skipped).
 #[derive(Debug, Clone)]
 pub struct LabelFile {
+    /// The file it was read from (errors name it).
     pub path: PathBuf,
+    /// One per non-blank line.
     pub labels: Vec<Label>,
 }
 
 impl LabelFile {
+    /// Reads and parses a label file; errors name the file, line and field.
     pub fn read(path: &Path) -> Result<LabelFile> {
         Self::parse(path, read_lines(path)?)
     }
@@ -73,6 +84,7 @@ impl LabelFile {
 }
 
 impl Label {
+    /// Parses line `line_no` of `path` (15 tokens, or 16 with a score).
     pub fn parse(path: &Path, line_no: usize, line: &str) -> Result<Label> {
         let tokens: Vec<String> = line.split_whitespace().map(str::to_owned).collect();
         if tokens.len() != 15 && tokens.len() != 16 {

@@ -7,9 +7,12 @@ use std::path::Path;
 
 const POINT_BYTES: usize = 16;
 
+/// A Velodyne scan (`velodyne/NNNNNN.bin`: float32 x, y, z, reflectance per point).
 #[derive(Debug, Clone, Default)]
 pub struct Scan {
+    /// Points in the Velodyne frame (x forward, y left, z up), metres.
     pub points: Vec<Vector3<f64>>,
+    /// Each point's reflectance, 0 to 1.
     pub reflectance: Vec<f32>,
     /// Points with a NaN or infinite coordinate, dropped and counted.
     pub dropped_non_finite: usize,
@@ -41,6 +44,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
     Ok(scan)
 }
 
+/// Reads and parses a scan file.
 pub fn read(path: &Path) -> Result<Scan> {
     parse(&crate::fs::read_file(path)?, path)
 }

@@ -96,14 +96,12 @@ pub fn evaluate(pred: &Path, gt: &Path, min: f64, max: f64) -> Result<Evaluation
     if !(min >= 0.0 && max > min) {
         return Err(Error::Setup(format!("bad depth range {min}..{max}")));
     }
-    let entries =
-        std::fs::read_dir(gt).map_err(|e| Error::Setup(format!("{}: {e}", gt.display())))?;
-    let mut names: Vec<String> = entries
-        .filter_map(|e| e.ok())
-        .filter_map(|e| e.file_name().to_str().map(str::to_owned))
-        .filter(|n| n.ends_with(".png") && !n.starts_with('.'))
+    let mut names: Vec<String> = crate::fs::file_stems(gt, ".png")
+        .map_err(|e| Error::Setup(format!("{}: {e}", gt.display())))?
+        .into_iter()
+        .map(|stem| stem + ".png")
         .collect();
-    names.sort();
+    names.sort(); // by file name, as reported
     if names.is_empty() {
         return Err(Error::Setup(format!(
             "{}: no ground-truth PNG",

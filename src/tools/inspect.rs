@@ -144,18 +144,8 @@ impl Problem {
 }
 
 fn ids_in(dir: &Path, ext: &str) -> Vec<String> {
-    let mut ids: Vec<String> = std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter_map(|e| {
-            let name = e.file_name().to_str()?.to_owned();
-            let id = name.strip_suffix(ext)?;
-            (!id.starts_with('.')).then(|| id.to_owned())
-        })
-        .collect();
-    ids.sort();
-    ids
+    // a missing folder is one of the facts inspect reports, not an error here
+    crate::fs::file_stems(dir, ext).unwrap_or_default()
 }
 
 /// Inspects the dataset at `root` (one split with `only`). Set-up problems (no dataset there)

@@ -19,27 +19,16 @@ use std::path::{Path, PathBuf};
 /// Per-frame outcome of a folder command.
 #[derive(Debug, Default)]
 pub struct FolderSummary {
+    /// Frames written.
     pub done: usize,
+    /// Frames that failed: the frame id and why.
     pub failed: Vec<(String, Error)>,
     /// The files written.
     pub written: Vec<PathBuf>,
 }
 
 fn txt_ids(dir: &Path) -> Result<Vec<String>> {
-    let entries =
-        std::fs::read_dir(dir).map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))?;
-    let mut ids: Vec<String> = entries
-        .filter_map(|e| e.ok())
-        .filter_map(|e| {
-            e.file_name()
-                .to_str()
-                .and_then(|n| n.strip_suffix(".txt"))
-                .map(str::to_owned)
-        })
-        .filter(|id| !id.starts_with('.'))
-        .collect();
-    ids.sort();
-    Ok(ids)
+    crate::fs::file_stems(dir, ".txt").map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))
 }
 
 /// The output camera of a converted frame: its written calib and its image's size.

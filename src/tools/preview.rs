@@ -34,6 +34,7 @@ const EDGE_SAMPLES: usize = 200;
 /// Distance at the far end of the depth colour map, metres.
 pub const DEPTH_MAX_M: f64 = 80.0;
 
+/// The colour a class's boxes are drawn in (RGB).
 pub fn class_colour(kind: &str) -> [u8; 3] {
     match kind {
         "Car" => [255, 60, 60],

@@ -7,7 +7,8 @@
 //! bytes batched as run singly (checked once per size on a fixed pattern): `--shard`,
 //! `--resume` and the batch size then cannot change an output.
 
-use super::frame::{Context, FrameOutput, Prepared};
+use super::frame::{Context, FrameOutput};
+use super::read::Prepared;
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use crate::kitti::Cam;

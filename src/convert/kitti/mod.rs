@@ -4,7 +4,10 @@
 
 mod batch;
 mod frame;
+mod read;
 mod tables;
+mod views;
+mod write;
 
 use crate::codec::png::PngCompression;
 use crate::error::{Error, Result};
@@ -158,6 +161,7 @@ pub struct DepthJob {
 /// The style pass of a conversion.
 #[derive(Debug, Clone)]
 pub struct StyleJob {
+    /// The model, the ONNX Runtime library and the device.
     pub options: StyleOptions,
     /// Before or after the warp.
     pub order: StyleOrder,
@@ -183,8 +187,6 @@ pub enum StyleOrder {
     AfterWarp,
 }
 
-/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
-/// is reported through `progress`, recorded in the manifest and counted in the summary.
 /// What a KITTI conversion did: the run's counts and what only a KITTI conversion has.
 #[derive(Debug)]
 pub struct KittiSummary {
@@ -197,6 +199,9 @@ pub struct KittiSummary {
     pub thin_views: Option<(usize, usize)>,
 }
 
+/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
+/// is reported through `progress`, recorded in the manifest and counted in the summary.
+/// `stop` (SIGINT, SIGTERM) ends the taking of frames; those in flight finish.
 pub fn run_kitti(
     job: &KittiJob,
     progress: &dyn Progress,

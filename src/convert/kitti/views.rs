@@ -1,0 +1,178 @@
+//! The output views of a frame: the output camera and remap table of each source camera,
+//! built once and shared by every frame with that calibration, or drawn per frame for
+//! `--augment` (redrawn until a view holds enough objects).
+
+use super::frame::Context;
+use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
+use crate::error::{Error, Result};
+use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
+use crate::geometry::target_camera;
+use crate::kitti::Cam;
+use crate::kitti::Split;
+use crate::warp::{RemapTable, Wrap};
+use nalgebra::Matrix3;
+use std::path::Path;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+
+/// The output camera and remap table of one source camera.
+#[derive(Clone)]
+pub(super) struct CameraMapping {
+    pub(super) output: Arc<dyn OutputCamera>,
+    pub(super) table: Arc<RemapTable>,
+}
+
+/// A source camera: its intrinsics' bits and image size.
+pub(super) type CameraMappingKey = ([u64; 4], ImageSize);
+
+/// One output view of a camera.
+pub(super) struct OutputView {
+    /// The output frame id (the frame's own, or an augmented view's).
+    pub(super) id: String,
+    pub(super) mapping: CameraMapping,
+    /// How an augmented view was drawn; None: the whole frame.
+    pub(super) view: Option<View>,
+}
+
+impl Context<'_> {
+    pub(super) fn mapping(
+        &self,
+        calib_path: &Path,
+        k: Intrinsics,
+        size: ImageSize,
+    ) -> Result<CameraMapping> {
+        self.mappings
+            .get_or_build(&(k.key(), size), || {
+                self.build_mapping(k, size, RemapTable::build)
+            })
+            .map_err(|m| Error::file(calib_path, m))
+    }
+
+    /// The output camera and table of a source camera, the table made by `build` (serial
+    /// inside the cache's once-cells, parallel ahead of the frames).
+    pub(super) fn build_mapping(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+        build: fn(&dyn CameraModel, &dyn CameraModel, &Matrix3<f64>, Wrap) -> RemapTable,
+    ) -> std::result::Result<CameraMapping, String> {
+        let source = Perspective::new(k, size);
+        let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+            .map_err(|e| e.to_string())?;
+        let table = build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+        Ok(CameraMapping {
+            output: Arc::from(output),
+            table: Arc::new(table),
+        })
+    }
+
+    /// Stores a mapping built ahead of the frames.
+    pub(super) fn insert_mapping(
+        &self,
+        k: Intrinsics,
+        size: ImageSize,
+        mapping: std::result::Result<CameraMapping, String>,
+    ) {
+        self.mappings.insert((k.key(), size), mapping);
+    }
+
+    /// The output views of a frame: the frame itself, or its augmented views, drawn as `draw`
+    /// says. The last element of each augmented view tells how many objects it holds when
+    /// they were counted.
+    pub(super) fn views(
+        &self,
+        split: &Split,
+        id: &str,
+        calib_path: &Path,
+        k: Intrinsics,
+        size: ImageSize,
+        draw: Draw,
+    ) -> Result<Vec<OutputView>> {
+        let Some(aug) = &self.job.augment else {
+            return Ok(vec![OutputView {
+                id: id.to_owned(),
+                mapping: self.mapping(calib_path, k, size)?,
+                view: None,
+            }]);
+        };
+        let source = Perspective::new(k, size);
+        let canvas = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+            .map_err(|e| Error::file(calib_path, e.to_string()))?;
+        let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
+            let (kv, sv) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());
+            canvas
+                .with_intrinsics(kv, sv)
+                .map_err(|e| Error::file(calib_path, e))
+        };
+        (0..aug.count)
+            .map(|i| {
+                let view_id = view_id(id, aug.count, i).ok_or_else(|| {
+                    Error::file(
+                        &split.image_path(Cam::C2, id),
+                        "--augment needs numeric frame ids (e.g. 000123)",
+                    )
+                })?;
+                let (view, output) = match draw {
+                    Draw::First => {
+                        let view = aug.view(&split.name, id, i, 0, canvas.size());
+                        (view, view_camera(&view)?)
+                    }
+                    Draw::As(attempts) => {
+                        let view =
+                            aug.view(&split.name, id, i, attempts[i as usize], canvas.size());
+                        (view, view_camera(&view)?)
+                    }
+                    Draw::Fewest(objects) => {
+                        // The first draw holding enough objects, else the one holding most.
+                        let mut best: Option<(u32, View, Box<dyn OutputCamera>)> = None;
+                        for attempt in 0..MAX_ATTEMPTS.max(1) {
+                            let view = aug.view(&split.name, id, i, attempt, canvas.size());
+                            let output = view_camera(&view)?;
+                            let n = objects(output.as_ref());
+                            if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
+                                best = Some((n, view, output));
+                            }
+                            if n >= aug.min_objects {
+                                break;
+                            }
+                        }
+                        let (n, view, output) = best.expect("at least one draw");
+                        if n < aug.min_objects.max(1) {
+                            self.thin_views.fetch_add(1, Ordering::Relaxed);
+                        }
+                        (view, output)
+                    }
+                };
+                // Every view has its own camera, so its table is not shared.
+                let table =
+                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                let mapping = CameraMapping {
+                    output: Arc::from(output),
+                    table: Arc::new(table),
+                };
+                Ok(OutputView {
+                    id: view_id,
+                    mapping,
+                    view: Some(view),
+                })
+            })
+            .collect()
+    }
+
+    /// Augmented views of labelled frames holding fewer objects than asked (or none, when no
+    /// minimum was asked).
+    pub(super) fn thin_views(&self) -> usize {
+        self.thin_views.load(Ordering::Relaxed)
+    }
+}
+
+/// How a camera's augmented views are drawn.
+#[derive(Clone, Copy)]
+pub(super) enum Draw<'a> {
+    /// Redrawn until they hold enough objects, counted by the function (camera 2).
+    Fewest(&'a dyn Fn(&dyn CameraModel) -> u32),
+    /// With the draws camera 2's views took (camera 3 follows camera 2).
+    As(&'a [u32]),
+    /// The first draw of each view.
+    First,
+}
