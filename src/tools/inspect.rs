@@ -78,7 +78,7 @@ pub struct CalibCount {
     pub cu: f64,
     /// Principal point row from P2, pixels.
     pub cv: f64,
-    /// Camera 2's optical centre in rect, metres: −K⁻¹·P2[:,3].
+    /// Camera 2's optical centre in rect, metres: `−K⁻¹·P2[:, 3]`.
     pub c2: [f64; 3],
     /// Frames with this calibration.
     pub count: usize,
