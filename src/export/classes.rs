@@ -121,6 +121,7 @@ impl ClassMap {
         &self.categories
     }
 
+    /// What a label of KITTI type `kind` becomes: a category, dropped, or unknown to the map.
     pub fn lookup(&self, kind: &str) -> ClassLookup {
         let target = self
             .rules

@@ -111,6 +111,7 @@ pub(crate) fn frame_boxes(frame: &Frame) -> Vec<(usize, PixelBox, bool, &crate::
     out
 }
 
+/// The COCO file of one export split: its name (`instances_<split>.json`) and bytes.
 pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(String, Vec<u8>)> {
     let mut file = CocoFile {
         info: Info {

@@ -26,14 +26,19 @@ use crate::kitti::{Calib, Dataset, FrameRef, Label};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
+/// An export format (`--format`, or `--export` of a conversion).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
+    /// COCO detection JSON, `instances_<split>.json` (see [`coco`]).
     Coco,
+    /// The Ultralytics YOLO folder layout (see [`yolo`]).
     Yolo,
+    /// Omni3D's JSON for Cube R-CNN, `Omni3D_<split>.json` (see [`omni3d`]).
     Omni3d,
 }
 
 impl Format {
+    /// The format's name on the command line: `coco`, `yolo` or `omni3d`.
     pub fn name(self) -> &'static str {
         match self {
             Format::Coco => "coco",
@@ -43,9 +48,12 @@ impl Format {
     }
 }
 
+/// How to export a dataset, whatever the format.
 #[derive(Debug, Clone)]
 pub struct ExportOptions {
+    /// Which KITTI types become which categories (`--classes`).
     pub classes: ClassMap,
+    /// How the labelled frames divide into train and val (`--image-sets`, `--val-fraction`).
     pub split_rule: SplitRule,
     /// Replace export files (or a YOLO folder) that already exist.
     pub overwrite: bool,
@@ -58,18 +66,24 @@ pub struct ExportOptions {
 /// One file an export wrote.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportedFile {
+    /// Where it was written (inside the output folder given).
     pub path: PathBuf,
     /// The path relative to the dataset root, when the file is inside the dataset.
     pub in_dataset: Option<String>,
+    /// blake3 of its bytes, hexadecimal.
     pub blake3: String,
 }
 
+/// What an export wrote and read, for the summary line.
 #[derive(Debug, Default)]
 pub struct ExportReport {
+    /// Every file written (YOLO: its label files and `data.yaml`, not the image links).
     pub files: Vec<ExportedFile>,
     /// Images per export split, in the order train, val, test.
     pub images: Vec<(&'static str, usize)>,
+    /// Objects exported (DontCare and dropped classes aside).
     pub objects: usize,
+    /// DontCare regions of the exported frames (COCO writes them as `iscrowd` annotations).
     pub ignore_regions: usize,
     /// Labelled frames in no image set (with [`SplitRule::ImageSets`]).
     pub left_out: usize,
@@ -80,6 +94,7 @@ pub struct ExportReport {
 /// A labelled object of a frame, with its category.
 #[derive(Debug, Clone)]
 pub struct Object {
+    /// The parsed `label_2` line.
     pub label: Label,
     /// Index into the categories (id = index + 1).
     pub category: usize,
@@ -90,16 +105,22 @@ pub struct Object {
 pub struct Frame {
     /// `train`, `val` or `test`.
     pub split: &'static str,
+    /// The frame id (file stem of `image_2/ID.png`).
     pub id: String,
+    /// The image's id in the export split's file: the frame number when every id of the split is
+    /// one, else its position from 1.
     pub image_id: u64,
     /// The image, as found under the dataset root.
     pub image: PathBuf,
     /// The image path relative to the dataset root (`/`-separated).
     pub image_rel: String,
+    /// Image size, pixels.
     pub size: ImageSize,
+    /// Camera 2 as the image was written (`projection:`/`K2:`/`C2:`, or `P2`).
     pub camera: Box<dyn OutputCamera>,
     /// Camera 2's optical centre in rect, metres.
     pub centre: Vector3<f64>,
+    /// Objects of a mapped class, in `label_2` order (DontCare and dropped classes aside).
     pub objects: Vec<Object>,
     /// DontCare rectangles [left, top, right, bottom].
     pub ignore_regions: Vec<[f64; 4]>,
@@ -108,12 +129,17 @@ pub struct Frame {
 /// A dataset read for export: frames in export order (train, val, test; ids sorted).
 #[derive(Debug)]
 pub struct ExportData {
+    /// The dataset root the frames were read from.
     pub root: PathBuf,
     /// See [`ExportOptions::path_prefix`].
     pub path_prefix: String,
+    /// Category names; the id of `categories[i]` is `i + 1`.
     pub categories: Vec<String>,
+    /// Every frame read, in export order.
     pub frames: Vec<Frame>,
+    /// Labelled frames in no image set (with [`SplitRule::ImageSets`]).
     pub left_out: usize,
+    /// Frames that could not be read; they are not in the export.
     pub failed: Vec<(FrameRef, Error)>,
 }
 

@@ -172,6 +172,7 @@ fn annotation<'a>(
     a
 }
 
+/// The Omni3D file of one export split: its name (`Omni3D_<split>.json`) and bytes.
 pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(String, Vec<u8>)> {
     let name = format!("panoconv_{split}");
     let mut file = Omni3dFile {

@@ -12,7 +12,12 @@ pub enum SplitRule {
     /// `DIR/train.txt` and `DIR/val.txt` (KITTI's ImageSets); frames in neither are left out.
     ImageSets(PathBuf),
     /// A seeded, reproducible draw of round(fraction · n) frames for `val`.
-    ValFraction { fraction: f64, seed: u64 },
+    ValFraction {
+        /// Share of the labelled frames put in `val`, from 0 to 1 (`--val-fraction`).
+        fraction: f64,
+        /// Seed of the draw (`--seed`): the same seed and frames give the same split.
+        seed: u64,
+    },
     /// Every labelled frame is `train`.
     AllTrain,
 }
@@ -29,8 +34,11 @@ impl SplitRule {
     }
 }
 
+/// The export split of the labelled frames not in `val`.
 pub const TRAIN: &str = "train";
+/// The export split held out for validation.
 pub const VAL: &str = "val";
+/// The export split of unlabelled frames (`testing/`).
 pub const TEST: &str = "test";
 
 /// The export split of each labelled frame id; ids absent from the result are left out.

@@ -84,6 +84,8 @@ fn link(target: &Path, link: &Path) -> std::io::Result<()> {
     std::fs::copy(resolved, link).map(|_| ())
 }
 
+/// Writes the YOLO layout into `output`, which must lie outside the dataset and be empty unless
+/// `options.overwrite` (then it is replaced whole); returns the label files and `data.yaml`.
 pub fn write(
     data: &ExportData,
     output: &Path,

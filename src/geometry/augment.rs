@@ -6,10 +6,12 @@ use crate::camera::{ImageSize, Intrinsics};
 use crate::geometry::{crop_intrinsics, resize_intrinsics, Crop};
 use serde::{Deserialize, Serialize};
 
+/// `--augment`: random scale-and-crop views of every frame, reproducible from the seed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Augment {
     /// Views per frame.
     pub count: u32,
+    /// Seed of every draw (`--seed`); with the split, frame id and view index it fixes a view.
     pub seed: u64,
     /// Scale factors drawn uniformly from [min, max], applied to the output canvas.
     pub scale_range: (f64, f64),
@@ -31,9 +33,14 @@ fn is_zero(n: &u32) -> bool {
 /// One drawn view: the canvas resized to `scaled`, then the window `crop` of it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct View {
+    /// Which view of the frame, from 0 to `count` − 1.
     pub index: u32,
+    /// The scale factor drawn from `scale_range`.
     pub scale: f64,
+    /// Size of the canvas after scaling, pixels (rounded, at least 1×1).
     pub scaled: ImageSize,
+    /// The view's window of the scaled canvas, in its pixels; centred with black margins where the
+    /// view is larger than the scaled canvas.
     pub crop: Crop,
     /// Which draw of this view it is (0: the first; more with `min_objects`).
     #[serde(default, skip_serializing_if = "is_zero")]

@@ -42,6 +42,7 @@ impl Scale {
     }
 }
 
+/// The extent of the output canvas, before crop and resize (`--full-360`, `--size`; else tight).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Canvas {
@@ -56,16 +57,25 @@ pub enum Canvas {
 /// A window of the output canvas, in its pixels (before any resize).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Crop {
+    /// The canvas column that becomes the window's column 0; negative reaches left of the canvas.
     pub x: i64,
+    /// The canvas row that becomes the window's row 0; negative reaches above the canvas.
     pub y: i64,
+    /// Width of the window, pixels (positive).
     pub width: u32,
+    /// Height of the window, pixels (positive).
     pub height: u32,
 }
 
+/// The output camera to build from each source camera: projection, scale and canvas, then an
+/// optional crop and resize.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct OutputSpec {
+    /// The target projection (`--to`).
     pub projection: Projection,
+    /// Pixels per radian at the centre of the output.
     pub scale: Scale,
+    /// Which part of the target projection the canvas covers.
     pub canvas: Canvas,
     /// Applied to the canvas first; may reach beyond it (black there).
     #[serde(default)]
@@ -77,6 +87,8 @@ pub struct OutputSpec {
 }
 
 impl OutputSpec {
+    /// A spec for `projection` with the defaults: the source focal length, a tight canvas, no crop
+    /// and no resize.
     pub fn new(projection: Projection) -> Self {
         Self {
             projection,
@@ -106,6 +118,7 @@ pub struct FisheyeTarget {
     pub camera_blake3: String,
     /// The lens model's name.
     pub model: String,
+    /// The lens model and its parameters, read from the file.
     #[serde(skip)]
     pub lens: Lens,
     /// The camera's axes in rect: a lens bearing d is `rect_from_camera · d`.

@@ -19,8 +19,9 @@ use nalgebra::{Matrix3, Point2, Vector3};
 /// Parameters of the occlusion filter (defaults for a Velodyne HDL-64E, as KITTI).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct OcclusionFilter {
-    /// Angle between LiDAR beams (vertical) and between firings (horizontal), radians.
+    /// Angle between LiDAR beams (vertical), radians.
     pub beam_spacing: f64,
+    /// Angle between successive firings of a beam (horizontal), radians.
     pub azimuth_spacing: f64,
     /// The window covers this many spacings each side of a point.
     pub margin: f64,
@@ -45,8 +46,12 @@ impl Default for OcclusionFilter {
 /// A depth map: `values[v * width + u]` in metres, 0 where there is no point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DepthMap {
+    /// Width of the map, pixels (the output camera's).
     pub width: u32,
+    /// Height of the map, pixels.
     pub height: u32,
+    /// Per pixel, row-major: the projection's own distance (z, range or rho) of its nearest
+    /// point, metres; 0 where there is none.
     pub values: Vec<f64>,
 }
 
@@ -59,6 +64,7 @@ impl DepthMap {
             .collect()
     }
 
+    /// Number of pixels that hold a depth.
     pub fn valid(&self) -> usize {
         self.values.iter().filter(|&&d| d > 0.0).count()
     }

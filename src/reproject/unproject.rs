@@ -23,15 +23,23 @@ use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
 use std::path::Path;
 
+/// A detected object in output pixels: one line of the pixel format (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PixelObject {
+    /// The KITTI type (`Car`, `Pedestrian`, ...).
     pub kind: String,
+    /// Column of the 3D box's geometric centre in the output image, pixels (centres at integers).
     pub u: f64,
+    /// Row of the 3D box's geometric centre in the output image, pixels.
     pub v: f64,
+    /// The projection's own distance from the camera centre to the box centre, metres (z, range
+    /// or rho).
     pub distance: f64,
-    /// height, width, length
+    /// height, width, length, metres.
     pub dimensions: [f64; 3],
+    /// Observation angle relative to the ray from the camera centre, radians.
     pub alpha: f64,
+    /// Detection confidence; 1 for a label or a line without a score.
     pub score: f64,
 }
 
@@ -94,6 +102,7 @@ pub fn trained_focal_scale(output: &dyn OutputCamera, trained_fv: f64) -> f64 {
     output.centre_intrinsics().fv / trained_fv
 }
 
+/// The pixel-format line of `o`, without a newline (the inverse of [`parse_pixel_line`]).
 pub fn format_pixel_line(o: &PixelObject) -> String {
     format!(
         "{} {:.4} {:.4} {:.6} {:.2} {:.2} {:.2} {:.6} {:.2}",

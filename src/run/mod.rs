@@ -13,11 +13,14 @@ use crate::error::Error;
 
 /// Reports progress; the CLI passes an indicatif bar, tests a no-op.
 pub trait Progress: Sync {
+    /// The run begins with `total` items to do.
     fn start(&self, total: usize);
+    /// One item finished without error (converted, or kept from a previous run).
     fn frame_done(&self);
     /// An item failed: report it (once) without disturbing the bar. `item` names it: a KITTI
     /// frame as `split/id`, a folder image by its file name.
     fn frame_failed(&self, item: &str, error: &Error);
+    /// The run ended, every item taken or stopped early.
     fn finish(&self);
 }
 
@@ -34,8 +37,11 @@ impl Progress for Silent {
 /// What a run did, for the summary line and the exit code.
 #[derive(Debug)]
 pub struct Summary {
+    /// Items the manifest records (KITTI frames or folder images), resumed ones included.
     pub frames: usize,
+    /// Of those, the items converted without error.
     pub converted: usize,
+    /// Of those, the items that failed (listed in the manifest with their error).
     pub failed: usize,
     /// Frames a previous run had completed (--resume).
     pub resumed: usize,
@@ -43,6 +49,7 @@ pub struct Summary {
     pub interrupted: bool,
     /// Stopped because the output device refused writes: what to tell the user.
     pub device_full: Option<String>,
+    /// Wall-clock duration of the run, seconds.
     pub seconds: f64,
     /// Distinct remap tables built (one per source camera and output camera).
     pub tables_built: usize,

@@ -19,6 +19,8 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> Default for OnceMap<K, V> {
 }
 
 impl<K: std::hash::Hash + Eq + Clone, V: Clone> OnceMap<K, V> {
+    /// The value of `key`, running `build` if no value exists yet; concurrent callers for the same
+    /// key wait for that one build instead of building again.
     pub fn get_or_build(&self, key: &K, build: impl FnOnce() -> V) -> V {
         let cell = {
             let mut map = self.entries.lock().unwrap_or_else(|e| e.into_inner());
@@ -38,6 +40,7 @@ impl<K: std::hash::Hash + Eq + Clone, V: Clone> OnceMap<K, V> {
         self.entries.lock().unwrap_or_else(|e| e.into_inner()).len()
     }
 
+    /// Whether no key has been seen yet.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

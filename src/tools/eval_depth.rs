@@ -11,14 +11,22 @@ use crate::fs::read_file;
 use serde::Serialize;
 use std::path::Path;
 
+/// Depth-estimation metrics of one image, or their mean over images (see [`mean`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct DepthMetrics {
+    /// Mean of |pred − gt| / gt.
     pub abs_rel: f64,
+    /// Mean of (pred − gt)² / gt, metres.
     pub sq_rel: f64,
+    /// Root of the mean of (pred − gt)², metres.
     pub rmse: f64,
+    /// Root of the mean of (ln pred − ln gt)².
     pub rmse_log: f64,
+    /// Share of pixels with max(pred/gt, gt/pred) < 1.25, from 0 to 1.
     pub delta_1: f64,
+    /// Share of pixels with max(pred/gt, gt/pred) < 1.25², from 0 to 1.
     pub delta_2: f64,
+    /// Share of pixels with max(pred/gt, gt/pred) < 1.25³, from 0 to 1.
     pub delta_3: f64,
     /// Valid ground-truth pixels used.
     pub pixels: usize,
@@ -80,11 +88,16 @@ fn read_depth(path: &Path) -> Result<(u32, u32, Vec<f64>)> {
     Ok((w, h, v.into_iter().map(|x| x as f64 / 256.0).collect()))
 }
 
+/// The outcome of [`evaluate`] (the JSON of `eval-depth --json`, `failed` aside).
 #[derive(Debug, Serialize)]
 pub struct Evaluation {
+    /// Ground truth counts above this depth, metres (`--min-depth`).
     pub min_depth: f64,
+    /// Ground truth counts below this depth, metres (`--max-depth`).
     pub max_depth: f64,
+    /// Images evaluated (those in `mean`).
     pub images: usize,
+    /// The metrics averaged over the evaluated images.
     pub mean: DepthMetrics,
     /// Frames that could not be evaluated (missing or mismatched prediction, no valid pixel).
     #[serde(skip)]

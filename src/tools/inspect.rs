@@ -19,24 +19,34 @@ pub const SMALL_OBJECT_PX: f64 = 25.0;
 /// The report. Field order is the JSON key order; maps are sorted by key.
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
+    /// The dataset root, as given.
     pub dataset: String,
+    /// Frames (images in `image_2`) over every split inspected.
     pub frames: usize,
+    /// One entry per split, in the dataset's order.
     pub splits: Vec<SplitReport>,
     /// Label lines per class (every split with labels).
     pub classes: BTreeMap<String, usize>,
+    /// Sizes of the `image_2` images, most common first.
     pub image_sizes: Vec<SizeCount>,
-    /// Distinct P2 matrices.
+    /// Distinct calibrations of camera 2 (P2, with the written camera if any), most common first.
     pub calibrations: Vec<CalibCount>,
     /// Frames per `projection:` line ("kitti" when the calib has none).
     pub projections: BTreeMap<String, usize>,
+    /// Objects too small to train on.
     pub small_objects: SmallObjects,
+    /// Everything wrong in the dataset, sorted by file, then line.
     pub problems: Vec<Problem>,
 }
 
+/// One split of the dataset.
 #[derive(Debug, Clone, Serialize)]
 pub struct SplitReport {
+    /// The split's folder name (`training`, `testing`).
     pub name: String,
+    /// Frames in the split (images in `image_2`).
     pub frames: usize,
+    /// Whether the split has labels (`label_2`): the `training` split.
     pub labelled: bool,
     /// Which of the folders a frame may have exist (image_2 and calib always do).
     pub folders: Vec<String>,
@@ -45,23 +55,33 @@ pub struct SplitReport {
 /// The folders of a split besides image_2 and calib, in the order they are listed.
 const OPTIONAL_FOLDERS: [&str; 4] = ["label_2", "image_3", "velodyne", "depth_2"];
 
+/// An image size and how many frames have it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct SizeCount {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Frames whose `image_2` image has this size.
     pub count: usize,
 }
 
+/// A distinct calibration of camera 2 and how many frames use it.
 #[derive(Debug, Clone, Serialize)]
 pub struct CalibCount {
     /// Row-major 3x4.
     pub p2: [f64; 12],
+    /// Focal length along u from P2, pixels.
     pub fu: f64,
+    /// Focal length along v from P2, pixels.
     pub fv: f64,
+    /// Principal point column from P2, pixels.
     pub cu: f64,
+    /// Principal point row from P2, pixels.
     pub cv: f64,
-    /// Camera 2's optical centre in rect, metres: −K⁻¹·P2[:,3].
+    /// Camera 2's optical centre in rect, metres: `−K⁻¹·P2[:, 3]`.
     pub c2: [f64; 3],
+    /// Frames with this calibration.
     pub count: usize,
     /// The first frame (split/id) with this P2.
     pub first_frame: String,
@@ -74,19 +94,28 @@ pub struct CalibCount {
 /// Camera 2 as panoconv wrote it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WrittenCamera {
+    /// The `projection:` line (`perspective`, `equirect`, `cylindrical`, `fisheye`).
     pub projection: String,
+    /// `K2:` fu, pixels per unit of the projection's horizontal coordinate (docs/geometry.md).
     pub fu: f64,
+    /// `K2:` fv, pixels per unit of the projection's vertical coordinate.
     pub fv: f64,
+    /// `K2:` principal point column, pixels.
     pub cu: f64,
+    /// `K2:` principal point row, pixels.
     pub cv: f64,
+    /// `C2:` camera 2's optical centre in rect, metres.
     pub c2: [f64; 3],
 }
 
+/// Objects whose 2D box is less tall than [`SMALL_OBJECT_PX`].
 #[derive(Debug, Clone, Serialize)]
 pub struct SmallObjects {
+    /// The height threshold, pixels.
     pub threshold_px: f64,
     /// Objects (DontCare excluded) whose 2D box height (bottom − top) is under the threshold.
     pub count: usize,
+    /// The small objects per class.
     pub classes: BTreeMap<String, usize>,
 }
 
@@ -95,8 +124,11 @@ pub struct SmallObjects {
 pub struct Problem {
     /// Relative to the dataset root.
     pub file: String,
+    /// Line number (from 1), when the problem is on a line of a text file.
     pub line: Option<usize>,
+    /// The field of that line (e.g. `type`, `P2`), when the parser names one.
     pub field: Option<String>,
+    /// What is wrong.
     pub message: String,
 }
 
@@ -322,6 +354,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
 }
 
 impl Report {
+    /// Whether no problem was found.
     pub fn is_clean(&self) -> bool {
         self.problems.is_empty()
     }

@@ -19,19 +19,25 @@ use std::path::Path;
 /// Height of the ground below the rect origin (camera 0), metres.
 pub const GROUND_Y: f64 = 1.65;
 
+/// A textured box of the scene, placed as a KITTI 3D label is.
 #[derive(Debug, Clone)]
 pub struct SceneBox {
+    /// The KITTI type written in `label_2` (`Car`, `Pedestrian`, `Van`).
     pub kind: &'static str,
-    /// height, width, length
+    /// height, width, length, metres.
     pub dimensions: [f64; 3],
-    /// bottom centre in rect
+    /// Bottom centre in rect, metres.
     pub location: Vector3<f64>,
+    /// Rotation about rect's y axis, radians (KITTI's rotation_y).
     pub rotation_y: f64,
+    /// Base RGB colour, 0 to 255, before texture and shading.
     pub colour: [f64; 3],
 }
 
+/// A synthetic scene: the ground plane at [`GROUND_Y`], the sky, and these boxes.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
+    /// The boxes; each one camera 2 sees is a label line.
     pub boxes: Vec<SceneBox>,
 }
 
@@ -106,6 +112,7 @@ impl SceneBox {
         Some((t0, colour))
     }
 
+    /// The box's KITTI type.
     pub fn label_kind(&self) -> &'static str {
         self.kind
     }
@@ -235,9 +242,11 @@ impl Scene {
 
 /// A synthetic camera 2: its true intrinsics and optical centre, from which P2 is made.
 pub struct SynthCalib {
+    /// Camera 2's intrinsics, pixels.
     pub k: Intrinsics,
     /// Camera 2's optical centre in rect (the ground truth `C2:` must reproduce).
     pub centre: Vector3<f64>,
+    /// Image size of cameras 2 and 3, pixels.
     pub size: ImageSize,
 }
 
@@ -260,6 +269,7 @@ impl SynthCalib {
         }
     }
 
+    /// Camera 2's intrinsics, pixels.
     pub fn intrinsics(&self) -> Intrinsics {
         self.k
     }
@@ -284,10 +294,12 @@ impl SynthCalib {
         ]
     }
 
+    /// Camera 2's projection matrix P2, row-major 3×4, as calib/*.txt holds it.
     pub fn p2(&self) -> [f64; 12] {
         self.p(&self.centre)
     }
 
+    /// Camera 2's optical centre in rect, metres.
     pub fn centre(&self) -> Vector3<f64> {
         self.centre
     }
@@ -305,6 +317,8 @@ impl SynthCalib {
         )
     }
 
+    /// The frame's calib/*.txt: P0 to P3 (camera 0 at the rect origin, camera 1 0.537 m right of
+    /// it), R0_rect = identity, Tr_velo_to_cam and Tr_imu_to_velo, in KITTI's scientific notation.
     pub fn text(&self) -> String {
         let row = |v: &[f64]| {
             v.iter()
@@ -340,9 +354,13 @@ fn car(x: f64, z: f64, ry: f64, colour: [f64; 3]) -> SceneBox {
 
 /// One synthetic frame.
 pub struct SynthFrame {
+    /// The KITTI split the frame is written to: `training` or `testing`.
     pub split: &'static str,
+    /// The frame id (file stem).
     pub id: &'static str,
+    /// Its camera 2.
     pub calib: SynthCalib,
+    /// What the frame shows.
     pub scene: Scene,
     /// A DontCare rectangle in the source image, if any.
     pub dont_care: Option<[f64; 4]>,

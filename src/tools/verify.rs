@@ -43,22 +43,42 @@ struct FrameView {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Problem {
     /// Listed in the manifest, absent from the folder.
-    Missing { path: String },
+    Missing {
+        /// The file, relative to the folder.
+        path: String,
+    },
     /// Present, but its blake3 differs from the manifest's.
     Changed {
+        /// The file, relative to the folder.
         path: String,
+        /// The blake3 the manifest records, hexadecimal.
         expected: String,
+        /// The blake3 of the file as it is, hexadecimal.
         actual: String,
     },
     /// Present under the folder, listed by no frame.
-    Extra { path: String },
+    Extra {
+        /// The file, relative to the folder.
+        path: String,
+    },
     /// Listed, present, but it cannot be read (permissions, a directory, a symlink loop...).
-    Unreadable { path: String, cause: String },
+    Unreadable {
+        /// The file, relative to the folder.
+        path: String,
+        /// The error reading it.
+        cause: String,
+    },
     /// The manifest lists a path that is absolute or climbs out of the folder with `..`; it is
     /// not opened.
-    BadPath { path: String },
+    BadPath {
+        /// The path as the manifest lists it.
+        path: String,
+    },
     /// The manifest lists the same path twice with different hashes.
-    Conflict { path: String },
+    Conflict {
+        /// The file, relative to the folder.
+        path: String,
+    },
 }
 
 impl Problem {
@@ -112,6 +132,7 @@ pub struct Report {
 }
 
 impl Report {
+    /// Whether the folder agrees with its manifest: no problem of any kind.
     pub fn is_ok(&self) -> bool {
         self.problems.is_empty()
     }
@@ -120,12 +141,15 @@ impl Report {
         self.problems.iter().filter(|p| pred(p)).count()
     }
 
+    /// Number of [`Problem::Missing`] files.
     pub fn missing(&self) -> usize {
         self.count(|p| matches!(p, Problem::Missing { .. }))
     }
+    /// Number of [`Problem::Changed`] files.
     pub fn changed(&self) -> usize {
         self.count(|p| matches!(p, Problem::Changed { .. }))
     }
+    /// Number of [`Problem::Extra`] files.
     pub fn extra(&self) -> usize {
         self.count(|p| matches!(p, Problem::Extra { .. }))
     }

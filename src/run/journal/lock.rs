@@ -33,6 +33,8 @@ impl Drop for OutputLock {
     }
 }
 
+/// File name of the output folder's lock: `panoconv.lock`, or `panoconv.shard-K-of-N.lock`
+/// for a shard (each shard locks on its own).
 pub fn lock_name(shard: Option<Shard>) -> String {
     match shard {
         Some(s) => format!("panoconv.shard-{}-of-{}.lock", s.index, s.count),

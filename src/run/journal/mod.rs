@@ -34,7 +34,9 @@ const SYNC_EVERY: Duration = Duration::from_secs(2);
 /// `--shard K/N`: this process converts the frames whose key hashes to K modulo N (K from 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct Shard {
+    /// K: which shard this process converts, from 0 to `count` − 1.
     pub index: u32,
+    /// N: the number of shards (at least 1).
     pub count: u32,
 }
 
@@ -47,6 +49,7 @@ impl Shard {
         v % self.count as u64 == self.index as u64
     }
 
+    /// File name of this shard's manifest part: `panoconv.shard-K-of-N.json`.
     pub fn manifest_name(&self) -> String {
         format!("panoconv.shard-{}-of-{}.json", self.index, self.count)
     }
@@ -107,7 +110,9 @@ pub struct Journal {
 /// What `finish` wrote.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Finished {
+    /// Frames the manifest records, failed ones included.
     pub frames: usize,
+    /// Of those, the frames that failed.
     pub failed: usize,
 }
 
