@@ -2,6 +2,7 @@
 //! cameras. Images, 2D/3D labels and calibration are reprojected exactly; see `docs/` and the
 //! README for the conventions.
 
+#![deny(missing_docs)]
 // `!(x > 0.0)` is used on purpose: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 

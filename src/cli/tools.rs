@@ -269,7 +269,7 @@ pub(super) fn record_derived(
     if let Some(root) = panoconv::run::derived::record_if_inside(command, target, files)? {
         eprintln!(
             "panoconv: recorded in {} (checked by `panoconv verify`)",
-            root.join("panoconv.json").display()
+            root.join(panoconv::run::manifest::MANIFEST).display()
         );
     }
     Ok(())

@@ -30,8 +30,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// Everything a `kitti` or `kitti-raw` conversion needs (the manifest records its
-/// [`Parameters`]).
+/// Everything a `kitti` or `kitti-raw` conversion needs (the manifest records what decides
+/// the outputs as `parameters`).
 #[derive(Debug, Clone)]
 pub struct KittiJob {
     /// The dataset's root: an object root or a raw date folder, as `source` says.
