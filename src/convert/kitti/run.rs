@@ -1,0 +1,329 @@
+//! Running a KITTI conversion: checks and set-up before anything is written, the frames in
+//! groups over the rayon pool (resumed frames kept, failed ones reported and recorded), then
+//! the image sets and the manifest.
+
+use super::batch::{self, StylePass};
+use super::frame::Context;
+use super::{KittiJob, KittiSource, KittiSummary, Parameters};
+use crate::error::{Error, Result};
+use crate::fs;
+use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
+use crate::run::journal::{self, Journal};
+use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::{Progress, Summary};
+use crate::style::{Device, StyleModel, StyleOptions};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::OnceLock;
+
+/// Frames a previous run completed, by (split, id) (`--resume`).
+type Previous = HashMap<(String, String), FrameRecord>;
+
+/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
+/// is reported through `progress`, recorded in the manifest and counted in the summary.
+/// `stop` (SIGINT, SIGTERM) ends the taking of frames; those in flight finish.
+pub fn run_kitti(
+    job: &KittiJob,
+    progress: &dyn Progress,
+    stop: &AtomicBool,
+) -> Result<KittiSummary> {
+    let started = std::time::Instant::now();
+    let dataset = job.source.open(&job.input)?;
+    // Resumed runs and shards write into a folder that already holds outputs.
+    // Held until the run returns: one process per output (per shard).
+    let _lock = journal::claim_output(
+        &job.input,
+        &job.output,
+        job.shard,
+        job.overwrite || job.resume || job.shard.is_some(),
+    )?;
+    let (mut frames, missing) = dataset.select(job.frames.as_deref());
+    // Checked on the whole selection, before sharding: a shard may own no frame of a small set.
+    dataset.check_selection(&frames, &missing)?;
+    dataset.check_folders(&job.cameras, job.depth.is_some())?;
+    if let Some(shard) = job.shard {
+        frames.retain(|f| shard.owns(&f.split, &f.id));
+    }
+    let style = load_style(job)?;
+    let parameters =
+        serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
+    let previous = if job.resume {
+        journal::load_previous(&job.output, job.shard, &parameters)?
+    } else {
+        HashMap::new()
+    };
+    if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
+        return Err(Error::Setup(
+            "--augment is not available for KITTI raw drives (one calib per drive)".into(),
+        ));
+    }
+    create_output_folders(job, &dataset)?;
+    if job.resume {
+        journal::remove_stale_temporaries(&job.output);
+    }
+
+    let ctx = Context::new(job, style.as_ref(), &dataset);
+    let style_pass = style
+        .as_ref()
+        .map(|m| StylePass::new(m, job.style.as_ref().map_or(1, |s| s.batch)));
+    if job.augment.is_none() {
+        // (augmented views have tables of their own, built with the frame)
+        let todo: Vec<(&Split, &str)> = frames
+            .iter()
+            .filter(|f| !previous.contains_key(&(f.split.clone(), f.id.clone())))
+            .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
+            .collect();
+        super::tables::build_ahead(&ctx, &todo, &job.cameras);
+    }
+    for split in &dataset.splits {
+        ctx.write_split_calib(split)?;
+    }
+    let journal = Journal::new(
+        &job.output,
+        job.shard,
+        job.source.command(),
+        parameters,
+        job.resume,
+    )?;
+    let unusable = unusable_frames(job, &dataset);
+    progress.start(frames.len() + unusable.len());
+    let pass = FramePass {
+        job,
+        dataset: &dataset,
+        ctx: &ctx,
+        style_pass: style_pass.as_ref(),
+        previous: &previous,
+        journal: &journal,
+        progress,
+        stop,
+        device_full: OnceLock::new(),
+        written: AtomicUsize::new(0),
+    };
+    let (done, resumed) = pass.run(&frames);
+    for &(split, name) in &unusable {
+        let f = FrameRef {
+            split: split.name.clone(),
+            id: name.clone(),
+        };
+        let e = Error::file(
+            &split.image_path(Cam::C2, "x").with_file_name(name),
+            "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
+        );
+        progress.frame_failed(&f.to_string(), &e);
+        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
+    }
+    progress.finish();
+    let interrupted = done < frames.len();
+    let written = pass.written.load(Ordering::Relaxed);
+    let device_full = pass.device_full.into_inner().map(|e| {
+        format!(
+            "output device full after {written} of {} frames ({e}): free space and run again with --resume",
+            frames.len()
+        )
+    });
+    // On a full device the manifest may not fit either: then say so with the rest.
+    let when_full = |e: Error| match &device_full {
+        Some(full) => Error::DeviceFull(format!(
+            "{full}; the manifest could not be written either ({e})"
+        )),
+        None => e,
+    };
+    if job.augment.is_some() && job.shard.is_none() {
+        // augmented ids are new: list them so KITTI loaders find the views
+        write_image_sets(&job.output, &dataset, &journal).map_err(when_full)?;
+    }
+    let finished = journal.finish(!interrupted).map_err(when_full)?;
+    Ok(KittiSummary {
+        run: Summary {
+            frames: finished.frames,
+            converted: finished.frames - finished.failed,
+            failed: finished.failed,
+            resumed,
+            interrupted: interrupted && device_full.is_none(),
+            device_full,
+            seconds: started.elapsed().as_secs_f64(),
+            tables_built: ctx.tables_built(),
+        },
+        style_runs: style.as_ref().map(StyleModel::runs),
+        thin_views: job
+            .augment
+            .map(|a| (ctx.thin_views(), a.min_objects.max(1) as usize)),
+    })
+}
+
+/// The style model's sessions, loaded before anything is written: a missing library or a bad
+/// model is a set-up error. On the CPU, one session per worker with one thread each, so
+/// --jobs alone sets the core count. On a GPU each session holds its own weights and
+/// activation arena in device memory, and one device runs one model at a time anyway: two
+/// sessions (one computing while the other's inputs are prepared) serve any number of workers.
+fn load_style(job: &KittiJob) -> Result<Option<StyleModel>> {
+    let Some(s) = &job.style else {
+        return Ok(None);
+    };
+    let options = StyleOptions {
+        intra_threads: 1,
+        ..s.options.clone()
+    };
+    let workers = rayon::current_num_threads();
+    let sessions = match options.device {
+        Device::Cpu => workers,
+        Device::Cuda => workers.min(2),
+    };
+    Ok(Some(StyleModel::load_pool(&options, sessions)?))
+}
+
+/// Creates every output folder the job writes into, per split.
+fn create_output_folders(job: &KittiJob, dataset: &Dataset) -> Result<()> {
+    for split in &dataset.splits {
+        let mut kinds = vec![OutputKind::Image(Cam::C2), OutputKind::Calib];
+        if split.has_labels {
+            kinds.push(OutputKind::Label);
+        }
+        if job.cameras.contains(&Cam::C3) {
+            kinds.push(OutputKind::Image(Cam::C3));
+        }
+        if job.mask {
+            kinds.extend(job.cameras.iter().map(|&c| OutputKind::Mask(c)));
+        }
+        if job.depth.is_some() {
+            kinds.push(OutputKind::Depth);
+        }
+        for k in kinds {
+            if let Some(p) = split.output_path(k, "x") {
+                let dir = job
+                    .output
+                    .join(&split.name)
+                    .join(p.parent().unwrap_or(Path::new("")));
+                std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Files that look like frames but cannot be read as one: reported, not silently skipped.
+/// (With a frame selection they were not asked for; each shard reports its own share.)
+fn unusable_frames<'d>(job: &KittiJob, dataset: &'d Dataset) -> Vec<(&'d Split, &'d String)> {
+    dataset
+        .splits
+        .iter()
+        .flat_map(|s| s.unusable.iter().map(move |name| (s, name)))
+        .filter(|(s, n)| job.frames.is_none() && job.shard.is_none_or(|sh| sh.owns(&s.name, n)))
+        .collect()
+}
+
+/// The loop over the frames and what it shares between workers.
+struct FramePass<'a> {
+    job: &'a KittiJob,
+    dataset: &'a Dataset,
+    ctx: &'a Context<'a>,
+    style_pass: Option<&'a StylePass<'a>>,
+    previous: &'a Previous,
+    journal: &'a Journal,
+    progress: &'a dyn Progress,
+    stop: &'a AtomicBool,
+    /// The first write the output device refused for want of space (or being read-only): no
+    /// new frame is taken after it, since every one would fail the same way.
+    device_full: OnceLock<Error>,
+    /// Frames whose outputs exist (converted or kept from the previous run).
+    written: AtomicUsize,
+}
+
+impl FramePass<'_> {
+    /// Converts `frames` in groups of consecutive frames (one frame each unless the style pass
+    /// batches): the grouping depends on the selection and the options only, never on the
+    /// thread count. Returns the frames taken and, of those, the ones kept from a previous run.
+    fn run(&self, frames: &[FrameRef]) -> (usize, usize) {
+        let group_len = self.style_pass.map_or(1, |p| p.group_len());
+        let outcomes: Vec<Option<bool>> = frames
+            .par_chunks(group_len)
+            .flat_map_iter(|group| self.group(group))
+            .collect();
+        let (mut done, mut resumed) = (0, 0);
+        for kept in outcomes.iter().flatten() {
+            done += 1;
+            resumed += usize::from(*kept);
+        }
+        (done, resumed)
+    }
+
+    /// One group: for each frame, None when it was not taken (stopped, device full),
+    /// Some(true) when kept from the previous run, Some(false) when converted or failed.
+    fn group(&self, group: &[FrameRef]) -> Vec<Option<bool>> {
+        // SIGINT/SIGTERM or a full device: take no new group; those in flight finish.
+        if self.stop.load(Ordering::Relaxed) || self.device_full.get().is_some() {
+            return vec![None; group.len()];
+        }
+        let mut outcomes = vec![Some(true); group.len()];
+        let mut todo = Vec::new();
+        for (i, f) in group.iter().enumerate() {
+            let split = self
+                .dataset
+                .split(&f.split)
+                .expect("selected frames come from the dataset's splits");
+            if let Some(r) = self.previous.get(&(f.split.clone(), f.id.clone())) {
+                if journal::still_valid(r, &self.job.input, &self.job.output) {
+                    self.journal.record(r.clone());
+                    self.written.fetch_add(1, Ordering::Relaxed);
+                    self.progress.frame_done();
+                    continue;
+                }
+            }
+            outcomes[i] = Some(false);
+            todo.push((i, split, f));
+        }
+        let items: Vec<(&Split, &str)> = todo.iter().map(|(_, s, f)| (*s, f.id.as_str())).collect();
+        let results = batch::convert_group(self.ctx, self.style_pass, &items);
+        for ((i, split, f), converted) in todo.into_iter().zip(results) {
+            let record = match converted {
+                Ok(out) => {
+                    self.written.fetch_add(1, Ordering::Relaxed);
+                    self.progress.frame_done();
+                    out.record
+                }
+                Err(e) => {
+                    // A failed frame leaves no output behind, not even one from an earlier
+                    // run into the same folder (--overwrite), which loaders would pick up.
+                    self.ctx.remove_outputs(split, &f.id);
+                    if e.is_device_full() {
+                        // Not this frame's fault: it is left for --resume, reported once.
+                        let _ = self.device_full.set(e);
+                        outcomes[i] = None;
+                        continue;
+                    }
+                    self.progress.frame_failed(&f.to_string(), &e);
+                    FrameRecord::failed(&f.split, &f.id, &e)
+                }
+            };
+            self.journal.record(record);
+        }
+        outcomes
+    }
+}
+
+/// `OUT/ImageSets/<split>.txt`: the view ids written per split.
+fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Result<()> {
+    let dir = output.join("ImageSets");
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let mut by_split: HashMap<String, Vec<String>> = HashMap::new();
+    journal.for_each_record(|r| {
+        if r.status != FrameStatus::Ok {
+            return;
+        }
+        let ids = by_split.entry(r.split).or_default();
+        if r.views.iter().any(|v| v.view.is_some()) {
+            ids.extend(r.views.into_iter().map(|v| v.id));
+        } else {
+            ids.push(r.id);
+        }
+    })?;
+    for split in &dataset.splits {
+        let mut ids = by_split.remove(&split.name).unwrap_or_default();
+        ids.sort_unstable();
+        let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
+        fs::write_atomic(&dir.join(format!("{}.txt", split.name)), text.as_bytes())?;
+    }
+    Ok(())
+}
