@@ -40,5 +40,30 @@ compare augment kitti --to cylindrical --augment 3 --seed 5 --scale-range 0.8,1.
 compare crop kitti --to perspective --crop 10,20,600,200 --resize 300x100 --input "$synth"
 compare full kitti --to equirect --full-360 --png-compression best --input "$synth"
 compare pano pano --to perspective --yaw 0,90 --input "$pano"
+# Every command of the README's examples (kitti, kitti-raw, fisheye target, labels-to-pixels,
+# unproject, eval-depth, resume, shards and merge, export, camera convert, fisheye and pano
+# folders, preview, inspect, completions, man, synth, verify), each binary in turn in the same
+# folder (manifests record absolute paths): the whole trees and every step's standard output.
+# Only step.err differs by design (timings).
+examples() {
+    PANOCONV_EXAMPLES_DIR="$work/examples" scripts/readme_examples.sh "$1" >"$work/examples-$2.log" 2>&1
+    local code=$?
+    mv "$work/examples" "$work/examples-$2"
+    return $code
+}
+examples "$old" old
+a=$?
+examples "$new" new
+b=$?
+if [[ $a != "$b" ]]; then
+    echo "DIFFERENT EXIT ($a vs $b): scripts/readme_examples.sh"
+    differ=$((differ + 1))
+elif diff -r -x step.err "$work/examples-old" "$work/examples-new" >"$work/examples.diff" 2>&1; then
+    echo "identical ($(find "$work/examples-new" -type f | wc -l) files, $(grep -c '^\$ ' "$work/examples-new/stdout.log") commands' standard output): scripts/readme_examples.sh"
+else
+    echo "DIFFERENT: scripts/readme_examples.sh"
+    head -n 5 "$work/examples.diff"
+    differ=$((differ + 1))
+fi
 echo "$differ differences"
 [[ $differ -eq 0 ]]

@@ -5,7 +5,9 @@
 # people; the test suite checks the same behaviours one by one.
 #
 # Usage: scripts/readme_examples.sh [PANOCONV_BINARY]   (default: target/release/panoconv,
-# else target/debug/panoconv)
+# else target/debug/panoconv). With PANOCONV_EXAMPLES_DIR=DIR (a new folder), everything is
+# made there and kept, every step's standard output appended to DIR/stdout.log
+# (scripts/compare_outputs.sh compares two binaries' folders).
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 repo="$(pwd)"
@@ -19,8 +21,13 @@ fi
 shared="$repo/../shared"
 kitti="${PANOCONV_KITTI:-../shared/kitti}"
 kitti="$(realpath "$kitti")"
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+if [[ -n "${PANOCONV_EXAMPLES_DIR:-}" ]]; then
+    work="$PANOCONV_EXAMPLES_DIR"
+    mkdir "$work" || exit 2
+else
+    work="$(mktemp -d)"
+    trap 'rm -rf "$work"' EXIT
+fi
 cd "$work"
 cp -r "$kitti" K
 mkdir -p panos frames home
@@ -36,6 +43,7 @@ step() {
     echo "\$ $*"
     bash -c "$*" >step.out 2>step.err
     local code=$?
+    { echo "\$ $*"; cat step.out; } >>stdout.log
     sed 's/^/    /' step.err | tail -n 4
     echo "    -> exit $code"
     if [[ ! "$code" =~ ^($want)$ ]]; then
