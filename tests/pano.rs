@@ -452,3 +452,74 @@ fn every_shared_panorama_converts_without_a_seam() {
         assert!(seam <= p99.max(1.0), "{name}: seam {seam} p99 {p99}");
     }
 }
+
+/// TIFF (8 and 16 bits) and lossless WebP panoramas, written here with the `image` crate from
+/// a shared PNG's pixels, convert to exactly the views of the PNG itself.
+#[test]
+fn tiff_and_webp_inputs_give_the_png_inputs_views() {
+    let tmp = tempfile::tempdir().unwrap();
+    let source = load("worldmap_800x400.png");
+    let (w, h) = (source.width(), source.height());
+    let rgb8 = ::image::RgbImage::from_raw(w, h, source.as_raw().to_vec()).unwrap();
+    let rgb16 = ::image::ImageBuffer::<::image::Rgb<u16>, Vec<u16>>::from_raw(
+        w,
+        h,
+        source.as_raw().iter().map(|&v| v as u16 * 257).collect(),
+    )
+    .unwrap();
+    let write = |folder: &str, name: &str, save: &dyn Fn(&Path)| -> PathBuf {
+        let dir = tmp.path().join(folder);
+        std::fs::create_dir_all(&dir).unwrap();
+        save(&dir.join(name));
+        dir
+    };
+    let png = write("png", "world.png", &|p| {
+        std::fs::write(p, encode_rgb8(&source, PngCompression::Fast)).unwrap()
+    });
+    let tiff8 = write("tiff8", "world.tif", &|p| rgb8.save(p).unwrap());
+    let tiff16 = write("tiff16", "world.TIFF", &|p| {
+        rgb16
+            .save_with_format(p, ::image::ImageFormat::Tiff)
+            .unwrap()
+    });
+    let webp = write("webp", "world.webp", &|p| rgb8.save(p).unwrap());
+    let convert = |input: &Path, out: &str| -> PathBuf {
+        let output = tmp.path().join(out);
+        let run = pano(
+            "perspective",
+            input,
+            &output,
+            &["--yaw", "0,90", "--fov", "80", "--quiet"],
+        );
+        assert_eq!(run.code, 0, "{}", run.stderr);
+        output
+    };
+    let expected = convert(&png, "out-png");
+    for (input, label) in [(&tiff8, "tiff8"), (&tiff16, "tiff16"), (&webp, "webp")] {
+        let out = convert(input, &format!("out-{label}"));
+        for view in ["world_yaw0.png", "world_yaw90.png"] {
+            assert_eq!(
+                read_file(&out.join(view)).unwrap(),
+                read_file(&expected.join(view)).unwrap(),
+                "{label}: {view} differs from the PNG input's"
+            );
+        }
+    }
+    // a file that claims to be a TIFF but is not one fails alone, naming itself
+    let bad = write("bad", "broken.tiff", &|p| {
+        std::fs::write(p, b"II*\0not a tiff").unwrap()
+    });
+    std::fs::copy(png.join("world.png"), bad.join("world.png")).unwrap();
+    let run = pano(
+        "perspective",
+        &bad,
+        &tmp.path().join("out-bad"),
+        &["--quiet"],
+    );
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("broken.tiff") && run.stderr.contains("cannot decode image"),
+        "{}",
+        run.stderr
+    );
+}

@@ -15,14 +15,14 @@ WoodScape (calibration JSON) or OpenCV FileStorage (K/D, K/D/xi) file, recognise
 content; all are documented in docs/fisheye.md. The output is
 levelled (the camera's pitch and roll undone) and turned to the camera's heading. Each image
 NAME.png gives NAME.png and NAME.txt (projection:, K:, R:) in OUTPUT, plus OUTPUT/panoconv.json.
-Inputs are PNG or JPEG.";
+Inputs are PNG, JPEG, TIFF or WebP (8 or 16 bits).";
 
 pub(super) const PANO_EXAMPLES: &str = "Examples:
   panoconv pano --to cylindrical --vfov 60 --input panos/ --output cyl/
   panoconv pano --to perspective --yaw 0,90,180,270 --fov 90 --input panos/ --output views/
   panoconv pano --to equirect --vfov 60 --yaw 180 --input panos/ --output strips/
 
-Input: every 2:1 equirect PNG or JPEG in INPUT. Each image NAME.png gives NAME.png and
+Input: every 2:1 equirect PNG, JPEG, TIFF or WebP in INPUT. Each image NAME.png gives NAME.png and
 NAME.txt (projection:, K:, R:), or NAME_yawDEG.png/.txt per yaw when several are given.";
 
 #[derive(Args)]
@@ -30,7 +30,7 @@ pub(super) struct FolderArgs {
     /// Target projection.
     #[arg(long, value_enum)]
     to: To,
-    /// Folder of input images (PNG or JPEG).
+    /// Folder of input images (PNG, JPEG, TIFF or WebP).
     #[arg(long, short = 'i')]
     input: PathBuf,
     /// Output folder (created; must be empty unless --overwrite).

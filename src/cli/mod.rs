@@ -97,7 +97,7 @@ enum Command {
     /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.
     #[command(after_help = FISHEYE_EXAMPLES)]
     Fisheye(FisheyeArgs),
-    /// Warp a folder of 2:1 equirect panoramas (PNG or JPEG) to cylindrical, perspective views or an equirect strip.
+    /// Warp a folder of 2:1 equirect panoramas (PNG, JPEG, TIFF or WebP) to cylindrical, perspective views or an equirect strip.
     #[command(after_help = PANO_EXAMPLES)]
     Pano(PanoArgs),
     /// Camera files: fit another lens model to a camera (`camera convert`).

@@ -100,11 +100,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
             continue;
         }
         let name = e.file_name().to_string_lossy().into_owned();
-        let ext = path
-            .extension()
-            .map(|x| x.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        if !matches!(ext.as_str(), "png" | "jpg" | "jpeg") {
+        if !crate::codec::is_readable_image(&path) {
             continue;
         }
         let stem = path
@@ -116,7 +112,7 @@ fn list_inputs(dir: &Path) -> Result<Vec<Input>> {
     inputs.sort_by(|a, b| a.name.cmp(&b.name));
     if inputs.is_empty() {
         return Err(Error::Setup(format!(
-            "input {} holds no PNG or JPEG images",
+            "input {} holds no PNG, JPEG, TIFF or WebP images",
             dir.display()
         )));
     }
@@ -132,17 +128,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     fn convert(&self, input: &Input, written: &mut Vec<PathBuf>) -> Result<FrameRecord> {
         let bytes = read_file(&input.path)?;
-        let is_jpeg = input.path.extension().is_some_and(|x| {
-            matches!(
-                x.to_string_lossy().to_ascii_lowercase().as_str(),
-                "jpg" | "jpeg"
-            )
-        });
-        let image = if is_jpeg {
-            crate::codec::jpeg::decode_rgb8(&bytes, &input.path)?
-        } else {
-            png::decode_rgb8(&bytes, &input.path)?
-        };
+        let image = crate::codec::decode_rgb8(&bytes, &input.path)?;
         let size = ImageSize::new(image.width(), image.height());
         let views = self
             .views
