@@ -1,7 +1,7 @@
 //! Camera description files (JSON, `"version": 1`): a lens model, its intrinsics, image size,
 //! maximum field of view and its rotation relative to the output frame. See docs/fisheye.md.
 //! [`CameraDescription::read`] also takes the native calibration files of
-//! [`super::calib_files`] (recognised by their content).
+//! `camera/calib_files.rs` (recognised by their content).
 //!
 //! Errors name the file, the field and the line (and column, in the message).
 

@@ -8,21 +8,21 @@
 //! their (a, b) [`Mapping`]; [`Linear`] adds K once for all of them). The warp, the label
 //! transform and the output-geometry search only talk to the trait, so a new model is one file.
 
-pub mod calib_files;
+mod calib_files;
 mod cylindrical;
 pub mod description;
-pub mod double_sphere;
+mod double_sphere;
 mod equirect;
-pub mod eucm;
+mod eucm;
 pub mod fisheye;
 pub mod fit;
 mod intrinsics;
-pub mod lens;
-pub mod linear;
+mod lens;
+mod linear;
 mod output;
 mod perspective;
 pub mod rotated;
-pub mod unified;
+mod unified;
 mod yaml_subset;
 
 pub use cylindrical::Cylindrical;

@@ -90,7 +90,7 @@ impl MeiDistortion {
 
     /// Undistorted point of a distorted one within the disc of radius `r_bound` (Newton steps,
     /// projected onto the disc, with a backtracking line search; at most
-    /// [`MAX_UNDISTORT_ITERATIONS`]): (x, y, residual of the distortion there).
+    /// `MAX_UNDISTORT_ITERATIONS`): (x, y, residual of the distortion there).
     pub fn undo(&self, xd: f64, yd: f64, r_bound: f64) -> (f64, f64, f64) {
         let clamp = |x: f64, y: f64| {
             let r = x.hypot(y);

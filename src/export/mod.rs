@@ -6,12 +6,12 @@
 //! frame is read whole or reported as failed; nothing is written until every frame has been
 //! read, and each file is written atomically.
 
-pub mod boxes;
-pub mod classes;
-pub mod coco;
-pub mod omni3d;
-pub mod split;
-pub mod yolo;
+mod boxes;
+mod classes;
+mod coco;
+mod omni3d;
+mod split;
+mod yolo;
 
 pub use classes::{ClassLookup, ClassMap};
 pub use split::SplitRule;

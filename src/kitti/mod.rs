@@ -3,7 +3,7 @@
 pub mod calib;
 mod cam;
 pub mod dataset;
-pub mod label;
+mod label;
 pub mod raw;
 pub mod velodyne;
 

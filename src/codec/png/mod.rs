@@ -1,7 +1,7 @@
 //! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
 
 pub mod decode;
-pub mod encode;
+mod encode;
 mod header;
 
 pub use header::{read_file_size, read_header, read_size, ColourType, ImageHeader, SIGNATURE};

@@ -7,7 +7,7 @@
 //! joined by `merge`.
 
 mod index;
-pub mod lock;
+mod lock;
 mod merge;
 mod pretty;
 
