@@ -29,11 +29,11 @@ use std::path::{Path, PathBuf};
 /// An export format (`--format`, or `--export` of a conversion).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
-    /// COCO detection JSON, `instances_<split>.json` (see [`coco`]).
+    /// COCO detection JSON, `instances_<split>.json` (`export/coco.rs`).
     Coco,
-    /// The Ultralytics YOLO folder layout (see [`yolo`]).
+    /// The Ultralytics YOLO folder layout (`export/yolo.rs`).
     Yolo,
-    /// Omni3D's JSON for Cube R-CNN, `Omni3D_<split>.json` (see [`omni3d`]).
+    /// Omni3D's JSON for Cube R-CNN, `Omni3D_<split>.json` (`export/omni3d.rs`).
     Omni3d,
 }
 
