@@ -2,7 +2,7 @@
 //! a general decoder serves; PNG and JPEG keep panoconv's own paths (KITTI's PNGs are the hot
 //! path, and the JPEG decoder's pixels are what existing outputs were made from).
 
-use crate::codec::png::MAX_PIXELS;
+use crate::codec::MAX_PIXELS;
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! JPEG decoding to RGB8, for panorama and fisheye inputs (KITTI itself is PNG).
 
-use crate::codec::png::MAX_PIXELS;
+use crate::codec::MAX_PIXELS;
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use std::path::Path;

@@ -9,6 +9,10 @@ use crate::error::Result;
 use crate::image::RgbImage;
 use std::path::Path;
 
+/// Largest image accepted in any format, checked on the header before the pixels are
+/// decoded (a 16384x8192 panorama is 134 Mpx).
+pub const MAX_PIXELS: u64 = 150_000_000;
+
 /// The lower-case extensions of the image files panoconv reads.
 pub const READABLE_EXTENSIONS: [&str; 6] = ["png", "jpg", "jpeg", "tif", "tiff", "webp"];
 

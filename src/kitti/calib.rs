@@ -419,43 +419,14 @@ fn join_sci(values: &[f64]) -> String {
 mod tests {
     use super::*;
 
-    /// KITTI's most common calibration: f = 721.5377, camera 2 six cm left of camera 0,
-    /// camera 3 0.537 m right of camera 2; P = K·[I | −C].
+    /// KITTI's most common calibration (f = 721.5377), as the shipped sample's first frame has
+    /// it.
     fn standard() -> Calib {
-        let k = Intrinsics::new(721.5377, 721.5377, 609.5593, 172.854);
-        let p = |c: Vector3<f64>| {
-            let t = -c;
-            join_sci(&[
-                k.fu,
-                0.0,
-                k.cu,
-                k.fu * t.x + k.cu * t.z,
-                0.0,
-                k.fv,
-                k.cv,
-                k.fv * t.y + k.cv * t.z,
-                0.0,
-                0.0,
-                1.0,
-                t.z,
-            ])
-        };
-        let c2 = Vector3::new(-0.0598, 0.0004, -0.0027);
-        let lines = vec![
-            format!("P0: {}", p(Vector3::zeros())),
-            format!("P1: {}", p(Vector3::new(0.537, 0.0, 0.0))),
-            format!("P2: {}", p(c2)),
-            format!("P3: {}", p(c2 + Vector3::new(0.537, 0.0, 0.0))),
-            format!(
-                "R0_rect: {}",
-                join_sci(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
-            ),
-            format!(
-                "Tr_velo_to_cam: {}",
-                join_sci(&[0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, -0.08, 1.0, 0.0, 0.0, -0.27])
-            ),
-        ];
-        Calib::parse(Path::new("c.txt"), lines).unwrap()
+        Calib::read(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("fixtures/synthetic_kitti/training/calib/000000.txt"),
+        )
+        .unwrap()
     }
 
     #[test]

@@ -11,8 +11,7 @@ use crate::image::RgbImage;
 use encode::{encode_rows, Header, RowFilter};
 use std::path::Path;
 
-/// Largest image accepted (a 16384x8192 panorama is 134 Mpx).
-pub const MAX_PIXELS: u64 = 150_000_000;
+pub use super::MAX_PIXELS;
 
 /// How hard the PNG encoder works: files are smaller or written faster.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
