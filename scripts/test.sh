@@ -7,4 +7,6 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ORT_DYLIB_PATH="$(scripts/install_ort.sh | tail -n 1)"
 PANOCONV_TEST_PYTHON="$(scripts/install_test_python.sh | tail -n 1)"
 export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
-cargo test --locked "$@"
+# --tests: the library's unit tests and the integration crate (tests/tests.rs); the examples
+# (benches/*.rs measurement tools) are compiled by clippy --all-targets in CI instead.
+cargo test --locked --tests "$@"
