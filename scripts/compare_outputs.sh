@@ -61,8 +61,9 @@ if [[ $a != "$b" ]]; then
 elif diff -r -x step.err "$work/examples-old" "$work/examples-new" >"$work/examples.diff" 2>&1; then
     echo "identical ($(find "$work/examples-new" -type f | wc -l) files, $(grep -c '^\$ ' "$work/examples-new/stdout.log") commands' standard output): scripts/readme_examples.sh"
 else
-    echo "DIFFERENT: scripts/readme_examples.sh"
-    head -n 5 "$work/examples.diff"
+    echo "DIFFERENT: scripts/readme_examples.sh ($(find "$work/examples-new" -type f | wc -l) files):"
+    diff -rq -x step.err "$work/examples-old" "$work/examples-new" | sed "s#$work/##g"
+    grep '^[<>]' "$work/examples.diff" | head -n 20
     differ=$((differ + 1))
 fi
 echo "$differ differences"

@@ -43,7 +43,8 @@ step() {
     echo "\$ $*"
     bash -c "$*" >step.out 2>step.err
     local code=$?
-    { echo "\$ $*"; cat step.out; } >>stdout.log
+    local cmd="$*"
+    { echo "\$ ${cmd//"$bin"/panoconv}"; cat step.out; } >>stdout.log
     sed 's/^/    /' step.err | tail -n 4
     echo "    -> exit $code"
     if [[ ! "$code" =~ ^($want)$ ]]; then
