@@ -1,5 +1,6 @@
 //! Crop, resize and augmentation: the camera moves with the image, exactly, in one resampling.
 
+use crate::common;
 use nalgebra::Matrix3;
 use panoconv::camera::{ImageSize, Intrinsics, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, Crop, OutputSpec, Scale};
@@ -330,25 +331,6 @@ fn augmentation_is_reproducible_whatever_the_thread_count() {
             jobs,
         ]
     };
-    let read_tree = |root: &Path| -> Vec<(PathBuf, Vec<u8>)> {
-        let mut files = Vec::new();
-        let mut stack = vec![root.to_path_buf()];
-        while let Some(d) = stack.pop() {
-            for e in std::fs::read_dir(&d).unwrap() {
-                let p = e.unwrap().path();
-                if p.is_dir() {
-                    stack.push(p);
-                } else {
-                    files.push((
-                        p.strip_prefix(root).unwrap().to_path_buf(),
-                        std::fs::read(&p).unwrap(),
-                    ));
-                }
-            }
-        }
-        files.sort();
-        files
-    };
     let (a, b, c) = (
         tmp.path().join("a"),
         tmp.path().join("b"),
@@ -357,12 +339,14 @@ fn augmentation_is_reproducible_whatever_the_thread_count() {
     run(&args("7", "1"), &sample(), &a);
     run(&args("7", "4"), &sample(), &b);
     run(&args("8", "2"), &sample(), &c);
-    let (ta, tb, tc) = (read_tree(&a), read_tree(&b), read_tree(&c));
+    let (ta, tb, tc) = (
+        common::tree_bytes(&a),
+        common::tree_bytes(&b),
+        common::tree_bytes(&c),
+    );
     assert!(ta == tb, "same seed, different --jobs: files differ");
-    let images = |t: &[(PathBuf, Vec<u8>)]| {
-        t.iter()
-            .filter(|(p, _)| p.extension().is_some_and(|e| e == "png"))
-            .count()
+    let images = |t: &std::collections::BTreeMap<String, Vec<u8>>| {
+        t.keys().filter(|p| p.ends_with(".png")).count()
     };
     assert_eq!(images(&ta), 12, "3 views of 4 frames");
     assert!(ta != tc, "another seed draws other views");

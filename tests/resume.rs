@@ -1,7 +1,7 @@
 //! Crash safety, resume and shards, with the real binary: kill -9 at several moments, SIGINT,
 //! 4 shard processes + merge, all compared byte for byte with one uninterrupted run.
 
-use std::collections::BTreeMap;
+use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
@@ -29,25 +29,6 @@ fn dataset(root: &Path) -> PathBuf {
     d
 }
 
-fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.insert(
-                    p.strip_prefix(root).unwrap().to_string_lossy().into_owned(),
-                    std::fs::read(&p).unwrap(),
-                );
-            }
-        }
-    }
-    out
-}
-
 fn kitti(input: &Path, output: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(BIN);
     c.args(["kitti", "--to", "equirect", "--quiet", "--input"])
@@ -60,7 +41,7 @@ fn kitti(input: &Path, output: &Path, extra: &[&str]) -> Command {
 
 /// Every visible (non-temporary) file is whole: PNGs decode, the manifest parses.
 fn assert_no_partial_file(root: &Path) {
-    for (name, bytes) in tree(root) {
+    for (name, bytes) in common::tree_bytes(root) {
         let file = name.rsplit('/').next().unwrap();
         if file.starts_with('.') {
             continue; // a temporary being written: never read by anyone
@@ -84,7 +65,7 @@ fn kill_nine_then_resume_gives_the_uninterrupted_bytes() {
         .status()
         .unwrap()
         .success());
-    let expected = tree(&reference);
+    let expected = common::tree_bytes(&reference);
     for (round, delay_ms) in [50u64, 300, 700, 1500].into_iter().enumerate() {
         let out = tmp.path().join(format!("killed{round}"));
         // kill the same output twice, at the delay and again after a first resume started
@@ -109,7 +90,7 @@ fn kill_nine_then_resume_gives_the_uninterrupted_bytes() {
             .status()
             .unwrap();
         assert!(status.success());
-        let mut got = tree(&out);
+        let mut got = common::tree_bytes(&out);
         got.retain(|k, _| !k.rsplit('/').next().unwrap().starts_with('.'));
         assert_eq!(
             got.keys().collect::<Vec<_>>(),
@@ -166,7 +147,7 @@ fn sigint_stops_cleanly_and_resume_finishes() {
     let resumed = kitti(&input, &out, &["--resume"]).output().unwrap();
     assert!(resumed.status.success());
     assert!(
-        tree(&out) == tree(&reference),
+        common::tree_bytes(&out) == common::tree_bytes(&reference),
         "resumed output differs from an uninterrupted run"
     );
 }
@@ -230,7 +211,7 @@ fn four_shards_and_merge_equal_one_run() {
     for mut c in children {
         assert!(c.wait().unwrap().success());
     }
-    let parts: Vec<String> = tree(&sharded)
+    let parts: Vec<String> = common::tree_bytes(&sharded)
         .into_keys()
         .filter(|k| k.starts_with("panoconv.shard-"))
         .collect();
@@ -243,7 +224,7 @@ fn four_shards_and_merge_equal_one_run() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
-        tree(&sharded) == tree(&single),
+        common::tree_bytes(&sharded) == common::tree_bytes(&single),
         "4 shards + merge differ from one run"
     );
 }

@@ -1,25 +1,9 @@
 //! The sample dataset the repository ships (fixtures/synthetic_kitti) is exactly what the
 //! project's own generator makes: `panoconv synth` regenerates it byte for byte.
 
-use std::path::{Path, PathBuf};
+use crate::common;
+use std::path::Path;
 use std::process::Command;
-
-fn files(root: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push(p.strip_prefix(root).unwrap().to_path_buf());
-            }
-        }
-    }
-    out.sort();
-    out
-}
 
 #[test]
 fn shipped_sample_is_regenerated_byte_for_byte() {
@@ -32,7 +16,7 @@ fn shipped_sample_is_regenerated_byte_for_byte() {
         .status()
         .unwrap();
     assert!(status.success());
-    let (a, b) = (files(&shipped), files(&fresh));
+    let (a, b) = (common::tree_files(&shipped), common::tree_files(&fresh));
     assert_eq!(a, b, "file lists differ");
     assert_eq!(
         a.len(),
@@ -42,8 +26,7 @@ fn shipped_sample_is_regenerated_byte_for_byte() {
     for f in &a {
         assert!(
             std::fs::read(shipped.join(f)).unwrap() == std::fs::read(fresh.join(f)).unwrap(),
-            "{} differs from the generator's output",
-            f.display()
+            "{f} differs from the generator's output"
         );
     }
 }

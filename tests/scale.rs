@@ -2,6 +2,7 @@
 //! the holder, a dead holder's lock is taken over), the journal a killed run leaves (read by
 //! `--resume`, refused by `merge`), and a clean folder after a complete run.
 
+use crate::common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -48,23 +49,6 @@ fn kitti_with_summary(input: &Path, output: &Path, extra: &[&str]) -> Command {
 fn run(mut c: Command) -> (Option<i32>, String) {
     let Output { status, stderr, .. } = c.output().unwrap();
     (status.code(), String::from_utf8_lossy(&stderr).into_owned())
-}
-
-fn tree(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    out
 }
 
 /// Starts a conversion and waits until it holds `lock` and its journal has `lines` lines or
@@ -156,7 +140,7 @@ fn a_complete_run_leaves_the_manifest_alone_and_verify_finds_no_extra_file() {
     let out = tmp.path().join("o");
     let (code, err) = run(kitti(&input, &out, &["--jobs", "2"]));
     assert_eq!(code, Some(0), "{err}");
-    let names: Vec<String> = tree(&out)
+    let names: Vec<String> = common::tree_bytes(&out)
         .into_keys()
         .filter(|k| !k.contains('/'))
         .collect();
@@ -228,8 +212,8 @@ fn manifest_and_journal_together_resume_to_the_same_bytes_and_merge_waits_for_a_
         kept_again > kept,
         "the killed resume's frames are kept too ({kept_again} kept, {kept} before it)"
     );
-    let got = tree(&out);
-    let expected = tree(&reference);
+    let got = common::tree_bytes(&out);
+    let expected = common::tree_bytes(&reference);
     assert_eq!(
         got.keys().collect::<Vec<_>>(),
         expected.keys().collect::<Vec<_>>()
@@ -271,7 +255,7 @@ fn manifest_and_journal_together_resume_to_the_same_bytes_and_merge_waits_for_a_
     c.arg("merge").arg(&sharded);
     assert_eq!(run(c).0, Some(0));
     assert!(
-        tree(&sharded) == expected,
+        common::tree_bytes(&sharded) == expected,
         "2 shards + merge differ from one run"
     );
 }

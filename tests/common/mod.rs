@@ -198,6 +198,18 @@ pub fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
     out
 }
 
+/// Every file under `root` (relative path with `/` separators → its bytes), for comparing
+/// whole output trees byte for byte.
+pub fn tree_bytes(root: &Path) -> BTreeMap<String, Vec<u8>> {
+    tree_files(root)
+        .into_iter()
+        .map(|rel| {
+            let bytes = std::fs::read(root.join(&rel)).unwrap();
+            (rel, bytes)
+        })
+        .collect()
+}
+
 /// The files (not directories) under `root`, relative.
 pub fn tree_files(root: &Path) -> BTreeSet<String> {
     tree_hashes(root)
