@@ -76,13 +76,19 @@ pub fn write_atomic_durable(path: &Path, bytes: &[u8]) -> Result<()> {
     write_via_temporary(path, bytes, true)
 }
 
-fn write_via_temporary(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
+/// The temporary file beside `path` that an atomic write of it goes through (hidden, named
+/// by the process, so that `--resume` can find and remove what a killed run left).
+pub fn temporary_path(path: &Path) -> PathBuf {
     let dir = path.parent().unwrap_or(Path::new("."));
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    dir.join(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+fn write_via_temporary(path: &Path, bytes: &[u8], durable: bool) -> Result<()> {
+    let tmp = temporary_path(path);
     let write = || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;

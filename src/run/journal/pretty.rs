@@ -87,12 +87,7 @@ pub fn write_manifest(
     let open = head.len() - "]\n}".len();
     debug_assert!(head.ends_with(b"[]\n}"));
 
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let tmp = crate::fs::temporary_path(path);
     let write = || -> Result<()> {
         let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
         let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
