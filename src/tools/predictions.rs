@@ -27,6 +27,19 @@ pub struct FolderSummary {
     pub written: Vec<PathBuf>,
 }
 
+impl FolderSummary {
+    /// Counts one frame's outcome: the file it wrote, or why it failed.
+    fn record(&mut self, id: String, outcome: Result<PathBuf>) {
+        match outcome {
+            Ok(path) => {
+                self.done += 1;
+                self.written.push(path);
+            }
+            Err(e) => self.failed.push((id, e)),
+        }
+    }
+}
+
 fn txt_ids(dir: &Path) -> Result<Vec<String>> {
     crate::fs::file_stems(dir, ".txt").map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))
 }
@@ -69,13 +82,8 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
             write_atomic(&path, text.as_bytes())?;
             Ok(path)
         };
-        match run() {
-            Ok(path) => {
-                summary.done += 1;
-                summary.written.push(path);
-            }
-            Err(e) => summary.failed.push((id, e)),
-        }
+        let outcome = run();
+        summary.record(id, outcome);
     }
     Ok(summary)
 }
@@ -115,13 +123,8 @@ pub fn unproject(
             write_atomic(&path, text.as_bytes())?;
             Ok(path)
         };
-        match run() {
-            Ok(path) => {
-                summary.done += 1;
-                summary.written.push(path);
-            }
-            Err(e) => summary.failed.push((id, e)),
-        }
+        let outcome = run();
+        summary.record(id, outcome);
     }
     Ok(summary)
 }

@@ -168,7 +168,9 @@ pub fn copy_tree(src: &Path, dst: &Path) {
     }
 }
 
-fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, String>) {
+/// Every entry under `dir` (depth first, by name): path relative to `root` with `/`
+/// separators, full path, and whether it is a directory.
+fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf, bool)>) {
     let mut entries: Vec<_> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.unwrap())
@@ -181,40 +183,48 @@ fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, String>) {
             .unwrap()
             .to_string_lossy()
             .replace('\\', "/");
-        if e.file_type().unwrap().is_dir() {
-            out.insert(format!("{rel}/"), "dir".into());
+        let is_dir = e.file_type().unwrap().is_dir();
+        out.push((rel, path.clone(), is_dir));
+        if is_dir {
             walk(root, &path, out);
-        } else {
-            out.insert(rel, hash_file(&path));
         }
     }
+}
+
+fn entries(root: &Path) -> Vec<(String, PathBuf, bool)> {
+    let mut out = Vec::new();
+    walk(root, root, &mut out);
+    out
 }
 
 /// Every entry under `root` (relative path → blake3 hex; directories end in `/` and map to
 /// "dir").
 pub fn tree_hashes(root: &Path) -> BTreeMap<String, String> {
-    let mut out = BTreeMap::new();
-    walk(root, root, &mut out);
-    out
+    entries(root)
+        .into_iter()
+        .map(|(rel, path, is_dir)| match is_dir {
+            true => (format!("{rel}/"), "dir".to_owned()),
+            false => (rel, hash_file(&path)),
+        })
+        .collect()
 }
 
 /// Every file under `root` (relative path with `/` separators → its bytes), for comparing
 /// whole output trees byte for byte.
 pub fn tree_bytes(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    tree_files(root)
+    entries(root)
         .into_iter()
-        .map(|rel| {
-            let bytes = std::fs::read(root.join(&rel)).unwrap();
-            (rel, bytes)
-        })
+        .filter(|(_, _, is_dir)| !is_dir)
+        .map(|(rel, path, _)| (rel, std::fs::read(path).unwrap()))
         .collect()
 }
 
 /// The files (not directories) under `root`, relative.
 pub fn tree_files(root: &Path) -> BTreeSet<String> {
-    tree_hashes(root)
-        .into_keys()
-        .filter(|k| !k.ends_with('/'))
+    entries(root)
+        .into_iter()
+        .filter(|(_, _, is_dir)| !is_dir)
+        .map(|(rel, _, _)| rel)
         .collect()
 }
 
