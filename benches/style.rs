@@ -16,20 +16,13 @@ use ort::value::TensorRef;
 use panoconv::image::RgbImage;
 use panoconv::style::{convert, runtime, Device, StyleModel, StyleOptions};
 
+#[path = "../tests/common/paths.rs"]
+#[allow(dead_code)]
+mod paths;
+use paths::ort_lib;
+
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
-}
-
-fn ort_lib() -> PathBuf {
-    if let Some(v) = std::env::var_os("ORT_DYLIB_PATH").filter(|v| !v.is_empty()) {
-        return PathBuf::from(v);
-    }
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ort/libonnxruntime.so.1.31.1");
-    assert!(
-        p.is_file(),
-        "no ONNX Runtime library: run scripts/install_ort.sh first"
-    );
-    p
 }
 
 fn read_png(path: &Path) -> RgbImage {

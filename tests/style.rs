@@ -1,9 +1,8 @@
 //! Style-transfer pass against ONNX Runtime references (fixtures from
 //! `scripts/make_style_model.py`).
 //!
-//! These tests need the ONNX Runtime library: `ORT_DYLIB_PATH`, else
-//! `<repo>/.ort/libonnxruntime.so.1.31.1` (what `scripts/install_ort.sh` installs). Without it
-//! they FAIL (on purpose: the project's test script always installs it).
+//! These tests need the ONNX Runtime library (`common::ort_lib`). Without it they fail with one
+//! line naming the fix (on purpose: the project's test script always installs it).
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -11,28 +10,10 @@ use std::path::{Path, PathBuf};
 use panoconv::image::RgbImage;
 use panoconv::style::{Device, StyleError, StyleModel, StyleOptions};
 
+use crate::common::ort_lib;
+
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
-}
-
-/// The ONNX Runtime library the tests use; panics (fails the test) when there is none.
-fn ort_lib() -> PathBuf {
-    if let Some(v) = std::env::var_os("ORT_DYLIB_PATH").filter(|v| !v.is_empty()) {
-        let p = PathBuf::from(v);
-        assert!(
-            p.is_file(),
-            "ORT_DYLIB_PATH={} does not exist; run scripts/install_ort.sh",
-            p.display()
-        );
-        return p;
-    }
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ort/libonnxruntime.so.1.31.1");
-    assert!(
-        p.is_file(),
-        "ONNX Runtime library not found at {} and ORT_DYLIB_PATH unset: run scripts/install_ort.sh first",
-        p.display()
-    );
-    p
 }
 
 fn opts(model: &str) -> StyleOptions {

@@ -7,20 +7,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::common::ort_lib;
+
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn ort_lib() -> PathBuf {
-    let lib = std::env::var_os("ORT_DYLIB_PATH")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join(".ort/libonnxruntime.so.1.31.1"));
-    assert!(
-        lib.exists(),
-        "{} missing: run scripts/install_ort.sh",
-        lib.display()
-    );
-    lib
 }
 
 /// The sample's training frames 000000 and 000002 are 1242x375, 000001 is 1224x370.

@@ -7,25 +7,13 @@ use panoconv::tools::synth::SynthCalib;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use crate::common::ort_lib;
+
 /// The tolerance: 1 LSB per channel.
 const MAX_LSB: i32 = 1;
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/style")
-}
-
-fn ort_lib() -> PathBuf {
-    let lib = std::env::var_os("ORT_DYLIB_PATH")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join(".ort/libonnxruntime.so.1.31.1")
-        });
-    assert!(
-        lib.exists(),
-        "{} missing: run scripts/install_ort.sh",
-        lib.display()
-    );
-    lib
 }
 
 /// A one-frame KITTI dataset whose image is the style fixture's input.
