@@ -25,6 +25,7 @@ mod fisheye;
 mod fisheye_target;
 mod fuzz_parsers;
 mod inspect;
+mod kitti360;
 mod labels;
 mod pano;
 mod png;

@@ -35,9 +35,9 @@ mod tests {
 
     #[test]
     fn the_level_frame_ignores_pitch_and_roll_but_keeps_heading() {
-        // A camera at (10, 20, 3) heading 30° left of world +x (north-east-ish), pitched 5°
+        // A camera at (10, 20, 3) heading 35° left of world +x (north-east-ish), pitched 5°
         // down and rolled 2°: rect axes x right, y down, z forward.
-        let heading: f64 = 0.5236;
+        let heading: f64 = 0.61;
         let (pitch, roll): (f64, f64) = (-0.0873, 0.035);
         let forward = Vector3::new(
             heading.cos() * pitch.cos(),
