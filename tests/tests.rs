@@ -26,6 +26,7 @@ mod fisheye_target;
 mod fuzz_parsers;
 mod inspect;
 mod kitti360;
+mod kitti360_scripts;
 mod labels;
 mod pano;
 mod png;
