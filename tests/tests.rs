@@ -27,6 +27,7 @@ mod fuzz_parsers;
 mod inspect;
 mod kitti360;
 mod kitti360_scripts;
+mod kitti360_stitch;
 mod labels;
 mod pano;
 mod png;
