@@ -11,8 +11,8 @@
 //! ```
 //!
 //! Transforms as kitti360Scripts defines them: rectified image_00/01 → world =
-//! pose · cam_to_pose[k] · R_rect_k⁻¹, fisheye → world = pose · cam_to_pose[k], Velodyne →
-//! world = pose · cam_to_pose[0] · cam_to_velo⁻¹. A frame's reference frame is its level frame
+//! `pose · cam_to_pose[k] · R_rect_k⁻¹`, fisheye → world = `pose · cam_to_pose[k]`, Velodyne →
+//! world = `pose · cam_to_pose[0] · cam_to_velo⁻¹`. A frame's reference frame is its level frame
 //! (`level.rs`); its `world_from_reference` is KITTI's `Tr_rect_to_world`.
 
 use super::bboxes::{read_boxes, WorldBox};

@@ -254,7 +254,7 @@ impl Rig {
         }
     }
 
-    /// pose_from_velo: cam_to_pose[0] · cam_to_velo⁻¹.
+    /// pose_from_velo: `cam_to_pose[0] · cam_to_velo⁻¹`.
     pub fn pose_from_velo(&self) -> Matrix4<f64> {
         self.cam_to_pose[0] * self.cam_to_velo.try_inverse().expect("invertible")
     }
