@@ -399,6 +399,20 @@ fn malformed_files_are_named_with_line_and_field() {
         let e = open_error(&root);
         assert!(e.ends_with(".xml:4: transform: columns 0 and 1 are not perpendicular (cos -1.27e-1): not a rotation times a scale"), "{e}");
     }
+    {
+        // two box files for one sequence are ambiguous; a sequence name is one folder
+        let (_t, root) = scratch();
+        let full = root.join("data_3d_bboxes/train_full");
+        std::fs::create_dir_all(&full).unwrap();
+        std::fs::copy(xml(&root), full.join(format!("{SEQUENCE}.xml"))).unwrap();
+        let e = open_error(&root);
+        assert!(
+            e.contains("2 box files for 2013_05_28_drive_0000_sync"),
+            "{e}"
+        );
+        let e = Sequence::open(&root, "../escape", Options::default()).unwrap_err();
+        assert!(e.to_string().contains("must be a folder name"), "{e}");
+    }
     // a frame without a pose, a truncated scan, a field of view beyond the model
     let (_t, root) = scratch();
     let seq = open(&root);
@@ -428,6 +442,30 @@ fn malformed_files_are_named_with_line_and_field() {
     .unwrap_err()
     .to_string();
     assert!(e.contains("image_03.yaml: a field of view of 240°"), "{e}");
+}
+
+#[test]
+fn the_kitti360_options_of_synth_need_the_flag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o");
+    let run = common::panoconv(["synth", "--scale", "0.5", "--output", out.to_str().unwrap()]);
+    assert_eq!(run.code, 2, "{}", run.stderr);
+    assert!(run.stderr.contains("--kitti360"), "{}", run.stderr);
+    assert!(!out.exists());
+    let run = common::panoconv([
+        "synth",
+        "--kitti360",
+        "--scale",
+        "0",
+        "--output",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(run.code, 2, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("--scale must be in (0, 4]"),
+        "{}",
+        run.stderr
+    );
 }
 
 #[test]
