@@ -91,7 +91,7 @@ enum Command {
     Verify(VerifyArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
     #[command(
-        after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output fixtures/synthetic_kitti --overwrite"
+        after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output fixtures/synthetic_kitti --overwrite\n  panoconv synth --kitti360 --scale 0.25 --output fixtures/kitti360 --overwrite"
     )]
     Synth(SynthArgs),
     /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.

@@ -158,9 +158,35 @@ pub(super) struct SynthArgs {
     output: PathBuf,
     #[arg(long)]
     overwrite: bool,
+    /// Write a synthetic KITTI-360 sequence in the official layout instead (docs/kitti360.md).
+    #[arg(long)]
+    kitti360: bool,
+    /// With --kitti360: image scale (1 = the official 1408x376 and 1400x1400 images).
+    #[arg(long, requires = "kitti360", default_value_t = 1.0)]
+    scale: f64,
+    /// With --kitti360: move all four camera centres to image_00's.
+    #[arg(long, requires = "kitti360")]
+    zero_baseline: bool,
+    /// With --kitti360: the number of frames.
+    #[arg(long, requires = "kitti360", default_value_t = 3)]
+    frames: u32,
 }
 
 pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
+    if args.kitti360 {
+        use panoconv::tools::synth360::{write_sequence, Synth360Options};
+        let options = Synth360Options {
+            frames: args.frames,
+            scale: args.scale,
+            zero_baseline: args.zero_baseline,
+        };
+        write_sequence(&args.output, &options, args.overwrite, &Bar::new(false))?;
+        eprintln!(
+            "panoconv: synthetic KITTI-360 sequence written to {}",
+            args.output.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     panoconv::tools::synth::write_dataset(&args.output, args.overwrite, &Bar::new(false))?;
     eprintln!(
         "panoconv: synthetic KITTI dataset written to {}",

@@ -2,8 +2,10 @@
 //! to every frame that shares them.
 
 mod kernel;
+pub mod stitch;
 mod table;
 
 #[doc(hidden)]
 pub use kernel::Kernel;
+pub use stitch::{Stitch, StitchCamera, StitchOptions};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

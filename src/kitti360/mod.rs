@@ -1,0 +1,17 @@
+//! KITTI-360's formats: the calibration folder, the poses, the 3D boxes (world coordinates,
+//! OpenCV XML), the Velodyne scans, its class table, and a reader that yields neutral
+//! [`crate::source::Frame`]s of a sequence in each frame's level reference frame. See
+//! docs/kitti360.md.
+
+pub mod bboxes;
+pub mod calib;
+pub mod classes;
+pub mod level;
+pub mod poses;
+pub mod sequence;
+mod text;
+pub mod velodyne;
+
+pub use bboxes::WorldBox;
+pub use calib::{Calibration, RectCamera, CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
+pub use sequence::{Options, Sequence};

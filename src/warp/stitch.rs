@@ -1,0 +1,316 @@
+//! Stitching: N source cameras with their own optical centres remapped into one output camera.
+//!
+//! The model (every pixel can be recomputed from it):
+//!
+//! 1. An output pixel's ray leaves the output centre C with unit direction d (the output
+//!    camera's `unproject`, in the reference frame's axes). The scene along it is taken to lie
+//!    at the *proxy distance* s: the point X = C + s·d.
+//! 2. Camera i sees X at q_i = camera_from_reference_i(X) and samples it at its pixel
+//!    p_i = project_i(q_i). The output pixel's value from camera i is camera i's image resampled
+//!    there by a [`RemapTable`] (bilinear taps, supersampled where the output is coarser than
+//!    the source, exact integer weights), built through the same mapping.
+//! 3. Camera i's weight is w_i = S(min(1, m_i / b)), with S(t) = t²(3 − 2t) (smoothstep), b the
+//!    blend width (radians) and m_i the angular margin of q_i inside the camera's view: the
+//!    smaller of (a) its field of view's margin θ_max,i − θ(q_i), θ the angle from the optical
+//!    axis (for a lens with a field of view), and (b) the distance of p_i to the nearest image
+//!    edge (pixels; the edges at −0.5 and size − 0.5) divided by the local scale at p_i (pixels
+//!    per radian: the larger of the image displacements of q_i turned by 1e-4 rad about two
+//!    axes perpendicular to it). m_i ≤ 0, or no image of q_i, gives w_i = 0.
+//! 4. The output value is Σ w_i·v_i / Σ w_i per channel, rounded to the nearest integer
+//!    (ties away from zero), black where Σ w_i = 0. The source map names the camera of largest
+//!    weight (the first on a tie), 255 where none.
+//!
+//! When every camera's centre is C (a zero-baseline rig) the proxy distance plays no part and
+//! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer
+//! or farther ones show the parallax between the cameras at the seams.
+
+use super::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+use crate::camera::{CameraModel, ImageSize, ProjectionReject};
+use crate::image::RgbImage;
+use nalgebra::{Matrix3, Point2, Vector3};
+use rayon::prelude::*;
+
+/// Angle of the small turns that measure a camera's local scale, radians.
+const SCALE_PROBE: f64 = 1e-4;
+
+/// A source camera of a stitch.
+#[derive(Debug, Clone, Copy)]
+pub struct StitchCamera<'a> {
+    /// The camera's model (bearings in its own axes).
+    pub model: &'a dyn CameraModel,
+    /// camera_from_reference's linear part: a point X of the reference frame is
+    /// `rotation · X + translation` in camera coordinates.
+    pub rotation: Matrix3<f64>,
+    /// camera_from_reference's translation.
+    pub translation: Vector3<f64>,
+    /// Half the field of view for a lens that has one (its image beyond is not used).
+    pub max_theta: Option<f64>,
+}
+
+/// The stitch's two parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StitchOptions {
+    /// Proxy distance s, metres.
+    pub distance: f64,
+    /// Blend width b, radians.
+    pub blend_width: f64,
+}
+
+/// The mapping from output bearings to one camera's pixels through the proxy point, as a
+/// camera model for [`RemapTable`] (which asks the source model for `project` only).
+#[derive(Debug)]
+struct Proxy<'a> {
+    camera: StitchCamera<'a>,
+    centre: Vector3<f64>,
+    distance: f64,
+}
+
+impl Proxy<'_> {
+    fn local(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        let x = self.centre + d.normalize() * self.distance;
+        self.camera.rotation * x + self.camera.translation
+    }
+}
+
+impl CameraModel for Proxy<'_> {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        let q = self.local(d);
+        if let Some(t) = self.camera.max_theta {
+            if q.x.hypot(q.y).atan2(q.z) > t {
+                return Err(ProjectionReject::OutsideDomain);
+            }
+        }
+        self.camera.model.project_point(&q)
+    }
+
+    /// The output bearing whose proxy point the pixel sees: the camera's ray met with the
+    /// sphere of radius s around the output centre.
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        let b = self.camera.model.unproject(p)?;
+        let inv = self
+            .camera
+            .rotation
+            .try_inverse()
+            .ok_or(ProjectionReject::Singular)?;
+        let origin = -(inv * self.camera.translation) - self.centre;
+        let dir = (inv * b).normalize();
+        // |origin + λ·dir| = s, λ > 0
+        let half_b = origin.dot(&dir);
+        let c = origin.norm_squared() - self.distance * self.distance;
+        let disc = half_b * half_b - c;
+        if !(disc >= 0.0) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        let lambda = -half_b + disc.sqrt();
+        if !(lambda > 0.0) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        Ok((origin + dir * lambda).normalize())
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        p.norm()
+    }
+
+    fn size(&self) -> ImageSize {
+        self.camera.model.size()
+    }
+}
+
+/// Tables and weights of a stitch, built once per output camera and rig, applied per frame.
+#[derive(Debug)]
+pub struct Stitch {
+    size: ImageSize,
+    tables: Vec<RemapTable>,
+    /// Per camera, per output pixel (row-major): w_i.
+    weights: Vec<Vec<f32>>,
+}
+
+/// S(t) = t²(3 − 2t) on [0, 1].
+fn smoothstep(t: f64) -> f64 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Two unit vectors perpendicular to `q` and to each other.
+fn perpendiculars(q: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let n = q.normalize();
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let a = n.cross(&helper).normalize();
+    (a, n.cross(&a))
+}
+
+/// Camera i's angular margin m_i at camera point `q` (step 3 of the model), None without an
+/// image.
+fn margin(camera: &StitchCamera, q: &Vector3<f64>) -> Option<f64> {
+    let theta = q.x.hypot(q.y).atan2(q.z);
+    let fov = camera.max_theta.map_or(f64::INFINITY, |t| t - theta);
+    let p = camera.model.project_point(q).ok()?;
+    let size = camera.model.size();
+    let border = (p.x + 0.5)
+        .min(size.width as f64 - 0.5 - p.x)
+        .min(p.y + 0.5)
+        .min(size.height as f64 - 0.5 - p.y);
+    let (a, b) = perpendiculars(q);
+    let n = q.normalize();
+    let mut scale: f64 = 0.0;
+    for axis in [a, b] {
+        let turned =
+            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), SCALE_PROBE)
+                * n;
+        if let Ok(t) = camera.model.project_point(&turned) {
+            scale = scale.max((t - p).norm() / SCALE_PROBE);
+        }
+    }
+    if !(scale > 0.0) {
+        return None;
+    }
+    Some(fov.min(border / scale))
+}
+
+impl Stitch {
+    /// The stitch of `cameras` into `output` (its bearings in the reference frame's axes,
+    /// from `centre`).
+    pub fn build(
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        cameras: &[StitchCamera],
+        options: StitchOptions,
+    ) -> Stitch {
+        let size = output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let mut tables = Vec::with_capacity(cameras.len());
+        let mut weights = Vec::with_capacity(cameras.len());
+        for camera in cameras {
+            let proxy = Proxy {
+                camera: *camera,
+                centre: *centre,
+                distance: options.distance,
+            };
+            tables.push(RemapTable::build_parallel(
+                output,
+                &proxy,
+                &Matrix3::identity(),
+                Wrap::None,
+                MAX_SUPERSAMPLE,
+            ));
+            let mut wi = vec![0f32; w * h];
+            wi.par_chunks_mut(w.max(1))
+                .enumerate()
+                .for_each(|(v, row)| {
+                    for (u, out) in row.iter_mut().enumerate() {
+                        let Ok(d) = output.unproject(&Point2::new(u as f64, v as f64)) else {
+                            continue;
+                        };
+                        let q = proxy.local(&d);
+                        if let Some(m) = margin(camera, &q) {
+                            *out = smoothstep(m / options.blend_width) as f32;
+                        }
+                    }
+                });
+            weights.push(wi);
+        }
+        Stitch {
+            size,
+            tables,
+            weights,
+        }
+    }
+
+    /// Camera i's weight at output pixel (u, v).
+    pub fn weight(&self, i: usize, u: u32, v: u32) -> f32 {
+        self.weights[i][v as usize * self.size.width as usize + u as usize]
+    }
+
+    /// The stitched image of one frame's `images` (in the cameras' order, each of its camera's
+    /// size) and the source map (the camera of largest weight per pixel, 255 for none).
+    pub fn apply(&self, images: &[&RgbImage]) -> (RgbImage, Vec<u8>) {
+        assert_eq!(images.len(), self.tables.len(), "one image per camera");
+        let remapped: Vec<RgbImage> = self
+            .tables
+            .iter()
+            .zip(images)
+            .map(|(t, img)| t.apply(img))
+            .collect();
+        let (w, h) = (self.size.width as usize, self.size.height as usize);
+        let mut out = RgbImage::new(self.size.width, self.size.height);
+        let mut source = vec![255u8; w * h];
+        out.as_raw_mut()
+            .par_chunks_mut((w * 3).max(1))
+            .zip(source.par_chunks_mut(w.max(1)))
+            .enumerate()
+            .for_each(|(v, (row, src_row))| {
+                for u in 0..w {
+                    let i = v * w + u;
+                    let (mut acc, mut total, mut best) = ([0f64; 3], 0f64, (0f32, 255u8));
+                    for (k, img) in remapped.iter().enumerate() {
+                        let wk = self.weights[k][i];
+                        if !(wk > 0.0) {
+                            continue;
+                        }
+                        let px = &img.as_raw()[i * 3..i * 3 + 3];
+                        for c in 0..3 {
+                            acc[c] += wk as f64 * px[c] as f64;
+                        }
+                        total += wk as f64;
+                        if wk > best.0 {
+                            best = (wk, k as u8);
+                        }
+                    }
+                    if total > 0.0 {
+                        for c in 0..3 {
+                            row[u * 3 + c] = (acc[c] / total).round().clamp(0.0, 255.0) as u8;
+                        }
+                    }
+                    src_row[u] = best.1;
+                }
+            });
+        (out, source)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Intrinsics, Perspective};
+
+    #[test]
+    fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
+        let model = Perspective::new(
+            Intrinsics::new(100.0, 100.0, 99.5, 49.5),
+            ImageSize::new(200, 100),
+        );
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::new(-0.5, 0.0, 0.0),
+            max_theta: None,
+        };
+        // at the image centre: 50 px to the top and bottom edges at 100 px/rad
+        let m = margin(&camera, &Vector3::z()).unwrap();
+        assert!((m - 0.5).abs() < 1e-6, "{m}");
+        // near the right edge the margin shrinks to the pixel distance over the local scale
+        let q = Vector3::new(0.95, 0.0, 1.0);
+        let m = margin(&camera, &q).unwrap();
+        let p = model.project_point(&q).unwrap();
+        let want = (199.5 - p.x) / (100.0 * (1.0 + 0.95f64.powi(2)));
+        assert!((m - want).abs() < 1e-3 * want, "{m} vs {want}");
+        assert_eq!(smoothstep(-1.0), 0.0);
+        assert_eq!(smoothstep(0.5), 0.5);
+        assert_eq!(smoothstep(2.0), 1.0);
+        // the proxy's unproject is its project's inverse, with a baseline
+        let proxy = Proxy {
+            camera,
+            centre: Vector3::new(0.1, 0.2, 0.0),
+            distance: 7.0,
+        };
+        let d = Vector3::new(0.2, -0.1, 1.0).normalize();
+        let px = proxy.project(&d).unwrap();
+        let back = proxy.unproject(&px).unwrap();
+        assert!((back - d).norm() < 1e-12, "{back} vs {d}");
+    }
+}
