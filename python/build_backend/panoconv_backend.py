@@ -25,7 +25,6 @@ from maturin import (  # noqa: F401  (the hooks this backend passes on unchanged
     build_sdist,
     get_requires_for_build_sdist,
     get_requires_for_build_wheel,
-    prepare_metadata_for_build_wheel,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,6 +57,12 @@ def stage_command(profile: str = "release", target: str | None = None) -> Path:
     staged = scripts / exe
     shutil.copy2(out / exe, staged)
     return staged
+
+
+def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
+    # maturin checks that the data folder exists before the command is built into it.
+    DATA.mkdir(parents=True, exist_ok=True)
+    return maturin.prepare_metadata_for_build_wheel(metadata_directory, config_settings)
 
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
