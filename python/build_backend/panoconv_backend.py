@@ -20,12 +20,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import maturin
-from maturin import (  # noqa: F401  (the hooks this backend passes on unchanged)
-    build_sdist,
-    get_requires_for_build_sdist,
-    get_requires_for_build_wheel,
-)
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "target" / "wheel-data"
@@ -50,7 +44,8 @@ def stage_command(profile: str = "release", target: str | None = None) -> Path:
     if target:
         out = out / target
     out = out / ("debug" if profile in ("dev", "test") else profile)
-    exe = "panoconv.exe" if (target or sys.platform).find("windows") >= 0 or os.name == "nt" else "panoconv"
+    windows = "windows" in (target or "") or (target is None and os.name == "nt")
+    exe = "panoconv.exe" if windows else "panoconv"
     scripts = DATA / "scripts"
     shutil.rmtree(scripts, ignore_errors=True)
     scripts.mkdir(parents=True)
@@ -59,18 +54,40 @@ def stage_command(profile: str = "release", target: str | None = None) -> Path:
     return staged
 
 
+# The hooks import maturin when called, so that staging alone (the script below) runs where
+# only cargo and a bare Python are installed (the release workflow's manylinux containers).
+
+
+def get_requires_for_build_wheel(config_settings=None):
+    import maturin
+
+    return maturin.get_requires_for_build_wheel(config_settings)
+
+
 def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
+    import maturin
+
     # maturin checks that the data folder exists before the command is built into it.
     DATA.mkdir(parents=True, exist_ok=True)
     return maturin.prepare_metadata_for_build_wheel(metadata_directory, config_settings)
 
 
 def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
+    import maturin
+
     stage_command()
     return maturin.build_wheel(wheel_directory, config_settings, metadata_directory)
 
 
+def build_sdist(sdist_directory, config_settings=None):
+    import maturin
+
+    return maturin.build_sdist(sdist_directory, config_settings)
+
+
 def build_editable(wheel_directory, config_settings=None, metadata_directory=None):
+    import maturin
+
     stage_command()
     return maturin.build_editable(wheel_directory, config_settings, metadata_directory)
 

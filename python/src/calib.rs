@@ -3,12 +3,12 @@
 
 use crate::camera::Camera;
 use crate::errors::IntoPy;
-use nalgebra::{Matrix3, Matrix3x4};
+use nalgebra::{Matrix3, Matrix3x4, Vector3};
 use numpy::PyArray2;
-use panoconv::camera::ImageSize;
+use panoconv::camera::{ImageSize, OutputCamera};
 use panoconv::codec::png::read_file_size;
 use panoconv::error::Error;
-use panoconv::kitti::{Cam, Calib as KittiCalib};
+use panoconv::kitti::{Calib as KittiCalib, Cam};
 use pyo3::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -44,9 +44,16 @@ fn sibling_image(calib: &Path, n: Cam) -> Option<PathBuf> {
     Some(split.join(format!("image_{n}")).join(name))
 }
 
+/// A camera of a calib: its number, model and optical centre in rect.
+pub type CameraParts = (usize, Box<dyn OutputCamera>, Vector3<f64>);
+
 /// Reads `path` and builds the cameras of its images (their size from `size`, else `image`'s
 /// PNG header, else the sibling `image_2/<id>.png`).
-pub fn read(path: &Path, size: Option<ImageSize>, image: Option<&Path>) -> panoconv::error::Result<(KittiCalib, Vec<(usize, Box<dyn panoconv::camera::OutputCamera>, nalgebra::Vector3<f64>)>)> {
+pub fn read(
+    path: &Path,
+    size: Option<ImageSize>,
+    image: Option<&Path>,
+) -> panoconv::error::Result<(KittiCalib, Vec<CameraParts>)> {
     let calib = KittiCalib::read(path)?;
     let size_of = |n: Cam| -> panoconv::error::Result<ImageSize> {
         if let Some(s) = size {
@@ -55,7 +62,10 @@ pub fn read(path: &Path, size: Option<ImageSize>, image: Option<&Path>) -> panoc
         let image = match (image, n) {
             (Some(i), Cam::C2) => i.to_path_buf(),
             _ => sibling_image(path, n).ok_or_else(|| {
-                Error::file(path, "no image to take the size from: pass size=(width, height)")
+                Error::file(
+                    path,
+                    "no image to take the size from: pass size=(width, height)",
+                )
             })?,
         };
         if !image.is_file() {
@@ -96,7 +106,12 @@ pub fn read(path: &Path, size: Option<ImageSize>, image: Option<&Path>) -> panoc
 }
 
 impl Calib {
-    pub fn load(py: Python<'_>, path: &Path, size: Option<ImageSize>, image: Option<&Path>) -> PyResult<Calib> {
+    pub fn load(
+        py: Python<'_>,
+        path: &Path,
+        size: Option<ImageSize>,
+        image: Option<&Path>,
+    ) -> PyResult<Calib> {
         let (calib, cameras) = py.detach(|| read(path, size, image)).py()?;
         Self::from_parts(py, calib, cameras)
     }
@@ -104,7 +119,7 @@ impl Calib {
     pub fn from_parts(
         py: Python<'_>,
         calib: KittiCalib,
-        cameras: Vec<(usize, Box<dyn panoconv::camera::OutputCamera>, nalgebra::Vector3<f64>)>,
+        cameras: Vec<CameraParts>,
     ) -> PyResult<Calib> {
         let cameras = cameras
             .into_iter()
@@ -134,7 +149,10 @@ impl Calib {
     /// The cameras by number: 2, and 3 when the calib describes it.
     #[getter]
     fn cameras(&self, py: Python<'_>) -> std::collections::BTreeMap<usize, Py<Camera>> {
-        self.cameras.iter().map(|(n, c)| (*n, c.clone_ref(py))).collect()
+        self.cameras
+            .iter()
+            .map(|(n, c)| (*n, c.clone_ref(py)))
+            .collect()
     }
 
     /// The `projection:` line (`equirect`, ...); None for a plain KITTI calib.

@@ -28,6 +28,9 @@ impl Camera {
     }
 }
 
+/// `project`'s pixels (N, 2) and their validity (N,).
+type Projected<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<bool>>);
+
 /// Rows of an (N, `cols`) array, or a ValueError naming the argument.
 fn check_rows(a: &ArrayView2<f64>, cols: usize, name: &str) -> PyResult<usize> {
     if a.ncols() != cols {
@@ -61,7 +64,12 @@ fn map_rows(
     out
 }
 
-fn matrix<'py>(py: Python<'py>, rows: usize, cols: usize, v: Vec<f64>) -> Bound<'py, PyArray2<f64>> {
+fn matrix<'py>(
+    py: Python<'py>,
+    rows: usize,
+    cols: usize,
+    v: Vec<f64>,
+) -> Bound<'py, PyArray2<f64>> {
     // from_owned_array hands the buffer to numpy without a copy.
     PyArray2::from_owned_array(py, Array2::from_shape_vec((rows, cols), v).expect("shape"))
 }
@@ -76,7 +84,7 @@ impl Camera {
         &self,
         py: Python<'py>,
         points_rect: PyArrayLike2<'py, f64, AllowTypeChange>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<bool>>)> {
+    ) -> PyResult<Projected<'py>> {
         let points = points_rect.as_array();
         let n = check_rows(&points, 3, "points_rect")?;
         let uv = py.detach(|| {
@@ -103,9 +111,11 @@ impl Camera {
         let uv = uv.as_array();
         let n = check_rows(&uv, 2, "uv")?;
         let bearings = py.detach(|| {
-            map_rows(&uv, 3, |p, o| match self.camera.unproject(&Point2::new(p[0], p[1])) {
-                Ok(d) => o.copy_from_slice(&[d.x, d.y, d.z]),
-                Err(_) => o.copy_from_slice(&[f64::NAN; 3]),
+            map_rows(&uv, 3, |p, o| {
+                match self.camera.unproject(&Point2::new(p[0], p[1])) {
+                    Ok(d) => o.copy_from_slice(&[d.x, d.y, d.z]),
+                    Err(_) => o.copy_from_slice(&[f64::NAN; 3]),
+                }
             })
         });
         Ok(matrix(py, n, 3, bearings))
@@ -252,9 +262,6 @@ pub fn crop_resize(
         k = resize_intrinsics(k, image, to);
         image = to;
     }
-    let moved = camera
-        .camera
-        .with_intrinsics(k, image)
-        .map_err(usage)?;
+    let moved = camera.camera.with_intrinsics(k, image).map_err(usage)?;
     Ok(Camera::new(moved, camera.centre))
 }

@@ -36,8 +36,18 @@ pub fn to_py(e: panoconv::error::Error) -> PyErr {
             Some(field.clone()),
             message.clone(),
         ),
-        Error::File { path, message } => (Some(path.display().to_string()), None, None, message.clone()),
-        Error::Io { path, cause } => (Some(path.display().to_string()), None, None, cause.to_string()),
+        Error::File { path, message } => (
+            Some(path.display().to_string()),
+            None,
+            None,
+            message.clone(),
+        ),
+        Error::Io { path, cause } => (
+            Some(path.display().to_string()),
+            None,
+            None,
+            cause.to_string(),
+        ),
         _ => (None, None, None, text.clone()),
     };
     let err = match e {
