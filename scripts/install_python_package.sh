@@ -38,7 +38,7 @@ fi
 cargo build --locked --quiet --profile test -p panoconv --bin panoconv >&2
 mkdir -p target/wheel-data/scripts
 rm -f target/wheel-data/scripts/*
-cp target/debug/panoconv target/wheel-data/scripts/panoconv
+cp "${CARGO_TARGET_DIR:-target}/debug/panoconv" target/wheel-data/scripts/panoconv
 
 VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop --locked --quiet >&2
 echo "$VENV/bin/python"

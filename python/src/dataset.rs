@@ -4,8 +4,8 @@
 use crate::calib::{self, Calib};
 use crate::camera::Camera;
 use crate::errors::IntoPy;
-use crate::labels::{labels_with_lines, Label};
-use panoconv::kitti::{Cam, Dataset as KittiDataset, LabelFile, Split};
+use crate::labels::{read_label_file, Label};
+use panoconv::kitti::{Cam, Dataset as KittiDataset, Split};
 use pyo3::exceptions::{PyIndexError, PyKeyError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -79,7 +79,7 @@ impl Dataset {
             .detach(|| -> panoconv::error::Result<_> {
                 let parts = calib::read(&calib_path, None, Some(&image))?;
                 let labels = if has_labels {
-                    Some(LabelFile::read(&label_path)?)
+                    Some(read_label_file(&label_path)?)
                 } else {
                     None
                 };
@@ -87,7 +87,7 @@ impl Dataset {
             })
             .py()?;
         let labels = match labels {
-            Some(file) => labels_with_lines(&label_path, file)
+            Some(labels) => labels
                 .into_iter()
                 .map(|l| Py::new(py, l))
                 .collect::<PyResult<_>>()?,

@@ -6,10 +6,11 @@ use crate::errors::IntoPy;
 use nalgebra::Vector3;
 use ndarray::Array2;
 use numpy::PyArray2;
-use panoconv::kitti::{Label as KittiLabel, LabelFile};
+use panoconv::fs::read_lines;
+use panoconv::kitti::Label as KittiLabel;
 use panoconv::reproject::labels::{box_bounds, clip};
 use pyo3::prelude::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// One object of a KITTI label file, every field: `type`, `truncated`, `occluded`, `alpha`,
 /// `bbox`, `dimensions`, `location`, `rotation_y`, `score`.
@@ -103,27 +104,19 @@ impl Label {
 /// `ParseError` naming the file, line and field.
 #[pyfunction]
 pub fn read_labels(py: Python<'_>, path: PathBuf) -> PyResult<Vec<Label>> {
-    let file = py.detach(|| LabelFile::read(&path)).py()?;
-    Ok(labels_with_lines(&path, file))
+    py.detach(|| read_label_file(&path)).py()
 }
 
-/// The labels of a file with their line numbers (blank lines are skipped by the reader, so the
-/// numbers come from the file's lines again).
-pub fn labels_with_lines(path: &std::path::Path, file: LabelFile) -> Vec<Label> {
-    let lines: Vec<usize> = std::fs::read_to_string(path)
-        .map(|text| {
-            text.lines()
-                .enumerate()
-                .filter(|(_, l)| !l.trim().is_empty())
-                .map(|(i, _)| i + 1)
-                .collect()
-        })
-        .unwrap_or_default();
-    file.labels
-        .into_iter()
-        .enumerate()
-        .map(|(i, l)| Label::new(l, lines.get(i).copied().unwrap_or(i + 1)))
-        .collect()
+/// The labels of a file with their 1-based line numbers (blank lines skipped), as
+/// `LabelFile::read` parses them.
+pub fn read_label_file(path: &Path) -> panoconv::error::Result<Vec<Label>> {
+    let mut labels = Vec::new();
+    for (i, line) in read_lines(path)?.iter().enumerate() {
+        if !line.trim().is_empty() {
+            labels.push(Label::new(KittiLabel::parse(path, i + 1, line)?, i + 1));
+        }
+    }
+    Ok(labels)
 }
 
 /// The 8 corners of the object's 3D box in rect, (8, 3): bottom face first, then the top
