@@ -33,9 +33,10 @@ if ! [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "$WANT" ]];
     printf '%s\n' "$WANT" >"$STAMP"
 fi
 
-# The command: the test profile's binary (a no-op after `cargo test`), staged where
-# pyproject.toml's `data` folder has it.
-cargo build --locked --quiet --profile test -p panoconv --bin panoconv >&2
+# The command: the binary of the Rust tests' build (`cargo test` builds it; this is a no-op
+# after scripts/test.sh's own `cargo test`), staged where pyproject.toml's `data` folder has it.
+# Building it any other way (`cargo build --bin`) would resolve other features and rebuild.
+cargo test --locked --tests --no-run --quiet >&2
 mkdir -p target/wheel-data/scripts
 rm -f target/wheel-data/scripts/*
 cp "${CARGO_TARGET_DIR:-target}/debug/panoconv" target/wheel-data/scripts/panoconv
