@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite. Installs what it needs first (ONNX Runtime for the style tests, from
 # the PyPI wheel, into .ort/; the Python references of the tests, into .venv-test/), then runs
-# every test. Extra arguments go to `cargo test`.
+# every test: the Rust tests, then the Python package's (python/tests, built into
+# .venv-python/ by scripts/install_python_package.sh). Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ORT_DYLIB_PATH="$(scripts/install_ort.sh | tail -n 1)"
@@ -10,3 +11,7 @@ export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
 # --tests: the library's unit tests and the integration crate (tests/tests.rs); the examples
 # (benches/*.rs measurement tools) are compiled by clippy --all-targets in CI instead.
 cargo test --locked --tests "$@"
+# The Python package: the module built by `maturin develop` (sharing target/), the command the
+# test build made; pytest runs against both.
+PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
+"$PANOCONV_PYTHON" -m pytest -q -p no:cacheprovider python/tests

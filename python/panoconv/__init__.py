@@ -1,0 +1,45 @@
+"""panoconv: KITTI datasets in panoramic, cylindrical and fisheye cameras, from Python.
+
+The `panoconv` command converts datasets; this module reads what it wrote with the exact
+camera maths of the conversion (compiled from the same Rust code): cameras that project rect
+points and unproject pixels, KITTI labels, the exact 2D box of a 3D box in any camera, crop
+and resize of a camera, the manifest and its check, and a frame iterator. docs/python.md.
+"""
+
+from ._native import (
+    Calib,
+    Camera,
+    Dataset,
+    Frame,
+    Label,
+    PanoconvError,
+    ParseError,
+    VerifyReport,
+    __version__,
+    box_2d,
+    box_corners,
+    crop_resize,
+    read_calib,
+    read_labels,
+    read_manifest,
+    verify,
+)
+
+__all__ = [
+    "Calib",
+    "Camera",
+    "Dataset",
+    "Frame",
+    "Label",
+    "PanoconvError",
+    "ParseError",
+    "VerifyReport",
+    "__version__",
+    "box_2d",
+    "box_corners",
+    "crop_resize",
+    "read_calib",
+    "read_labels",
+    "read_manifest",
+    "verify",
+]

@@ -1,0 +1,212 @@
+"""Type stubs of panoconv's compiled module (re-exported by `panoconv`)."""
+
+from __future__ import annotations
+
+import os
+from typing import Iterator, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+PathLike = Union[str, os.PathLike[str]]
+Box = Tuple[float, float, float, float]
+ArrayLike = npt.ArrayLike
+
+class PanoconvError(Exception):
+    """An error of panoconv: str(e) is the text the command line prints after
+    `panoconv: error: `, e.g. `label_2/000004.txt:3: location.y: "abc" is not a number`."""
+
+    path: Optional[str]
+    line: Optional[int]
+    field: Optional[str]
+    message: str
+
+class ParseError(PanoconvError):
+    """A malformed value inside a file: `path`, `line` and `field` say where."""
+
+class Camera:
+    """The camera an image was written in: pixel = K · Γ(X − C) for a rect point X."""
+
+    @property
+    def K(self) -> npt.NDArray[np.float64]:
+        """3×3 intrinsics: pixel = K · (a, b, 1) of the projection's coordinates."""
+    @property
+    def C(self) -> npt.NDArray[np.float64]:
+        """Optical centre in rect, metres, shape (3,)."""
+    @property
+    def R(self) -> npt.NDArray[np.float64]:
+        """The camera's axes in rect (identity for the linear projections; R2 of a fisheye)."""
+    @property
+    def projection(self) -> str:
+        """`perspective`, `equirect`, `cylindrical` or `fisheye`."""
+    @property
+    def model(self) -> Optional[str]:
+        """A fisheye's lens model (`kannala_brandt`, `mei`, ...); None otherwise."""
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def size(self) -> Tuple[int, int]:
+        """(width, height) in pixels."""
+    def project(
+        self, points_rect: ArrayLike
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+        """Pixels (N, 2) of rect points (N, 3) and whether each has one (N,); NaN where not.
+        A valid pixel may lie outside the image: see `contains`."""
+    def unproject(self, uv: ArrayLike) -> npt.NDArray[np.float64]:
+        """Unit bearings (N, 3) in rect axes of pixels (N, 2); NaN rows where a pixel has no ray."""
+    def distance(self, points_rect: ArrayLike) -> npt.NDArray[np.float64]:
+        """The distance the projection pairs with (z, range or rho) of rect points (N, 3)."""
+    def contains(self, uv: ArrayLike) -> npt.NDArray[np.bool_]:
+        """Whether pixels (N, 2) lie on the image ([-0.5, width - 0.5) × [-0.5, height - 0.5))."""
+
+class Calib:
+    """A calib file (plain KITTI or written by panoconv): its matrices and cameras."""
+
+    @property
+    def camera(self) -> Camera:
+        """The camera image_2 was taken (P2) or written (projection:, K2:, C2:) in."""
+    @property
+    def cameras(self) -> dict[int, Camera]:
+        """Cameras by number: 2, and 3 when the calib describes it."""
+    @property
+    def projection(self) -> Optional[str]:
+        """The `projection:` line; None for plain KITTI."""
+    @property
+    def path(self) -> str: ...
+    @property
+    def lines(self) -> list[str]:
+        """The file's lines, verbatim."""
+    @property
+    def P0(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def P1(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def P2(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def P3(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def R0_rect(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def Tr_velo_to_cam(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def Tr_imu_to_velo(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def rect_from_velo(self) -> Optional[npt.NDArray[np.float64]]:
+        """R0_rect · Tr_velo_to_cam (3×4): X_rect = M[:, :3] @ p + M[:, 3]."""
+
+class Label:
+    """One object of a KITTI label file."""
+
+    @property
+    def type(self) -> str: ...
+    @property
+    def truncated(self) -> float: ...
+    @property
+    def occluded(self) -> int: ...
+    @property
+    def alpha(self) -> float: ...
+    @property
+    def bbox(self) -> Box:
+        """(left, top, right, bottom) as written in the file."""
+    @property
+    def dimensions(self) -> Tuple[float, float, float]:
+        """(height, width, length), metres."""
+    @property
+    def location(self) -> Tuple[float, float, float]:
+        """Bottom centre of the 3D box in rect, metres."""
+    @property
+    def rotation_y(self) -> float: ...
+    @property
+    def score(self) -> Optional[float]: ...
+    @property
+    def has_box_3d(self) -> bool: ...
+    @property
+    def tokens(self) -> list[str]: ...
+    @property
+    def line(self) -> int:
+        """1-based line in the file."""
+
+class Frame:
+    """One frame of a `Dataset`."""
+
+    id: str
+    split: str
+    image: str
+    image_3: Optional[str]
+    depth: Optional[str]
+    mask: Optional[str]
+    labels: list[Label]
+    calib: Calib
+    @property
+    def camera(self) -> Camera: ...
+
+class Dataset:
+    """The frames of one split (`training`, `testing`) of a dataset in KITTI's layout."""
+
+    def __init__(self, path: PathLike, split: str = "training") -> None: ...
+    @property
+    def ids(self) -> list[str]: ...
+    @property
+    def root(self) -> str: ...
+    def __len__(self) -> int: ...
+    def __getitem__(self, key: Union[int, str]) -> Frame: ...
+    def __iter__(self) -> Iterator[Frame]: ...
+
+class VerifyReport:
+    """What `panoconv verify` found; str() is exactly what it prints."""
+
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def listed(self) -> int: ...
+    @property
+    def matched(self) -> int: ...
+    @property
+    def missing(self) -> int: ...
+    @property
+    def changed(self) -> int: ...
+    @property
+    def extra(self) -> int: ...
+    @property
+    def problems(self) -> list[Tuple[str, str, str]]:
+        """(kind, path, printed line) per problem."""
+    @property
+    def summary(self) -> str: ...
+    @property
+    def exit_code(self) -> int:
+        """0 everything matches, 1 problems found (as `panoconv verify`)."""
+
+def read_calib(
+    path: PathLike,
+    size: Optional[Tuple[int, int]] = None,
+    image: Optional[PathLike] = None,
+) -> Calib:
+    """Reads a calib file; camera sizes from `size`, else `image`, else ../image_2/<id>.png."""
+
+def read_labels(path: PathLike) -> list[Label]:
+    """Reads a KITTI label file (ParseError names file, line and field)."""
+
+def box_corners(obj: Label) -> npt.NDArray[np.float64]:
+    """The 8 corners (8, 3) of the object's 3D box in rect: bottom face, then top."""
+
+def box_2d(obj: Label, camera: Camera, clip: bool = True) -> Optional[Box]:
+    """The exact 2D box of the object's 3D box in `camera`, clipped as label_2 writes it;
+    None when nothing of it is in the image. ValueError for objects without a 3D box."""
+
+def crop_resize(
+    camera: Camera,
+    crop: Optional[Tuple[int, int, int, int]] = None,
+    size: Optional[Tuple[int, int]] = None,
+) -> Camera:
+    """The camera after cropping (x, y, width, height) then resizing to (width, height)."""
+
+def read_manifest(path: PathLike) -> dict:
+    """The manifest `OUT/panoconv.json` (or of the folder `OUT`) as Python values."""
+
+def verify(path: PathLike) -> VerifyReport:
+    """`panoconv verify PATH` as a report."""
+

@@ -1,0 +1,34 @@
+//! `panoconv._native`: the Python module's compiled part (PyO3). The Python package
+//! (`python/panoconv/`) re-exports it; docs/python.md describes the API.
+
+use pyo3::prelude::*;
+
+mod calib;
+mod camera;
+mod dataset;
+mod errors;
+mod labels;
+mod manifest;
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("PanoconvError", py.get_type::<errors::PanoconvError>())?;
+    m.add("ParseError", py.get_type::<errors::ParseError>())?;
+    m.add_class::<camera::Camera>()?;
+    m.add_class::<calib::Calib>()?;
+    m.add_class::<labels::Label>()?;
+    m.add_class::<dataset::Dataset>()?;
+    m.add_class::<dataset::Frame>()?;
+    m.add_class::<dataset::FrameIter>()?;
+    m.add_class::<manifest::VerifyReport>()?;
+    m.add_function(wrap_pyfunction!(calib::read_calib, m)?)?;
+    m.add_function(wrap_pyfunction!(camera::crop_resize, m)?)?;
+    m.add_function(wrap_pyfunction!(labels::read_labels, m)?)?;
+    m.add_function(wrap_pyfunction!(labels::box_2d, m)?)?;
+    m.add_function(wrap_pyfunction!(labels::box_corners, m)?)?;
+    m.add_function(wrap_pyfunction!(manifest::read_manifest, m)?)?;
+    m.add_function(wrap_pyfunction!(manifest::verify, m)?)?;
+    Ok(())
+}
