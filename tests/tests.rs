@@ -18,6 +18,7 @@ mod cli;
 mod completions;
 mod corpus;
 mod crop;
+mod dataset_truth;
 mod depth;
 mod eval_depth;
 mod export;

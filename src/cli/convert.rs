@@ -100,7 +100,7 @@ pub(super) struct ConvertArgs {
     /// pixel has source data, for trainers to ignore the rest.
     #[arg(long)]
     mask: bool,
-    /// Convert only these frame ids (comma-separated).
+    /// Convert only these frame ids (comma-separated; `7` stands for `000007`).
     #[arg(
         long,
         value_delimiter = ',',
@@ -355,7 +355,8 @@ fn convert(
         (false, None) => Canvas::Tight,
     };
     let frames = match (args.frames, &args.frames_from) {
-        (Some(list), _) => Some(list),
+        // `--frames "1, 4"`: the spaces are not part of the ids.
+        (Some(list), _) => Some(list.iter().map(|id| id.trim().to_owned()).collect()),
         (None, Some(file)) => Some(read_id_list_nonempty(file)?),
         (None, None) => image_set,
     };
@@ -433,6 +434,20 @@ fn convert(
             (summary.run.converted - summary.run.resumed) as f64 / summary.run.seconds.max(1e-9),
             job.output.display()
         );
+        if !summary.not_frames.is_empty() {
+            // The run succeeds without them, but a dataset smaller than its folder is named.
+            const SHOWN: usize = 20;
+            eprintln!(
+                "panoconv: {} of the input not converted (not frames):",
+                count(summary.not_frames.len(), "file")
+            );
+            for line in summary.not_frames.iter().take(SHOWN) {
+                eprintln!("  {line}");
+            }
+            if summary.not_frames.len() > SHOWN {
+                eprintln!("  and {} more", summary.not_frames.len() - SHOWN);
+            }
+        }
         if let Some((views, min)) = summary.thin_views {
             eprintln!(
                 "panoconv: {} held fewer than {} (DontCare regions aside)",

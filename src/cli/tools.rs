@@ -388,8 +388,15 @@ pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode> {
     for problem in &report.problems {
         println!("{problem}");
     }
+    if let Some(incomplete) = &report.incomplete {
+        println!("{incomplete}");
+    }
     if !a.quiet {
-        let verdict = if report.is_ok() { "OK" } else { "FAILED" };
+        let verdict = match (&report.incomplete, report.is_ok()) {
+            (_, true) => "OK",
+            (Some(_), _) if report.problems.is_empty() => "INCOMPLETE",
+            _ => "FAILED",
+        };
         println!(
             "panoconv verify: {verdict}: {} ({})",
             report.summary(),
