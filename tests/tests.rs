@@ -26,6 +26,7 @@ mod fisheye;
 mod fisheye_target;
 mod fuzz_parsers;
 mod inspect;
+mod kitti_benchmark;
 mod labels;
 mod pano;
 mod png;

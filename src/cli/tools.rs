@@ -121,6 +121,21 @@ pub(super) struct UnprojectArgs {
     /// distances are rescaled to the output camera (Z at f becomes rho at f_y).
     #[arg(long, value_name = "PX")]
     trained_focal: Option<f64>,
+    /// Which image each result's 2D box belongs to: `source` (KITTI's benchmark scores the
+    /// box against the original label_2: the 3D box through the calib's P2, clipped to the
+    /// source image) or `converted` (the image the detector ran on).
+    #[arg(long = "box", value_enum, default_value_t = BoxArg::Source)]
+    box_image: BoxArg,
+    /// The source images' size for `--box source` [default: read from the source dataset the
+    /// converted dataset's manifest names].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    source_size: Option<ImageSize>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(super) enum BoxArg {
+    Source,
+    Converted,
 }
 
 #[derive(Args)]
@@ -298,6 +313,12 @@ pub(super) fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
         &a.input,
         &a.output,
         a.trained_focal,
+        match a.box_image {
+            BoxArg::Source => panoconv::tools::predictions::BoxChoice::Source {
+                size: a.source_size,
+            },
+            BoxArg::Converted => panoconv::tools::predictions::BoxChoice::Converted,
+        },
     )?;
     record_derived("unproject", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
