@@ -28,6 +28,7 @@ mod fuzz_parsers;
 mod inspect;
 mod kitti_benchmark;
 mod labels;
+mod labels_meant;
 mod pano;
 mod png;
 mod preview;
