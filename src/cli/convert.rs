@@ -134,7 +134,8 @@ pub(super) struct ConvertArgs {
     /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
     #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
     cameras: Vec<Cam>,
-    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/.
+    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/ (kitti-raw:
+    /// each drive's velodyne_points/data/).
     #[arg(long)]
     depth: bool,
     /// Keep LiDAR points the camera cannot see (the occlusion correction is on by default).
@@ -520,7 +521,8 @@ pub(super) fn install_stop_handler() {
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
     let n = panoconv::run::journal::merge(&a.output)?;
     eprintln!(
-        "panoconv: merged {n} frames into {}",
+        "panoconv: merged {} into {}",
+        count(n, "frame"),
         a.output.join(panoconv::run::manifest::MANIFEST).display()
     );
     Ok(ExitCode::SUCCESS)

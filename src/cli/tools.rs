@@ -171,6 +171,7 @@ pub(super) struct SynthArgs {
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
+    /// Write into a non-empty output, replacing the sample's files there (other files stay).
     #[arg(long)]
     overwrite: bool,
 }
@@ -187,6 +188,17 @@ pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
 pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
     use panoconv::codec::png;
     use panoconv::tools::preview::{contact_sheet, render_frame, PreviewOptions};
+    // The preview is a PNG: a file named otherwise would hold something else than it says.
+    if !args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!(Error::Setup(format!(
+            "--output {}: a preview is written as PNG; give a .png file name",
+            args.output.display()
+        )));
+    }
     let options = PreviewOptions {
         depth: !args.no_depth,
         text_scale: args.no_text.then_some(0),

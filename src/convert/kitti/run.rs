@@ -182,6 +182,13 @@ fn load_style(job: &KittiJob) -> Result<Option<StyleModel>> {
     let Some(s) = &job.style else {
         return Ok(None);
     };
+    // The model is the user's own file: name it missing before asking for the runtime.
+    if !s.options.model.is_file() {
+        return Err(Error::Setup(format!(
+            "--style {}: no such model file",
+            s.options.model.display()
+        )));
+    }
     let options = StyleOptions {
         intra_threads: 1,
         ..s.options.clone()
