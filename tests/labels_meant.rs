@@ -96,7 +96,15 @@ fn preview_texts_never_hide_one_another() {
         "equirect",
         &real_kitti(),
         &out,
-        &["--frames", "000001", "--split", "training"],
+        // the paper's scale: the objects are small and their texts crowd
+        &[
+            "--frames",
+            "000001",
+            "--split",
+            "training",
+            "--pano-width",
+            "2048",
+        ],
     ));
     let preview = tmp.path().join("p.png");
     assert_success(&panoconv([
