@@ -148,9 +148,11 @@ pub fn clear_previous_run(output: &Path) -> Result<usize> {
                     .strip_prefix("ImageSets/")
                     .is_some_and(|n| n.ends_with(".txt") && !n.contains('/')))
     };
+    // A lock at the root is a running process's (ours among them): neither removed nor refused.
+    let root_lock = |rel: &str| !rel.contains('/') && is_lock(rel);
     let mut unknown: Vec<&String> = files
         .iter()
-        .filter(|rel| !(!rel.contains('/') && is_lock(rel)) && !accounted(rel))
+        .filter(|rel| !root_lock(rel) && !accounted(rel))
         .collect();
     if !unknown.is_empty() {
         unknown.sort();
@@ -173,7 +175,7 @@ pub fn clear_previous_run(output: &Path) -> Result<usize> {
     }
     let mut removed = 0;
     for rel in &files {
-        if !rel.contains('/') && is_lock(rel) {
+        if root_lock(rel) {
             continue;
         }
         let path = output.join(rel);
