@@ -40,11 +40,10 @@ compare augment kitti --to cylindrical --augment 3 --seed 5 --scale-range 0.8,1.
 compare crop kitti --to perspective --crop 10,20,600,200 --resize 300x100 --input "$synth"
 compare full kitti --to equirect --full-360 --png-compression best --input "$synth"
 compare pano pano --to perspective --yaw 0,90 --input "$pano"
-# Every command of the README's examples (kitti, kitti-raw, fisheye target, labels-to-pixels,
+# Every command of the README's Use block (kitti, kitti-raw, fisheye target, labels-to-pixels,
 # unproject, eval-depth, resume, shards and merge, export, camera convert, fisheye and pano
 # folders, preview, inspect, completions, man, synth, verify), each binary in turn in the same
 # folder (manifests record absolute paths): the whole trees and every step's standard output.
-# Only step.err differs by design (timings).
 examples() {
     PANOCONV_EXAMPLES_DIR="$work/examples" scripts/readme_examples.sh "$1" >"$work/examples-$2.log" 2>&1
     local code=$?

@@ -100,7 +100,7 @@ pub(super) struct ConvertArgs {
     /// pixel has source data, for trainers to ignore the rest.
     #[arg(long)]
     mask: bool,
-    /// Convert only these frame ids (comma-separated).
+    /// Convert only these frame ids (comma-separated; `7` stands for `000007`).
     #[arg(
         long,
         value_delimiter = ',',
@@ -134,7 +134,8 @@ pub(super) struct ConvertArgs {
     /// Cameras to convert: 2 (left colour), 3 (right colour, about its own centre C3).
     #[arg(long, value_delimiter = ',', default_value = "2", value_parser = parse_camera)]
     cameras: Vec<Cam>,
-    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/.
+    /// Also write LiDAR depth maps (depth_2/, 16-bit, round(d·256)) from velodyne/ (kitti-raw:
+    /// each drive's velodyne_points/data/).
     #[arg(long)]
     depth: bool,
     /// Keep LiDAR points the camera cannot see (the occlusion correction is on by default).
@@ -355,7 +356,8 @@ fn convert(
         (false, None) => Canvas::Tight,
     };
     let frames = match (args.frames, &args.frames_from) {
-        (Some(list), _) => Some(list),
+        // `--frames "1, 4"`: the spaces are not part of the ids.
+        (Some(list), _) => Some(list.iter().map(|id| id.trim().to_owned()).collect()),
         (None, Some(file)) => Some(read_id_list_nonempty(file)?),
         (None, None) => image_set,
     };
@@ -433,6 +435,20 @@ fn convert(
             (summary.run.converted - summary.run.resumed) as f64 / summary.run.seconds.max(1e-9),
             job.output.display()
         );
+        if !summary.not_frames.is_empty() {
+            // The run succeeds without them, but a dataset smaller than its folder is named.
+            const SHOWN: usize = 20;
+            eprintln!(
+                "panoconv: {} of the input not converted (not frames):",
+                count(summary.not_frames.len(), "file")
+            );
+            for line in summary.not_frames.iter().take(SHOWN) {
+                eprintln!("  {line}");
+            }
+            if summary.not_frames.len() > SHOWN {
+                eprintln!("  and {} more", summary.not_frames.len() - SHOWN);
+            }
+        }
         if let Some((views, min)) = summary.thin_views {
             eprintln!(
                 "panoconv: {} held fewer than {} (DontCare regions aside)",
@@ -505,7 +521,8 @@ pub(super) fn install_stop_handler() {
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
     let n = panoconv::run::journal::merge(&a.output)?;
     eprintln!(
-        "panoconv: merged {n} frames into {}",
+        "panoconv: merged {} into {}",
+        count(n, "frame"),
         a.output.join(panoconv::run::manifest::MANIFEST).display()
     );
     Ok(ExitCode::SUCCESS)

@@ -142,16 +142,23 @@ fn summary(format: Format, report: &ExportReport, output: &Path) -> String {
         .map(|(s, n)| format!("{s} {n}"))
         .collect();
     let left_out = if report.left_out > 0 {
-        format!(", {} frames in no image set", report.left_out)
+        format!(", {} in no image set", count(report.left_out, "frame"))
     } else {
         String::new()
     };
+    // YOLO has no ignore regions: say that the DontCare regions were left out, not exported.
+    let ignore = match format {
+        Format::Yolo => format!(
+            "{} dropped (YOLO has none)",
+            count(report.ignore_regions, "ignore region")
+        ),
+        _ => count(report.ignore_regions, "ignore region"),
+    };
     format!(
-        "panoconv: {} export: images {}, {} objects, {} ignore regions, {} failed{left_out} -> {}",
+        "panoconv: {} export: images {}, {}, {ignore}, {} failed{left_out} -> {}",
         format.name(),
         images.join(", "),
-        report.objects,
-        report.ignore_regions,
+        count(report.objects, "object"),
         report.failed.len(),
         output.display()
     )

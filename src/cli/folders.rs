@@ -29,7 +29,7 @@ NAME.txt (projection:, K:, R:), or NAME_yawDEG.png/.txt per yaw when several are
 pub(super) struct FolderArgs {
     /// Target projection.
     #[arg(long, value_enum)]
-    to: To,
+    to: FolderTo,
     /// Folder of input images (PNG, JPEG, TIFF or WebP).
     #[arg(long, short = 'i')]
     input: PathBuf,
@@ -85,16 +85,21 @@ pub(super) struct PanoArgs {
     common: FolderArgs,
 }
 
-/// The projection of a folder conversion's `--to` (not a fisheye: that is `kitti`'s target).
-fn folder_projection(to: To) -> Result<Projection> {
-    match projection_of(to) {
-        Projection::Fisheye => bail!(Error::Setup(
-            "--to fisheye: folder conversions write equirect, cylindrical or perspective images; \
-             `panoconv kitti --to fisheye --camera CAMERA.json` renders a KITTI dataset in a fisheye camera"
-                .into()
-        )),
-        p => Ok(p),
-    }
+/// The targets of a folder conversion: what `--help` lists is what it accepts.
+#[derive(Clone, Copy, ValueEnum)]
+pub(super) enum FolderTo {
+    Equirect,
+    Cylindrical,
+    Perspective,
+}
+
+/// The projection of a folder conversion's `--to`.
+fn folder_projection(to: FolderTo) -> Result<Projection> {
+    Ok(match to {
+        FolderTo::Equirect => Projection::Equirect,
+        FolderTo::Cylindrical => Projection::Cylindrical,
+        FolderTo::Perspective => Projection::Perspective,
+    })
 }
 
 pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
@@ -117,7 +122,7 @@ pub(super) fn run_folder_job(
         png_compression: common.run.png_compression(),
     };
 
-    let bar = Bar::new(common.run.quiet);
+    let bar = Bar::counting(common.run.quiet, "image");
     let summary = with_pool(common.run.jobs, || {
         panoconv::convert::folder::run_folder(&job, plan, &bar)
     })??;

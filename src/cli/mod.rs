@@ -94,7 +94,8 @@ enum Command {
         after_help = "Examples:\n  panoconv synth --output /tmp/synthetic_kitti\n  panoconv synth --output fixtures/synthetic_kitti --overwrite\n  panoconv synth --kitti360 --scale 0.25 --output fixtures/kitti360 --overwrite"
     )]
     Synth(SynthArgs),
-    /// Warp a folder of fisheye images (camera description JSON) to cylindrical, equirect or perspective.
+    /// Warp a folder of fisheye images (a camera description JSON, or a KITTI-360, WoodScape or
+    /// OpenCV calibration file) to cylindrical, equirect or perspective.
     #[command(after_help = FISHEYE_EXAMPLES)]
     Fisheye(FisheyeArgs),
     /// Warp a folder of 2:1 equirect panoramas (PNG, JPEG, TIFF or WebP) to cylindrical, perspective views or an equirect strip.
@@ -176,7 +177,9 @@ struct RunArgs {
     /// Worker threads (default: all cores).
     #[arg(long, short = 'j', value_name = "N")]
     pub(super) jobs: Option<usize>,
-    /// Write into a non-empty output folder, replacing files of the same name.
+    /// Replace a previous run's output: the files its manifest or journal lists are removed
+    /// first (the result is what a run into an empty folder leaves); any other file there is
+    /// named and refused.
     #[arg(long)]
     pub(super) overwrite: bool,
     /// PNG compression effort.
@@ -209,17 +212,24 @@ enum CompressionArg {
 /// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean).
 struct Bar {
     bar: ProgressBar,
+    /// What an item is called in messages: `frame`, or `image` for folder conversions.
+    noun: &'static str,
 }
 
 impl Bar {
     fn new(quiet: bool) -> Self {
+        Self::counting(quiet, "frame")
+    }
+
+    /// A bar whose items are called `noun` (`image`: a folder conversion's).
+    fn counting(quiet: bool, noun: &'static str) -> Self {
         let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         if quiet || !std::io::stderr().is_terminal() {
             bar.set_draw_target(ProgressDrawTarget::hidden());
         }
         bar.set_style(
             ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({rate}, eta {eta})",
+                &format!("{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {noun}s ({{rate}}, eta {{eta}})"),
             )
             .expect("valid template")
             .with_key(
@@ -229,7 +239,7 @@ impl Bar {
                 },
             ),
         );
-        Self { bar }
+        Self { bar, noun }
     }
 }
 
@@ -242,7 +252,7 @@ impl Progress for Bar {
     }
     fn frame_failed(&self, item: &str, error: &Error) {
         self.bar
-            .suspend(|| eprintln!("panoconv: frame {item} failed: {error}"));
+            .suspend(|| eprintln!("panoconv: {} {item} failed: {error}", self.noun));
         self.bar.inc(1);
     }
     fn finish(&self) {

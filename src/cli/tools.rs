@@ -121,6 +121,21 @@ pub(super) struct UnprojectArgs {
     /// distances are rescaled to the output camera (Z at f becomes rho at f_y).
     #[arg(long, value_name = "PX")]
     trained_focal: Option<f64>,
+    /// Which image each result's 2D box belongs to: `source` (KITTI's benchmark scores the
+    /// box against the original label_2: the 3D box through the calib's P2, clipped to the
+    /// source image) or `converted` (the image the detector ran on).
+    #[arg(long = "box", value_enum, default_value_t = BoxArg::Source)]
+    box_image: BoxArg,
+    /// The source images' size for `--box source` [default: read from the source dataset the
+    /// converted dataset's manifest names].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    source_size: Option<ImageSize>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub(super) enum BoxArg {
+    Source,
+    Converted,
 }
 
 #[derive(Args)]
@@ -156,6 +171,7 @@ pub(super) struct SynthArgs {
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
+    /// Write into a non-empty output, replacing the sample's files there (other files stay).
     #[arg(long)]
     overwrite: bool,
     /// Write a synthetic KITTI-360 sequence in the official layout instead (docs/kitti360.md).
@@ -198,6 +214,17 @@ pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
 pub(super) fn preview(args: PreviewArgs) -> Result<ExitCode> {
     use panoconv::codec::png;
     use panoconv::tools::preview::{contact_sheet, render_frame, PreviewOptions};
+    // The preview is a PNG: a file named otherwise would hold something else than it says.
+    if !args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!(Error::Setup(format!(
+            "--output {}: a preview is written as PNG; give a .png file name",
+            args.output.display()
+        )));
+    }
     let options = PreviewOptions {
         depth: !args.no_depth,
         text_scale: args.no_text.then_some(0),
@@ -324,6 +351,12 @@ pub(super) fn unproject(a: UnprojectArgs) -> Result<ExitCode> {
         &a.input,
         &a.output,
         a.trained_focal,
+        match a.box_image {
+            BoxArg::Source => panoconv::tools::predictions::BoxChoice::Source {
+                size: a.source_size,
+            },
+            BoxArg::Converted => panoconv::tools::predictions::BoxChoice::Converted,
+        },
     )?;
     record_derived("unproject", &a.output, &summary.written)?;
     Ok(folder_exit(summary, &a.output))
@@ -414,8 +447,15 @@ pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode> {
     for problem in &report.problems {
         println!("{problem}");
     }
+    if let Some(incomplete) = &report.incomplete {
+        println!("{incomplete}");
+    }
     if !a.quiet {
-        let verdict = if report.is_ok() { "OK" } else { "FAILED" };
+        let verdict = match (&report.incomplete, report.is_ok()) {
+            (_, true) => "OK",
+            (Some(_), _) if report.problems.is_empty() => "INCOMPLETE",
+            _ => "FAILED",
+        };
         println!(
             "panoconv verify: {verdict}: {} ({})",
             report.summary(),

@@ -192,6 +192,10 @@ pub fn run_folder(
             w[0]
         )));
     }
+    if job.overwrite {
+        // As for KITTI: what a run into an empty folder leaves, nothing of the previous run.
+        crate::run::clear::clear_previous_run(&job.output)?;
+    }
     std::fs::create_dir_all(&job.output).map_err(|e| Error::io(&job.output, e))?;
     let ctx = Ctx {
         job,
@@ -205,6 +209,7 @@ pub fn run_folder(
         plan.command(),
         plan.parameters(job),
         false,
+        inputs.len(),
     )?;
     // As in the KITTI conversion: after the first write the output device refused for want of
     // space, no new image is taken.

@@ -186,7 +186,8 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
                     Error::file(&label, format!("no image {}", image.display())),
                 ));
             }
-            let assigned = split::assign(&s.frames, &options.split_rule)?;
+            let sources = split::view_sources(root, &s.name);
+            let assigned = split::assign(&s.frames, &options.split_rule, &sources)?;
             data.left_out += s.frames.len() - assigned.len();
             assigned
         } else {

@@ -8,7 +8,7 @@
 //! `get_cuboid_verts_faces` (v0..v3 the face at −w/2, v4..v7 the one at +w/2). 2D boxes are
 //! [x1, y1, x2, y2] in the pixel convention of K (pixel centres at integers, as KITTI's P2).
 
-use crate::camera::OutputCamera;
+use crate::camera::{OutputCamera, Projection};
 use crate::error::{Error, Result};
 use crate::export::{round_to, ExportData, Frame, Object};
 use crate::reproject::labels::{box_bounds, clip};
@@ -161,14 +161,22 @@ fn annotation<'a>(
     a.center_cam = point(&center);
     a.dimensions = [w, h, l];
     a.R_cam = rows(&r);
-    a.behind_camera = corners.iter().any(|c| !(c.z > 0.0));
     let camera: &dyn OutputCamera = frame.camera.as_ref();
+    let mut visible = false;
     if let Some(b) = box_bounds(&corners, camera).filter(|b| b.iter().all(|v| v.is_finite())) {
         a.bbox2D_proj = b.map(|v| round_to(v, 4));
         if let Some(t) = clip(b, frame.size.width, frame.size.height) {
             a.bbox2D_trunc = t.map(|v| round_to(v, 4));
+            visible = true;
         }
     }
+    // Cube R-CNN drops objects flagged behind the camera. In a perspective image that means
+    // a corner behind the image plane (Omni3D's meaning); a panorama or a fisheye sees
+    // behind its optical axis, so there the flag means "not visible in this image".
+    a.behind_camera = match camera.projection() {
+        Projection::Perspective => corners.iter().any(|c| !(c.z > 0.0)),
+        _ => !visible,
+    };
     a
 }
 

@@ -1,4 +1,8 @@
 //! Which export split (`train`, `val`, `test`) each frame of a dataset belongs to.
+//!
+//! The unit of a split is the *source* frame: the `--augment` views of one KITTI frame are
+//! crops of the same image and objects, so they all go to the same side, or val would hold
+//! what train has seen. The views' source frames come from the dataset's manifest.
 
 use crate::error::{Error, Result};
 use crate::kitti::dataset::read_id_list;
@@ -41,8 +45,52 @@ pub const VAL: &str = "val";
 /// The export split of unlabelled frames (`testing/`).
 pub const TEST: &str = "test";
 
+/// The source frame of each `--augment` view of `split`, from the manifest at `root`
+/// (empty for a dataset that is not augmented, or has no manifest).
+pub fn view_sources(root: &Path, split: &str) -> BTreeMap<String, String> {
+    #[derive(serde::Deserialize)]
+    struct Doc {
+        #[serde(default)]
+        frames: Vec<Record>,
+    }
+    #[derive(serde::Deserialize)]
+    struct Record {
+        #[serde(default)]
+        split: String,
+        #[serde(default)]
+        id: String,
+        #[serde(default)]
+        views: Vec<View>,
+    }
+    #[derive(serde::Deserialize)]
+    struct View {
+        id: String,
+    }
+    let Ok(file) = std::fs::File::open(root.join(crate::run::manifest::MANIFEST)) else {
+        return BTreeMap::new();
+    };
+    let Ok(doc) = serde_json::from_reader::<_, Doc>(std::io::BufReader::new(file)) else {
+        return BTreeMap::new();
+    };
+    doc.frames
+        .into_iter()
+        .filter(|r| r.split == split)
+        .flat_map(|r| {
+            let source = r.id;
+            r.views.into_iter().map(move |v| (v.id, source.clone()))
+        })
+        .collect()
+}
+
 /// The export split of each labelled frame id; ids absent from the result are left out.
-pub fn assign(ids: &[String], rule: &SplitRule) -> Result<BTreeMap<String, &'static str>> {
+/// `sources` maps a view to its source frame ([`view_sources`]): a frame's views share its
+/// split, drawn (or looked up in the image sets) by the source frame's id.
+pub fn assign(
+    ids: &[String],
+    rule: &SplitRule,
+    sources: &BTreeMap<String, String>,
+) -> Result<BTreeMap<String, &'static str>> {
+    let source = |id: &String| sources.get(id).unwrap_or(id).clone();
     let mut out = BTreeMap::new();
     match rule {
         SplitRule::AllTrain => {
@@ -70,7 +118,8 @@ pub fn assign(ids: &[String], rule: &SplitRule) -> Result<BTreeMap<String, &'sta
                 }
             }
             for id in ids {
-                if let Some(&split) = listed.get(id) {
+                // A view is listed by its own id, or else by its source frame's.
+                if let Some(&split) = listed.get(id).or_else(|| listed.get(&source(id))) {
                     out.insert(id.clone(), split);
                 }
             }
@@ -82,8 +131,9 @@ pub fn assign(ids: &[String], rule: &SplitRule) -> Result<BTreeMap<String, &'sta
                 )));
             }
             // Ordering by a keyed hash of the id gives the same draw for the same seed and
-            // frames, in any listing order.
-            let mut keyed: Vec<([u8; 32], &String)> = ids
+            // frames, in any listing order. The draw is over source frames.
+            let units: std::collections::BTreeSet<String> = ids.iter().map(source).collect();
+            let mut keyed: Vec<([u8; 32], &String)> = units
                 .iter()
                 .map(|id| {
                     let mut h = blake3::Hasher::new();
@@ -93,9 +143,14 @@ pub fn assign(ids: &[String], rule: &SplitRule) -> Result<BTreeMap<String, &'sta
                 })
                 .collect();
             keyed.sort();
-            let n_val = (fraction * ids.len() as f64).round() as usize;
-            for (i, (_, id)) in keyed.into_iter().enumerate() {
-                out.insert(id.clone(), if i < n_val { VAL } else { TRAIN });
+            let n_val = (fraction * units.len() as f64).round() as usize;
+            let side: BTreeMap<&String, &'static str> = keyed
+                .into_iter()
+                .enumerate()
+                .map(|(i, (_, unit))| (unit, if i < n_val { VAL } else { TRAIN }))
+                .collect();
+            for id in ids {
+                out.insert(id.clone(), side[&source(id)]);
             }
         }
     }
@@ -117,17 +172,19 @@ mod tests {
             fraction: 0.25,
             seed: 7,
         };
-        let a = assign(&all, &rule).unwrap();
+        let none = BTreeMap::new();
+        let a = assign(&all, &rule, &none).unwrap();
         assert_eq!(a.values().filter(|s| **s == VAL).count(), 10);
         let mut reversed = all.clone();
         reversed.reverse();
-        assert_eq!(assign(&reversed, &rule).unwrap(), a);
+        assert_eq!(assign(&reversed, &rule, &none).unwrap(), a);
         let other_seed = assign(
             &all,
             &SplitRule::ValFraction {
                 fraction: 0.25,
                 seed: 8,
             },
+            &none,
         )
         .unwrap();
         assert_ne!(other_seed, a);

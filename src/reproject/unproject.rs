@@ -14,6 +14,11 @@
 //! observation angle relative to the ray from C: rotation_y = alpha + atan2(x − Cx, z − Cz).
 //! Going back, the location is C + t·bearing(u, v) with t chosen so that the distance matches,
 //! moved down by half the height.
+//!
+//! A KITTI result line belongs to the *source* image: the benchmark scores its 2D box (AP, AOS,
+//! and the 25/40-px height filters) against the original `label_2`. So its box is, by default,
+//! the source camera's: the exact projection of the 3D box through P2, clipped to the source
+//! image ([`BoxImage::Source`]); the converted image's box is the other choice.
 
 use crate::camera::{CameraModel, OutputCamera};
 use crate::error::{Error, Result};
@@ -162,14 +167,29 @@ pub fn parse_pixel_line(path: &Path, line_no: usize, line: &str) -> Result<Pixel
     })
 }
 
+/// The image whose 2D box a KITTI result line carries.
+pub enum BoxImage<'a> {
+    /// The source image (the benchmark's): the 3D box projected through the source camera
+    /// (P2, about its centre `centre`), clipped to its image size.
+    Source {
+        /// P2's pinhole at the source image's size.
+        camera: &'a dyn CameraModel,
+        /// P2's optical centre in rect.
+        centre: Vector3<f64>,
+    },
+    /// The converted image the detector ran on.
+    Converted,
+}
+
 /// A KITTI result line for a pixel object: truncation and occlusion unknown (-1), alpha in
-/// KITTI's convention (relative to the rect origin), the 2D box of the 3D box in the converted
-/// image (where the detector ran), and the score.
+/// KITTI's convention (relative to the rect origin), the 2D box of the 3D box in `image` (see
+/// [`BoxImage`]; all zero when the box is wholly outside it), and the score.
 pub fn result_line(
     obj: &PixelObject,
     camera: &dyn CameraModel,
     centre: &Vector3<f64>,
     distance_scale: f64,
+    image: &BoxImage,
 ) -> Option<String> {
     let (location, ry) = pixel_to_box(obj, camera, centre, distance_scale)?;
     let label = Label {
@@ -184,8 +204,12 @@ pub fn result_line(
         rotation_y: ry,
         score: Some(obj.score),
     };
-    let size = camera.size();
-    let bbox = box_bounds(&label.corners().map(|c| c - centre), camera)
+    let (box_camera, box_centre) = match image {
+        BoxImage::Source { camera, centre } => (*camera, *centre),
+        BoxImage::Converted => (camera, *centre),
+    };
+    let size = box_camera.size();
+    let bbox = box_bounds(&label.corners().map(|c| c - box_centre), box_camera)
         .and_then(|b| clip(b, size.width, size.height))
         .unwrap_or([0.0; 4]);
     let alpha = wrap_angle(ry - location.x.atan2(location.z));

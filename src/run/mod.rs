@@ -1,7 +1,9 @@
 //! Running many items: progress reporting, the run's summary, values built once and shared
-//! between frames, the manifest's records, the journal, and files derived from an output.
+//! between frames, the manifest's records, the journal, files derived from an output, and the
+//! clearing of a previous run for `--overwrite`.
 
 pub mod alloc;
+pub mod clear;
 pub mod derived;
 pub mod journal;
 pub mod manifest;

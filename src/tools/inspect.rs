@@ -213,8 +213,14 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
         for id in &split.frames {
             let frame = format!("{}/{id}", split.name);
             let image_rel = rel("image_2", id, ".png");
-            match png::read_file_size(&split.image_path(Cam::C2, id)) {
+            let image_path = split.image_path(Cam::C2, id);
+            match png::read_file_size(&image_path) {
                 Ok(s) => *sizes.entry(s).or_default() += 1,
+                // What the conversion says of it, rather than the png crate's signature error.
+                Err(_) if is_jpeg(&image_path) => problems.push(Problem::file(
+                    &image_rel,
+                    "cannot decode PNG: the file is a JPEG (it starts with JPEG's FF D8 FF), not a PNG: KITTI images are PNG, convert it".to_owned(),
+                )),
                 Err(e) => problems.push(Problem::from_error(&image_rel, e)),
             }
 
@@ -451,4 +457,14 @@ impl Report {
         }
         s
     }
+}
+
+/// Whether the file starts as a JPEG does (FF D8 FF).
+fn is_jpeg(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 3];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && head == [0xFF, 0xD8, 0xFF]
 }

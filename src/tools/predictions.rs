@@ -11,7 +11,7 @@ use crate::fs::{read_file, read_lines};
 use crate::kitti::Cam;
 use crate::kitti::{Calib, LabelFile};
 use crate::reproject::unproject::{
-    format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale,
+    format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale, BoxImage,
 };
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
@@ -44,16 +44,75 @@ fn txt_ids(dir: &Path) -> Result<Vec<String>> {
     crate::fs::file_stems(dir, ".txt").map_err(|e| Error::Setup(format!("{}: {e}", dir.display())))
 }
 
-/// The output camera of a converted frame: its written calib and its image's size.
+/// The output camera of a converted frame (its written calib and its image's size), and the
+/// calib.
 fn frame_camera(
     calib_dir: &Path,
     images_dir: &Path,
     id: &str,
-) -> Result<(Box<dyn OutputCamera>, Vector3<f64>)> {
+) -> Result<(Box<dyn OutputCamera>, Vector3<f64>, Calib)> {
     let calib = Calib::read(&calib_dir.join(format!("{id}.txt")))?;
     let image = images_dir.join(format!("{id}.png"));
     let (w, h) = png::read_size(&read_file(&image)?, &image)?;
-    calib.output_camera(Cam::C2, ImageSize::new(w, h))
+    let (camera, centre) = calib.output_camera(Cam::C2, ImageSize::new(w, h))?;
+    Ok((camera, centre, calib))
+}
+
+/// Which image the 2D boxes of `unproject`'s result lines belong to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoxChoice {
+    /// The source image, as KITTI's benchmark expects: through the written calib's P2, clipped
+    /// to the source image, whose size is `size` or else read from the source dataset the
+    /// converted dataset's manifest names.
+    Source {
+        /// The source images' size (`--source-size`), when given.
+        size: Option<ImageSize>,
+    },
+    /// The converted image the detector ran on (`--box converted`).
+    Converted,
+}
+
+/// The size of the source image of frame `id`, whose written calib is in `calib_dir`: from
+/// the source dataset that the manifest of the converted dataset holding `calib_dir` names
+/// (`parameters.input`, the same split, `image_2/ID.png`).
+fn source_size(calib_dir: &Path, id: &str, calib: &Calib) -> Result<ImageSize> {
+    let unknown = |why: String| {
+        Error::file(
+            &calib.path,
+            format!(
+                "the source image's size is unknown ({why}): give --source-size WxH, or --box converted"
+            ),
+        )
+    };
+    let root = crate::run::derived::dataset_of(calib_dir)
+        .ok_or_else(|| unknown("no panoconv.json above the calib folder".into()))?;
+    let manifest = root.join(crate::run::manifest::MANIFEST);
+    #[derive(serde::Deserialize)]
+    struct Doc {
+        parameters: Params,
+    }
+    #[derive(serde::Deserialize)]
+    struct Params {
+        input: PathBuf,
+    }
+    let doc: Doc = std::fs::File::open(&manifest)
+        .ok()
+        .and_then(|f| serde_json::from_reader(std::io::BufReader::new(f)).ok())
+        .ok_or_else(|| unknown(format!("{} names no input", manifest.display())))?;
+    let abs_calib = std::path::absolute(calib_dir).unwrap_or_else(|_| calib_dir.to_path_buf());
+    let split = abs_calib
+        .parent()
+        .and_then(Path::file_name)
+        .ok_or_else(|| unknown("the calib folder is in no split".into()))?;
+    let image = doc
+        .parameters
+        .input
+        .join(split)
+        .join("image_2")
+        .join(format!("{id}.png"));
+    let (w, h) = png::read_file_size(&image)
+        .map_err(|_| unknown(format!("cannot read the source image {}", image.display())))?;
+    Ok(ImageSize::new(w, h))
 }
 
 fn prepare_output(output: &Path) -> Result<()> {
@@ -68,7 +127,7 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
     let mut summary = FolderSummary::default();
     for id in ids {
         let run = || -> Result<PathBuf> {
-            let (camera, centre) =
+            let (camera, centre, _) =
                 frame_camera(&split_dir.join("calib"), &split_dir.join("image_2"), &id)?;
             let labels = LabelFile::read(&label_dir.join(format!("{id}.txt")))?;
             let mut text = String::from("# type u v distance height width length alpha score\n");
@@ -90,20 +149,45 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
 
 /// Pixel-format predictions `input/*.txt` → KITTI result lines `output/*.txt`, using the calib
 /// (and image size) of each frame. `trained_fv`: rescale distances from a detector trained on
-/// perspective images of that vertical focal length.
+/// perspective images of that vertical focal length. `boxes`: which image the 2D boxes belong
+/// to (a calib without `projection:`, or a perspective one whose P2 is the output camera, has
+/// one image only).
 pub fn unproject(
     calib_dir: &Path,
     images_dir: &Path,
     input: &Path,
     output: &Path,
     trained_fv: Option<f64>,
+    boxes: BoxChoice,
 ) -> Result<FolderSummary> {
     let ids = txt_ids(input)?;
     prepare_output(output)?;
     let mut summary = FolderSummary::default();
     for id in ids {
         let run = || -> Result<PathBuf> {
-            let (camera, centre) = frame_camera(calib_dir, images_dir, &id)?;
+            let (camera, centre, calib) = frame_camera(calib_dir, images_dir, &id)?;
+            let converted_only = matches!(
+                calib.projection,
+                None | Some(crate::camera::Projection::Perspective)
+            );
+            let source = match boxes {
+                BoxChoice::Source { size } if !converted_only => {
+                    let size = match size {
+                        Some(s) => s,
+                        None => source_size(calib_dir, &id, &calib)?,
+                    };
+                    let p2 = calib.camera(Cam::C2)?;
+                    Some((p2.camera(size), p2.centre))
+                }
+                _ => None,
+            };
+            let image = match &source {
+                Some((camera, centre)) => BoxImage::Source {
+                    camera,
+                    centre: *centre,
+                },
+                None => BoxImage::Converted,
+            };
             let scale = trained_fv.map_or(1.0, |f| trained_focal_scale(camera.as_ref(), f));
             let path = input.join(format!("{id}.txt"));
             let mut text = String::new();
@@ -113,9 +197,9 @@ pub fn unproject(
                     continue;
                 }
                 let obj = parse_pixel_line(&path, i + 1, t)?;
-                let line = result_line(&obj, camera.as_ref(), &centre, scale).ok_or_else(|| {
-                    Error::parse(&path, i + 1, "u", "the pixel has no ray in this camera")
-                })?;
+                let line = result_line(&obj, camera.as_ref(), &centre, scale, &image).ok_or_else(
+                    || Error::parse(&path, i + 1, "u", "the pixel has no ray in this camera"),
+                )?;
                 text.push_str(&line);
                 text.push('\n');
             }

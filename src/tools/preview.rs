@@ -142,21 +142,59 @@ pub fn draw_label_with(
     centre: &Vector3<f64>,
     text_scale: u32,
 ) {
-    let colour = class_colour(&label.kind);
-    draw_box_3d(img, label, camera, centre, colour);
-    draw_box_2d(img, label.bbox, [255, 255, 255]);
-    if text_scale > 0 && label.kind != "DontCare" {
+    draw_labels(img, std::slice::from_ref(label), camera, centre, text_scale);
+}
+
+/// Draws every label of a frame: first all boxes, then the texts, each placed where no
+/// text drawn before it lies (above its 2D box, else further up, else below its top edge and
+/// further down), so that no label hides another's.
+pub fn draw_labels(
+    img: &mut RgbImage,
+    labels: &[Label],
+    camera: &dyn CameraModel,
+    centre: &Vector3<f64>,
+    text_scale: u32,
+) {
+    for label in labels {
+        let colour = class_colour(&label.kind);
+        draw_box_3d(img, label, camera, centre, colour);
+        draw_box_2d(img, label.bbox, [255, 255, 255]);
+    }
+    if text_scale == 0 {
+        return;
+    }
+    let mut placed: Vec<[i64; 4]> = Vec::new();
+    for label in labels.iter().filter(|l| l.kind != "DontCare") {
         let text = label_text(label, camera, centre);
         let (tw, th) = text_size(&text, text_scale);
+        let (tw, th) = (tw as i64, th as i64);
         let [l, t, _, _] = label.bbox;
-        let x = (l.round() as i64).clamp(0, (img.width() as i64 - tw as i64).max(0));
-        let above = t.round() as i64 - th as i64 - 2;
-        let y = if above >= 0 {
-            above
-        } else {
-            t.round() as i64 + 2
+        let x = (l.round() as i64).clamp(0, (img.width() as i64 - tw).max(0));
+        let max_y = (img.height() as i64 - th).max(0);
+        let (above, below) = (t.round() as i64 - th - 2, t.round() as i64 + 2);
+        // Candidates nearest the box first: above it and up, then below its top edge and down.
+        let up = (0..).map(|k| above - k * (th + 1)).take_while(|&y| y >= 0);
+        let down = (0..)
+            .map(|k| below + k * (th + 1))
+            .take_while(|&y| y <= max_y);
+        let free = |y: i64| {
+            let r = [x, y, x + tw, y + th];
+            placed
+                .iter()
+                .all(|p| r[2] <= p[0] || p[2] <= r[0] || r[3] <= p[1] || p[3] <= r[1])
         };
-        draw_text(img, x, y, &text, text_scale, colour, Some([0, 0, 0]));
+        let fallback = if above >= 0 { above } else { below.min(max_y) };
+        let y = up.chain(down).find(|&y| free(y)).unwrap_or(fallback);
+        placed.push([x, y, x + tw, y + th]);
+        draw_text(
+            img,
+            x,
+            y,
+            &text,
+            text_scale,
+            class_colour(&label.kind),
+            Some([0, 0, 0]),
+        );
     }
 }
 
@@ -415,9 +453,8 @@ pub fn render_frame(
         let scale = options
             .text_scale
             .unwrap_or_else(|| default_text_scale(&image));
-        for label in crate::kitti::LabelFile::read(&label_path)?.labels {
-            draw_label_with(&mut image, &label, camera.as_ref(), &centre, scale);
-        }
+        let labels = crate::kitti::LabelFile::read(&label_path)?.labels;
+        draw_labels(&mut image, &labels, camera.as_ref(), &centre, scale);
     }
     Ok(image)
 }

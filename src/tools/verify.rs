@@ -7,6 +7,10 @@
 //! `preview`, ...) are listed under `derived` and checked the same way. Not counted as extra:
 //! the manifest itself, manifest parts (`panoconv.*.json`), and with `--augment` the
 //! `ImageSets/<split>.txt` lists the conversion writes beside the frames.
+//!
+//! A run that did not finish is not a dataset to train on, however well its files match: an
+//! interrupted run (`"complete": false`) and a killed one (a journal, no manifest yet) are
+//! reported as incomplete, with how many frames of how many it holds.
 
 use crate::error::{Error, Result};
 use crate::run::manifest::MANIFEST;
@@ -25,6 +29,20 @@ struct ManifestView {
     /// What tools wrote into the dataset afterwards (see [`crate::run::derived`]).
     #[serde(default)]
     derived: Vec<FrameView>,
+    /// False for a run that was interrupted (absent in manifests of other tools' making).
+    #[serde(default)]
+    complete: Option<bool>,
+    #[serde(default)]
+    summary: Option<SummaryView>,
+}
+
+#[derive(Debug, Deserialize)]
+struct SummaryView {
+    #[serde(default)]
+    frames: usize,
+    /// The frames the run was to take (written when it did not finish).
+    #[serde(default)]
+    selected: Option<usize>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -120,6 +138,34 @@ impl fmt::Display for Problem {
     }
 }
 
+/// A run that did not finish: the frames it recorded, of those it was to take.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Incomplete {
+    /// Frames recorded (converted or failed).
+    pub recorded: usize,
+    /// Frames the run was to take, when its records say.
+    pub selected: Option<usize>,
+    /// Killed (a journal and no manifest) rather than interrupted (a manifest marked
+    /// incomplete).
+    pub killed: bool,
+}
+
+impl fmt::Display for Incomplete {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let how = if self.killed {
+            "the run was killed (its journal, panoconv.journal, and no manifest)"
+        } else {
+            "the run was interrupted (the manifest says \"complete\": false)"
+        };
+        let of = self.selected.map_or(String::new(), |n| format!(" of {n}"));
+        write!(
+            f,
+            "incomplete: {how} after {}{of} frames; run the same command again with --resume to finish it",
+            self.recorded
+        )
+    }
+}
+
 /// The outcome of `verify`.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Report {
@@ -129,12 +175,15 @@ pub struct Report {
     pub matched: usize,
     /// Problems, sorted by kind then path.
     pub problems: Vec<Problem>,
+    /// Set when the run that wrote the folder did not finish.
+    pub incomplete: Option<Incomplete>,
 }
 
 impl Report {
-    /// Whether the folder agrees with its manifest: no problem of any kind.
+    /// Whether the folder is a finished dataset that agrees with its manifest: no problem of
+    /// any kind.
     pub fn is_ok(&self) -> bool {
-        self.problems.is_empty()
+        self.problems.is_empty() && self.incomplete.is_none()
     }
 
     fn count(&self, pred: impl Fn(&Problem) -> bool) -> usize {
@@ -172,22 +221,53 @@ impl Report {
     }
 }
 
-/// Reads `root/panoconv.json`: `Err` when it is missing, unreadable or not a manifest (a JSON
-/// error names the line and column).
-fn read_manifest(root: &Path) -> Result<ManifestView> {
-    let path = root.join(MANIFEST);
-    let bytes = crate::fs::read_file(&path)?;
-    serde_json::from_slice::<ManifestView>(&bytes).map_err(|e| {
-        let text = e.to_string();
-        let suffix = format!(" at line {} column {}", e.line(), e.column());
-        let what = text.strip_suffix(&suffix).unwrap_or(&text);
-        Error::Parse {
-            path: path.clone(),
-            line: e.line(),
-            field: format!("column {}", e.column()),
-            message: format!("not a panoconv manifest: {what}"),
-        }
+/// A killed run's records: `root/panoconv.journal`'s header line (with the frames the run was
+/// to take) and one frame a line; a line a kill tore is left out.
+fn read_journal(path: &Path) -> Result<ManifestView> {
+    let bytes = crate::fs::read_file(path)?;
+    let mut lines = bytes.split(|&b| b == b'\n');
+    let header: serde_json::Value = lines
+        .next()
+        .and_then(|h| serde_json::from_slice(h).ok())
+        .ok_or_else(|| Error::parse(path, 1, "header", "not a panoconv journal"))?;
+    let frames: Vec<FrameView> = lines
+        .filter_map(|l| serde_json::from_slice(l).ok())
+        .collect();
+    Ok(ManifestView {
+        parameters: serde_json::from_value(header["parameters"].clone()).ok(),
+        summary: Some(SummaryView {
+            frames: frames.len(),
+            selected: header["selected"].as_u64().map(|n| n as usize),
+        }),
+        frames,
+        derived: Vec::new(),
+        complete: Some(false),
     })
+}
+
+/// Reads `root/panoconv.json`, or the journal of a killed run when there is no manifest:
+/// `Err` when neither exists, or it is unreadable or not a manifest (a JSON error names the
+/// line and column).
+fn read_manifest(root: &Path) -> Result<(ManifestView, bool)> {
+    let path = root.join(MANIFEST);
+    let journal = path.with_extension("journal");
+    if !path.exists() && journal.is_file() {
+        return Ok((read_journal(&journal)?, true));
+    }
+    let bytes = crate::fs::read_file(&path)?;
+    serde_json::from_slice::<ManifestView>(&bytes)
+        .map_err(|e| {
+            let text = e.to_string();
+            let suffix = format!(" at line {} column {}", e.line(), e.column());
+            let what = text.strip_suffix(&suffix).unwrap_or(&text);
+            Error::Parse {
+                path: path.clone(),
+                line: e.line(),
+                field: format!("column {}", e.column()),
+                message: format!("not a panoconv manifest: {what}"),
+            }
+        })
+        .map(|m| (m, false))
 }
 
 /// A manifest path that stays inside the folder: relative, no `..`, no root.
@@ -236,7 +316,8 @@ fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
 
 /// Whether an unlisted file is one the conversion writes without listing it.
 fn ignored(rel: &str, augmented: bool) -> bool {
-    if rel == MANIFEST {
+    // The journal and the lock a killed run leaves: its incompleteness is reported instead.
+    if rel == MANIFEST || rel == "panoconv.journal" || rel == "panoconv.lock" {
         return true;
     }
     if let Some(part) = rel
@@ -257,7 +338,7 @@ fn ignored(rel: &str, augmented: bool) -> bool {
 /// unreadable or malformed, or the folder cannot be listed; every disagreement between the
 /// manifest and the files is a [`Problem`] in the report.
 pub fn verify(root: &Path) -> Result<Report> {
-    let manifest = read_manifest(root)?;
+    let (manifest, killed) = read_manifest(root)?;
     let augmented = manifest
         .parameters
         .as_ref()
@@ -265,6 +346,16 @@ pub fn verify(root: &Path) -> Result<Report> {
         .is_some_and(|a| !a.is_null());
 
     let mut report = Report::default();
+    if manifest.complete == Some(false) {
+        report.incomplete = Some(Incomplete {
+            recorded: manifest
+                .summary
+                .as_ref()
+                .map_or(manifest.frames.len(), |s| s.frames),
+            selected: manifest.summary.as_ref().and_then(|s| s.selected),
+            killed,
+        });
+    }
     let mut listed: BTreeMap<String, String> = BTreeMap::new();
     let listed_files = manifest
         .frames

@@ -23,11 +23,11 @@ pub struct Run {
 }
 
 impl Run {
-    /// Lines of stderr that report a failed frame.
+    /// Lines of stderr that report a failed frame (a folder conversion's image).
     pub fn frame_failures(&self) -> Vec<&str> {
         self.stderr
             .lines()
-            .filter(|l| l.starts_with("panoconv: frame "))
+            .filter(|l| l.starts_with("panoconv: frame ") || l.starts_with("panoconv: image "))
             .collect()
     }
 }

@@ -4,6 +4,7 @@
 
 mod batch;
 mod frame;
+mod not_frames;
 mod read;
 mod run;
 mod tables;
@@ -191,4 +192,8 @@ pub struct KittiSummary {
     /// With --augment: the views holding fewer objects than asked (at least one), and that
     /// minimum.
     pub thin_views: Option<(usize, usize)>,
+    /// Files of the input that no frame takes (`split/folder/name: why`): an image that is not
+    /// a PNG, a calib or label without an image. Listed by unsharded runs of the whole dataset
+    /// (and shard 0).
+    pub not_frames: Vec<String>,
 }

@@ -30,6 +30,9 @@ pub fn run_kitti(
     stop: &AtomicBool,
 ) -> Result<KittiSummary> {
     let started = std::time::Instant::now();
+    if matches!(job.source, KittiSource::Object { .. }) {
+        check_not_converted_or_split(&job.input)?;
+    }
     let dataset = job.source.open(&job.input)?;
     // Resumed runs and shards write into a folder that already holds outputs.
     // Held until the run returns: one process per output (per shard).
@@ -39,7 +42,8 @@ pub fn run_kitti(
         job.shard,
         job.overwrite || job.resume || job.shard.is_some(),
     )?;
-    let (mut frames, missing) = dataset.select(job.frames.as_deref());
+    let ids = job.frames.as_ref().map(|ids| full_ids(&dataset, ids));
+    let (mut frames, missing) = dataset.select(ids.as_deref());
     // Checked on the whole selection, before sharding: a shard may own no frame of a small set.
     dataset.check_selection(&frames, &missing)?;
     dataset.check_folders(&job.cameras, job.depth.is_some())?;
@@ -58,6 +62,12 @@ pub fn run_kitti(
         return Err(Error::Setup(
             "--augment is not available for KITTI raw drives (one calib per drive)".into(),
         ));
+    }
+    check_output_size(job, &dataset, &frames)?;
+    if job.overwrite && !job.resume && job.shard.is_none() {
+        // The result must be what a run into an empty folder leaves: no file of the
+        // previous run stays beside the new ones.
+        crate::run::clear::clear_previous_run(&job.output)?;
     }
     create_output_folders(job, &dataset)?;
     if job.resume {
@@ -80,14 +90,23 @@ pub fn run_kitti(
     for split in &dataset.splits {
         ctx.write_split_calib(split)?;
     }
-    let journal = Journal::new(
+    let unusable = unusable_frames(job, &dataset);
+    let mut journal = Journal::new(
         &job.output,
         job.shard,
         job.source.command(),
         parameters,
         job.resume,
+        frames.len() + unusable.len(),
     )?;
-    let unusable = unusable_frames(job, &dataset);
+    if job.resume && job.shard.is_none() {
+        journal.keep_derived(journal::previous_derived(&job.output));
+    }
+    let not_frames = if job.frames.is_none() && job.shard.is_none_or(|s| s.index == 0) {
+        super::not_frames::list(&dataset)
+    } else {
+        Vec::new()
+    };
     progress.start(frames.len() + unusable.len());
     let pass = FramePass {
         job,
@@ -150,6 +169,7 @@ pub fn run_kitti(
         thin_views: job
             .augment
             .map(|a| (ctx.thin_views(), a.min_objects.max(1) as usize)),
+        not_frames,
     })
 }
 
@@ -162,6 +182,13 @@ fn load_style(job: &KittiJob) -> Result<Option<StyleModel>> {
     let Some(s) = &job.style else {
         return Ok(None);
     };
+    // The model is the user's own file: name it missing before asking for the runtime.
+    if !s.options.model.is_file() {
+        return Err(Error::Setup(format!(
+            "--style {}: no such model file",
+            s.options.model.display()
+        )));
+    }
     let options = StyleOptions {
         intra_threads: 1,
         ..s.options.clone()
@@ -172,6 +199,85 @@ fn load_style(job: &KittiJob) -> Result<Option<StyleModel>> {
         Device::Cuda => workers.min(2),
     };
     Ok(Some(StyleModel::load_pool(&options, sessions)?))
+}
+
+/// Two inputs that look like a KITTI root but are not the one to give: a dataset panoconv
+/// wrote (its images are no longer pinhole, so converting it again would be wrong), and a
+/// split folder (`K/training`) given instead of its root.
+fn check_not_converted_or_split(input: &Path) -> Result<()> {
+    let manifest = input.join(crate::run::manifest::MANIFEST);
+    if manifest.is_file() {
+        return Err(Error::Setup(format!(
+            "input {} is a converted dataset (it holds {}, written by panoconv): its images are \
+             no longer pinhole; give the original KITTI dataset as --input",
+            input.display(),
+            manifest.display()
+        )));
+    }
+    let name = input.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    if crate::kitti::dataset::SPLITS.contains(&name) && input.join("image_2").is_dir() {
+        let root = input.parent().unwrap_or(Path::new("."));
+        let root = if root.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            root
+        };
+        return Err(Error::Setup(format!(
+            "input {} is the {name} split, not a KITTI root: use --input {} (the folder that \
+             holds training/ and testing/), and --split {name} for this split only",
+            input.display(),
+            root.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The ids of `--frames` as the dataset names them: an id found in no split is tried in
+/// KITTI's six-digit form (`7` → `000007`), as `preview --frame` does.
+fn full_ids(dataset: &Dataset, ids: &[String]) -> Vec<String> {
+    let present = |id: &str| {
+        dataset
+            .splits
+            .iter()
+            .any(|s| s.frames.binary_search_by(|f| f.as_str().cmp(id)).is_ok())
+    };
+    ids.iter()
+        .map(|id| {
+            let id = id.trim();
+            match id.parse::<u64>() {
+                Ok(n) if !present(id) && present(&format!("{n:06}")) => format!("{n:06}"),
+                _ => id.to_owned(),
+            }
+        })
+        .collect()
+}
+
+/// An output scale that makes every frame's image too large is a set-up error, not one error
+/// per frame: checked on the first frame of each split (KITTI's cameras differ little).
+fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> Result<()> {
+    for split in &dataset.splits {
+        let Some(first) = frames.iter().find(|f| f.split == split.name) else {
+            continue;
+        };
+        for (k, size) in super::tables::source_cameras(split, &first.id, &job.cameras) {
+            let source = crate::camera::Perspective::new(k, size);
+            let Err(e) =
+                crate::geometry::target_camera(&job.output_spec, job.fisheye.as_ref(), k, &source)
+            else {
+                continue;
+            };
+            let option = match job.output_spec.scale {
+                crate::geometry::Scale::PanoWidth(w) => format!("--pano-width {w}"),
+                crate::geometry::Scale::PixelsPerDegree(d) => format!("--px-per-deg {d}"),
+                crate::geometry::Scale::SourceFocal => "the output size".to_owned(),
+            };
+            return Err(Error::Setup(format!(
+                "{option} is too large: frame {first} would give an {} (the limit is 65535 pixels a side); choose a smaller scale",
+                e.to_string().trim_end_matches(" is too large")
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Creates every output folder the job writes into, per split.

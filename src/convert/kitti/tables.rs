@@ -66,7 +66,11 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[C
 }
 
 /// The (K, image size) of each camera of a frame, as far as its files can be read.
-fn source_cameras(split: &Split, id: &str, cameras: &[Cam]) -> Vec<(Intrinsics, ImageSize)> {
+pub(super) fn source_cameras(
+    split: &Split,
+    id: &str,
+    cameras: &[Cam],
+) -> Vec<(Intrinsics, ImageSize)> {
     let calib = match &split.layout {
         Layout::Object => {
             let path = split.calib_path(id);

@@ -54,6 +54,8 @@ struct Spool {
     writer: BufWriter<File>,
     end: u64,
     index: LineIndex,
+    /// The ids each split's converted frames (or their `--augment` views) were written as.
+    written: BTreeMap<String, Vec<String>>,
 }
 
 impl Spool {
@@ -67,6 +69,14 @@ impl Spool {
         let failed = r.status == FrameStatus::Failed;
         self.index
             .push(&r.split, &r.id, failed, (self.end, line.len()), part);
+        let ids = self.written.entry(r.split).or_default();
+        if !failed {
+            if r.views.iter().any(|v| v.view.is_some()) {
+                ids.extend(r.views.into_iter().map(|v| v.id));
+            } else {
+                ids.push(r.id);
+            }
+        }
         self.end += line.len() as u64;
         Ok(())
     }
@@ -204,6 +214,7 @@ pub fn merge(output: &Path) -> Result<usize> {
         writer: BufWriter::with_capacity(1 << 20, file),
         end: 0,
         index: LineIndex::default(),
+        written: BTreeMap::new(),
     };
     let strip_shard = |doc: &Map<String, Value>| -> Value {
         let mut p = doc.get("parameters").cloned().unwrap_or(Value::Null);
@@ -257,14 +268,37 @@ pub fn merge(output: &Path) -> Result<usize> {
             a.max(b)
         )));
     }
+    let augmented = parameters.get("augment").is_some_and(|a| !a.is_null());
     header.insert("parameters".into(), parameters);
     let counts = spool.index.counts();
     let lines = spool.index.lines(&spool_path)?;
-    pretty::write_manifest(&output.join(MANIFEST), &header, counts, true, lines)?;
+    let counts = pretty::Counts {
+        frames: counts.0,
+        failed: counts.1,
+        selected: None,
+    };
+    pretty::write_manifest(
+        &output.join(MANIFEST),
+        &header,
+        counts,
+        true,
+        lines,
+        &Map::new(),
+    )?;
+    if augmented {
+        // As the unsharded run: the view ids, so that KITTI loaders find the views.
+        let dir = output.join("ImageSets");
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        for (split, mut ids) in std::mem::take(&mut spool.written) {
+            ids.sort_unstable();
+            let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
+            crate::fs::write_atomic(&dir.join(format!("{split}.txt")), text.as_bytes())?;
+        }
+    }
     for path in parts.values() {
         let _ = std::fs::remove_file(path);
     }
-    Ok(counts.0)
+    Ok(counts.frames)
 }
 
 #[cfg(test)]

@@ -105,6 +105,12 @@ pub struct Journal {
     state: Mutex<State>,
     /// A second handle on the journal, to fsync outside the lock the workers take.
     sync: File,
+    /// Items the run was to take (its selection); an unfinished manifest records it, so that
+    /// `verify` can say how far the run got.
+    selected: usize,
+    /// Files tools derived from the previous run's outputs (its manifest's `derived`), kept by
+    /// a resumed run.
+    derived: Option<Value>,
 }
 
 /// What `finish` wrote.
@@ -144,13 +150,15 @@ fn whole_lines_len(file: &mut File) -> std::io::Result<u64> {
 impl Journal {
     /// Starts the journal of a run into `output` (which the caller holds the lock of). With
     /// `resume`, a journal a killed run left is continued (its lines stay readable by a later
-    /// `--resume` until the manifest is written); otherwise a new one is started.
+    /// `--resume` until the manifest is written); otherwise a new one is started. `selected`:
+    /// the items the run is to take, which its journal's header records.
     pub fn new(
         output: &Path,
         shard: Option<Shard>,
         command: &str,
         parameters: Value,
         resume: bool,
+        selected: usize,
     ) -> Result<Self> {
         let mut header = serde_json::Map::new();
         header.insert("tool".into(), json!("panoconv"));
@@ -176,8 +184,9 @@ impl Journal {
         file.seek(SeekFrom::Start(kept)).map_err(io)?;
         let mut end = kept;
         if kept == 0 {
-            let mut line =
-                serde_json::to_vec(&Value::Object(header.clone())).expect("header serialises");
+            let mut first = header.clone();
+            first.insert("selected".into(), json!(selected));
+            let mut line = serde_json::to_vec(&Value::Object(first)).expect("header serialises");
             line.push(b'\n');
             file.write_all(&line).map_err(io)?;
             file.sync_data().map_err(io)?;
@@ -196,7 +205,15 @@ impl Journal {
                 error: None,
             }),
             sync,
+            selected,
+            derived: None,
         })
+    }
+
+    /// Keeps the previous manifest's `derived` entries (see [`previous_derived`]) in the
+    /// manifest this run writes.
+    pub fn keep_derived(&mut self, derived: Option<Value>) {
+        self.derived = derived.filter(|d| d.as_array().is_some_and(|a| !a.is_empty()));
     }
 
     /// Appends a finished frame's line; every ~2 s the journal is fsynced (outside the lock).
@@ -246,7 +263,8 @@ impl Journal {
     }
 
     /// Writes the manifest (streamed from the journal) and removes the journal; `complete` is
-    /// false for an interrupted run.
+    /// false for an interrupted run, whose summary then also says how many items the run was
+    /// to take (`selected`).
     pub fn finish(self, complete: bool) -> Result<Finished> {
         let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(e) = s.error.take() {
@@ -255,12 +273,21 @@ impl Journal {
         s.index.sort();
         let (frames, failed) = s.index.counts();
         let lines = s.index.lines(&self.journal)?;
+        let mut after = serde_json::Map::new();
+        if let Some(d) = &self.derived {
+            after.insert("derived".into(), d.clone());
+        }
         pretty::write_manifest(
             &self.manifest,
             &self.header,
-            (frames, failed),
+            pretty::Counts {
+                frames,
+                failed,
+                selected: (!complete).then_some(self.selected.max(frames)),
+            },
             complete,
             lines,
+            &after,
         )?;
         // The manifest now holds every line: a kill before this removal leaves both, and
         // `--resume` reads the same records from either.
@@ -347,6 +374,20 @@ pub fn load_previous(
         }
     }
     Ok(out)
+}
+
+/// The `derived` entries of the manifest in `output` (an unsharded run's), if it has any: what
+/// tools wrote inside the dataset after the run a `--resume` continues.
+pub fn previous_derived(output: &Path) -> Option<Value> {
+    #[derive(Deserialize)]
+    struct Derived {
+        #[serde(default)]
+        derived: Option<Value>,
+    }
+    let file = File::open(output.join(MANIFEST)).ok()?;
+    serde_json::from_reader::<_, Derived>(std::io::BufReader::new(file))
+        .ok()?
+        .derived
 }
 
 /// Whether a previous record still stands: converted, inputs unchanged, every output present

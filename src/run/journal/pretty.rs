@@ -64,28 +64,52 @@ pub fn reindent(compact: &[u8], depth: usize, out: &mut Vec<u8>) {
     }
 }
 
-/// Writes the manifest `header + summary + complete + frames` to `path` through a temporary
-/// and a rename (on disk before the rename: it is the run's commit point). `frames` yields
-/// each frame's compact JSON in manifest order.
+/// The manifest's `summary`.
+#[derive(Debug, Clone, Copy)]
+pub struct Counts {
+    /// Items recorded, failed ones included.
+    pub frames: usize,
+    /// Of those, the failed ones.
+    pub failed: usize,
+    /// Items the run was to take, written for an unfinished run only.
+    pub selected: Option<usize>,
+}
+
+/// Writes the manifest `header + summary + complete + frames + after` to `path` through a
+/// temporary and a rename (on disk before the rename: it is the run's commit point). `frames`
+/// yields each frame's compact JSON in manifest order; `after` holds keys that follow them
+/// (`derived`).
 pub fn write_manifest(
     path: &Path,
     header: &Map<String, Value>,
-    counts: (usize, usize),
+    counts: Counts,
     complete: bool,
     frames: impl Iterator<Item = Result<Vec<u8>>>,
+    after: &Map<String, Value>,
 ) -> Result<()> {
-    let (total, failed) = counts;
+    let (total, failed) = (counts.frames, counts.failed);
     let mut doc = header.clone();
-    doc.insert(
-        "summary".into(),
-        serde_json::json!({"frames": total, "converted": total - failed, "failed": failed}),
-    );
+    let mut summary =
+        serde_json::json!({"frames": total, "converted": total - failed, "failed": failed});
+    if let Some(selected) = counts.selected {
+        summary["selected"] = selected.into();
+    }
+    doc.insert("summary".into(), summary);
     doc.insert("complete".into(), Value::Bool(complete));
     doc.insert("frames".into(), Value::Array(Vec::new()));
     let head = serde_json::to_vec_pretty(&Value::Object(doc)).expect("manifest serialises");
     // `..."frames": []\n}`: the frames go between the brackets.
     let open = head.len() - "]\n}".len();
     debug_assert!(head.ends_with(b"[]\n}"));
+    // `{\n  "derived": ...\n}` less its braces: the keys after the frames, as nested in `doc`.
+    let tail = if after.is_empty() {
+        Vec::new()
+    } else {
+        let text = serde_json::to_vec_pretty(&Value::Object(after.clone())).expect("serialises");
+        let mut t = b",\n".to_vec();
+        t.extend_from_slice(&text[2..text.len() - 2]);
+        t
+    };
 
     let tmp = crate::fs::temporary_path(path);
     let write = || -> Result<()> {
@@ -102,8 +126,10 @@ pub fn write_manifest(
             reindent(&compact?, 2, &mut pretty);
             w.write_all(&pretty).map_err(io)?;
         }
-        w.write_all(if first { b"]\n}\n" } else { b"\n  ]\n}\n" })
+        w.write_all(if first { b"]" } else { b"\n  ]" })
             .map_err(io)?;
+        w.write_all(&tail).map_err(io)?;
+        w.write_all(b"\n}\n").map_err(io)?;
         let file = w
             .into_inner()
             .map_err(|e| Error::io(&tmp, e.into_error()))?;
@@ -175,7 +201,19 @@ mod tests {
             let compact = frames[..n]
                 .iter()
                 .map(|f| Ok(serde_json::to_vec(f).unwrap()));
-            write_manifest(&path, &header, (n, 0), n == 2, compact).unwrap();
+            let counts = Counts {
+                frames: n,
+                failed: 0,
+                selected: None,
+            };
+            let mut after = Map::new();
+            if n == 1 {
+                after.insert(
+                    "derived".into(),
+                    serde_json::json!([{"outputs": [["a", "b"]]}]),
+                );
+            }
+            write_manifest(&path, &header, counts, n == 2, compact, &after).unwrap();
             let mut doc = header.clone();
             doc.insert(
                 "summary".into(),
@@ -183,6 +221,7 @@ mod tests {
             );
             doc.insert("complete".into(), Value::Bool(n == 2));
             doc.insert("frames".into(), Value::Array(frames[..n].to_vec()));
+            doc.extend(after);
             let mut expected = serde_json::to_vec_pretty(&Value::Object(doc)).unwrap();
             expected.push(b'\n');
             assert_eq!(
