@@ -23,6 +23,7 @@ mod eval_depth;
 mod export;
 mod fisheye;
 mod fisheye_target;
+mod footprint;
 mod fuzz_parsers;
 mod inspect;
 mod labels;

@@ -1,9 +1,11 @@
 //! Image reprojection: a remap table built once per (source camera, output camera) and applied
 //! to every frame that shares them.
 
+mod footprint;
 mod kernel;
 mod table;
 
+pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
