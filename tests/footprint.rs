@@ -2,6 +2,7 @@
 //! table of the full build, for every lens model, turned every way, serial and parallel; and
 //! the footprint does skip most of a wide lens's image.
 
+use crate::common::*;
 use nalgebra::{Matrix3, Vector3};
 use panoconv::camera::{
     rotation_ypr, CameraModel, DoubleSphere, Eucm, Fisheye, FisheyeCamera, ImageSize, Intrinsics,
@@ -155,5 +156,63 @@ fn a_lens_narrower_than_the_source_has_no_footprint_and_the_same_table() {
             rect_from_camera: Matrix3::identity(),
         };
         assert_eq!(check(&camera, &src), None, "{}", camera.lens.name());
+    }
+}
+
+/// A one-frame fisheye run with `PANOCONV_PROGRESS=lines` (stderr is not a terminal here).
+fn fisheye_run(dir: &std::path::Path, progress: Option<&str>, quiet: bool) -> Run {
+    let camera = dir.join("front.json");
+    // docs/fisheye.md's 190° Kannala-Brandt camera, at a third of its size.
+    write_text(
+        &camera,
+        r#"{"version": 1, "model": "kannala_brandt", "width": 427, "height": 322,
+            "max_fov_deg": 190, "fx": 110.1, "fy": 110.3, "cx": 213.4, "cy": 160.2,
+            "k": [0.04, -0.012, 0.002, -0.0002]}"#,
+    );
+    let out = dir.join(format!("out-{progress:?}-{quiet}"));
+    let mut cmd = std::process::Command::new(BIN);
+    cmd.args(["kitti", "--to", "fisheye", "--camera"])
+        .arg(&camera)
+        .arg("--input")
+        .arg(synth_source())
+        .arg("--output")
+        .arg(&out)
+        .args(["--frames", "000000"]);
+    if quiet {
+        cmd.arg("--quiet");
+    }
+    cmd.env_remove("PANOCONV_PROGRESS");
+    if let Some(p) = progress {
+        cmd.env("PANOCONV_PROGRESS", p);
+    }
+    let o = cmd.output().unwrap();
+    Run {
+        code: o.status.code().unwrap(),
+        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+    }
+}
+
+#[test]
+fn a_fisheye_run_says_it_is_building_the_camera_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = fisheye_run(dir.path(), Some("lines"), false);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let notes: Vec<&str> = run.stderr.lines().filter(|l| l.contains("table")).collect();
+    assert_eq!(
+        notes,
+        ["panoconv: building the camera table"],
+        "stderr: {}",
+        run.stderr
+    );
+    // Logs stay clean without the variable, and --quiet silences the notes.
+    for (progress, quiet) in [(None, false), (Some("lines"), true)] {
+        let run = fisheye_run(dir.path(), progress, quiet);
+        assert_eq!(run.code, 0, "{}", run.stderr);
+        assert!(
+            !run.stderr.contains("table"),
+            "{progress:?} quiet {quiet}: {}",
+            run.stderr
+        );
     }
 }

@@ -72,7 +72,7 @@ pub fn run_kitti(
             .filter(|f| !previous.contains(&f.split, &f.id))
             .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
             .collect();
-        super::tables::build_ahead(&ctx, &todo, &job.cameras);
+        super::tables::build_ahead(&ctx, &todo, &job.cameras, progress);
     }
     for split in &dataset.splits {
         ctx.write_split_calib(split)?;

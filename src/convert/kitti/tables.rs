@@ -12,6 +12,7 @@ use crate::camera::{ImageSize, Intrinsics};
 use crate::codec::png;
 use crate::kitti::Cam;
 use crate::kitti::{Calib, Layout, Split};
+use crate::run::Progress;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -30,7 +31,12 @@ const SCAN_AT_MOST: usize = 2048;
 const ALONE_AT_MOST_PIXELS: u64 = 4_000_000;
 
 /// Builds, in parallel, the table of every (camera, image size) of `frames`.
-pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[Cam]) {
+pub(super) fn build_ahead(
+    ctx: &Context,
+    frames: &[(&Split, &str)],
+    cameras: &[Cam],
+    progress: &dyn Progress,
+) {
     let found: Vec<(Intrinsics, ImageSize)> = frames
         .par_iter()
         .step_by(frames.len().div_ceil(SCAN_AT_MOST).max(1))
@@ -47,14 +53,20 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[C
     // A corrupt PNG header (an absurd size, read before the decoder has refused the file)
     // must not cost a huge table.
     let fixed_size = ctx.job.fisheye.is_some();
-    let built: Vec<_> = distinct
+    let todo: Vec<_> = distinct
         .into_values()
         .filter(|&(_, size, frames)| {
             let pixels = size.width as u64 * size.height as u64;
             frames > 1 || fixed_size || pixels <= ALONE_AT_MOST_PIXELS
         })
         .map(|(k, size, _)| (k, size))
-        .collect::<Vec<_>>()
+        .collect::<Vec<_>>();
+    match todo.len() {
+        0 => return,
+        1 => progress.note("building the camera table"),
+        n => progress.note(&format!("building {n} camera tables")),
+    }
+    let built: Vec<_> = todo
         .into_par_iter()
         .filter_map(|(k, size)| {
             // A panic here (a bug) must not end the run: the frames then build the table
@@ -67,6 +79,7 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[C
     for (k, size, mapping) in built {
         ctx.insert_mapping(k, size, mapping);
     }
+    progress.note("");
 }
 
 /// The (K, image size) of each camera of a frame, as far as its files can be read.
