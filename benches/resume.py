@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""Resume and merge at scale: peak RSS, wall time, frames/s and time to the first new frame of
+`panoconv kitti --resume` and of `panoconv merge`, for several binaries on the same states.
+
+For each frame count N, a state is made once with the first binary given (the frames of
+$PANOCONV_KITTI/training hard-linked round-robin under N ids, as benches/scale.py does):
+  - parts: `kitti --to equirect --shard 0/2` and `--shard 1/2` into one folder (the input of
+    `merge`);
+  - half: the parts merged, then the image_2 PNGs of the upper half of the ids removed (the
+    input of `--resume`: N records, half of them still valid, half to convert again).
+Each binary then runs `merge` on a copy of the parts and `--resume` on a copy of the half
+state. The first new frame is the first moment the count of image_2 PNGs exceeds the count
+before the run (polled every 50 ms). Every figure line carries the load average.
+
+    benches/resume.py --bin new=target/release/panoconv --bin old=/tmp/old/panoconv \
+        --frames 1000 100000 --tmp /tmp/resume-bench [-- extra panoconv options]
+"""
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scale import ROOT, fs_type, make_dataset  # noqa: E402
+
+
+def load() -> str:
+    return "load " + " ".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def count_png(folder: Path) -> int:
+    try:
+        with os.scandir(folder) as it:
+            return sum(1 for e in it if e.name.endswith(".png") and not e.name.startswith("."))
+    except FileNotFoundError:
+        return 0
+
+
+def timed(cmd: list[str], images: Path | None) -> dict:
+    """Runs `cmd`: wall, peak RSS (wait4) and, with `images`, when its PNG count first grew."""
+    before = count_png(images) if images else 0
+    t0 = time.monotonic()
+    child = subprocess.Popen(cmd, stderr=subprocess.PIPE)
+    first = None
+    while True:
+        pid, status, usage = os.wait4(child.pid, os.WNOHANG)
+        if pid:
+            break
+        if images and first is None and count_png(images) > before:
+            first = time.monotonic() - t0
+        time.sleep(0.05)
+    wall = time.monotonic() - t0
+    err = child.stderr.read().decode(errors="replace")
+    if os.waitstatus_to_exitcode(status) != 0:
+        sys.exit(f"{' '.join(cmd)} failed:\n{err}")
+    return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "first": first}
+
+
+def convert(binary: str, data: Path, out: Path, extra: list[str], more: list[str]) -> list[str]:
+    return [binary, "kitti", "--to", "equirect", "--input", str(data), "--output", str(out),
+            "--jobs", "2", "--quiet", *extra, *more]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--bin", action="append", required=True, help="NAME=PATH (repeatable)")
+    ap.add_argument("--frames", type=int, nargs="+", default=[1000, 100000])
+    ap.add_argument("--tmp", type=Path, default=Path("/tmp/panoconv-resume-bench"))
+    ap.add_argument("--source", type=Path,
+                    default=ROOT / (os.environ.get("PANOCONV_KITTI") or "../shared/kitti") / "training")
+    ap.add_argument("extra", nargs="*", help="more panoconv options (after --)")
+    a = ap.parse_args()
+    bins = [b.split("=", 1) for b in a.bin]
+    a.tmp.mkdir(parents=True, exist_ok=True)
+    print(f"# {os.uname().nodename}, {os.cpu_count()} CPUs; file system of {a.tmp}: "
+          f"{fs_type(a.tmp)}; options: --jobs 2 {' '.join(a.extra)}", flush=True)
+    rows = []
+    for n in a.frames:
+        data = make_dataset(a.tmp, n, a.source)
+        parts, half = a.tmp / f"parts-{n}", a.tmp / f"half-{n}"
+        for d in (parts, half):
+            shutil.rmtree(d, ignore_errors=True)
+        t = time.monotonic()
+        first_bin = bins[0][1]
+        for k in (0, 1):
+            timed(convert(first_bin, data, parts, a.extra, ["--shard", f"{k}/2"]), None)
+        subprocess.run(["cp", "-a", str(parts), str(half)], check=True)
+        timed([first_bin, "merge", str(half)], None)
+        images = half / "training" / "image_2"
+        for i in range(n // 2, n):
+            (images / f"{i:06d}.png").unlink()
+        print(f"# {n} frames: states made in {time.monotonic() - t:.0f} s", flush=True)
+        for name, binary in bins:
+            for mode in ("merge", "resume"):
+                work = a.tmp / "work"
+                shutil.rmtree(work, ignore_errors=True)
+                subprocess.run(["cp", "-a", str(parts if mode == "merge" else half), str(work)],
+                               check=True)
+                before = load()
+                if mode == "merge":
+                    r = timed([binary, "merge", str(work)], None)
+                else:
+                    r = timed(convert(binary, data, work, a.extra, ["--resume"]),
+                              work / "training" / "image_2")
+                r["load"] = f"{before} / after {load()}"
+                rows.append((name, mode, n, r))
+                print(f"{name} {mode} {n}: {r}", flush=True)
+                shutil.rmtree(work, ignore_errors=True)
+        for d in (parts, half, data):
+            shutil.rmtree(d, ignore_errors=True)
+    print()
+    print("| binary | command | frames | wall s | frames/s | vs same at the fewest frames "
+          "| peak RSS MB | first new frame s | load average (1, 5, 15 min) before / after |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    base = {}
+    for name, mode, n, r in rows:
+        fps = n / r["wall"]
+        base.setdefault((name, mode), fps)
+        first = f"{r['first']:.2f}" if r["first"] is not None else "—"
+        print(f"| {name} | {mode} | {n} | {r['wall']:.1f} | {fps:.0f} | "
+              f"{100 * fps / base[(name, mode)]:.0f} % | {r['rss_mb']:.0f} | {first} | {r['load']} |")
+
+
+if __name__ == "__main__":
+    main()
