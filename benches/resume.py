@@ -6,10 +6,12 @@ For each frame count N, a state is made once with the first binary given (the fr
 $PANOCONV_KITTI/training hard-linked round-robin under N ids, as benches/scale.py does):
   - parts: `kitti --to equirect --shard 0/2` and `--shard 1/2` into one folder (the input of
     `merge`);
-  - half: the parts merged, then the image_2 PNGs of the upper half of the ids removed (the
-    input of `--resume`: N records, half of them still valid, half to convert again).
-Each binary then runs `merge` on a copy of the parts and `--resume` on a copy of the half
-state. The first new frame is the first moment the count of image_2 PNGs exceeds the count
+  - killed: the parts merged, then the last `--redo` fraction of the frames dropped from the
+    manifest (`"complete": false`) and their outputs removed, as a run stopped before them
+    leaves it (the input of `--resume`: most frames to re-check and keep, the rest to convert).
+A state already in --tmp from an earlier call (same N) is reused.
+Each binary then runs `merge` on a copy of the parts' manifests and `--resume` on a
+hard-linked copy of the killed state (safe: panoconv writes every file by a rename). The first new frame is the first moment the count of image_2 PNGs exceeds the count
 before the run (polled every 50 ms). Every figure line carries the load average.
 
     benches/resume.py --bin new=target/release/panoconv --bin old=/tmp/old/panoconv \
@@ -17,6 +19,7 @@ before the run (polled every 50 ms). Every figure line carries the load average.
 """
 
 import argparse
+import json
 import os
 import shutil
 import subprocess
@@ -60,6 +63,18 @@ def timed(cmd: list[str], images: Path | None) -> dict:
     return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "first": first}
 
 
+def drop_last(out: Path, k: int) -> None:
+    """Drops the last `k` frames of OUT's manifest and removes their outputs."""
+    path = out / "panoconv.json"
+    doc = json.loads(path.read_text())
+    doc["frames"], dropped = doc["frames"][:-k], doc["frames"][-k:]
+    doc["complete"] = False
+    for r in dropped:
+        for rel, _ in r["outputs"]:
+            (out / rel).unlink(missing_ok=True)
+    path.write_text(json.dumps(doc, indent=2))
+
+
 def convert(binary: str, data: Path, out: Path, extra: list[str], more: list[str]) -> list[str]:
     return [binary, "kitti", "--to", "equirect", "--input", str(data), "--output", str(out),
             "--jobs", "2", "--quiet", *extra, *more]
@@ -72,6 +87,9 @@ def main() -> None:
     ap.add_argument("--tmp", type=Path, default=Path("/tmp/panoconv-resume-bench"))
     ap.add_argument("--source", type=Path,
                     default=ROOT / (os.environ.get("PANOCONV_KITTI") or "../shared/kitti") / "training")
+    ap.add_argument("--keep-states", action="store_true", help="keep the frame sets and states")
+    ap.add_argument("--redo", type=float, default=0.5,
+                    help="fraction of the frames whose image_2 PNG is removed before --resume")
     ap.add_argument("extra", nargs="*", help="more panoconv options (after --)")
     a = ap.parse_args()
     bins = [b.split("=", 1) for b in a.bin]
@@ -81,25 +99,34 @@ def main() -> None:
     rows = []
     for n in a.frames:
         data = make_dataset(a.tmp, n, a.source)
-        parts, half = a.tmp / f"parts-{n}", a.tmp / f"half-{n}"
-        for d in (parts, half):
-            shutil.rmtree(d, ignore_errors=True)
+        parts, half = a.tmp / f"parts-{n}", a.tmp / f"killed-{n}"
+        shutil.rmtree(half, ignore_errors=True)
         t = time.monotonic()
         first_bin = bins[0][1]
-        for k in (0, 1):
-            timed(convert(first_bin, data, parts, a.extra, ["--shard", f"{k}/2"]), None)
-        subprocess.run(["cp", "-a", str(parts), str(half)], check=True)
+        made = all((parts / f"panoconv.shard-{k}-of-2.json").exists() for k in (0, 1))
+        if not made:
+            shutil.rmtree(parts, ignore_errors=True)
+            for k in (0, 1):
+                timed(convert(first_bin, data, parts, a.extra, ["--shard", f"{k}/2"]), None)
+        # hard links: no run writes into an existing file (every write is a rename)
+        subprocess.run(["cp", "-al", str(parts), str(half)], check=True)
         timed([first_bin, "merge", str(half)], None)
-        images = half / "training" / "image_2"
-        for i in range(n // 2, n):
-            (images / f"{i:06d}.png").unlink()
+        # in a process of its own: this one's peak RSS would be every child's floor (ru_maxrss
+        # of a forked child starts from its parent's)
+        subprocess.run([sys.executable, __file__, "--drop-last", str(half),
+                        str(max(1, round(n * a.redo)))], check=True)
         print(f"# {n} frames: states made in {time.monotonic() - t:.0f} s", flush=True)
         for name, binary in bins:
             for mode in ("merge", "resume"):
                 work = a.tmp / "work"
                 shutil.rmtree(work, ignore_errors=True)
-                subprocess.run(["cp", "-a", str(parts if mode == "merge" else half), str(work)],
-                               check=True)
+                if mode == "merge":
+                    # merge reads the parts' manifests only
+                    work.mkdir()
+                    for k in (0, 1):
+                        shutil.copy(parts / f"panoconv.shard-{k}-of-2.json", work)
+                else:
+                    subprocess.run(["cp", "-al", str(half), str(work)], check=True)
                 before = load()
                 if mode == "merge":
                     r = timed([binary, "merge", str(work)], None)
@@ -110,8 +137,9 @@ def main() -> None:
                 rows.append((name, mode, n, r))
                 print(f"{name} {mode} {n}: {r}", flush=True)
                 shutil.rmtree(work, ignore_errors=True)
-        for d in (parts, half, data):
-            shutil.rmtree(d, ignore_errors=True)
+        if not a.keep_states:
+            for d in (parts, half, data):
+                shutil.rmtree(d, ignore_errors=True)
     print()
     print("| binary | command | frames | wall s | frames/s | vs same at the fewest frames "
           "| peak RSS MB | first new frame s | load average (1, 5, 15 min) before / after |")
@@ -126,4 +154,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["--drop-last"]:
+        drop_last(Path(sys.argv[2]), int(sys.argv[3]))
+    else:
+        main()
