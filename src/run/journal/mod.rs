@@ -291,7 +291,9 @@ pub fn remove_stale_temporaries(dir: &Path) {
     };
     for e in entries.flatten() {
         let p = e.path();
-        if p.is_dir() {
+        // the entry's type from the folder listing: no stat per file (300 000 files at
+        // 100 000 frames), and a link to a folder is not followed
+        if e.file_type().is_ok_and(|t| t.is_dir()) {
             remove_stale_temporaries(&p);
             continue;
         }
