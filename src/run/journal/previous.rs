@@ -49,16 +49,6 @@ impl Previous {
         serde_json::from_slice(&line).ok()
     }
 
-    /// Number of frames recorded.
-    pub fn len(&self) -> usize {
-        self.at.iter().map(HashMap::len).sum()
-    }
-
-    /// Whether no frame is recorded.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     fn find(&self, split: &str, id: &str) -> Option<&(u64, u32)> {
         let s = self.splits.iter().position(|x| x == split)?;
         self.at[s].get(id)
