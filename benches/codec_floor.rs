@@ -6,6 +6,8 @@
 //!     codec_floor --sweep FILE...   (single thread: decode and encoder settings per image)
 //!     codec_floor --remap IMAGE CALIB   (the equirect table of CALIB's P2: build, serial and
 //!                                        parallel, and apply on one thread, minimum of N runs)
+//!     codec_floor --fisheye-table CAMERA IMAGE CALIB   (the `kitti --to fisheye` table of
+//!                 CALIB's P2: mapping every pixel and only the footprint, serial and parallel)
 //!
 //! FILE lists one frame a line: `INPUT.png WARPED.png` (the warped images are decoded once,
 //! before the clock starts).
@@ -165,6 +167,94 @@ fn min_ms<T>(n: usize, mut f: impl FnMut() -> T) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// The table of a fisheye target (`kitti --to fisheye --camera CAMERA`) from the source camera
+/// of CALIB and IMAGE's size: the full mapping (every pixel's lens inversion) against the
+/// mapping within the source's footprint, serial and on the pool; the tables are checked equal.
+fn fisheye_table(camera: &Path, image: &Path, calib: &Path) {
+    use nalgebra::{Matrix3, Vector3};
+    use panoconv::camera::description::CameraDescription;
+    use panoconv::camera::{CameraModel, FisheyeCamera, ImageSize, Perspective};
+    use panoconv::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+    let desc = CameraDescription::read(camera).unwrap_or_else(|e| die(&e.to_string()));
+    let out = FisheyeCamera {
+        lens: desc.camera,
+        rect_from_camera: desc.output_from_camera,
+    };
+    let img = load(image);
+    let calib = panoconv::kitti::calib::Calib::read(calib).unwrap_or_else(|e| die(&e.to_string()));
+    let k = calib
+        .camera(Cam::C2)
+        .unwrap_or_else(|e| die(&e.to_string()))
+        .k;
+    let src = Perspective::new(k, ImageSize::new(img.width(), img.height()));
+    let id = Matrix3::identity();
+    let blind = out.rect_from_camera * -Vector3::z();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    let build = |seen: Option<&Footprint>, parallel| {
+        RemapTable::build_within(&out, &src, &id, Wrap::None, MAX_SUPERSAMPLE, seen, parallel)
+    };
+    let footprint_ms = min_ms(5, || Footprint::new(&out, &src, &id, &blind));
+    let seen = Footprint::new(&out, &src, &id, &blind);
+    // (wall ms, CPU ms of the process) of the fastest of `n` runs: on a shared machine the CPU
+    // time is the steadier figure, the wall time of the parallel build the one a user waits
+    let timed = |n: usize, parallel: bool, within: bool| {
+        (0..n)
+            .map(|_| {
+                let (wall, cpu) = (Instant::now(), cpu_ms());
+                // the footprint's own cost counted in, as a run pays it
+                let seen = within
+                    .then(|| Footprint::new(&out, &src, &id, &blind))
+                    .flatten();
+                std::hint::black_box(build(seen.as_ref(), parallel));
+                (wall.elapsed().as_secs_f64() * 1e3, cpu_ms() - cpu)
+            })
+            .fold((f64::INFINITY, f64::INFINITY), |a, b| {
+                (a.0.min(b.0), a.1.min(b.1))
+            })
+    };
+    let full_serial = one.install(|| timed(1, false, false));
+    let full_parallel = timed(1, true, false);
+    let within_serial = one.install(|| timed(5, false, true));
+    let within_parallel = timed(5, true, true);
+    assert!(
+        build(seen.as_ref(), true) == build(None, false),
+        "the tables differ"
+    );
+    let s = out.size();
+    println!(
+        "{}x{} {} table, every pixel: serial {:.1} ms CPU, parallel {:.1} ms wall / {:.1} ms CPU",
+        s.width,
+        s.height,
+        out.lens.name(),
+        full_serial.1,
+        full_parallel.0,
+        full_parallel.1
+    );
+    println!(
+        "within the footprint ({:.1} % of the pixels, found in {footprint_ms:.2} ms): serial \
+         {:.1} ms CPU, parallel {:.1} ms wall / {:.1} ms CPU ({} threads); same table",
+        100.0 * seen.as_ref().map_or(1.0, |f| f.share(s.width)),
+        within_serial.1,
+        within_parallel.0,
+        within_parallel.1,
+        rayon::current_num_threads()
+    );
+}
+
+/// CPU time of the whole process so far (every thread), in ms.
+fn cpu_ms() -> f64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid timespec for the call to fill.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 * 1e3 + t.tv_nsec as f64 * 1e-6
+}
+
 /// The remap stages of one frame as `panoconv kitti --to equirect` runs them.
 fn remap(image: &Path, calib: &Path) {
     use nalgebra::Matrix3;
@@ -233,6 +323,12 @@ fn main() {
                 let files: Vec<PathBuf> = args[i + 1..].iter().map(PathBuf::from).collect();
                 return sweep(&files);
             }
+            "--fisheye-table" => match (args.get(i + 1), args.get(i + 2), args.get(i + 3)) {
+                (Some(camera), Some(image), Some(calib)) => {
+                    return fisheye_table(Path::new(camera), Path::new(image), Path::new(calib))
+                }
+                _ => die("--fisheye-table CAMERA IMAGE CALIB"),
+            },
             "--remap" => match (args.get(i + 1), args.get(i + 2)) {
                 (Some(image), Some(calib)) => return remap(Path::new(image), Path::new(calib)),
                 _ => die("--remap IMAGE CALIB"),

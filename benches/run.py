@@ -118,13 +118,18 @@ def main():
         runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor}
         names = [n for n in a.only.split(",") if n]
         results = {n: [] for n in names}
+        loads = {n: [] for n in names}
         for r in range(a.rounds):
             order = names if r % 2 == 0 else names[::-1]
             for n in order:
+                before = os.getloadavg()[0]
                 results[n].append(runners[n]())
                 w, c, m, b = results[n][-1]
+                # the 1-minute load average before and after: how busy the shared machine was
+                loads[n].append((before, os.getloadavg()[0]))
                 print(f"round {r} {n:9s} wall {w:7.3f} s  {a.frames / w:7.1f} fr/s  cpu {c:7.2f} s"
-                      f"  rss {m:6.1f} MB  bytes {b}", file=sys.stderr)
+                      f"  rss {m:6.1f} MB  bytes {b}  load {before:.1f}-{loads[n][-1][1]:.1f}",
+                      file=sys.stderr)
 
         med = {}
         for n, rs in results.items():
@@ -137,15 +142,21 @@ def main():
                 "cpu_s": statistics.median([x[1] for x in rs]),
                 "peak_rss_mb": max(x[2] for x in rs),
                 "bytes": rs[-1][3],
+                "load_min": min(min(x) for x in loads[n]),
+                "load_max": max(max(x) for x in loads[n]),
             }
         print(f"\n{a.frames} frames, {a.rounds} rounds, --jobs {a.jobs}, {os.cpu_count()} cores,"
               f" compression {a.compression}, in {tmp}")
         print(f"{'':10s} {'wall s (min-max)':>22s} {'frames/s':>9s} {'CPU s':>7s} {'CPU ms/fr':>9s}"
-              f" {'RSS MB':>7s} {'bytes':>11s}")
+              f" {'RSS MB':>7s} {'bytes':>11s} {'load':>9s}")
         for n, m in med.items():
             print(f"{n:10s} {m['wall_s']:7.3f} ({m['wall_min_s']:.3f}-{m['wall_max_s']:.3f})"
                   f" {m['fps']:9.1f} {m['cpu_s']:7.2f} {1e3 * m['cpu_s'] / a.frames:9.2f}"
-                  f" {m['peak_rss_mb']:7.1f} {m['bytes']:11d}")
+                  f" {m['peak_rss_mb']:7.1f} {m['bytes']:11d}"
+                  f" {m['load_min']:4.1f}-{m['load_max']:.1f}")
+        all_loads = [x for ls in loads.values() for l in ls for x in l]
+        load_note = f"load {min(all_loads):.1f}-{max(all_loads):.1f}" if all_loads else "load ?"
+
         def paired(other):
             """Per round, other's wall time over panoconv's (the two ran minutes apart at most,
             so a slow spell of a shared machine slows both): median and range."""
@@ -156,13 +167,14 @@ def main():
             p, o = med["panoconv"], med["opencv"]
             print(f"panoconv/opencv: {p['fps'] / o['fps']:.2f}x frames/s"
                   f" [{paired('opencv')}],"
-                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes")
+                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes"
+                  f" ({load_note})")
         if "panoconv" in med and "floor" in med:
             p, f = med["panoconv"], med["floor"]
             inv = [p_[0] / f_[0] for p_, f_ in zip(results["panoconv"], results["floor"])]
             print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall"
                   f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
-                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU")
+                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU ({load_note})")
         if a.json:
             with open(a.json, "w") as f:
                 json.dump({"frames": a.frames, "jobs": a.jobs, "medians": med}, f, indent=1)

@@ -120,15 +120,17 @@ def main() -> None:
         data = make_dataset(a.tmp, n, a.source)
         print(f"# {n} frames hard-linked in {time.monotonic() - t:.1f} s", flush=True)
         for name, binary in bins:
+            before = os.getloadavg()[0]
             r = run(binary, data, a.tmp / "out", a.extra, a.timeout)
+            r["load"] = f"{before:.1f}-{os.getloadavg()[0]:.1f}"
             rows.append((name, n, r))
             print(f"{name} {n}: {r}", flush=True)
         if not a.keep_data:
             shutil.rmtree(data)
     print()
     print("| binary | frames | wall s | frames/s | vs same binary at the fewest frames | peak RSS MB "
-          "| first frame s | panoconv.json MB |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| first frame s | panoconv.json MB | load average (1 min, before-after) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     base = {}
     for name, n, r in rows:
         base.setdefault(name, r["fps"])
@@ -136,7 +138,8 @@ def main() -> None:
         manifest = f"{r['manifest_mb']:.1f}" if r["manifest_mb"] else "—"
         first = f"{r['first']:.2f}" if r["first"] is not None else "—"
         print(f"| {name} | {done} | {r['wall']:.1f} | {r['fps']:.0f} | "
-              f"{100 * r['fps'] / base[name]:.0f} % | {r['rss_mb']:.0f} | {first} | {manifest} |")
+              f"{100 * r['fps'] / base[name]:.0f} % | {r['rss_mb']:.0f} | {first} | {manifest} "
+              f"| {r['load']} |")
 
 
 def fs_type(path: Path) -> str:

@@ -25,6 +25,7 @@ mod export;
 mod first_run;
 mod fisheye;
 mod fisheye_target;
+mod footprint;
 mod fuzz_parsers;
 mod inspect;
 mod kitti360;

@@ -209,11 +209,13 @@ enum CompressionArg {
     Best,
 }
 
-/// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean).
+/// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean), unless
+/// `PANOCONV_PROGRESS=lines` asks for the notes of long steps as lines (for logs and tests).
 struct Bar {
     bar: ProgressBar,
     /// What an item is called in messages: `frame`, or `image` for folder conversions.
     noun: &'static str,
+    lines: bool,
 }
 
 impl Bar {
@@ -224,12 +226,16 @@ impl Bar {
     /// A bar whose items are called `noun` (`image`: a folder conversion's).
     fn counting(quiet: bool, noun: &'static str) -> Self {
         let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-        if quiet || !std::io::stderr().is_terminal() {
+        let terminal = std::io::stderr().is_terminal();
+        if quiet || !terminal {
             bar.set_draw_target(ProgressDrawTarget::hidden());
         }
+        let lines = !quiet
+            && !terminal
+            && std::env::var_os("PANOCONV_PROGRESS").is_some_and(|v| v == "lines");
         bar.set_style(
             ProgressStyle::with_template(
-                &format!("{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {noun}s ({{rate}}, eta {{eta}})"),
+                &format!("{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {noun}s ({{rate}}, eta {{eta}}) {{msg}}"),
             )
             .expect("valid template")
             .with_key(
@@ -239,7 +245,7 @@ impl Bar {
                 },
             ),
         );
-        Self { bar, noun }
+        Self { bar, noun, lines }
     }
 }
 
@@ -249,6 +255,19 @@ impl Progress for Bar {
     }
     fn frame_done(&self) {
         self.bar.inc(1);
+    }
+    fn note(&self, message: &str) {
+        // a spinner that moves while the step runs, so the bar does not sit still at 0/N
+        if message.is_empty() {
+            self.bar.disable_steady_tick();
+        } else if !self.bar.is_hidden() {
+            self.bar
+                .enable_steady_tick(std::time::Duration::from_millis(120));
+        }
+        self.bar.set_message(message.to_owned());
+        if self.lines && !message.is_empty() {
+            eprintln!("panoconv: {message}");
+        }
     }
     fn frame_failed(&self, item: &str, error: &Error) {
         self.bar

@@ -24,6 +24,9 @@ pub trait Progress: Sync {
     fn frame_failed(&self, item: &str, error: &Error);
     /// The run ended, every item taken or stopped early.
     fn finish(&self);
+    /// A step that takes a while with no item finishing (building a remap table), shown until
+    /// the next note or item; an empty message ends it.
+    fn note(&self, _message: &str) {}
 }
 
 /// A progress reporter that says nothing.

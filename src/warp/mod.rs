@@ -1,10 +1,12 @@
 //! Image reprojection: a remap table built once per (source camera, output camera) and applied
 //! to every frame that shares them.
 
+mod footprint;
 mod kernel;
 pub mod stitch;
 mod table;
 
+pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
 pub use stitch::{Stitch, StitchCamera, StitchOptions};

@@ -8,6 +8,7 @@
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path.
 
+use super::footprint::Footprint;
 use super::kernel::{self, Kernel, Quad, WEIGHT_ONE};
 use crate::camera::{CameraModel, ImageSize};
 use crate::image::RgbImage;
@@ -63,6 +64,8 @@ struct Builder<'a> {
     wrap: Wrap,
     cap: u32,
     source_size: ImageSize,
+    /// Pixels outside it are not mapped (they take nothing from the source).
+    seen: Option<&'a Footprint>,
 }
 
 /// A band of consecutive output rows, built independently of the others.
@@ -107,9 +110,7 @@ impl RemapTable {
         wrap: Wrap,
         max_supersample: u32,
     ) -> RemapTable {
-        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
-        let h = dst.size().height as usize;
-        b.finish(vec![b.band(0..h)])
+        Self::build_within(dst, src, src_from_dst, wrap, max_supersample, None, false)
     }
 
     /// Exactly [`RemapTable::build_with`], with bands of rows built in parallel on rayon's
@@ -121,8 +122,27 @@ impl RemapTable {
         wrap: Wrap,
         max_supersample: u32,
     ) -> RemapTable {
-        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
+        Self::build_within(dst, src, src_from_dst, wrap, max_supersample, None, true)
+    }
+
+    /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
+    /// others take nothing from the source: see [`Footprint`]), serially or with bands of rows
+    /// in parallel (see [`RemapTable::build_parallel`] for where that is allowed).
+    pub fn build_within(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+        seen: Option<&Footprint>,
+        parallel: bool,
+    ) -> RemapTable {
+        let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
+        b.seen = seen;
         let h = dst.size().height as usize;
+        if !parallel {
+            return b.finish(vec![b.band(0..h)]);
+        }
         let bands = (0..h.div_ceil(BAND_ROWS))
             .into_par_iter()
             .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
@@ -234,6 +254,7 @@ impl<'a> Builder<'a> {
             wrap,
             cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
             source_size: src.size(),
+            seen: None,
         }
     }
 
@@ -249,7 +270,16 @@ impl<'a> Builder<'a> {
     fn centres(&self, v: isize, out: &mut Vec<Option<Point2<f64>>>) {
         let w = self.dst.size().width as isize;
         out.clear();
-        out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64)));
+        match self.seen {
+            None => out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64))),
+            Some(seen) => out.extend((-1..=w).map(|u| {
+                if seen.may_see(u, v) {
+                    self.to_src(u as f64, v as f64)
+                } else {
+                    None
+                }
+            })),
+        }
     }
 
     /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel

@@ -8,7 +8,7 @@ use super::{KittiJob, KittiSource, KittiSummary, Parameters};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
-use crate::run::journal::{self, Journal};
+use crate::run::journal::{self, Journal, Previous};
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::{Progress, Summary};
 use crate::style::{Device, StyleModel, StyleOptions};
@@ -17,9 +17,6 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::OnceLock;
-
-/// Frames a previous run completed, by (split, id) (`--resume`).
-type Previous = HashMap<(String, String), FrameRecord>;
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
@@ -56,7 +53,7 @@ pub fn run_kitti(
     let previous = if job.resume {
         journal::load_previous(&job.output, job.shard, &parameters)?
     } else {
-        HashMap::new()
+        Previous::default()
     };
     if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
         return Err(Error::Setup(
@@ -82,10 +79,10 @@ pub fn run_kitti(
         // (augmented views have tables of their own, built with the frame)
         let todo: Vec<(&Split, &str)> = frames
             .iter()
-            .filter(|f| !previous.contains_key(&(f.split.clone(), f.id.clone())))
+            .filter(|f| !previous.contains(&f.split, &f.id))
             .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
             .collect();
-        super::tables::build_ahead(&ctx, &todo, &job.cameras);
+        super::tables::build_ahead(&ctx, &todo, &job.cameras, progress);
     }
     for split in &dataset.splits {
         ctx.write_split_calib(split)?;
@@ -343,8 +340,14 @@ impl FramePass<'_> {
     /// thread count. Returns the frames taken and, of those, the ones kept from a previous run.
     fn run(&self, frames: &[FrameRef]) -> (usize, usize) {
         let group_len = self.style_pass.map_or(1, |p| p.group_len());
-        let outcomes: Vec<Option<bool>> = frames
-            .par_chunks(group_len)
+        // Groups with a frame to convert go first: a resumed run writes its first new frame
+        // at once and re-checks the kept ones after (outcomes are only counted).
+        let (new, kept): (Vec<&[FrameRef]>, Vec<&[FrameRef]>) = frames
+            .chunks(group_len)
+            .partition(|g| g.iter().any(|f| !self.previous.contains(&f.split, &f.id)));
+        let outcomes: Vec<Option<bool>> = new
+            .into_par_iter()
+            .chain(kept)
             .flat_map_iter(|group| self.group(group))
             .collect();
         let (mut done, mut resumed) = (0, 0);
@@ -369,9 +372,9 @@ impl FramePass<'_> {
                 .dataset
                 .split(&f.split)
                 .expect("selected frames come from the dataset's splits");
-            if let Some(r) = self.previous.get(&(f.split.clone(), f.id.clone())) {
-                if journal::still_valid(r, &self.job.input, &self.job.output) {
-                    self.journal.record(r.clone());
+            if let Some(r) = self.previous.get(&f.split, &f.id) {
+                if journal::still_valid(&r, &self.job.input, &self.job.output) {
+                    self.journal.record(r);
                     self.written.fetch_add(1, Ordering::Relaxed);
                     self.progress.frame_done();
                     continue;

@@ -1,9 +1,9 @@
-//! The remap tables of the source cameras that several frames share, built before the first
-//! frame.
+//! The remap tables of the source cameras, built before the first frame.
 //!
 //! Built lazily, a table is made inside the cache's once-cell, serially (a parallel build there
 //! could let rayon run, on the same thread, a frame that waits on that very cell), while the
-//! frames needing it wait. Built here, ahead of the frames, all the cores build it. The set of
+//! frames needing it wait. Built here, ahead of the frames, all the cores build it, even for
+//! a one-frame run. The set of
 //! cameras comes from each frame's calib and PNG header; a frame whose files cannot be read is
 //! skipped here and fails in its turn with the full error.
 
@@ -12,7 +12,7 @@ use crate::camera::{ImageSize, Intrinsics};
 use crate::codec::png;
 use crate::kitti::Cam;
 use crate::kitti::{Calib, Layout, Split};
-use crate::warp::{RemapTable, MAX_SUPERSAMPLE};
+use crate::run::Progress;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::io::Read;
@@ -24,8 +24,19 @@ use std::path::Path;
 /// same table: `build_parallel` is exactly `build`).
 const SCAN_AT_MOST: usize = 2048;
 
-/// Builds, in parallel, the table of every (camera, image size) that several of `frames` share.
-pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[Cam]) {
+/// A camera only one scanned frame uses is built ahead when its image has at most this many
+/// pixels (KITTI's have 0.47 M), or when the output size does not depend on it (a fisheye
+/// target): the size comes from an unchecked PNG header (the decoder may refuse the file), and
+/// a linear target's table grows with it.
+const ALONE_AT_MOST_PIXELS: u64 = 4_000_000;
+
+/// Builds, in parallel, the table of every (camera, image size) of `frames`.
+pub(super) fn build_ahead(
+    ctx: &Context,
+    frames: &[(&Split, &str)],
+    cameras: &[Cam],
+    progress: &dyn Progress,
+) {
     let found: Vec<(Intrinsics, ImageSize)> = frames
         .par_iter()
         .step_by(frames.len().div_ceil(SCAN_AT_MOST).max(1))
@@ -39,23 +50,28 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[C
             .or_insert((k, size, 0))
             .2 += 1;
     }
-    // Only cameras shared by several frames: a single frame gains nothing from being ahead,
-    // and a corrupt PNG header (an absurd size, read before the decoder has refused the file)
+    // A corrupt PNG header (an absurd size, read before the decoder has refused the file)
     // must not cost a huge table.
-    let built: Vec<_> = distinct
+    let fixed_size = ctx.job.fisheye.is_some();
+    let todo: Vec<_> = distinct
         .into_values()
-        .filter(|&(_, _, frames)| frames > 1)
+        .filter(|&(_, size, frames)| {
+            let pixels = size.width as u64 * size.height as u64;
+            frames > 1 || fixed_size || pixels <= ALONE_AT_MOST_PIXELS
+        })
         .map(|(k, size, _)| (k, size))
-        .collect::<Vec<_>>()
+        .collect::<Vec<_>>();
+    match todo.len() {
+        0 => return,
+        1 => progress.note("building the camera table"),
+        n => progress.note(&format!("building {n} camera tables")),
+    }
+    let built: Vec<_> = todo
         .into_par_iter()
         .filter_map(|(k, size)| {
             // A panic here (a bug) must not end the run: the frames then build the table
             // themselves, each failing alone.
-            let build = || {
-                ctx.build_mapping(k, size, |dst, src, src_from_dst, wrap| {
-                    RemapTable::build_parallel(dst, src, src_from_dst, wrap, MAX_SUPERSAMPLE)
-                })
-            };
+            let build = || ctx.build_mapping(k, size, true);
             let mapping = std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)).ok()?;
             Some((k, size, mapping))
         })
@@ -63,6 +79,7 @@ pub(super) fn build_ahead(ctx: &Context, frames: &[(&Split, &str)], cameras: &[C
     for (k, size, mapping) in built {
         ctx.insert_mapping(k, size, mapping);
     }
+    progress.note("");
 }
 
 /// The (K, image size) of each camera of a frame, as far as its files can be read.

@@ -9,8 +9,8 @@ use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::geometry::target_camera;
 use crate::kitti::Cam;
 use crate::kitti::Split;
-use crate::warp::{RemapTable, Wrap};
-use nalgebra::Matrix3;
+use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -42,24 +42,22 @@ impl Context<'_> {
         size: ImageSize,
     ) -> Result<CameraMapping> {
         self.mappings
-            .get_or_build(&(k.key(), size), || {
-                self.build_mapping(k, size, RemapTable::build)
-            })
+            .get_or_build(&(k.key(), size), || self.build_mapping(k, size, false))
             .map_err(|m| Error::file(calib_path, m))
     }
 
-    /// The output camera and table of a source camera, the table made by `build` (serial
-    /// inside the cache's once-cells, parallel ahead of the frames).
+    /// The output camera and table of a source camera, the table built serially (inside the
+    /// cache's once-cells) or in `parallel` (ahead of the frames).
     pub(super) fn build_mapping(
         &self,
         k: Intrinsics,
         size: ImageSize,
-        build: fn(&dyn CameraModel, &dyn CameraModel, &Matrix3<f64>, Wrap) -> RemapTable,
+        parallel: bool,
     ) -> std::result::Result<CameraMapping, String> {
         let source = Perspective::new(k, size);
         let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
             .map_err(|e| e.to_string())?;
-        let table = build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+        let table = table(output.as_ref(), &source, parallel);
         Ok(CameraMapping {
             output: Arc::from(output),
             table: Arc::new(table),
@@ -144,8 +142,7 @@ impl Context<'_> {
                     }
                 };
                 // Every view has its own camera, so its table is not shared.
-                let table =
-                    RemapTable::build(output.as_ref(), &source, &Matrix3::identity(), Wrap::None);
+                let table = table(output.as_ref(), &source, false);
                 let mapping = CameraMapping {
                     output: Arc::from(output),
                     table: Arc::new(table),
@@ -164,6 +161,27 @@ impl Context<'_> {
     pub(super) fn thin_views(&self) -> usize {
         self.thin_views.load(Ordering::Relaxed)
     }
+}
+
+/// The remap table of `output` from `source`. For a fisheye output only the part of the lens
+/// image the source can reach is mapped (the same table, without the lens inversions of the
+/// pixels no source ray reaches, most of a wide lens's image).
+fn table(output: &dyn OutputCamera, source: &Perspective, parallel: bool) -> RemapTable {
+    let identity = Matrix3::identity();
+    let seen = output.as_fisheye().and_then(|f| {
+        // a lens sees no further than a cap around its backward axis
+        let blind = f.rect_from_camera * -Vector3::z();
+        Footprint::new(output, source, &identity, &blind)
+    });
+    RemapTable::build_within(
+        output,
+        source,
+        &identity,
+        Wrap::None,
+        MAX_SUPERSAMPLE,
+        seen.as_ref(),
+        parallel,
+    )
 }
 
 /// How a camera's augmented views are drawn.

@@ -28,7 +28,7 @@ fn shard_part(name: &str, ext: &str) -> Option<(u32, u32)> {
 }
 
 /// `text` without the whitespace outside its strings: the compact form serde_json writes.
-fn compacted(text: &str) -> Vec<u8> {
+pub(super) fn compacted(text: &str) -> Vec<u8> {
     let mut out = Vec::with_capacity(text.len());
     let (mut in_string, mut escaped) = (false, false);
     for &c in text.as_bytes() {
