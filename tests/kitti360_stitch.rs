@@ -42,7 +42,8 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
     .unwrap();
     let number = seq.frames()[0];
     let frame = seq.frame(number).unwrap();
-    // one pixel per degree: coarser than every source camera
+    // two pixels per degree (114.6 px/rad): 1.2x coarser than image_00/01 (138.1 px/rad), below
+    // the 1.5x at which the remap supersamples
     let size = ImageSize::new(720, 360);
     let k = Intrinsics::new(
         size.width as f64 / (2.0 * PI),
@@ -125,8 +126,10 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
             frame.rig[cam as usize].name, db[cam as usize]
         ));
         if cam == 0 {
-            // registration: a quarter-pixel shift of the direct render in u or v is worse
-            for (du, dv) in [(0.25, 0.0), (-0.25, 0.0), (0.0, 0.25), (0.0, -0.25)] {
+            // registration: a shift of the direct render by 0.1 px (0.87 mrad) in u or v is
+            // worse (shifts of 0.05 px are worse too in u; in v, 0.05 px down fits slightly
+            // better than none)
+            for (du, dv) in [(0.1, 0.0), (-0.1, 0.0), (0.0, 0.1), (0.0, -0.1)] {
                 let shifted_k = Intrinsics::new(k.fu, k.fv, k.cu + du, k.cv + dv);
                 let shifted = Rotated::new(Equirect::new(shifted_k, size), scene_from_level);
                 let other = scene.render_with(&shifted, &centre, sigma(0), 6);
@@ -143,14 +146,17 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
         report.join("; ")
     );
     // The fisheyes' regions (nearly all of the sphere) are at the resampling limit; image_00's
-    // region is dense with the silhouettes of the objects ahead, whose step edges the
-    // bilinear resampling of a 2.4x finer source cannot reproduce to 50 dB.
+    // region is dense with the silhouettes of the objects ahead. The source renders them with
+    // a 0.55 px Gaussian, which leaves detail above its Nyquist limit: bilinear resampling at
+    // 1.2x (not supersampled) reproduces those step edges to 42.3 dB. The error is neither
+    // misregistration (checked above) nor blur: the best Gaussian of the reference (1.25σ)
+    // gains 0.8 dB only.
     assert!(
         db[2] >= MIN_PSNR_DB && db[3] >= MIN_PSNR_DB,
         "{}",
         report.join("; ")
     );
-    assert!(db[0] >= 40.0 && db[1] >= 40.0, "{}", report.join("; "));
+    assert!(db[0] >= 42.0 && db[1] >= 42.0, "{}", report.join("; "));
     // the whole sphere is covered by the fisheyes' 185° each
     assert!(source.iter().all(|s| *s < 4), "a pixel without a camera");
 }
