@@ -7,5 +7,5 @@ mod table;
 
 #[doc(hidden)]
 pub use kernel::Kernel;
-pub use stitch::{Stitch, StitchCamera, StitchOptions};
+pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
