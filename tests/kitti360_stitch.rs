@@ -183,6 +183,13 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
     let agreed = evening.apply(&refs).gains;
     assert!(agreed.iter().all(|g| (g - 1.0).abs() < 0.003), "{agreed:?}");
     let evened = evening.apply(&darkened);
+    // deterministic: the same gains and image on one thread
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| evening.apply(&darkened));
+    assert!(one.gains == evened.gains && one.image == evened.image);
     let g = &evened.gains;
     assert_eq!(g[0], 1.0);
     assert!((g[2] * DARKEN - agreed[2]).abs() < 1e-3, "gains {g:?}");
