@@ -9,5 +9,5 @@ mod table;
 pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
-pub use stitch::{Stitch, StitchCamera, StitchOptions};
+pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

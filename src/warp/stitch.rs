@@ -16,9 +16,17 @@
 //!    edge (pixels; the edges at −0.5 and size − 0.5) divided by the local scale at p_i (pixels
 //!    per radian: the larger of the image displacements of q_i turned by 1e-4 rad about two
 //!    axes perpendicular to it). m_i ≤ 0, or no image of q_i, gives w_i = 0.
-//! 4. The output value is Σ w_i·v_i / Σ w_i per channel, rounded to the nearest integer
-//!    (ties away from zero), black where Σ w_i = 0. The source map names the camera of largest
-//!    weight (the first on a tie), 255 where none.
+//! 4. The output value is Σ w_i·g_i·v_i / Σ w_i per channel, rounded to the nearest integer
+//!    (ties away from zero), clamped to 0..=255, black where Σ w_i = 0. The source map names the
+//!    camera of largest weight (the first on a tie), 255 where none.
+//! 5. The exposure gains g_i are 1 when exposure evening is off. Otherwise, per frame: over the
+//!    output pixels where cameras i and j both have w > 0 (N_ij of them), m_ij is the mean of
+//!    camera i's resampled values there (all three channels, 0..=255; sums kept as integers).
+//!    g minimises Σ_{i<j} N_ij (g_i·m_ij − g_j·m_ji)² + μ Σ_i (g_i − 1)², μ = 1e-6·Σ_{i<j} N_ij
+//!    (a prior that only fixes the common scale the first term leaves free, and cameras
+//!    without overlaps), solved exactly as its normal equations; then every g_i is divided by
+//!    g_0, so the first camera keeps its exposure. Gains that are not finite and positive, or
+//!    a singular system, give g_i = 1.
 //!
 //! When every camera's centre is C (a zero-baseline rig) the proxy distance plays no part and
 //! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer
@@ -54,6 +62,19 @@ pub struct StitchOptions {
     pub distance: f64,
     /// Blend width b, radians.
     pub blend_width: f64,
+    /// Even the exposure of the cameras with per-frame gains (step 5 of the model).
+    pub even_exposure: bool,
+}
+
+impl Default for StitchOptions {
+    /// s = 10 m, b = 5°, exposure evening on.
+    fn default() -> Self {
+        Self {
+            distance: 10.0,
+            blend_width: 5f64.to_radians(),
+            even_exposure: true,
+        }
+    }
 }
 
 /// The mapping from output bearings to one camera's pixels through the proxy point, as a
@@ -124,6 +145,18 @@ pub struct Stitch {
     tables: Vec<RemapTable>,
     /// Per camera, per output pixel (row-major): w_i.
     weights: Vec<Vec<f32>>,
+    even_exposure: bool,
+}
+
+/// One frame's stitch.
+#[derive(Debug)]
+pub struct Stitched {
+    /// The stitched image.
+    pub image: RgbImage,
+    /// Per output pixel, the camera of largest weight (255 for none).
+    pub source: Vec<u8>,
+    /// The exposure gain g_i of each camera (all 1 with exposure evening off).
+    pub gains: Vec<f64>,
 }
 
 /// S(t) = t²(3 − 2t) on [0, 1].
@@ -218,6 +251,7 @@ impl Stitch {
             size,
             tables,
             weights,
+            even_exposure: options.even_exposure,
         }
     }
 
@@ -226,9 +260,72 @@ impl Stitch {
         self.weights[i][v as usize * self.size.width as usize + u as usize]
     }
 
-    /// The stitched image of one frame's `images` (in the cameras' order, each of its camera's
-    /// size) and the source map (the camera of largest weight per pixel, 255 for none).
-    pub fn apply(&self, images: &[&RgbImage]) -> (RgbImage, Vec<u8>) {
+    /// Step 5 of the model: the gains that even the exposure of the `remapped` images.
+    fn gains(&self, remapped: &[RgbImage]) -> Vec<f64> {
+        let n = remapped.len();
+        let ones = vec![1.0; n];
+        if !self.even_exposure || n < 2 {
+            return ones;
+        }
+        // integer sums: exact, so the gains do not depend on the thread count
+        let pixels = self.size.width as usize * self.size.height as usize;
+        let zero = || (vec![0u64; n * n], vec![0u64; n * n]);
+        let (count, sum) = (0..pixels)
+            .into_par_iter()
+            .fold(zero, |(mut count, mut sum), p| {
+                for i in 0..n {
+                    if !(self.weights[i][p] > 0.0) {
+                        continue;
+                    }
+                    let px = &remapped[i].as_raw()[p * 3..p * 3 + 3];
+                    let level = px.iter().map(|&c| c as u64).sum::<u64>();
+                    for j in (0..n).filter(|&j| j != i) {
+                        if self.weights[j][p] > 0.0 {
+                            count[i * n + j] += 1;
+                            sum[i * n + j] += level;
+                        }
+                    }
+                }
+                (count, sum)
+            })
+            .reduce(zero, |(mut c1, mut s1), (c2, s2)| {
+                for k in 0..n * n {
+                    c1[k] += c2[k];
+                    s1[k] += s2[k];
+                }
+                (c1, s1)
+            });
+        let mean = |i: usize, j: usize| sum[i * n + j] as f64 / (3.0 * count[i * n + j] as f64);
+        let total: u64 = (0..n)
+            .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
+            .map(|(i, j)| count[i * n + j])
+            .sum();
+        let mu = 1e-6 * total.max(1) as f64;
+        let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let b = nalgebra::DVector::<f64>::from_element(n, mu);
+        for i in 0..n {
+            a[(i, i)] += mu;
+            for j in (0..n).filter(|&j| j != i && count[i * n + j] > 0) {
+                let nij = count[i * n + j] as f64;
+                let (mij, mji) = (mean(i, j), mean(j, i));
+                a[(i, i)] += nij * mij * mij;
+                a[(i, j)] -= nij * mij * mji;
+            }
+        }
+        let Some(g) = a.lu().solve(&b) else {
+            return ones;
+        };
+        let g0 = g[0];
+        let gains: Vec<f64> = g.iter().map(|gi| gi / g0).collect();
+        if gains.iter().all(|gi| gi.is_finite() && *gi > 0.0) {
+            gains
+        } else {
+            ones
+        }
+    }
+
+    /// The stitch of one frame's `images` (in the cameras' order, each of its camera's size).
+    pub fn apply(&self, images: &[&RgbImage]) -> Stitched {
         assert_eq!(images.len(), self.tables.len(), "one image per camera");
         let remapped: Vec<RgbImage> = self
             .tables
@@ -236,6 +333,7 @@ impl Stitch {
             .zip(images)
             .map(|(t, img)| t.apply(img))
             .collect();
+        let gains = self.gains(&remapped);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let mut out = RgbImage::new(self.size.width, self.size.height);
         let mut source = vec![255u8; w * h];
@@ -254,7 +352,7 @@ impl Stitch {
                         }
                         let px = &img.as_raw()[i * 3..i * 3 + 3];
                         for c in 0..3 {
-                            acc[c] += wk as f64 * px[c] as f64;
+                            acc[c] += wk as f64 * gains[k] * px[c] as f64;
                         }
                         total += wk as f64;
                         if wk > best.0 {
@@ -269,7 +367,11 @@ impl Stitch {
                     src_row[u] = best.1;
                 }
             });
-        (out, source)
+        Stitched {
+            image: out,
+            source,
+            gains,
+        }
     }
 }
 
@@ -302,6 +404,8 @@ mod tests {
         assert_eq!(smoothstep(-1.0), 0.0);
         assert_eq!(smoothstep(0.5), 0.5);
         assert_eq!(smoothstep(2.0), 1.0);
+        let defaults = StitchOptions::default();
+        assert!(defaults.even_exposure && defaults.distance == 10.0);
         // the proxy's unproject is its project's inverse, with a baseline
         let proxy = Proxy {
             camera,
