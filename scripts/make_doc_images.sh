@@ -2,7 +2,8 @@
 # Makes the pictures in docs/images from the shipped synthetic sample, each a `panoconv preview`
 # of a conversion (boxes drawn from the written calib alone), and the two occlusion figures of
 # docs/depth.md with the `occlusion_figure` example. A test (tests/first_run.rs) runs this
-# script and checks that the committed pictures are its output, byte for byte.
+# script and checks that the committed previews are its output, byte for byte; scripts/test.sh
+# checks the occlusion figures.
 #
 # Usage: scripts/make_doc_images.sh [--previews-only] [PANOCONV_BINARY [OUT_DIR]]
 #   default binary: target/release/panoconv, else target/debug/panoconv; default OUT_DIR:
@@ -50,6 +51,7 @@ p kitti --to fisheye --camera fixtures/cameras/front.json --mask --depth --input
 pv "$work/f" --frame 000000 --no-depth --output "$out/fisheye_target.png"
 # docs/depth.md
 if [[ $previews_only -eq 0 ]]; then
-    cargo run --quiet --release --example occlusion_figure -- "$out"
+    # the test profile: the build scripts/test.sh already made, and the one it checks the figures with
+    cargo run --locked --quiet --profile test --example occlusion_figure -- "$out"
 fi
 echo "make_doc_images: pictures in $out" >&2

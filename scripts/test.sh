@@ -11,6 +11,17 @@ export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
 # --tests: the library's unit tests and the integration crate (tests/tests.rs); the examples
 # (benches/*.rs measurement tools) are compiled by clippy --all-targets in CI instead.
 cargo test --locked --tests "$@"
+# The occlusion figures of docs/depth.md come from a cargo example (benches/occlusion_figure.rs)
+# that tests/first_run.rs, which checks the other pictures, cannot build: check them here.
+figures="$(mktemp -d)"
+trap 'rm -rf "$figures"' EXIT
+cargo run --locked --quiet --profile test --example occlusion_figure -- "$figures" >/dev/null
+for made in "$figures"/*.png; do
+    cmp -s "$made" "docs/images/$(basename "$made")" || {
+        echo "docs/images/$(basename "$made") is not what scripts/make_doc_images.sh makes: run it" >&2
+        exit 1
+    }
+done
 # The Python package: the module built by `maturin develop` (sharing target/), the command the
 # test build made; pytest runs against both.
 PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
