@@ -188,3 +188,36 @@ pub fn check_output_dir(input: &Path, output: &Path, overwrite: bool) -> Result<
 pub fn hash_hex(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
 }
+
+/// The tree under `root`, without following symlinks (no loops, and nothing outside `root` is
+/// reached): every non-folder entry (files, symlinks, others) relative to `root` with `/`
+/// separators, and every folder below `root`, each listed after its contents.
+pub fn walk_tree(root: &Path) -> Result<(Vec<String>, Vec<PathBuf>)> {
+    fn walk(
+        root: &Path,
+        dir: &Path,
+        files: &mut Vec<String>,
+        dirs: &mut Vec<PathBuf>,
+    ) -> Result<()> {
+        for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+            let entry = entry.map_err(|e| Error::io(dir, e))?;
+            let path = entry.path();
+            let kind = entry.file_type().map_err(|e| Error::io(&path, e))?;
+            if kind.is_dir() {
+                walk(root, &path, files, dirs)?;
+                dirs.push(path);
+            } else {
+                let rel = path.strip_prefix(root).unwrap_or(&path);
+                let parts: Vec<String> = rel
+                    .components()
+                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                    .collect();
+                files.push(parts.join("/"));
+            }
+        }
+        Ok(())
+    }
+    let (mut files, mut dirs) = (Vec::new(), Vec::new());
+    walk(root, root, &mut files, &mut dirs)?;
+    Ok((files, dirs))
+}

@@ -99,39 +99,10 @@ fn read_record(path: &Path, listed: &mut BTreeSet<String>) -> bool {
     }
 }
 
-/// Every non-folder entry under `dir` (symlinks included, not followed), relative to `root`
-/// with `/` separators, and every folder below `root`.
-fn walk(
-    root: &Path,
-    dir: &Path,
-    files: &mut Vec<String>,
-    dirs: &mut Vec<std::path::PathBuf>,
-) -> Result<()> {
-    for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
-        let entry = entry.map_err(|e| Error::io(dir, e))?;
-        let path = entry.path();
-        let kind = entry.file_type().map_err(|e| Error::io(&path, e))?;
-        if kind.is_dir() {
-            walk(root, &path, files, dirs)?;
-            dirs.push(path);
-        } else {
-            let rel = path.strip_prefix(root).unwrap_or(&path);
-            let parts: Vec<String> = rel
-                .components()
-                .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                .collect();
-            files.push(parts.join("/"));
-        }
-    }
-    Ok(())
-}
-
 /// Empties `output` of a previous run (see the module's comment) and returns how many files
 /// were removed. Refuses, removing nothing, when it holds a file no previous run accounts for.
 pub fn clear_previous_run(output: &Path) -> Result<usize> {
-    let mut files = Vec::new();
-    let mut dirs = Vec::new();
-    walk(output, output, &mut files, &mut dirs)?;
+    let (files, dirs) = crate::fs::walk_tree(output)?;
     let mut listed = BTreeSet::new();
     let mut augmented = false;
     for rel in &files {

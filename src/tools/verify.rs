@@ -292,28 +292,6 @@ fn hash_file(path: &Path) -> std::io::Result<String> {
     Ok(hasher.finalize().to_hex().to_string())
 }
 
-/// Every file (and symlink, and other non-directory) under `dir`, relative to `root` with `/`
-/// separators. Symlinks to folders are not followed (no loops).
-fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-    for entry in entries {
-        let entry = entry.map_err(|e| Error::io(dir, e))?;
-        let path = entry.path();
-        let kind = entry.file_type().map_err(|e| Error::io(&path, e))?;
-        if kind.is_dir() {
-            walk(root, &path, out)?;
-        } else {
-            let rel = path.strip_prefix(root).unwrap_or(&path);
-            let parts: Vec<String> = rel
-                .components()
-                .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                .collect();
-            out.push(parts.join("/"));
-        }
-    }
-    Ok(())
-}
-
 /// Whether an unlisted file is one the conversion writes without listing it.
 fn ignored(rel: &str, augmented: bool) -> bool {
     // The journal and the lock a killed run leaves: its incompleteness is reported instead.
@@ -401,8 +379,7 @@ pub fn verify(root: &Path) -> Result<Report> {
         }
     }
 
-    let mut present = Vec::new();
-    walk(root, root, &mut present)?;
+    let (present, _) = crate::fs::walk_tree(root)?;
     for rel in present {
         if !listed.contains_key(&rel) && !ignored(&rel, augmented) {
             report.problems.push(Problem::Extra { path: rel });
