@@ -102,10 +102,8 @@ impl<'de> Visitor<'de> for PartVisitor<'_> {
         let mut header = Map::new();
         while let Some(key) = map.next_key::<String>()? {
             if key == "frames" {
-                map.next_value_seed(FramesSeed {
-                    spool: &mut *self.spool,
-                    part: self.part,
-                })?;
+                let (spool, part) = (&mut *self.spool, self.part);
+                map.next_value_seed(EachFrame(|raw: &RawValue| spool.push(raw, part)))?;
             } else {
                 header.insert(key, map.next_value()?);
             }
@@ -114,12 +112,13 @@ impl<'de> Visitor<'de> for PartVisitor<'_> {
     }
 }
 
-struct FramesSeed<'a> {
-    spool: &'a mut Spool,
-    part: u32,
-}
+/// A manifest's `frames` array read one record at a time, never held whole: the function gets
+/// each record's raw JSON, and an error it returns stops the read.
+pub(super) struct EachFrame<F>(pub(super) F);
 
-impl<'de> DeserializeSeed<'de> for FramesSeed<'_> {
+impl<'de, F: FnMut(&RawValue) -> std::result::Result<(), String>> DeserializeSeed<'de>
+    for EachFrame<F>
+{
     type Value = ();
 
     fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> std::result::Result<(), D::Error> {
@@ -127,18 +126,16 @@ impl<'de> DeserializeSeed<'de> for FramesSeed<'_> {
     }
 }
 
-impl<'de> Visitor<'de> for FramesSeed<'_> {
+impl<'de, F: FnMut(&RawValue) -> std::result::Result<(), String>> Visitor<'de> for EachFrame<F> {
     type Value = ();
 
     fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
         f.write_str("a list of frame records")
     }
 
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<(), A::Error> {
+    fn visit_seq<A: SeqAccess<'de>>(mut self, mut seq: A) -> std::result::Result<(), A::Error> {
         while let Some(raw) = seq.next_element::<Box<RawValue>>()? {
-            self.spool
-                .push(&raw, self.part)
-                .map_err(de::Error::custom)?;
+            (self.0)(&raw).map_err(de::Error::custom)?;
         }
         Ok(())
     }

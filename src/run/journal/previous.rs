@@ -4,11 +4,11 @@
 //! holds only where each frame's line is. A record is read back and parsed when its frame
 //! comes up.
 
-use super::merge::compacted;
+use super::merge::{compacted, EachFrame};
 use super::{journal_path, manifest_name, Shard};
 use crate::error::{Error, Result};
 use crate::run::manifest::FrameRecord;
-use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
+use serde::de::{self, MapAccess, Visitor};
 use serde_json::value::RawValue;
 use serde_json::Value;
 use std::collections::HashMap;
@@ -97,7 +97,17 @@ impl<'de> Visitor<'de> for ManifestVisitor<'_> {
         let mut parameters = Value::Null;
         while let Some(key) = map.next_key::<String>()? {
             match key.as_str() {
-                "frames" => map.next_value_seed(FramesSeed(&mut *self.0))?,
+                "frames" => {
+                    let loader = &mut *self.0;
+                    map.next_value_seed(EachFrame(|raw: &RawValue| {
+                        let text = raw.get();
+                        // a frame that cannot be read as a record is redone
+                        let Ok(r) = serde_json::from_str::<FrameRecord>(text) else {
+                            return Ok(());
+                        };
+                        loader.push(&r, &compacted(text)).map_err(|e| e.to_string())
+                    }))?
+                }
                 "parameters" => parameters = map.next_value()?,
                 _ => {
                     map.next_value::<de::IgnoredAny>()?;
@@ -105,37 +115,6 @@ impl<'de> Visitor<'de> for ManifestVisitor<'_> {
             }
         }
         Ok(parameters)
-    }
-}
-
-struct FramesSeed<'a>(&'a mut Loader);
-
-impl<'de> DeserializeSeed<'de> for FramesSeed<'_> {
-    type Value = ();
-
-    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> std::result::Result<(), D::Error> {
-        d.deserialize_seq(self)
-    }
-}
-
-impl<'de> Visitor<'de> for FramesSeed<'_> {
-    type Value = ();
-
-    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        f.write_str("a list of frame records")
-    }
-
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<(), A::Error> {
-        while let Some(raw) = seq.next_element::<Box<RawValue>>()? {
-            let text = raw.get();
-            let Ok(r) = serde_json::from_str::<FrameRecord>(text) else {
-                continue;
-            };
-            self.0
-                .push(&r, &compacted(text))
-                .map_err(de::Error::custom)?;
-        }
-        Ok(())
     }
 }
 
