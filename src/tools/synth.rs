@@ -480,12 +480,8 @@ pub fn label_lines(calib: &SynthCalib, scene: &Scene, dont_care: Option<[f64; 4]
     out
 }
 
-/// Writes the synthetic dataset under `root` (KITTI object layout).
-pub fn write_dataset(
-    root: &Path,
-    overwrite: bool,
-    progress: &dyn crate::run::Progress,
-) -> Result<()> {
+/// Refuses a synthetic output folder that holds anything, unless `overwrite`.
+pub(crate) fn require_empty(root: &Path, overwrite: bool) -> Result<()> {
     if root.exists()
         && !overwrite
         && std::fs::read_dir(root)
@@ -498,6 +494,16 @@ pub fn write_dataset(
             root.display()
         )));
     }
+    Ok(())
+}
+
+/// Writes the synthetic dataset under `root` (KITTI object layout).
+pub fn write_dataset(
+    root: &Path,
+    overwrite: bool,
+    progress: &dyn crate::run::Progress,
+) -> Result<()> {
+    require_empty(root, overwrite)?;
     let frames = frames();
     progress.start(frames.len());
     for SynthFrame {

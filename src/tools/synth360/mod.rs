@@ -287,18 +287,7 @@ pub fn write_sequence(
     overwrite: bool,
     progress: &dyn crate::run::Progress,
 ) -> Result<()> {
-    if root.exists()
-        && !overwrite
-        && std::fs::read_dir(root)
-            .map_err(|e| Error::io(root, e))?
-            .next()
-            .is_some()
-    {
-        return Err(Error::Setup(format!(
-            "output {} is not empty (use --overwrite)",
-            root.display()
-        )));
-    }
+    super::synth::require_empty(root, overwrite)?;
     if options.frames == 0 {
         return Err(Error::Setup("a sequence needs at least one frame".into()));
     }
