@@ -493,7 +493,7 @@ fn convert(
 }
 
 /// The fisheye target of `--camera FILE`.
-fn fisheye_target(file: &std::path::Path) -> Result<FisheyeTarget> {
+pub(super) fn fisheye_target(file: &std::path::Path) -> Result<FisheyeTarget> {
     let desc = CameraDescription::read(file)?;
     let bytes = panoconv::fs::read_file(file)?;
     Ok(FisheyeTarget {

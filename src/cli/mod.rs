@@ -26,12 +26,14 @@ mod camera;
 mod convert;
 mod export;
 mod folders;
+mod kitti360;
 mod tools;
 
 use camera::*;
 use convert::*;
 use export::*;
 use folders::*;
+use kitti360::{kitti360, Kitti360Args, KITTI360_EXAMPLES};
 use tools::*;
 
 const EXIT_FRAMES_FAILED: u8 = 1;
@@ -60,6 +62,10 @@ enum Command {
     /// Convert KITTI raw drives (a date folder with calib_*.txt and *_drive_*_sync/).
     #[command(after_help = RAW_EXAMPLES)]
     KittiRaw(Box<RawArgs>),
+    /// Convert a KITTI-360 sequence: its four cameras stitched into a panorama (or one camera
+    /// converted), with its 3D boxes, LiDAR depth and the camera of each pixel.
+    #[command(after_help = KITTI360_EXAMPLES)]
+    Kitti360(Box<Kitti360Args>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
@@ -297,6 +303,7 @@ fn run() -> Result<ExitCode> {
     match cli.command {
         Command::Kitti(a) => kitti(*a),
         Command::KittiRaw(a) => kitti_raw(*a),
+        Command::Kitti360(a) => kitti360(*a),
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),

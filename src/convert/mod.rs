@@ -1,6 +1,8 @@
-//! The converters: a KITTI dataset (object or raw) to a projection or a fisheye camera, and
-//! folders of panoramas or fisheye images to views.
+//! The converters: a KITTI dataset (object or raw) to a projection or a fisheye camera, a
+//! camera rig's frames (KITTI-360) into one output camera, and folders of panoramas or fisheye
+//! images to views.
 
 pub mod folder;
 pub mod kitti;
 pub mod pano;
+pub mod rig;

@@ -5,6 +5,7 @@ mod cam;
 pub mod dataset;
 mod label;
 pub mod raw;
+pub mod rig_output;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};

@@ -3,4 +3,5 @@
 
 pub mod depth;
 pub mod labels;
+pub mod source_box;
 pub mod unproject;

@@ -1,0 +1,360 @@
+//! `panoconv kitti360`: a KITTI-360 sequence's rig into panoramas (or one camera converted),
+//! with labels, calib, depth and the source map, as a KITTI dataset.
+
+use super::convert::{install_stop_handler, parse_crop, parse_shard, STOP};
+use super::export::{export_after_kitti, FormatArg};
+use super::EXIT_INTERRUPTED;
+use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED};
+use anyhow::{bail, Result};
+use clap::Args;
+use nalgebra::Vector3;
+use panoconv::camera::{ImageSize, Projection};
+use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule, RigTarget};
+use panoconv::error::Error;
+use panoconv::geometry::{Canvas, Crop, OutputSpec};
+use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
+use panoconv::reproject::depth::OcclusionFilter;
+use panoconv::run::journal::Shard;
+use panoconv::warp::StitchOptions;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub(super) const KITTI360_EXAMPLES: &str = "Examples:
+  panoconv kitti360 --to equirect --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync --output /tmp/k360_equi --pano-width 1024
+  panoconv kitti360 --to equirect --depth --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O --frames 250,251
+  panoconv kitti360 --to cylindrical --cameras 02 --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O_left
+  panoconv kitti360 --to equirect --input R --sequence 2013_05_28_drive_0000_sync,2013_05_28_drive_0003_sync --output O --export coco
+
+Output: OUT/training/{image_2,label_2,calib,source_2,objects}/ID.* (depth_2 with --depth) and
+OUT/panoconv.json. ID is the frame number in 6 digits (000250); with several sequences the
+drive number comes first (0003000250). The rect of every file is the frame's level frame
+(y down along gravity, z the heading of image_00, origin at image_00's centre): calib has
+R0_rect = I, Tr_velo_to_cam into it, projection:/K2:/C2: and Tr_rect_to_world: (to the
+KITTI-360 world). source_2 names the camera of each pixel (0-3, 255 none). docs/kitti360.md
+has the stitch model, the class table and the rule for the objects written.";
+
+/// `panoconv kitti360`.
+#[derive(Args)]
+pub(super) struct Kitti360Args {
+    /// Target projection (fisheye: the camera of --camera, its rotation relative to the level
+    /// frame).
+    #[arg(long, value_enum)]
+    to: To,
+    /// The fisheye camera of --to fisheye (a camera description or calibration file).
+    #[arg(long, value_name = "FILE")]
+    camera: Option<PathBuf>,
+    /// KITTI-360 root (calibration/, data_2d_raw/, data_3d_raw/, data_poses/, data_3d_bboxes/).
+    #[arg(long, short = 'i')]
+    input: PathBuf,
+    /// Sequence folder name(s), comma-separated (e.g. 2013_05_28_drive_0000_sync).
+    #[arg(long, value_delimiter = ',', required = true, value_name = "NAME,...")]
+    sequence: Vec<String>,
+    /// Output root (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    output: PathBuf,
+    /// Convert only these frame numbers (comma-separated; 250 or 0000000250).
+    #[arg(long, value_delimiter = ',', value_name = "N,...")]
+    frames: Option<Vec<String>>,
+    /// Rig cameras to use: 00 and 01 (forward pinholes), 02 (left fisheye), 03 (right).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "00,01,02,03",
+        value_name = "K,..."
+    )]
+    cameras: Vec<String>,
+    /// Also write LiDAR depth maps (depth_2/: range from C2 for equirect and fisheye, z for
+    /// perspective, rho for cylindrical; 16-bit, round(d·256)).
+    #[arg(long)]
+    depth: bool,
+    /// Keep LiDAR points the output centre cannot see (the occlusion correction is on).
+    #[arg(long, requires = "depth")]
+    no_occlusion_filter: bool,
+    /// Azimuth step of the LiDAR sweep, degrees, for the occlusion filter (HDL-64E: 0.09;
+    /// synthetic sequences: 0.2 / scale).
+    #[arg(long, value_name = "DEG", default_value_t = 0.09, requires = "depth")]
+    lidar_azimuth_step: f64,
+    /// Proxy distance of the stitch, metres: objects at this distance are stitched without
+    /// parallax.
+    #[arg(long, value_name = "M", default_value_t = 10.0)]
+    stitch_distance: f64,
+    /// Blend width, degrees: a camera's weight rises from 0 at its field of view's edge to 1
+    /// this far inside.
+    #[arg(long, value_name = "DEG", default_value_t = 5.0)]
+    blend_width: f64,
+    /// Keep each camera's exposure (no per-frame gains).
+    #[arg(long)]
+    no_exposure_gains: bool,
+    /// Leave out objects whose centre is farther from C2, metres.
+    #[arg(long, value_name = "M", default_value_t = 80.0)]
+    max_distance: f64,
+    /// Leave out objects with fewer LiDAR points inside their box (its lowest 0.1 m aside);
+    /// 0 reads no scan for this.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    min_points: usize,
+    /// Also write these KITTI-360 classes (named by their KITTI-360 class), or `all`.
+    #[arg(long, value_delimiter = ',', value_name = "CLASS,...")]
+    classes: Option<Vec<String>>,
+    /// The panorama centre C2 in the level frame, metres (default: the mean of the cameras'
+    /// centres).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_centre, allow_hyphen_values = true)]
+    centre: Option<Vector3<f64>>,
+    /// Field of view of the fisheyes image_02 and image_03, degrees (one value, or two).
+    #[arg(long, value_delimiter = ',', value_name = "DEG[,DEG]")]
+    fisheye_fov: Option<Vec<f64>>,
+    /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: the
+    /// first camera's focal length (about 3470 for image_00).
+    #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
+    pano_width: Option<u32>,
+    /// Scale in pixels per degree at the image centre.
+    #[arg(long, value_name = "PX")]
+    px_per_deg: Option<f64>,
+    /// Crop the output canvas to this window (canvas pixels).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<Crop>,
+    /// Resize the (cropped) output to this size.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    resize: Option<ImageSize>,
+    /// Continue a killed or interrupted run.
+    #[arg(long)]
+    resume: bool,
+    /// Convert only shard K of N, writing panoconv.shard-K-of-N.json (join with `merge`).
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// After a conversion with no failed frame, also export (coco, omni3d into OUT/annotations,
+    /// yolo into OUT_yolo).
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT,...")]
+    export: Vec<FormatArg>,
+    #[command(flatten)]
+    run: RunArgs,
+    /// Not supported by kitti360 (named here to say so).
+    #[arg(long, hide = true, value_name = "N")]
+    augment: Option<String>,
+    /// Not supported by kitti360 (named here to say so).
+    #[arg(long, hide = true, value_name = "MODEL.onnx")]
+    style: Option<PathBuf>,
+    /// Not supported by kitti360 (named here to say so).
+    #[arg(long, hide = true)]
+    mask: bool,
+}
+
+fn parse_centre(s: &str) -> std::result::Result<Vector3<f64>, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| "expected X,Y,Z in metres, e.g. 0,0,0.5".to_owned())?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vector3::new(x, y, z)),
+        _ => Err("expected X,Y,Z in metres, e.g. 0,0,0.5".into()),
+    }
+}
+
+fn setup(message: String) -> anyhow::Error {
+    Error::Setup(message).into()
+}
+
+pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
+    for (given, flag, why) in [
+        (
+            args.augment.is_some(),
+            "--augment",
+            "random views of a panorama are not built",
+        ),
+        (
+            args.style.is_some(),
+            "--style",
+            "the style pass runs on KITTI frames only",
+        ),
+        (
+            args.mask,
+            "--mask",
+            "source_2/ marks the pixels without a camera (255)",
+        ),
+    ] {
+        if given {
+            bail!(setup(format!("{flag} is not supported by kitti360: {why}")));
+        }
+    }
+    if args.shard.is_some() && !args.export.is_empty() {
+        bail!(setup(
+            "--export needs the whole output: not with --shard (run panoconv export after merge)"
+                .into()
+        ));
+    }
+    let mut cameras = Vec::new();
+    for c in &args.cameras {
+        let k = match c.trim() {
+            "00" | "0" => 0,
+            "01" | "1" => 1,
+            "02" | "2" => 2,
+            "03" | "3" => 3,
+            other => bail!(setup(format!(
+                "--cameras {other:?}: expected 00, 01, 02 or 03 (image_00 to image_03)"
+            ))),
+        };
+        if cameras.contains(&k) {
+            bail!(setup(format!("--cameras names {c} twice")));
+        }
+        cameras.push(k);
+    }
+    let projection = projection_of(args.to);
+    let fisheye = match (projection, &args.camera) {
+        (Projection::Fisheye, Some(file)) => Some(super::convert::fisheye_target(file)?),
+        (Projection::Fisheye, None) => bail!(setup(
+            "--to fisheye needs --camera FILE: a camera description or calibration file".into()
+        )),
+        (_, Some(_)) => bail!(setup(
+            "--camera describes the camera of --to fisheye".into()
+        )),
+        (_, None) => None,
+    };
+    if fisheye.is_some() && (args.pano_width.is_some() || args.px_per_deg.is_some()) {
+        bail!(setup(
+            "--pano-width/--px-per-deg: a fisheye target has the scale of its camera file".into()
+        ));
+    }
+    // A panorama of several cameras covers 360°; one camera, or a perspective view, the first
+    // camera's field of view.
+    let canvas = if cameras.len() > 1 && projection != Projection::Perspective {
+        Canvas::Full360
+    } else {
+        Canvas::Tight
+    };
+    let frames = match &args.frames {
+        Some(list) => {
+            let mut out = Vec::new();
+            for t in list {
+                out.push(
+                    t.trim()
+                        .parse::<u32>()
+                        .map_err(|_| setup(format!("--frames {t:?}: not a frame number")))?,
+                );
+            }
+            Some(out)
+        }
+        None => None,
+    };
+    let classes = match &args.classes {
+        None => Kitti360Classes::Kitti,
+        Some(list) if list.iter().any(|c| c == "all") => Kitti360Classes::All,
+        Some(list) => {
+            for c in list {
+                if !panoconv::kitti360::classes::CLASSES
+                    .iter()
+                    .any(|(_, name, _)| name == c)
+                {
+                    bail!(setup(format!(
+                        "--classes {c:?}: not a KITTI-360 class (car, building, pole, ...)"
+                    )));
+                }
+            }
+            Kitti360Classes::Also(list.clone())
+        }
+    };
+    let fov = match args.fisheye_fov.as_deref() {
+        None => [DEFAULT_FISHEYE_FOV_DEG; 2],
+        Some([a]) => [*a, *a],
+        Some([a, b]) => [*a, *b],
+        Some(_) => bail!(setup("--fisheye-fov takes one or two angles".into())),
+    };
+    for (v, flag) in [
+        (args.stitch_distance, "--stitch-distance"),
+        (args.blend_width, "--blend-width"),
+        (args.max_distance, "--max-distance"),
+        (args.lidar_azimuth_step, "--lidar-azimuth-step"),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            bail!(setup(format!("{flag} must be positive")));
+        }
+    }
+    let job = Kitti360Job {
+        input: args.input,
+        sequences: args.sequence.iter().map(|s| s.trim().to_owned()).collect(),
+        output: args.output,
+        target: RigTarget {
+            spec: OutputSpec {
+                projection,
+                scale: scale_of(args.pano_width, args.px_per_deg)?,
+                canvas,
+                crop: args.crop,
+                resize: args.resize,
+            },
+            fisheye,
+        },
+        cameras,
+        frames,
+        stitch: StitchOptions {
+            distance: args.stitch_distance,
+            blend_width: args.blend_width.to_radians(),
+            even_exposure: !args.no_exposure_gains,
+        },
+        centre: args.centre,
+        objects: ObjectRule {
+            max_distance: args.max_distance,
+            min_points: args.min_points,
+        },
+        classes,
+        depth: args.depth.then(|| {
+            (!args.no_occlusion_filter).then(|| OcclusionFilter {
+                azimuth_spacing: args.lidar_azimuth_step.to_radians(),
+                ..OcclusionFilter::default()
+            })
+        }),
+        fisheye_fov_deg: fov,
+        overwrite: args.run.overwrite,
+        resume: args.resume,
+        shard: args.shard,
+        png_compression: args.run.png_compression(),
+    };
+    install_stop_handler();
+    let bar = Bar::new(args.run.quiet);
+    let summary = with_pool(args.run.jobs, || run_kitti360(&job, &bar, &STOP))??;
+    let run = &summary.run;
+    if !args.run.quiet {
+        let o = &summary.objects;
+        eprintln!(
+            "panoconv: {} converted, {} failed in {:.2} s -> {}",
+            count(run.converted, "frame"),
+            run.failed,
+            run.seconds,
+            job.output.display()
+        );
+        eprintln!(
+            "panoconv: {} written ({} tilted); dropped: {} by class, {} beyond {} m, {} with \
+             fewer than {} LiDAR points, {} outside the image",
+            count(o.written, "object"),
+            o.tilted,
+            o.class,
+            o.distance,
+            job.objects.max_distance,
+            o.unseen,
+            job.objects.min_points,
+            o.outside
+        );
+    }
+    if let Some(full) = &run.device_full {
+        eprintln!("panoconv: {full}");
+        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
+    }
+    if run.interrupted {
+        eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
+        return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
+    if run.failed == 0 && !args.export.is_empty() {
+        let overwrite = args.run.overwrite || args.resume;
+        return export_after_kitti(
+            &job.output,
+            &job.output,
+            &args.export,
+            false,
+            overwrite,
+            args.run.quiet,
+        );
+    }
+    Ok(if run.failed > 0 {
+        ExitCode::from(EXIT_FRAMES_FAILED)
+    } else {
+        ExitCode::SUCCESS
+    })
+}

@@ -1,0 +1,243 @@
+//! `panoconv kitti360`'s job: which sequences, frames, cameras and output, what the manifest
+//! records of it, and how its frames are named.
+//!
+//! The output is a KITTI object dataset: `OUT/training/{image_2, label_2, calib, source_2,
+//! objects, depth_2}/ID.*` (docs/kitti360.md). A frame's id is its KITTI-360 frame number in
+//! six digits (frame 250 → `000250`) when one sequence is converted; with several, the
+//! sequence's drive number (`_drive_NNNN_` in its name) in four digits comes first
+//! (drive 3, frame 250 → `0003000250`), so that ids never collide. The manifest's parameters
+//! record the rule (`frame_ids`).
+
+use super::objects::{DropReason, ObjectOutcome, ObjectRule};
+use super::pass::RigTarget;
+use crate::codec::png::PngCompression;
+use crate::reproject::depth::OcclusionFilter;
+use crate::run::journal::Shard;
+use crate::run::Summary;
+use crate::warp::StitchOptions;
+use nalgebra::Vector3;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// The split every frame is written to (KITTI's loaders and panoconv's tools find it there).
+pub const SPLIT: &str = "training";
+
+/// Which classes' objects are written (KITTI types: docs/kitti360.md's class table).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kitti360Classes {
+    /// The classes with a KITTI type only.
+    Kitti,
+    /// Every class; those without a KITTI type named by their KITTI-360 class.
+    All,
+    /// The KITTI types and these KITTI-360 classes (named by their KITTI-360 class).
+    Also(Vec<String>),
+}
+
+impl Kitti360Classes {
+    /// Whether a box of the KITTI-360 class `dataset_class`, written as `class`, is kept.
+    pub fn keeps(&self, class: &str, dataset_class: &str) -> bool {
+        let kitti_type = crate::kitti360::classes::CLASSES
+            .iter()
+            .any(|(_, name, kind)| *name == dataset_class && *kind == Some(class));
+        match self {
+            Kitti360Classes::Kitti => kitti_type,
+            Kitti360Classes::All => true,
+            Kitti360Classes::Also(names) => kitti_type || names.iter().any(|n| n == dataset_class),
+        }
+    }
+}
+
+/// A `panoconv kitti360` conversion.
+#[derive(Debug, Clone)]
+pub struct Kitti360Job {
+    /// The KITTI-360 root (`calibration/`, `data_2d_raw/`, ...).
+    pub input: PathBuf,
+    /// The sequences (folder names such as `2013_05_28_drive_0000_sync`).
+    pub sequences: Vec<String>,
+    /// The output folder.
+    pub output: PathBuf,
+    /// The output camera.
+    pub target: RigTarget,
+    /// The rig cameras used (0 to 3: image_00 to image_03), in order.
+    pub cameras: Vec<usize>,
+    /// Only these frame numbers (of every sequence); None: every frame with a pose.
+    pub frames: Option<Vec<u32>>,
+    /// Proxy distance, blend width, exposure gains.
+    pub stitch: StitchOptions,
+    /// The output centre C2 in the level frame (default: the mean of the cameras' centres).
+    pub centre: Option<Vector3<f64>>,
+    /// Which objects are written.
+    pub objects: ObjectRule,
+    /// Which classes are written.
+    pub classes: Kitti360Classes,
+    /// `depth_2/`: with the occlusion filter (Some(Some)), without it (Some(None)), or none.
+    pub depth: Option<Option<OcclusionFilter>>,
+    /// Field of view of image_02 and image_03, degrees.
+    pub fisheye_fov_deg: [f64; 2],
+    /// Replace a previous run's output.
+    pub overwrite: bool,
+    /// Keep the frames a previous run with the same parameters completed.
+    pub resume: bool,
+    /// Convert one shard of the frames.
+    pub shard: Option<Shard>,
+    /// PNG encoder effort.
+    pub png_compression: PngCompression,
+}
+
+impl Kitti360Job {
+    /// Whether LiDAR scans are read (depth maps, or the objects' LiDAR check).
+    pub fn needs_lidar(&self) -> bool {
+        self.depth.is_some() || self.objects.min_points > 0
+    }
+}
+
+/// The drive number of a KITTI-360 sequence name (`2013_05_28_drive_0003_sync` → 3).
+pub fn drive_number(sequence: &str) -> Option<u32> {
+    let rest = sequence.split("_drive_").nth(1)?;
+    let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+    if digits.is_empty() || digits.len() > 4 {
+        return None;
+    }
+    digits.parse().ok()
+}
+
+/// A frame's output id: the frame number in six digits, after the drive number in four when
+/// several sequences share the output (`drive` Some).
+pub fn frame_id(drive: Option<u32>, frame: u32) -> String {
+    match drive {
+        Some(d) => format!("{d:04}{frame:06}"),
+        None => format!("{frame:06}"),
+    }
+}
+
+/// Objects written and dropped over a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct ObjectCounts {
+    /// Written to label_2.
+    pub written: usize,
+    /// Of those, boxes leaning more than 1 mrad from upright (written with their heading).
+    pub tilted: usize,
+    /// Dropped: a class not asked for.
+    pub class: usize,
+    /// Dropped: farther than `--max-distance`.
+    pub distance: usize,
+    /// Dropped: fewer LiDAR points inside than `--min-points`.
+    pub unseen: usize,
+    /// Dropped: outside the output image.
+    pub outside: usize,
+}
+
+impl ObjectCounts {
+    /// The counts of one frame's outcomes.
+    pub fn of(outcomes: &[ObjectOutcome]) -> Self {
+        let mut c = Self::default();
+        for o in outcomes {
+            match o.dropped {
+                None => {
+                    c.written += 1;
+                    c.tilted += usize::from(o.is_tilted());
+                }
+                Some(DropReason::Class) => c.class += 1,
+                Some(DropReason::Distance) => c.distance += 1,
+                Some(DropReason::Unseen) => c.unseen += 1,
+                Some(DropReason::Outside) => c.outside += 1,
+            }
+        }
+        c
+    }
+
+    /// The sum of two counts.
+    pub fn add(&mut self, o: &ObjectCounts) {
+        self.written += o.written;
+        self.tilted += o.tilted;
+        self.class += o.class;
+        self.distance += o.distance;
+        self.unseen += o.unseen;
+        self.outside += o.outside;
+    }
+}
+
+/// What a `kitti360` run did.
+#[derive(Debug)]
+pub struct Kitti360Summary {
+    /// Frames, failures, time.
+    pub run: Summary,
+    /// Objects written and dropped, by reason, over the frames converted by this run.
+    pub objects: ObjectCounts,
+}
+
+/// The manifest's `parameters`: what decides the outputs.
+#[derive(Debug, Serialize)]
+pub(super) struct Parameters<'a> {
+    pub(super) input: &'a std::path::Path,
+    pub(super) sequences: &'a [String],
+    /// `frame` (one sequence) or `drive_frame` (several): see [`frame_id`].
+    pub(super) frame_ids: &'static str,
+    pub(super) output_spec: &'a crate::geometry::OutputSpec,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) fisheye: Option<&'a crate::geometry::FisheyeTarget>,
+    pub(super) cameras: Vec<&'static str>,
+    pub(super) frames: Option<&'a [u32]>,
+    pub(super) stitch_distance: f64,
+    pub(super) blend_width_deg: f64,
+    pub(super) exposure_gains: bool,
+    pub(super) centre: Option<[f64; 3]>,
+    pub(super) objects: &'a ObjectRule,
+    pub(super) classes: &'a Kitti360Classes,
+    pub(super) depth: Option<&'a Option<OcclusionFilter>>,
+    pub(super) fisheye_fov_deg: [f64; 2],
+    pub(super) shard: Option<Shard>,
+    pub(super) png_compression: PngCompression,
+}
+
+impl<'a> Parameters<'a> {
+    pub(super) fn new(job: &'a Kitti360Job) -> Self {
+        Parameters {
+            input: &job.input,
+            sequences: &job.sequences,
+            frame_ids: if job.sequences.len() > 1 {
+                "drive_frame"
+            } else {
+                "frame"
+            },
+            output_spec: &job.target.spec,
+            fisheye: job.target.fisheye.as_ref(),
+            cameras: job
+                .cameras
+                .iter()
+                .map(|&k| crate::kitti360::CAMERAS[k])
+                .collect(),
+            frames: job.frames.as_deref(),
+            stitch_distance: job.stitch.distance,
+            blend_width_deg: job.stitch.blend_width.to_degrees(),
+            exposure_gains: job.stitch.even_exposure,
+            centre: job.centre.map(|c| [c.x, c.y, c.z]),
+            objects: &job.objects,
+            classes: &job.classes,
+            depth: job.depth.as_ref(),
+            fisheye_fov_deg: job.fisheye_fov_deg,
+            shard: job.shard,
+            png_compression: job.png_compression,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_six_digit_frames_and_drive_prefixed_for_several_sequences() {
+        assert_eq!(frame_id(None, 250), "000250");
+        assert_eq!(frame_id(Some(3), 250), "0003000250");
+        assert_eq!(drive_number("2013_05_28_drive_0003_sync"), Some(3));
+        assert_eq!(drive_number("2013_05_28_drive_0010_sync"), Some(10));
+        assert_eq!(drive_number("my_sequence"), None);
+        let classes = Kitti360Classes::Also(vec!["building".into()]);
+        assert!(classes.keeps("Car", "car") && classes.keeps("building", "building"));
+        assert!(!classes.keeps("pole", "pole"));
+        assert!(!Kitti360Classes::Kitti.keeps("building", "building"));
+        assert!(Kitti360Classes::All.keeps("pole", "pole"));
+    }
+}

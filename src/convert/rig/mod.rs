@@ -1,0 +1,23 @@
+//! The rig frame pass: one neutral [`crate::source::Frame`] into one output camera from N of its
+//! rig cameras (N = 1 is a plain conversion of that camera, N > 1 a stitch through
+//! [`crate::warp::Stitch`]), with the frame's objects as KITTI labels, its LiDAR as a depth map
+//! and the map of which camera gave each pixel. A dataset reader that yields `source::Frame`s
+//! gets the whole conversion from here: `kitti360.rs` runs KITTI-360 sequences through it.
+//!
+//! - `pass.rs`: the output camera, the stitch, the source map and the depth map of a frame;
+//! - `objects.rs`: which objects a frame's labels hold (range, LiDAR support, image) and why
+//!   the others were dropped;
+//! - `gray.rs`: the 8-bit PNG of the source map;
+//! - `kitti360.rs` and `kitti360_run.rs`: `panoconv kitti360`'s job, its frames, files and
+//!   manifest.
+
+mod gray;
+mod kitti360;
+mod kitti360_run;
+mod objects;
+mod pass;
+
+pub use kitti360::{frame_id, Kitti360Classes, Kitti360Job, Kitti360Summary, ObjectCounts};
+pub use kitti360_run::run_kitti360;
+pub use objects::{DropReason, ObjectOutcome, ObjectRule};
+pub use pass::{convert_frame, CameraInfo, RigFrame, RigOptions, RigTarget};

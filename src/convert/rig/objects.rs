@@ -1,0 +1,222 @@
+//! Which objects of a frame its labels hold, and why the others are left out.
+//!
+//! An object of the frame is written when, in order: 0. its class is asked for (else `class`);
+//! 1. its centre lies within `max_distance` of the output centre C2 (else `distance`);
+//! 2. at least `min_points` LiDAR points of the frame lie inside its box, not counting the
+//!    lowest [`GROUND_MARGIN`] of it, where the ground under the object is hit (else `unseen`;
+//!    `min_points` 0 turns this off);
+//! 3. its exact 2D box meets the output image (else `outside`).
+//!
+//! Each object's outcome (its class, instance, distance, LiDAR points, tilt, and the reason it
+//! was dropped) is kept for the frame's `objects/` record.
+
+use crate::camera::CameraModel;
+use crate::kitti::rig_output::label_line;
+use crate::reproject::source_box::source_box_in_image;
+use crate::source::{LidarPoint, SourceBox};
+use nalgebra::Vector3;
+use serde::Serialize;
+
+/// The lowest part of a box (metres above its bottom face) whose LiDAR points are not counted:
+/// the ground under the object.
+pub const GROUND_MARGIN: f64 = 0.1;
+
+/// A box leaning more than this from upright (radians) is counted as tilted.
+pub const TILT_TOLERANCE: f64 = 1e-3;
+
+/// The object rule's two parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ObjectRule {
+    /// Objects whose centre is farther from the output centre are dropped, metres.
+    pub max_distance: f64,
+    /// LiDAR points an object's box must hold (0: no LiDAR check).
+    pub min_points: usize,
+}
+
+/// Why an object is not in the labels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DropReason {
+    /// A class that was not asked for (the reader's class table).
+    Class,
+    /// Farther than `max_distance`.
+    Distance,
+    /// Fewer LiDAR points inside than `min_points`.
+    Unseen,
+    /// Its 2D box misses the output image.
+    Outside,
+}
+
+/// What became of one object of a frame.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ObjectOutcome {
+    /// The class written (a KITTI type), or the dataset's class for a dropped class.
+    pub class: String,
+    /// The dataset's own class name.
+    pub dataset_class: String,
+    /// The dataset's instance id.
+    pub instance: Option<u64>,
+    /// Distance of the box centre from the output centre, metres (to the millimetre).
+    pub distance: f64,
+    /// LiDAR points inside the box (None when not counted).
+    pub lidar_points: Option<usize>,
+    /// Lean from upright, milliradians (to the microradian).
+    pub tilt_mrad: f64,
+    /// Why it was left out; None for a written object.
+    pub dropped: Option<DropReason>,
+}
+
+impl ObjectOutcome {
+    /// The outcome of `b`, seen from `centre`, before any check.
+    pub fn of(b: &SourceBox, centre: &Vector3<f64>) -> Self {
+        Self {
+            class: b.class.clone(),
+            dataset_class: b.dataset_class.clone(),
+            instance: b.instance,
+            distance: ((b.centre - centre).norm() * 1000.0).round() / 1000.0,
+            lidar_points: None,
+            tilt_mrad: (b.tilt() * 1e6).round() / 1000.0,
+            dropped: None,
+        }
+    }
+
+    /// Whether the box leans more than [`TILT_TOLERANCE`].
+    pub fn is_tilted(&self) -> bool {
+        self.tilt_mrad > TILT_TOLERANCE * 1000.0
+    }
+}
+
+/// LiDAR points inside `b`, its lowest [`GROUND_MARGIN`] aside.
+pub fn points_inside(b: &SourceBox, lidar: &[LidarPoint]) -> usize {
+    let box_from_reference = b.rotation.transpose();
+    let half = b.size / 2.0;
+    lidar
+        .iter()
+        .filter(|p| {
+            let l = box_from_reference * (p.position - b.centre);
+            // local +y points down: the bottom face is at +h/2
+            l.x.abs() <= half.x
+                && l.z.abs() <= half.z
+                && l.y >= -half.y
+                && l.y <= half.y - GROUND_MARGIN
+        })
+        .count()
+}
+
+/// The label lines of `objects` in `camera` (centre `centre`, the reference frame's axes) and
+/// every object's outcome, in the objects' order; classes that `keep_class` refuses are
+/// dropped first.
+pub(super) fn label_objects(
+    objects: &[SourceBox],
+    lidar: &[LidarPoint],
+    centre: &Vector3<f64>,
+    camera: &dyn CameraModel,
+    rule: &ObjectRule,
+    keep_class: &(dyn Fn(&SourceBox) -> bool + Sync),
+) -> (Vec<String>, Vec<ObjectOutcome>) {
+    let mut lines = Vec::new();
+    let mut outcomes = Vec::with_capacity(objects.len());
+    for b in objects {
+        let mut outcome = ObjectOutcome::of(b, centre);
+        if !keep_class(b) {
+            outcome.dropped = Some(DropReason::Class);
+        } else if !((b.centre - centre).norm() <= rule.max_distance) {
+            outcome.dropped = Some(DropReason::Distance);
+        } else {
+            if rule.min_points > 0 {
+                let n = points_inside(b, lidar);
+                outcome.lidar_points = Some(n);
+                if n < rule.min_points {
+                    outcome.dropped = Some(DropReason::Unseen);
+                }
+            }
+            if outcome.dropped.is_none() {
+                match source_box_in_image(b, centre, camera) {
+                    Some(image) => lines.push(label_line(
+                        b,
+                        centre,
+                        image.bounds,
+                        image.truncation,
+                        b.occlusion.unwrap_or(0),
+                    )),
+                    None => outcome.dropped = Some(DropReason::Outside),
+                }
+            }
+        }
+        outcomes.push(outcome);
+    }
+    (lines, outcomes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{ImageSize, Intrinsics, Perspective};
+
+    fn point(x: f64, y: f64, z: f64) -> LidarPoint {
+        LidarPoint {
+            position: Vector3::new(x, y, z),
+            intensity: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_rule_drops_far_unseen_and_outside_objects_and_says_why() {
+        let camera = Perspective::new(
+            Intrinsics::new(500.0, 500.0, 320.0, 120.0),
+            ImageSize::new(640, 240),
+        );
+        let car = |x: f64, z: f64| {
+            SourceBox::from_kitti("Car", [1.5, 1.6, 4.0], Vector3::new(x, 1.7, z), 0.0)
+        };
+        // seen (two points on its side, one on the ground under it that does not count)
+        let seen = car(0.0, 10.0);
+        let lidar = vec![
+            point(0.0, 1.0, 9.3),
+            point(0.3, 0.5, 9.3),
+            point(0.0, 1.65, 10.0),
+        ];
+        assert_eq!(points_inside(&seen, &lidar), 2);
+        let far = car(0.0, 95.0);
+        let unseen = car(3.0, 20.0);
+        let behind = car(0.0, -10.0);
+        let rule = ObjectRule {
+            max_distance: 80.0,
+            min_points: 2,
+        };
+        let (lines, outcomes) = label_objects(
+            &[seen, far, unseen, behind.clone()],
+            &lidar,
+            &Vector3::zeros(),
+            &camera,
+            &rule,
+            &|_| true,
+        );
+        assert_eq!(lines.len(), 1);
+        assert!(lines[0].starts_with("Car 0.00 0 "));
+        let reasons: Vec<_> = outcomes.iter().map(|o| o.dropped).collect();
+        assert_eq!(
+            reasons,
+            [
+                None,
+                Some(DropReason::Distance),
+                Some(DropReason::Unseen),
+                Some(DropReason::Unseen)
+            ]
+        );
+        // without the LiDAR check the box behind the camera is outside its image
+        let (_, outcomes) = label_objects(
+            &[behind],
+            &[],
+            &Vector3::zeros(),
+            &camera,
+            &ObjectRule {
+                min_points: 0,
+                ..rule
+            },
+            &|b: &SourceBox| b.class == "Car",
+        );
+        assert_eq!(outcomes[0].dropped, Some(DropReason::Outside));
+        assert!(outcomes[0].lidar_points.is_none() && !outcomes[0].is_tilted());
+    }
+}

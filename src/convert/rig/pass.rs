@@ -1,0 +1,242 @@
+//! One frame of a rig into one output camera: the camera, the stitch of the chosen rig cameras
+//! (docs/kitti360.md, "Stitching"), the source map, the labels and the depth map.
+//!
+//! The output camera's axes are the frame's reference frame, its centre C2 the mean of the
+//! chosen cameras' centres unless given. Its canvas and default scale come from the *first*
+//! chosen camera seen in the reference frame's axes (`OutputSpec` as for KITTI, the canvas
+//! `Full360` for a panorama of several cameras); a fisheye target is the given lens, turned by
+//! its rotation relative to the reference frame. The rig moves in the reference frame from
+//! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
+//! tables are built per frame.
+
+use super::objects::{label_objects, ObjectOutcome, ObjectRule};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, ProjectionReject};
+use crate::error::{Error, Result};
+use crate::geometry::{target_camera, FisheyeTarget, OutputSpec};
+use crate::image::RgbImage;
+use crate::reproject::depth::{depth_map, DepthMap, OcclusionFilter};
+use crate::source::{Frame, SourceBox};
+
+/// Which objects' classes are written (the others are dropped for their class).
+pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
+use crate::warp::{Stitch, StitchCamera, StitchOptions};
+use nalgebra::{Matrix3, Point2, Vector3};
+
+/// What a reader knows of a rig camera besides its model and pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraInfo {
+    /// Pixels per radian and principal point at the image centre (the scale an output keeps
+    /// by default).
+    pub focal: Intrinsics,
+    /// Half the field of view of a lens that has one, radians.
+    pub max_theta: Option<f64>,
+}
+
+/// The output camera: projection, scale, canvas, crop and resize, and a fisheye target's lens.
+#[derive(Debug, Clone)]
+pub struct RigTarget {
+    /// As for KITTI (`--to`, `--pano-width`, `--crop`, `--resize`).
+    pub spec: OutputSpec,
+    /// The lens of `--to fisheye`.
+    pub fisheye: Option<FisheyeTarget>,
+}
+
+/// How a frame is converted.
+#[derive(Debug, Clone)]
+pub struct RigOptions {
+    /// Indices into the frame's rig of the cameras used, in order.
+    pub cameras: Vec<usize>,
+    /// Proxy distance, blend width, exposure gains.
+    pub stitch: StitchOptions,
+    /// The output centre C2 in the reference frame (default: the mean of the cameras').
+    pub centre: Option<Vector3<f64>>,
+    /// Which objects are written.
+    pub objects: ObjectRule,
+    /// Write a depth map: with the occlusion filter, or without (None inside).
+    pub depth: Option<Option<OcclusionFilter>>,
+}
+
+/// A converted frame.
+pub struct RigFrame {
+    /// The output camera (axes: the reference frame's).
+    pub camera: Box<dyn OutputCamera>,
+    /// Its centre C2 in the reference frame.
+    pub centre: Vector3<f64>,
+    /// The stitched image.
+    pub image: RgbImage,
+    /// Per pixel, the rig index of the camera of largest weight, 255 for none.
+    pub source: Vec<u8>,
+    /// Each used camera's exposure gain.
+    pub gains: Vec<f64>,
+    /// KITTI label lines of the written objects.
+    pub labels: Vec<String>,
+    /// Every object's outcome.
+    pub objects: Vec<ObjectOutcome>,
+    /// The depth map and the points the occlusion filter dropped.
+    pub depth: Option<(DepthMap, usize)>,
+}
+
+/// A rig camera's model with bearings in the reference frame's axes.
+#[derive(Debug)]
+struct InReference<'a> {
+    model: &'a dyn CameraModel,
+    reference_from_camera: Matrix3<f64>,
+    camera_from_reference: Matrix3<f64>,
+}
+
+impl CameraModel for InReference<'_> {
+    fn project(&self, d: &Vector3<f64>) -> std::result::Result<Point2<f64>, ProjectionReject> {
+        self.model.project_point(&(self.camera_from_reference * d))
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> std::result::Result<Vector3<f64>, ProjectionReject> {
+        Ok((self.reference_from_camera * self.model.unproject(p)?).normalize())
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        p.norm()
+    }
+
+    fn size(&self) -> ImageSize {
+        self.model.size()
+    }
+}
+
+/// The output camera of `frame` for `target`, from its first chosen camera.
+pub fn output_camera(
+    frame: &Frame,
+    info: &[CameraInfo],
+    target: &RigTarget,
+    first: usize,
+) -> Result<Box<dyn OutputCamera>> {
+    let camera = &frame.rig[first];
+    let r = camera.reference_from_camera.rotation;
+    let source = InReference {
+        model: camera.model.as_ref(),
+        reference_from_camera: r,
+        camera_from_reference: r
+            .try_inverse()
+            .ok_or_else(|| Error::Setup(format!("{}: singular pose", camera.name)))?,
+    };
+    target_camera(
+        &target.spec,
+        target.fisheye.as_ref(),
+        info[first].focal,
+        &source,
+    )
+}
+
+/// Converts `frame` (its rig described by `info`, one per rig camera) into `target`, writing
+/// the objects whose class `keep_class` accepts.
+pub fn convert_frame(
+    frame: &Frame,
+    info: &[CameraInfo],
+    target: &RigTarget,
+    options: &RigOptions,
+    keep_class: ClassFilter,
+) -> Result<RigFrame> {
+    let chosen: Vec<&crate::source::RigCamera> = options
+        .cameras
+        .iter()
+        .map(|&i| {
+            frame.rig.get(i).ok_or_else(|| {
+                Error::Setup(format!(
+                    "the rig has no camera {i} ({} cameras)",
+                    frame.rig.len()
+                ))
+            })
+        })
+        .collect::<Result<_>>()?;
+    let Some(&first) = options.cameras.first() else {
+        return Err(Error::Setup("no camera chosen".into()));
+    };
+    let centre = options.centre.unwrap_or_else(|| {
+        chosen.iter().map(|c| c.centre()).sum::<Vector3<f64>>() / chosen.len() as f64
+    });
+    let camera = output_camera(frame, info, target, first)?;
+    let mut inverses = Vec::with_capacity(chosen.len());
+    for c in &chosen {
+        inverses.push(
+            c.reference_from_camera
+                .inverse()
+                .ok_or_else(|| Error::file(&c.image, format!("{}: singular pose", c.name)))?,
+        );
+    }
+    let cameras: Vec<StitchCamera> = chosen
+        .iter()
+        .zip(&inverses)
+        .zip(&options.cameras)
+        .map(|((c, inv), &i)| StitchCamera {
+            model: c.model.as_ref(),
+            rotation: inv.rotation,
+            translation: inv.translation,
+            max_theta: info[i].max_theta,
+        })
+        .collect();
+    let mut images = Vec::with_capacity(chosen.len());
+    for c in &chosen {
+        let bytes = crate::fs::read_file(&c.image)?;
+        let image = crate::codec::decode_rgb8(&bytes, &c.image)?;
+        let want = c.model.size();
+        if (image.width(), image.height()) != (want.width, want.height) {
+            return Err(Error::file(
+                &c.image,
+                format!(
+                    "the image is {}x{}, the calibration of {} says {}x{}",
+                    image.width(),
+                    image.height(),
+                    c.name,
+                    want.width,
+                    want.height
+                ),
+            ));
+        }
+        images.push(image);
+    }
+    let stitch = Stitch::build(camera.as_ref(), &centre, &cameras, options.stitch);
+    let refs: Vec<&RgbImage> = images.iter().collect();
+    let stitched = stitch.apply(&refs);
+    let source: Vec<u8> = stitched
+        .source
+        .iter()
+        .map(|&s| match options.cameras.get(s as usize) {
+            Some(&i) => u8::try_from(i).unwrap_or(254),
+            None => 255,
+        })
+        .collect();
+    let (labels, objects) = label_objects(
+        &frame.objects,
+        &frame.lidar,
+        &centre,
+        camera.as_ref(),
+        &options.objects,
+        keep_class,
+    );
+    let depth = options.depth.map(|filter| {
+        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
+        // every point inside the output image, then none where no camera gives the pixel
+        let (mut map, occluded) = depth_map(
+            &points,
+            &centre,
+            camera.as_ref(),
+            camera.as_ref(),
+            filter.as_ref(),
+        );
+        for (d, s) in map.values.iter_mut().zip(&source) {
+            if *s == 255 {
+                *d = 0.0;
+            }
+        }
+        (map, occluded)
+    });
+    Ok(RigFrame {
+        camera,
+        centre,
+        image: stitched.image,
+        source,
+        gains: stitched.gains,
+        labels,
+        objects,
+        depth,
+    })
+}
