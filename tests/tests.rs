@@ -29,6 +29,7 @@ mod footprint;
 mod fuzz_parsers;
 mod inspect;
 mod kitti360;
+mod kitti360_command;
 mod kitti360_scripts;
 mod kitti360_stitch;
 mod kitti_benchmark;

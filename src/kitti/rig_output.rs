@@ -31,21 +31,14 @@ pub fn kitti_location(b: &SourceBox) -> Vector3<f64> {
     b.centre + Vector3::new(0.0, b.height() / 2.0, 0.0)
 }
 
-/// The 15 columns of a KITTI label line for `b` seen from `centre` (the output camera's
-/// centre): type, truncation (`%.2f`), occlusion, alpha (`rotation_y − atan2(x, z)` of the
-/// location relative to `centre`), the 2D box `bbox`, height width length, location and
-/// rotation_y ([`SourceBox::yaw`], its heading for a tilted box), all with two decimals.
-pub fn label_line(
-    b: &SourceBox,
-    centre: &Vector3<f64>,
-    bbox: [f64; 4],
-    truncation: f64,
-    occlusion: u8,
-) -> String {
+/// The 15 columns of a KITTI label line for `b`: type, truncation (`%.2f`), occlusion, alpha
+/// (`rotation_y − atan2(x, z)` of the location, as KITTI: relative to the reference frame's
+/// origin), the 2D box `bbox`, height width length, location and rotation_y
+/// ([`SourceBox::yaw`], its heading for a tilted box), all with two decimals.
+pub fn label_line(b: &SourceBox, bbox: [f64; 4], truncation: f64, occlusion: u8) -> String {
     let location = kitti_location(b);
     let ry = wrap(b.yaw());
-    let rel = location - centre;
-    let alpha = wrap(ry - rel.x.atan2(rel.z));
+    let alpha = wrap(ry - location.x.atan2(location.z));
     format!(
         "{} {:.2} {} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2} {:.2}",
         b.class,
@@ -138,7 +131,7 @@ mod tests {
         assert_eq!(l.dimensions, [1.52, 1.65, 3.9]);
         assert!((l.location - Vector3::new(-3.0, 1.7, 12.0)).norm() < 1e-9);
         assert_eq!(l.rotation_y, 2.9);
-        let want_alpha = wrap(2.9 - (-3.0f64).atan2(11.9));
+        let want_alpha = wrap(2.9 - (-3.0f64).atan2(12.0));
         assert!(
             (l.alpha - want_alpha).abs() <= 0.005,
             "{} {want_alpha}",

@@ -134,7 +134,6 @@ pub(super) fn label_objects(
                 match source_box_in_image(b, centre, camera) {
                     Some(image) => lines.push(label_line(
                         b,
-                        centre,
                         image.bounds,
                         image.truncation,
                         b.occlusion.unwrap_or(0),
