@@ -590,8 +590,9 @@ fn one_camera_is_a_plain_conversion_of_it() {
     let source = common::read_png(&out.join("training/source_2/000250.png"));
     assert!(source.data.iter().all(|&s| s == 2 || s == 255));
     let seen = source.data.iter().filter(|&&s| s == 2).count();
+    // the tight cylinder around a 185° lens: its circle fills a little over half of it
     assert!(
-        seen * 10 > source.data.len() * 8,
+        seen * 2 > source.data.len(),
         "{seen} of {} px",
         source.data.len()
     );
