@@ -119,13 +119,7 @@ mod tests {
     #[test]
     fn a_label_line_parses_back_to_the_box() {
         let b = SourceBox::from_kitti("Car", [1.52, 1.65, 3.9], Vector3::new(-3.0, 1.7, 12.0), 2.9);
-        let line = label_line(
-            &b,
-            &Vector3::new(0.0, 0.0, 0.1),
-            [1.0, 2.0, 30.0, 40.0],
-            0.0,
-            0,
-        );
+        let line = label_line(&b, [1.0, 2.0, 30.0, 40.0], 0.0, 0);
         let l = Label::parse(Path::new("l"), 1, &line).unwrap();
         assert_eq!(l.kind, "Car");
         assert_eq!(l.dimensions, [1.52, 1.65, 3.9]);

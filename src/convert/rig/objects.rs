@@ -62,6 +62,13 @@ pub struct ObjectOutcome {
     pub lidar_points: Option<usize>,
     /// Lean from upright, milliradians (to the microradian).
     pub tilt_mrad: f64,
+    /// The exact box in the reference frame: its geometric centre (metres), ...
+    pub centre: [f64; 3],
+    /// ... its length, height and width (metres), ...
+    pub size: [f64; 3],
+    /// ... and its full rotation reference_from_box (row-major; box axes x length, y down,
+    /// z width), which KITTI's one angle cannot hold for a tilted box.
+    pub rotation: [f64; 9],
     /// Why it was left out; None for a written object.
     pub dropped: Option<DropReason>,
 }
@@ -76,6 +83,9 @@ impl ObjectOutcome {
             distance: ((b.centre - centre).norm() * 1000.0).round() / 1000.0,
             lidar_points: None,
             tilt_mrad: (b.tilt() * 1e6).round() / 1000.0,
+            centre: [b.centre.x, b.centre.y, b.centre.z],
+            size: [b.size.x, b.size.y, b.size.z],
+            rotation: std::array::from_fn(|i| b.rotation[(i / 3, i % 3)]),
             dropped: None,
         }
     }
@@ -217,5 +227,45 @@ mod tests {
         );
         assert_eq!(outcomes[0].dropped, Some(DropReason::Outside));
         assert!(outcomes[0].lidar_points.is_none() && !outcomes[0].is_tilted());
+    }
+
+    #[test]
+    fn a_tilted_box_is_written_with_its_heading_and_counted() {
+        let camera = Perspective::new(
+            Intrinsics::new(500.0, 500.0, 320.0, 120.0),
+            ImageSize::new(640, 240),
+        );
+        let upright =
+            SourceBox::from_kitti("Car", [1.5, 1.6, 4.0], Vector3::new(0.0, 1.7, 10.0), 0.3);
+        let pitch = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), 0.05).into_inner();
+        let tilted = SourceBox {
+            rotation: upright.rotation * pitch,
+            ..upright.clone()
+        };
+        let rule = ObjectRule {
+            max_distance: 80.0,
+            min_points: 0,
+        };
+        let (lines, outcomes) = label_objects(
+            &[upright, tilted.clone()],
+            &[],
+            &Vector3::zeros(),
+            &camera,
+            &rule,
+            &|_| true,
+        );
+        assert_eq!(lines.len(), 2);
+        assert!(!outcomes[0].is_tilted() && outcomes[1].is_tilted());
+        assert_eq!(outcomes[1].tilt_mrad, 50.0);
+        // its heading is the upright box's, its exact rotation is in the outcome
+        let ry: Vec<&str> = lines
+            .iter()
+            .map(|l| l.rsplit(' ').next().unwrap())
+            .collect();
+        assert_eq!(ry, ["0.30", "0.30"]);
+        let r = outcomes[1].rotation;
+        assert!((0..9).all(|i| r[i] == tilted.rotation[(i / 3, i % 3)]));
+        let counts = super::super::kitti360::ObjectCounts::of(&outcomes);
+        assert_eq!((counts.written, counts.tilted), (2, 1));
     }
 }
