@@ -49,6 +49,10 @@ pv "$work/e" --grid 3x1 --tile-width 300 --output "$out/formats_sheet.png"
 # docs/fisheye.md: the camera description fixtures/cameras/front.json
 p kitti --to fisheye --camera fixtures/cameras/front.json --mask --depth --input $k --output "$work/f"
 pv "$work/f" --frame 000000 --no-depth --output "$out/fisheye_target.png"
+# docs/kitti360.md: the synthetic KITTI-360 sequence's four cameras stitched, boxes and depth
+p kitti360 --to equirect --pano-width 1024 --depth --lidar-azimuth-step 0.8 --frames 250 \
+    --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync --output "$work/k360"
+pv "$work/k360" --frame 000250 --output "$out/kitti360_equirect.png"
 # docs/depth.md
 if [[ $previews_only -eq 0 ]]; then
     # the test profile: the build scripts/test.sh already made, and the one it checks the figures with
