@@ -52,7 +52,8 @@ pub(super) struct Kitti360Args {
     /// Output root (created; must be empty unless --overwrite).
     #[arg(long, short = 'o')]
     output: PathBuf,
-    /// Convert only these frame numbers (comma-separated; 250 or 0000000250).
+    /// Convert only these KITTI-360 frame numbers (comma-separated, e.g. 250,251), of every
+    /// sequence.
     #[arg(long, value_delimiter = ',', value_name = "N,...")]
     frames: Option<Vec<String>>,
     /// Rig cameras to use: 00 and 01 (forward pinholes), 02 (left fisheye), 03 (right).
@@ -103,7 +104,7 @@ pub(super) struct Kitti360Args {
     #[arg(long, value_delimiter = ',', value_name = "DEG[,DEG]")]
     fisheye_fov: Option<Vec<f64>>,
     /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: the
-    /// first camera's focal length (about 3470 for image_00).
+    /// first camera's focal length (3472 for image_00 at full size).
     #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
     pano_width: Option<u32>,
     /// Scale in pixels per degree at the image centre.
