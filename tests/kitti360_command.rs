@@ -691,6 +691,17 @@ fn bad_input_is_named_with_its_file_and_counted() {
     assert!(run.stderr.contains("poses.txt:2"), "{}", run.stderr);
     assert!(!out2.exists());
 
+    // an output camera too large for any frame: a set-up error, nothing written
+    let huge = tmp.path().join("huge");
+    let run = kitti360(
+        sequence(false),
+        &huge,
+        &["--to", "equirect", "--pano-width", "200000"],
+    );
+    assert_eq!(run.code, 2, "{}", run.stderr);
+    assert!(run.stderr.contains("too large"), "{}", run.stderr);
+    assert!(!huge.exists());
+
     // options kitti360 does not take say so
     let run = kitti360(
         &root,

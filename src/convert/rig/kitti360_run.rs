@@ -305,6 +305,26 @@ fn select(job: &Kitti360Job, sequences: &[(Sequence, Vec<CameraInfo>)]) -> Resul
     Ok(items)
 }
 
+/// An output camera that cannot be made (a scale too large, a crop of no pixel) is a set-up
+/// error, not one error per frame: checked on the first frame that reads.
+fn check_output_camera(
+    job: &Kitti360Job,
+    sequences: &[(Sequence, Vec<CameraInfo>)],
+    items: &[Item],
+) -> Result<()> {
+    let Some(item) = items.first() else {
+        return Ok(());
+    };
+    let (sequence, info) = &sequences[item.sequence];
+    // (a frame that does not read fails on its own, counted)
+    let Ok(frame) = sequence.frame(item.frame) else {
+        return Ok(());
+    };
+    super::pass::output_camera(&frame, info, &job.target, job.cameras[0])
+        .map(|_| ())
+        .map_err(|e| Error::Setup(format!("the output camera of frame {}: {e}", item.id)))
+}
+
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
 /// `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside the caller's rayon pool.
@@ -316,6 +336,7 @@ pub fn run_kitti360(
     let started = std::time::Instant::now();
     let sequences = open_sequences(job)?;
     let mut items = select(job, &sequences)?;
+    check_output_camera(job, &sequences, &items)?;
     let _lock = journal::claim_output(
         &job.input,
         &job.output,
