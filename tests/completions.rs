@@ -117,7 +117,7 @@ fn completion_scripts_for_every_shell() {
         let reply = String::from_utf8_lossy(&out.stdout);
         assert_eq!(
             reply.trim(),
-            "kitti kitti-raw",
+            "kitti kitti-raw kitti360",
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
