@@ -12,14 +12,14 @@ use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
 use crate::kitti::calib::format_sci;
-use crate::run::journal::Journal;
+use crate::run::journal::Previous;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::OnceMap;
-use crate::run::{Progress, Summary};
+use crate::run::{Claim, FrameWork, OutputFolder, OutputMode, Progress, Summary};
 use crate::warp::RemapTable;
 use nalgebra::Matrix3;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// One output of each source image.
@@ -126,7 +126,7 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    fn convert(&self, input: &Input, written: &mut Vec<PathBuf>) -> Result<FrameRecord> {
+    fn convert_image(&self, input: &Input, written: &mut Vec<PathBuf>) -> Result<FrameRecord> {
         let bytes = read_file(&input.path)?;
         let image = crate::codec::decode_rgb8(&bytes, &input.path)?;
         let size = ImageSize::new(image.width(), image.height());
@@ -171,6 +171,29 @@ impl Ctx<'_> {
     }
 }
 
+/// The folder's images for the run's frame loop.
+impl FrameWork for Ctx<'_> {
+    type Item = Input;
+
+    fn key<'k>(&self, input: &'k Input) -> (&'k str, &'k str) {
+        ("", &input.name)
+    }
+
+    fn convert(&self, group: &[&Input]) -> Vec<Result<FrameRecord>> {
+        group
+            .iter()
+            .map(|input| {
+                let mut written = Vec::new();
+                self.convert_image(input, &mut written).inspect_err(|_| {
+                    for p in written {
+                        let _ = std::fs::remove_file(p);
+                    }
+                })
+            })
+            .collect()
+    }
+}
+
 /// Converts every image of `job.input`. Set-up problems return `Err` before anything is
 /// written; a bad image is reported through `progress` and counted in the summary.
 /// Must run inside the caller's rayon pool.
@@ -182,7 +205,14 @@ pub fn run_folder(
     let started = std::time::Instant::now();
     let inputs = list_inputs(&job.input)?;
     // Held until the run returns: one process per output.
-    let _lock = crate::run::journal::claim_output(&job.input, &job.output, None, job.overwrite)?;
+    let folder = OutputFolder::claim(Claim {
+        input: &job.input,
+        output: &job.output,
+        shard: None,
+        mode: OutputMode::from_flags(job.overwrite, false),
+        resumable: false,
+        started,
+    })?;
     // Two stems with different extensions would write the same outputs.
     let mut stems: Vec<&str> = inputs.iter().map(|i| i.stem.as_str()).collect();
     stems.sort_unstable();
@@ -192,73 +222,21 @@ pub fn run_folder(
             w[0]
         )));
     }
-    if job.overwrite {
-        // As for KITTI: what a run into an empty folder leaves, nothing of the previous run.
-        crate::run::clear::clear_previous_run(&job.output)?;
-    }
-    std::fs::create_dir_all(&job.output).map_err(|e| Error::io(&job.output, e))?;
+    folder.prepare()?;
     let ctx = Ctx {
         job,
         plan,
         views: OnceMap::default(),
     };
-    progress.start(inputs.len());
-    let journal = Journal::new(
-        &job.output,
-        None,
+    let never = AtomicBool::new(false);
+    let mut run = folder.start(
         plan.command(),
         plan.parameters(job),
-        false,
+        Previous::default(),
         inputs.len(),
+        progress,
+        &never,
     )?;
-    // As in the KITTI conversion: after the first write the output device refused for want of
-    // space, no new image is taken.
-    let device_full: std::sync::OnceLock<Error> = std::sync::OnceLock::new();
-    inputs.par_iter().for_each(|input| {
-        if device_full.get().is_some() {
-            return;
-        }
-        let mut written = Vec::new();
-        let record = match ctx.convert(input, &mut written) {
-            Ok(record) => {
-                progress.frame_done();
-                record
-            }
-            Err(e) => {
-                for p in written {
-                    let _ = std::fs::remove_file(p);
-                }
-                if e.is_device_full() {
-                    let _ = device_full.set(e);
-                    return;
-                }
-                progress.frame_failed(&input.name, &e);
-                FrameRecord::failed("", &input.name, &e)
-            }
-        };
-        journal.record(record);
-    });
-    progress.finish();
-    let device_full = device_full.into_inner().map(|e| {
-        format!("output device full ({e}): free space, then convert the images not in the manifest again")
-    });
-    let finished = journal
-        .finish(device_full.is_none())
-        .map_err(|e| match &device_full {
-            Some(full) => Error::DeviceFull(format!(
-                "{full}; the manifest could not be written either ({e})"
-            )),
-            None => e,
-        })?;
-    let summary = Summary {
-        device_full,
-        frames: finished.frames,
-        converted: finished.frames - finished.failed,
-        failed: finished.failed,
-        resumed: 0,
-        interrupted: false,
-        seconds: started.elapsed().as_secs_f64(),
-        tables_built: ctx.views.len(),
-    };
-    Ok(summary)
+    run.run(&inputs, 1, &ctx);
+    run.finish(ctx.views.len(), |_| Ok(()))
 }

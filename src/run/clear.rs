@@ -10,6 +10,7 @@
 //! folders it writes into); the locks of running processes are left alone.
 
 use crate::error::{Error, Result};
+use crate::run::names::{is_lock, is_record, is_temporary, IMAGE_SETS};
 use serde::Deserialize;
 use serde_json::Value;
 use std::collections::BTreeSet;
@@ -31,25 +32,6 @@ struct Listed {
 struct Outputs {
     #[serde(default)]
     outputs: Vec<(String, String)>,
-}
-
-/// A record file at the output's root: the manifest, a shard's part, or their journals.
-fn is_record(name: &str) -> bool {
-    name.strip_prefix("panoconv")
-        .is_some_and(|rest| rest.ends_with(".json") || rest.ends_with(".journal"))
-}
-
-fn is_lock(name: &str) -> bool {
-    name.starts_with("panoconv.") && name.ends_with(".lock")
-}
-
-/// A temporary of an atomic write (`.NAME.tmp-PID`), which only panoconv names so.
-fn is_temporary(rel: &str) -> bool {
-    let name = rel.rsplit('/').next().unwrap_or(rel);
-    name.starts_with('.')
-        && name
-            .rsplit_once(".tmp-")
-            .is_some_and(|(_, pid)| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
 }
 
 /// A listed path that stays inside the folder: relative, no `..`, no root.
@@ -116,7 +98,8 @@ pub fn clear_previous_run(output: &Path) -> Result<usize> {
             || (!rel.contains('/') && is_record(rel))
             || (augmented
                 && rel
-                    .strip_prefix("ImageSets/")
+                    .strip_prefix(IMAGE_SETS)
+                    .and_then(|r| r.strip_prefix('/'))
                     .is_some_and(|n| n.ends_with(".txt") && !n.contains('/')))
     };
     // A lock at the root is a running process's (ours among them): neither removed nor refused.

@@ -2,9 +2,7 @@
 
 use serde::Serialize;
 
-/// The manifest's file name, at the output's root (an unsharded run's; shards add their
-/// index).
-pub const MANIFEST: &str = "panoconv.json";
+pub use crate::run::names::MANIFEST;
 
 /// One item's entry in the manifest's `frames` list (and one line of the journal).
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]

@@ -1,15 +1,24 @@
-//! Running many items: progress reporting, the run's summary, values built once and shared
-//! between frames, the manifest's records, the journal, files derived from an output, and the
-//! clearing of a previous run for `--overwrite`.
+//! Running many items: the output folder a conversion claims and its one frame loop
+//! (`output`, `frames`), the names of panoconv's own files in it, progress reporting, the
+//! run's summary, values built once and shared between frames, the manifest's records, the
+//! journal, files derived from an output, and the clearing of a previous run for
+//! `--overwrite`.
 
 pub mod alloc;
 pub mod clear;
 pub mod derived;
+pub mod frames;
 pub mod journal;
 pub mod manifest;
+pub mod names;
 mod once_map;
+pub mod output;
+mod shard;
 
+pub use frames::{FrameRun, FrameWork};
 pub use once_map::OnceMap;
+pub use output::{Claim, OutputFolder, OutputMode};
+pub use shard::Shard;
 
 use crate::error::Error;
 

@@ -8,15 +8,14 @@ use super::{KittiJob, KittiSource, KittiSummary, Parameters};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
-use crate::run::journal::{self, Journal, Previous};
+use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
-use crate::run::{Progress, Summary};
+use crate::run::names::IMAGE_SETS;
+use crate::run::{Claim, FrameWork, OutputFolder, OutputMode, Progress};
 use crate::style::{Device, StyleModel, StyleOptions};
-use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::OnceLock;
+use std::sync::atomic::AtomicBool;
 
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
@@ -31,14 +30,15 @@ pub fn run_kitti(
         check_not_converted_or_split(&job.input)?;
     }
     let dataset = job.source.open(&job.input)?;
-    // Resumed runs and shards write into a folder that already holds outputs.
     // Held until the run returns: one process per output (per shard).
-    let _lock = journal::claim_output(
-        &job.input,
-        &job.output,
-        job.shard,
-        job.overwrite || job.resume || job.shard.is_some(),
-    )?;
+    let folder = OutputFolder::claim(Claim {
+        input: &job.input,
+        output: &job.output,
+        shard: job.shard,
+        mode: OutputMode::from_flags(job.overwrite, job.resume),
+        resumable: true,
+        started,
+    })?;
     let ids = job.frames.as_ref().map(|ids| full_ids(&dataset, ids));
     let (mut frames, missing) = dataset.select(ids.as_deref());
     // Checked on the whole selection, before sharding: a shard may own no frame of a small set.
@@ -50,26 +50,15 @@ pub fn run_kitti(
     let style = load_style(job)?;
     let parameters =
         serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
-    let previous = if job.resume {
-        journal::load_previous(&job.output, job.shard, &parameters)?
-    } else {
-        Previous::default()
-    };
+    let previous = folder.previous(&parameters)?;
     if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
         return Err(Error::Setup(
             "--augment is not available for KITTI raw drives (one calib per drive)".into(),
         ));
     }
     check_output_size(job, &dataset, &frames)?;
-    if job.overwrite && !job.resume && job.shard.is_none() {
-        // The result must be what a run into an empty folder leaves: no file of the
-        // previous run stays beside the new ones.
-        crate::run::clear::clear_previous_run(&job.output)?;
-    }
+    folder.prepare()?;
     create_output_folders(job, &dataset)?;
-    if job.resume {
-        journal::remove_stale_temporaries(&job.output);
-    }
 
     let ctx = Context::new(job, style.as_ref(), &dataset);
     let style_pass = style
@@ -88,80 +77,45 @@ pub fn run_kitti(
         ctx.write_split_calib(split)?;
     }
     let unusable = unusable_frames(job, &dataset);
-    let mut journal = Journal::new(
-        &job.output,
-        job.shard,
-        job.source.command(),
-        parameters,
-        job.resume,
-        frames.len() + unusable.len(),
-    )?;
-    if job.resume && job.shard.is_none() {
-        journal.keep_derived(journal::previous_derived(&job.output));
-    }
-    let not_frames = if job.frames.is_none() && job.shard.is_none_or(|s| s.index == 0) {
+    let not_frames = if job.frames.is_none() && folder.writes_shared_files() {
         super::not_frames::list(&dataset)
     } else {
         Vec::new()
     };
-    progress.start(frames.len() + unusable.len());
-    let pass = FramePass {
-        job,
+    let mut run = folder.start(
+        job.source.command(),
+        parameters,
+        previous,
+        frames.len() + unusable.len(),
+        progress,
+        stop,
+    )?;
+    let work = KittiFrames {
         dataset: &dataset,
         ctx: &ctx,
         style_pass: style_pass.as_ref(),
-        previous: &previous,
-        journal: &journal,
-        progress,
-        stop,
-        device_full: OnceLock::new(),
-        written: AtomicUsize::new(0),
     };
-    let (done, resumed) = pass.run(&frames);
+    run.run(
+        &frames,
+        style_pass.as_ref().map_or(1, |p| p.group_len()),
+        &work,
+    );
     for &(split, name) in &unusable {
-        let f = FrameRef {
-            split: split.name.clone(),
-            id: name.clone(),
-        };
         let e = Error::file(
             &split.image_path(Cam::C2, "x").with_file_name(name),
             "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
         );
-        progress.frame_failed(&f.to_string(), &e);
-        journal.record(FrameRecord::failed(&f.split, &f.id, &e));
+        run.record_failed(&split.name, name, &e);
     }
-    progress.finish();
-    let interrupted = done < frames.len();
-    let written = pass.written.load(Ordering::Relaxed);
-    let device_full = pass.device_full.into_inner().map(|e| {
-        format!(
-            "output device full after {written} of {} frames ({e}): free space and run again with --resume",
-            frames.len()
-        )
-    });
-    // On a full device the manifest may not fit either: then say so with the rest.
-    let when_full = |e: Error| match &device_full {
-        Some(full) => Error::DeviceFull(format!(
-            "{full}; the manifest could not be written either ({e})"
-        )),
-        None => e,
-    };
-    if job.augment.is_some() && job.shard.is_none() {
-        // augmented ids are new: list them so KITTI loaders find the views
-        write_image_sets(&job.output, &dataset, &journal).map_err(when_full)?;
-    }
-    let finished = journal.finish(!interrupted).map_err(when_full)?;
+    let summary = run.finish(ctx.tables_built(), |journal| {
+        if job.augment.is_some() && job.shard.is_none() {
+            // augmented ids are new: list them so KITTI loaders find the views
+            write_image_sets(&job.output, &dataset, journal)?;
+        }
+        Ok(())
+    })?;
     Ok(KittiSummary {
-        run: Summary {
-            frames: finished.frames,
-            converted: finished.frames - finished.failed,
-            failed: finished.failed,
-            resumed,
-            interrupted: interrupted && device_full.is_none(),
-            device_full,
-            seconds: started.elapsed().as_secs_f64(),
-            tables_built: ctx.tables_built(),
-        },
+        run: summary,
         style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job
             .augment
@@ -317,104 +271,48 @@ fn unusable_frames<'d>(job: &KittiJob, dataset: &'d Dataset) -> Vec<(&'d Split, 
         .collect()
 }
 
-/// The loop over the frames and what it shares between workers.
-struct FramePass<'a> {
-    job: &'a KittiJob,
+/// A KITTI conversion's frames for the run's frame loop.
+struct KittiFrames<'a> {
     dataset: &'a Dataset,
     ctx: &'a Context<'a>,
     style_pass: Option<&'a StylePass<'a>>,
-    previous: &'a Previous,
-    journal: &'a Journal,
-    progress: &'a dyn Progress,
-    stop: &'a AtomicBool,
-    /// The first write the output device refused for want of space (or being read-only): no
-    /// new frame is taken after it, since every one would fail the same way.
-    device_full: OnceLock<Error>,
-    /// Frames whose outputs exist (converted or kept from the previous run).
-    written: AtomicUsize,
 }
 
-impl FramePass<'_> {
-    /// Converts `frames` in groups of consecutive frames (one frame each unless the style pass
-    /// batches): the grouping depends on the selection and the options only, never on the
-    /// thread count. Returns the frames taken and, of those, the ones kept from a previous run.
-    fn run(&self, frames: &[FrameRef]) -> (usize, usize) {
-        let group_len = self.style_pass.map_or(1, |p| p.group_len());
-        // Groups with a frame to convert go first: a resumed run writes its first new frame
-        // at once and re-checks the kept ones after (outcomes are only counted).
-        let (new, kept): (Vec<&[FrameRef]>, Vec<&[FrameRef]>) = frames
-            .chunks(group_len)
-            .partition(|g| g.iter().any(|f| !self.previous.contains(&f.split, &f.id)));
-        let outcomes: Vec<Option<bool>> = new
-            .into_par_iter()
-            .chain(kept)
-            .flat_map_iter(|group| self.group(group))
-            .collect();
-        let (mut done, mut resumed) = (0, 0);
-        for kept in outcomes.iter().flatten() {
-            done += 1;
-            resumed += usize::from(*kept);
-        }
-        (done, resumed)
+impl FrameWork for KittiFrames<'_> {
+    type Item = FrameRef;
+
+    fn key<'k>(&self, f: &'k FrameRef) -> (&'k str, &'k str) {
+        (&f.split, &f.id)
     }
 
-    /// One group: for each frame, None when it was not taken (stopped, device full),
-    /// Some(true) when kept from the previous run, Some(false) when converted or failed.
-    fn group(&self, group: &[FrameRef]) -> Vec<Option<bool>> {
-        // SIGINT/SIGTERM or a full device: take no new group; those in flight finish.
-        if self.stop.load(Ordering::Relaxed) || self.device_full.get().is_some() {
-            return vec![None; group.len()];
-        }
-        let mut outcomes = vec![Some(true); group.len()];
-        let mut todo = Vec::new();
-        for (i, f) in group.iter().enumerate() {
-            let split = self
-                .dataset
-                .split(&f.split)
-                .expect("selected frames come from the dataset's splits");
-            if let Some(r) = self.previous.get(&f.split, &f.id) {
-                if journal::still_valid(&r, &self.job.input, &self.job.output) {
-                    self.journal.record(r);
-                    self.written.fetch_add(1, Ordering::Relaxed);
-                    self.progress.frame_done();
-                    continue;
-                }
-            }
-            outcomes[i] = Some(false);
-            todo.push((i, split, f));
-        }
-        let items: Vec<(&Split, &str)> = todo.iter().map(|(_, s, f)| (*s, f.id.as_str())).collect();
+    fn convert(&self, group: &[&FrameRef]) -> Vec<Result<FrameRecord>> {
+        let items: Vec<(&Split, &str)> = group
+            .iter()
+            .map(|f| {
+                let split = self
+                    .dataset
+                    .split(&f.split)
+                    .expect("selected frames come from the dataset's splits");
+                (split, f.id.as_str())
+            })
+            .collect();
         let results = batch::convert_group(self.ctx, self.style_pass, &items);
-        for ((i, split, f), converted) in todo.into_iter().zip(results) {
-            let record = match converted {
-                Ok(out) => {
-                    self.written.fetch_add(1, Ordering::Relaxed);
-                    self.progress.frame_done();
-                    out.record
-                }
-                Err(e) => {
-                    // A failed frame leaves no output behind, not even one from an earlier
-                    // run into the same folder (--overwrite), which loaders would pick up.
-                    self.ctx.remove_outputs(split, &f.id);
-                    if e.is_device_full() {
-                        // Not this frame's fault: it is left for --resume, reported once.
-                        let _ = self.device_full.set(e);
-                        outcomes[i] = None;
-                        continue;
-                    }
-                    self.progress.frame_failed(&f.to_string(), &e);
-                    FrameRecord::failed(&f.split, &f.id, &e)
-                }
-            };
-            self.journal.record(record);
-        }
-        outcomes
+        results
+            .into_iter()
+            .zip(&items)
+            .map(|(converted, &(split, id))| {
+                converted.map(|out| out.record).inspect_err(|_| {
+                    // (an output an earlier run left for this frame included)
+                    self.ctx.remove_outputs(split, id);
+                })
+            })
+            .collect()
     }
 }
 
 /// `OUT/ImageSets/<split>.txt`: the view ids written per split.
 fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Result<()> {
-    let dir = output.join("ImageSets");
+    let dir = output.join(IMAGE_SETS);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let mut by_split: HashMap<String, Vec<String>> = HashMap::new();
     journal.for_each_record(|r| {

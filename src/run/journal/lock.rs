@@ -6,8 +6,9 @@
 //! file names its holder (host and pid) for the refusal message. Where the file system cannot
 //! lock files, the holder's pid is checked instead (on the same host only).
 
-use super::Shard;
 use crate::error::{Error, Result};
+use crate::run::names::lock_name;
+use crate::run::shard::Shard;
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -19,7 +20,7 @@ pub struct OutputLock {
     _file: File,
     /// The output folder, when taking the lock created it: removed again if the run wrote
     /// nothing (a set-up error leaves no folder behind).
-    pub(super) created: Option<PathBuf>,
+    pub(crate) created: Option<PathBuf>,
 }
 
 impl Drop for OutputLock {
@@ -33,15 +34,6 @@ impl Drop for OutputLock {
     }
 }
 
-/// File name of the output folder's lock: `panoconv.lock`, or `panoconv.shard-K-of-N.lock`
-/// for a shard (each shard locks on its own).
-pub fn lock_name(shard: Option<Shard>) -> String {
-    match shard {
-        Some(s) => format!("panoconv.shard-{}-of-{}.lock", s.index, s.count),
-        None => "panoconv.lock".into(),
-    }
-}
-
 fn host_name() -> String {
     std::fs::read_to_string("/proc/sys/kernel/hostname")
         .ok()
@@ -51,7 +43,7 @@ fn host_name() -> String {
         .unwrap_or_else(|| "unknown-host".into())
 }
 
-pub(super) fn pid_alive(pid: u32) -> bool {
+pub(crate) fn pid_alive(pid: u32) -> bool {
     pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
 }
 

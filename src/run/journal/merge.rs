@@ -6,8 +6,8 @@
 use super::index::LineIndex;
 use super::pretty;
 use crate::error::{Error, Result};
-use crate::run::manifest::MANIFEST;
 use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::names::{shard_part, spool_name, IMAGE_SETS, MANIFEST};
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde_json::value::RawValue;
 use serde_json::{Map, Value};
@@ -16,16 +16,6 @@ use std::fmt;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-
-/// `panoconv.shard-K-of-N.EXT` → (K, N).
-fn shard_part(name: &str, ext: &str) -> Option<(u32, u32)> {
-    let rest = name
-        .strip_prefix("panoconv.shard-")?
-        .strip_suffix(ext)?
-        .strip_suffix('.')?;
-    let (k, n) = rest.split_once("-of-")?;
-    Some((k.parse().ok()?, n.parse().ok()?))
-}
 
 /// `text` without the whitespace outside its strings: the compact form serde_json writes.
 pub(super) fn compacted(text: &str) -> Vec<u8> {
@@ -204,7 +194,7 @@ pub fn merge(output: &Path) -> Result<usize> {
         )));
     }
 
-    let spool_path = output.join(format!(".panoconv.merge.tmp-{}", std::process::id()));
+    let spool_path = output.join(spool_name("merge"));
     let file = File::create(&spool_path).map_err(|e| Error::io(&spool_path, e))?;
     let _remove = Remove(spool_path.clone());
     let mut spool = Spool {
@@ -284,7 +274,7 @@ pub fn merge(output: &Path) -> Result<usize> {
     )?;
     if augmented {
         // As the unsharded run: the view ids, so that KITTI loaders find the views.
-        let dir = output.join("ImageSets");
+        let dir = output.join(IMAGE_SETS);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         for (split, mut ids) in std::mem::take(&mut spool.written) {
             ids.sort_unstable();

@@ -7,15 +7,14 @@
 //! joined by `merge`.
 
 mod index;
-mod lock;
+pub(crate) mod lock;
 mod merge;
 mod pretty;
 mod previous;
 
 use crate::error::{Error, Result};
-use crate::fs::hash_hex;
-use crate::run::manifest::MANIFEST;
 use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::names::{journal_path, manifest_name};
 use serde_json::{json, Value};
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -23,6 +22,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+pub use crate::run::shard::Shard;
 use index::LineIndex;
 pub use lock::OutputLock;
 pub use merge::merge;
@@ -30,61 +30,6 @@ pub use previous::{load_previous, previous_derived, Previous};
 
 /// How often a running conversion makes its journal durable (fsync).
 const SYNC_EVERY: Duration = Duration::from_secs(2);
-
-/// `--shard K/N`: this process converts the frames whose key hashes to K modulo N (K from 0).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub struct Shard {
-    /// K: which shard this process converts, from 0 to `count` − 1.
-    pub index: u32,
-    /// N: the number of shards (at least 1).
-    pub count: u32,
-}
-
-impl Shard {
-    /// Whether a frame belongs to this shard. A hash of the frame's own key, so the split is
-    /// stable when frames are added or removed.
-    pub fn owns(&self, split: &str, id: &str) -> bool {
-        let h = blake3::hash(format!("{split}/{id}").as_bytes());
-        let v = u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes"));
-        v % self.count as u64 == self.index as u64
-    }
-
-    /// File name of this shard's manifest part: `panoconv.shard-K-of-N.json`.
-    pub fn manifest_name(&self) -> String {
-        format!("panoconv.shard-{}-of-{}.json", self.index, self.count)
-    }
-}
-
-fn manifest_name(shard: Option<Shard>) -> String {
-    shard.map_or(MANIFEST.to_owned(), |s| s.manifest_name())
-}
-
-/// The journal beside a manifest: `panoconv.json` → `panoconv.journal`.
-fn journal_path(manifest: &Path) -> PathBuf {
-    manifest.with_extension("journal")
-}
-
-/// Checks the output (see [`crate::fs::check_output_dir`]) and takes its lock, so one
-/// process at a time converts into it (one per shard). A live holder is named in the
-/// refusal, before the folder is found non-empty.
-pub fn claim_output(
-    input: &Path,
-    output: &Path,
-    shard: Option<Shard>,
-    allow_nonempty: bool,
-) -> Result<OutputLock> {
-    lock::refuse_if_held(output, shard)?;
-    crate::fs::check_output_dir(input, output, allow_nonempty)?;
-    let existed = output.exists();
-    std::fs::create_dir_all(output).map_err(|e| Error::io(output, e))?;
-    let mut lock = lock::acquire(output, shard).inspect_err(|_| {
-        if !existed {
-            let _ = std::fs::remove_dir(output);
-        }
-    })?;
-    lock.created = (!existed).then(|| output.to_path_buf());
-    Ok(lock)
-}
 
 struct State {
     file: File,
@@ -293,51 +238,5 @@ impl Journal {
         // `--resume` reads the same records from either.
         let _ = std::fs::remove_file(&self.journal);
         Ok(Finished { frames, failed })
-    }
-}
-
-/// Whether a previous record still stands: converted, inputs unchanged, every output present
-/// with its recorded hash.
-pub fn still_valid(r: &FrameRecord, input: &Path, output: &Path) -> bool {
-    let same = |root: &Path, files: &[(String, String)]| {
-        files
-            .iter()
-            .all(|(rel, hash)| std::fs::read(root.join(rel)).is_ok_and(|b| &hash_hex(&b) == hash))
-    };
-    r.status == FrameStatus::Ok
-        && !r.outputs.is_empty()
-        && same(input, &r.inputs)
-        && same(output, &r.outputs)
-}
-
-/// Removes temporary files a killed run left behind (`.NAME.tmp-PID`). Those of a live process
-/// on this host (another shard writing into the same folder) are left alone.
-pub fn remove_stale_temporaries(dir: &Path) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        // the entry's type from the folder listing: no stat per file (300 000 files at
-        // 100 000 frames), and a link to a folder is not followed
-        if e.file_type().is_ok_and(|t| t.is_dir()) {
-            remove_stale_temporaries(&p);
-            continue;
-        }
-        let name = e.file_name();
-        let Some(pid) = name
-            .to_str()
-            .filter(|n| n.starts_with('.'))
-            .and_then(|n| n.rsplit_once(".tmp-"))
-            .map(|(_, pid)| pid)
-        else {
-            continue;
-        };
-        let live = pid
-            .parse::<u32>()
-            .is_ok_and(|pid| pid != std::process::id() && lock::pid_alive(pid));
-        if !live {
-            let _ = std::fs::remove_file(&p);
-        }
     }
 }

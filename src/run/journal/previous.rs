@@ -5,9 +5,10 @@
 //! comes up.
 
 use super::merge::{compacted, EachFrame};
-use super::{journal_path, manifest_name, Shard};
 use crate::error::{Error, Result};
 use crate::run::manifest::FrameRecord;
+use crate::run::names::{journal_path, manifest_name, spool_name, MANIFEST};
+use crate::run::shard::Shard;
 use serde::de::{self, MapAccess, Visitor};
 use serde_json::value::RawValue;
 use serde_json::Value;
@@ -146,7 +147,7 @@ pub fn load_previous(output: &Path, shard: Option<Shard>, parameters: &Value) ->
     if !manifest.exists() && !journal.exists() {
         return Ok(Previous::default());
     }
-    let spool_path = output.join(format!(".panoconv.resume.tmp-{}", std::process::id()));
+    let spool_path = output.join(spool_name("resume"));
     let spool = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
@@ -206,7 +207,7 @@ pub fn previous_derived(output: &Path) -> Option<Value> {
         #[serde(default)]
         derived: Option<Value>,
     }
-    let file = File::open(output.join(crate::run::manifest::MANIFEST)).ok()?;
+    let file = File::open(output.join(MANIFEST)).ok()?;
     serde_json::from_reader::<_, Derived>(std::io::BufReader::new(file))
         .ok()?
         .derived
