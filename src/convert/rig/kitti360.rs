@@ -12,7 +12,7 @@ use super::objects::{DropReason, ObjectOutcome, ObjectRule};
 use super::pass::RigTarget;
 use crate::codec::png::PngCompression;
 use crate::reproject::depth::OcclusionFilter;
-use crate::run::journal::Shard;
+use crate::run::Shard;
 use crate::run::Summary;
 use crate::warp::StitchOptions;
 use nalgebra::Vector3;

@@ -1,7 +1,8 @@
 //! Running `panoconv kitti360`: the sequences opened and the selection checked before anything
-//! is written, the output claimed, then each frame read, converted through the rig pass and
-//! written (atomically, hashed for the manifest) in parallel on the rayon pool; a failed frame
-//! leaves no file, is reported and recorded; then the manifest.
+//! is written, then the output folder's run (`run::OutputFolder`: claim, previous records,
+//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: each frame read,
+//! converted through the rig pass and written (atomically, hashed for the manifest); a failed
+//! frame leaves no file.
 
 use super::gray::encode_gray8;
 use super::kitti360::{
@@ -12,13 +13,11 @@ use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::kitti360::{Options, Sequence};
-use crate::run::journal::{self, Journal, Previous};
 use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord};
-use crate::run::{OnceMap, Progress, Summary};
-use rayon::prelude::*;
+use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Mutex, OnceLock};
+use std::sync::atomic::AtomicBool;
+use std::sync::Mutex;
 
 /// The per-frame output folders under `OUT/training/`.
 const FOLDERS: [&str; 6] = [
@@ -86,7 +85,7 @@ impl Ctx<'_> {
             .map_err(|m| Error::file(path, m))
     }
 
-    fn convert(&self, item: &Item) -> Result<FrameRecord> {
+    fn frame_record(&self, item: &Item) -> Result<FrameRecord> {
         let (sequence, info) = &self.sequences[item.sequence];
         let job = self.job;
         let frame = sequence.frame(item.frame)?;
@@ -198,6 +197,28 @@ impl Ctx<'_> {
             views: Vec::new(),
             lidar,
         })
+    }
+}
+
+impl FrameWork for Ctx<'_> {
+    type Item = Item;
+
+    fn key<'k>(&self, item: &'k Item) -> (&'k str, &'k str) {
+        (SPLIT, &item.id)
+    }
+
+    fn convert(&self, group: &[&Item]) -> Vec<Result<FrameRecord>> {
+        group
+            .iter()
+            .map(|item| {
+                self.frame_record(item).inspect_err(|_| {
+                    // a failed frame leaves no output, not even one of an earlier run
+                    for p in self.output_paths(&item.id) {
+                        let _ = std::fs::remove_file(p);
+                    }
+                })
+            })
+            .collect()
     }
 }
 
@@ -337,33 +358,26 @@ pub fn run_kitti360(
     let sequences = open_sequences(job)?;
     let mut items = select(job, &sequences)?;
     check_output_camera(job, &sequences, &items)?;
-    let _lock = journal::claim_output(
-        &job.input,
-        &job.output,
-        job.shard,
-        job.overwrite || job.resume || job.shard.is_some(),
-    )?;
+    let folder = OutputFolder::claim(Claim {
+        input: &job.input,
+        output: &job.output,
+        shard: job.shard,
+        mode: OutputMode::from_flags(job.overwrite, job.resume),
+        resumable: true,
+        started,
+    })?;
     if let Some(shard) = job.shard {
         items.retain(|i| shard.owns(SPLIT, &i.id));
     }
     let parameters = serde_json::to_value(Parameters::new(job)).expect("parameters serialise");
-    let previous = if job.resume {
-        journal::load_previous(&job.output, job.shard, &parameters)?
-    } else {
-        Previous::default()
-    };
-    if job.overwrite && !job.resume && job.shard.is_none() {
-        crate::run::clear::clear_previous_run(&job.output)?;
-    }
-    for folder in FOLDERS {
-        if folder == "depth_2" && job.depth.is_none() {
+    let previous = folder.previous(&parameters)?;
+    folder.prepare()?;
+    for name in FOLDERS {
+        if name == "depth_2" && job.depth.is_none() {
             continue;
         }
-        let dir = job.output.join(SPLIT).join(folder);
+        let dir = folder.root().join(SPLIT).join(name);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    }
-    if job.resume {
-        journal::remove_stale_temporaries(&job.output);
     }
     let ctx = Ctx {
         job,
@@ -371,84 +385,19 @@ pub fn run_kitti360(
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
     };
-    let mut journal = Journal::new(
-        &job.output,
-        job.shard,
+    let mut run = folder.start(
         "kitti360",
         parameters,
-        job.resume,
+        previous,
         items.len(),
+        progress,
+        stop,
     )?;
-    if job.resume && job.shard.is_none() {
-        journal.keep_derived(journal::previous_derived(&job.output));
-    }
-    progress.start(items.len());
-    let device_full: OnceLock<Error> = OnceLock::new();
-    let (taken, resumed) = (AtomicUsize::new(0), AtomicUsize::new(0));
-    items.par_iter().for_each(|item| {
-        if stop.load(Ordering::Relaxed) || device_full.get().is_some() {
-            return;
-        }
-        taken.fetch_add(1, Ordering::Relaxed);
-        if let Some(r) = previous.get(SPLIT, &item.id) {
-            if journal::still_valid(&r, &job.input, &job.output) {
-                journal.record(r);
-                resumed.fetch_add(1, Ordering::Relaxed);
-                progress.frame_done();
-                return;
-            }
-        }
-        let record = match ctx.convert(item) {
-            Ok(record) => {
-                progress.frame_done();
-                record
-            }
-            Err(e) => {
-                // a failed frame leaves no output, not even one of an earlier run
-                for p in ctx.output_paths(&item.id) {
-                    let _ = std::fs::remove_file(p);
-                }
-                if e.is_device_full() {
-                    let _ = device_full.set(e);
-                    taken.fetch_sub(1, Ordering::Relaxed);
-                    return;
-                }
-                let name = format!("{}/{}", SPLIT, item.id);
-                progress.frame_failed(&name, &e);
-                FrameRecord::failed(SPLIT, &item.id, &e)
-            }
-        };
-        journal.record(record);
-    });
-    progress.finish();
-    let taken = taken.into_inner();
-    let interrupted = taken < items.len();
-    let device_full = device_full.into_inner().map(|e| {
-        format!(
-            "output device full after {taken} of {} frames ({e}): free space and run again with --resume",
-            items.len()
-        )
-    });
-    let finished = journal
-        .finish(!interrupted)
-        .map_err(|e| match &device_full {
-            Some(full) => Error::DeviceFull(format!(
-                "{full}; the manifest could not be written either ({e})"
-            )),
-            None => e,
-        })?;
+    run.run(&items, 1, &ctx);
+    let summary = run.finish(0, |_| Ok(()))?;
     let objects = *ctx.objects.lock().unwrap_or_else(|e| e.into_inner());
     Ok(Kitti360Summary {
-        run: Summary {
-            frames: finished.frames,
-            converted: finished.frames - finished.failed,
-            failed: finished.failed,
-            resumed: resumed.into_inner(),
-            interrupted: interrupted && device_full.is_none(),
-            device_full,
-            seconds: started.elapsed().as_secs_f64(),
-            tables_built: 0,
-        },
+        run: summary,
         objects,
     })
 }
