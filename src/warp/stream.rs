@@ -17,6 +17,12 @@ use crate::error::Result;
 use crate::image::RgbImage;
 use std::path::{Path, PathBuf};
 
+thread_local! {
+    /// The pixel buffer of the last source image this thread dropped, decoded into by the
+    /// next one: no megabyte zeroed and faulted in each frame.
+    static SPARE: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// A source image read from a PNG file, decoded by its first warp (see the module's notes).
 pub struct PngSource {
     state: State,
@@ -37,7 +43,8 @@ impl PngSource {
     /// Takes a PNG file's bytes: checked and left undecoded where the direct decoder takes
     /// them, decoded at once (and any error returned now) where it does not.
     pub fn new(bytes: Vec<u8>, path: &Path) -> Result<PngSource> {
-        let state = match RowDecoder::new(&bytes, MAX_PIXELS) {
+        let spare = SPARE.with_borrow_mut(std::mem::take);
+        let state = match RowDecoder::with_buffer(&bytes, MAX_PIXELS, spare) {
             Some(decoder) => State::Pending {
                 bytes,
                 path: path.to_owned(),
@@ -57,8 +64,8 @@ impl PngSource {
     }
 
     /// The whole image, decoded.
-    pub fn decode(self) -> Result<RgbImage> {
-        match self.state {
+    pub fn decode(mut self) -> Result<RgbImage> {
+        match std::mem::replace(&mut self.state, State::Decoded(RgbImage::new(0, 0))) {
             State::Decoded(img) => Ok(img),
             State::Pending {
                 bytes,
@@ -125,4 +132,19 @@ pub fn warp_encode(table: &RemapTable, src: &RgbImage, c: PngCompression) -> Vec
     png::encode_rgb8_rows(size.width, size.height, c, |v, row| {
         table.apply_row(src, v, row)
     })
+}
+
+impl Drop for PngSource {
+    fn drop(&mut self) {
+        if let State::Decoded(img) =
+            std::mem::replace(&mut self.state, State::Decoded(RgbImage::new(0, 0)))
+        {
+            let buffer = img.into_raw();
+            SPARE.with_borrow_mut(|spare| {
+                if spare.capacity() < buffer.capacity() {
+                    *spare = buffer;
+                }
+            });
+        }
+    }
 }

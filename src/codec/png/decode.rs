@@ -58,8 +58,15 @@ pub struct RowDecoder {
 
 impl RowDecoder {
     /// Checks the header and every chunk (CRCs, order) and gathers the IDAT stream; `None`
-    /// when this decoder does not take the file. Nothing is inflated yet.
+    /// when this decoder does not take the file. Nothing is inflated yet; the image's rows
+    /// are zero until decoded.
     pub fn new(bytes: &[u8], max_pixels: u64) -> Option<RowDecoder> {
+        Self::with_buffer(bytes, max_pixels, Vec::new())
+    }
+
+    /// As [`RowDecoder::new`], decoding into `buffer` (an earlier image's, so that its memory
+    /// is neither zeroed nor faulted in again): rows not yet decoded hold what it held.
+    pub fn with_buffer(bytes: &[u8], max_pixels: u64, mut buffer: Vec<u8>) -> Option<RowDecoder> {
         let header = super::read_header(bytes)?;
         let (width, height) = (header.width, header.height);
         // 8-bit RGB, not interlaced (read_header checked the rest)
@@ -110,7 +117,10 @@ impl RowDecoder {
             filled: 0,
             next: 0,
             produced: 0,
-            image: vec![0; len.checked_mul(height as usize)?],
+            image: {
+                buffer.resize(len.checked_mul(height as usize)?, 0);
+                buffer
+            },
             rows: 0,
         })
     }
@@ -121,7 +131,7 @@ impl RowDecoder {
     }
 
     /// The whole image's buffer (3 bytes a pixel, rows top to bottom): the rows decoded so far
-    /// ([`RowDecoder::rows`]), zeros below them.
+    /// ([`RowDecoder::rows`]), then what the buffer held (zeros from [`RowDecoder::new`]).
     pub fn image(&self) -> &[u8] {
         &self.image
     }
