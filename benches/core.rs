@@ -8,7 +8,7 @@ use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::kitti::Label;
 use panoconv::reproject::labels::transform_label;
 use panoconv::tools::synth::{frames, label_lines};
-use panoconv::warp::{RemapTable, Wrap};
+use panoconv::warp::{warp_encode, PngSource, RemapTable, Wrap};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -155,6 +155,40 @@ fn bench(c: &mut Criterion) {
                 |b| b.iter(|| encode_rgb8(black_box(&img), comp)),
             );
         }
+        // A frame's image as `panoconv kitti --to equirect` makes it: decoded whole, then
+        // warped into the encoder; or decoded row by row as the warp reads the rows.
+        let calib = paths::real_kitti().join("training/calib/000001.txt");
+        let real_k = panoconv::kitti::calib::Calib::read(&calib)
+            .unwrap()
+            .camera(panoconv::kitti::Cam::C2)
+            .unwrap()
+            .k;
+        let size = panoconv::camera::ImageSize::new(img.width(), img.height());
+        let real_src = Perspective::new(real_k, size);
+        let real_out =
+            output_camera(&OutputSpec::new(Projection::Equirect), real_k, &real_src).unwrap();
+        let table = RemapTable::build(
+            real_out.as_ref(),
+            &real_src,
+            &Matrix3::identity(),
+            Wrap::None,
+        );
+        let c = PngCompression::Default;
+        g.bench_function(BenchmarkId::new("decode_warp_encode", "whole"), |b| {
+            b.iter(|| warp_encode(&table, &decode_rgb8(black_box(&bytes), &real).unwrap(), c))
+        });
+        g.bench_function(BenchmarkId::new("decode_warp_encode", "row_by_row"), |b| {
+            b.iter_batched(
+                || bytes.clone(),
+                |bytes| {
+                    PngSource::new(bytes, &real)
+                        .unwrap()
+                        .warp_encode(&table, c)
+                        .unwrap()
+                },
+                criterion::BatchSize::LargeInput,
+            )
+        });
     }
     for (name, img) in [
         ("kitti_1242x375", &image),

@@ -81,6 +81,8 @@ def main():
     ap.add_argument("--tmp", default=None, help="where the frame sets go (default: $TMPDIR)")
     ap.add_argument("--only", default="panoconv,opencv,floor")
     ap.add_argument("--json", default=None, help="also write the medians here")
+    ap.add_argument("--old", default=None,
+                    help="an earlier panoconv binary, run as 'old' in the same rounds")
     a = ap.parse_args()
 
     kitti = os.path.abspath(a.kitti)
@@ -95,10 +97,10 @@ def main():
             for inp, split, fid in pairs:
                 f.write(f"{inp} {os.path.join(ref, split, 'image_2', fid + '.png')}\n")
 
-        def panoconv():
+        def panoconv(binary=a.bin):
             out = os.path.join(tmp, "out-panoconv")
             shutil.rmtree(out, ignore_errors=True)
-            r = run([a.bin, "kitti", "--to", "equirect", "--quiet", "--jobs", str(a.jobs),
+            r = run([binary, "kitti", "--to", "equirect", "--quiet", "--jobs", str(a.jobs),
                      "--png-compression", a.compression, "--input", data, "--output", out])
             return r[:3] + (image_bytes(out),)
 
@@ -115,8 +117,9 @@ def main():
             j = json.loads(out)
             return j["seconds"], cpu, rss, j["bytes"]
 
-        runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor}
-        names = [n for n in a.only.split(",") if n]
+        runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor,
+                   "old": lambda: panoconv(a.old)}
+        names = [n for n in a.only.split(",") if n] + (["old"] if a.old else [])
         results = {n: [] for n in names}
         loads = {n: [] for n in names}
         for r in range(a.rounds):
@@ -175,6 +178,11 @@ def main():
             print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall"
                   f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
                   f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU ({load_note})")
+        if "panoconv" in med and "old" in med:
+            p, o = med["panoconv"], med["old"]
+            print(f"panoconv/old: {p['fps'] / o['fps']:.2f}x frames/s [{paired('old')}],"
+                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes"
+                  f" ({load_note})")
         if a.json:
             with open(a.json, "w") as f:
                 json.dump({"frames": a.frames, "jobs": a.jobs, "medians": med}, f, indent=1)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # End-to-end benchmark of issue 8: panoconv vs the OpenCV-Python converter vs the codec floor.
-#   benches/run.sh [--frames N] [--rounds R] [--jobs J] [--tmp DIR] [--compression default]
+#   benches/run.sh [--frames N] [--rounds R] [--jobs J] [--tmp DIR] [--compression default] [--old BIN]
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, builds the release binary and
 # the codec_floor example, and runs benches/run.py. Nothing is written into the repository except
 # benches/.venv (ignored by git); the frame sets live in a temporary folder that is removed after.

@@ -37,6 +37,7 @@ mod labels;
 mod labels_meant;
 mod pano;
 mod png;
+mod png_rows;
 mod preview;
 mod raw;
 mod resume;

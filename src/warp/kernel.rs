@@ -21,7 +21,7 @@ pub(super) struct Quad {
 }
 
 /// Bytes the SIMD kernel reads from a block's top-left and bottom-left pixel (6 used).
-const SIMD_READ: usize = 8;
+pub(super) const SIMD_READ: usize = 8;
 
 /// Which kernel applies a table.
 #[doc(hidden)]

@@ -4,10 +4,12 @@
 mod footprint;
 mod kernel;
 pub mod stitch;
+mod stream;
 mod table;
 
 pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
 pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
+pub use stream::{warp_encode, PngSource};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

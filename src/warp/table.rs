@@ -205,7 +205,7 @@ impl RemapTable {
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| self.row(src, v, row, kernel));
+            .for_each(|(v, row)| self.row(src.as_raw(), v, row, kernel));
     }
 
     /// Resamples output row `v` into `row` (the table's width × 3 bytes), on the calling
@@ -217,25 +217,41 @@ impl RemapTable {
             (self.source_size.width, self.source_size.height),
             "source image size differs from the table's"
         );
+        self.apply_row_data(src.as_raw(), v, row);
+    }
+
+    /// As [`RemapTable::apply_row`], from the source's samples (3 bytes a pixel, rows top to
+    /// bottom, the table's source size) of which only the first [`RemapTable::source_rows`]`(v)`
+    /// rows are read: for a source decoded row by row as the warp goes down.
+    pub fn apply_row_data(&self, src: &[u8], v: usize, row: &mut [u8]) {
+        let s = self.source_size;
+        assert_eq!(
+            src.len(),
+            s.width as usize * s.height as usize * 3,
+            "source image size differs from the table's"
+        );
         assert_eq!(row.len(), self.size.width as usize * 3, "row length");
         assert!(v < self.size.height as usize, "row {v} beyond the table");
         self.row(src, v, row, Kernel::Auto);
     }
 
-    fn row(&self, src: &RgbImage, v: usize, row: &mut [u8], kernel: Kernel) {
+    /// How many source rows, from the top, output row `v` reads (every byte any kernel may
+    /// load for it lies in them).
+    pub fn source_rows(&self, v: usize) -> usize {
+        let stride3 = self.source_size.width as usize * 3;
+        if stride3 == 0 {
+            return 0;
+        }
+        let end = self.row_reach[v] as usize * 3 + stride3 + kernel::SIMD_READ;
+        end.div_ceil(stride3).min(self.source_size.height as usize)
+    }
+
+    fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel) {
         let w = self.size.width as usize;
         let quads = &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
         let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
         let stride = self.source_size.width as usize;
-        kernel::apply_row(
-            quads,
-            counts,
-            src.as_raw(),
-            stride,
-            self.row_reach[v],
-            row,
-            kernel,
-        );
+        kernel::apply_row(quads, counts, src, stride, self.row_reach[v], row, kernel);
     }
 }
 

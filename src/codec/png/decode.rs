@@ -1,8 +1,11 @@
 //! A direct decoder for the common PNG: 8-bit RGB, not interlaced (every KITTI image).
 //!
-//! The IDAT stream is inflated with fdeflate (the png crate's own inflater) in one call into
-//! one buffer, and the rows are unfiltered in place into the image: none of the png crate's
-//! per-row copies, buffer compaction or streaming state. It accepts only files it is sure of:
+//! The IDAT stream is inflated with fdeflate (the png crate's own inflater) into a small
+//! sliding window (32 KiB of history and room for a few rows), and each row is unfiltered from
+//! there into the image as soon as it is complete: none of the png crate's per-row copies or
+//! streaming state, and no second whole-image buffer. [`RowDecoder`] hands out the image a
+//! band of rows at a time, so that a warp can read rows moments after they are decoded (still
+//! in the core's cache) instead of after the whole image. It accepts only files it is sure of:
 //! anything else (another pixel format, interlacing, a bad checksum, a truncated or overlong
 //! stream, chunks out of order, tRNS) returns `None` and the caller decodes with the png
 //! crate, whose errors panoconv reports. `tests/png.rs` checks the pixels equal the png
@@ -13,31 +16,73 @@ use std::cell::RefCell;
 
 /// Bytes from the file's start to the end of the IHDR chunk.
 const HEADER_LEN: usize = 33;
+/// Deflate's largest back-reference distance: the window keeps this much inflated history.
+const HISTORY: usize = 32 * 1024;
+/// Least room for new inflated bytes in the window (more for rows longer than half of it).
+const CHUNK: usize = 256 * 1024;
 
 thread_local! {
-    /// The IDAT data of the frame being decoded, gathered into one stream (a camera PNG has
-    /// many small IDAT chunks), kept per thread so it is not allocated and grown each frame.
-    static STREAM: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+    /// The gathered IDAT stream and the inflate window of the image being decoded, kept per
+    /// thread so that they are not allocated and grown each frame.
+    static BUFFERS: RefCell<(Vec<u8>, Vec<u8>)> = const { RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// The image's (width, height, RGB bytes), or `None` when this decoder does not take the file.
 /// `max_pixels` bounds what the header may ask for.
 pub fn decode_rgb8(bytes: &[u8], max_pixels: u64) -> Option<(u32, u32, Vec<u8>)> {
-    let header = super::read_header(bytes)?;
-    let (width, height) = (header.width, header.height);
-    // 8-bit RGB, not interlaced (read_header checked the rest)
-    if header.bit_depth != 8
-        || header.colour != ColourType::Rgb
-        || header.interlaced
-        || width as u64 * height as u64 > max_pixels
-    {
-        return None;
+    RowDecoder::new(bytes, max_pixels)?.finish()
+}
+
+/// An 8-bit RGB PNG decoded row by row on demand into a whole-image buffer.
+pub struct RowDecoder {
+    width: u32,
+    height: u32,
+    /// Bytes of an unfiltered row.
+    len: usize,
+    /// The IDAT data, gathered into one stream (a camera PNG has many small IDAT chunks).
+    stream: Vec<u8>,
+    /// Bytes of `stream` the inflater has taken.
+    used: usize,
+    inflater: fdeflate::Decompressor,
+    /// Inflated bytes: history, then rows not yet unfiltered, up to `filled`.
+    window: Vec<u8>,
+    filled: usize,
+    /// Where the next row (its filter byte) starts in `window`.
+    next: usize,
+    /// Inflated bytes so far, in all.
+    produced: usize,
+    /// The pixels, rows `..rows` decoded, the rest zero.
+    image: Vec<u8>,
+    rows: usize,
+}
+
+impl RowDecoder {
+    /// Checks the header and every chunk (CRCs, order) and gathers the IDAT stream; `None`
+    /// when this decoder does not take the file. Nothing is inflated yet; the image's rows
+    /// are zero until decoded.
+    pub fn new(bytes: &[u8], max_pixels: u64) -> Option<RowDecoder> {
+        Self::with_buffer(bytes, max_pixels, Vec::new())
     }
-    let mut chunks = Chunks {
-        rest: &bytes[HEADER_LEN..],
-    };
-    STREAM.with_borrow_mut(|stream| {
+
+    /// As [`RowDecoder::new`], decoding into `buffer` (an earlier image's, so that its memory
+    /// is neither zeroed nor faulted in again): rows not yet decoded hold what it held.
+    pub fn with_buffer(bytes: &[u8], max_pixels: u64, mut buffer: Vec<u8>) -> Option<RowDecoder> {
+        let header = super::read_header(bytes)?;
+        let (width, height) = (header.width, header.height);
+        // 8-bit RGB, not interlaced (read_header checked the rest)
+        if header.bit_depth != 8
+            || header.colour != ColourType::Rgb
+            || header.interlaced
+            || width as u64 * height as u64 > max_pixels
+        {
+            return None;
+        }
+        let len = width as usize * 3;
+        let (mut stream, mut window) = BUFFERS.with_borrow_mut(std::mem::take);
         stream.clear();
+        let mut chunks = Chunks {
+            rest: &bytes[HEADER_LEN..],
+        };
         let mut seen_idat = false;
         let mut ended_idat = false;
         loop {
@@ -57,81 +102,178 @@ pub fn decode_rgb8(bytes: &[u8], max_pixels: u64) -> Option<(u32, u32, Vec<u8>)>
                 _ => return None,
             }
         }
-        inflate_and_unfilter(stream, width, height)
-    })
-}
+        window.resize(HISTORY + CHUNK.max(2 * (len + 1)), 0);
+        let mut inflater = fdeflate::Decompressor::new();
+        // as the png crate: the IDAT chunks' CRCs already protect the data
+        inflater.ignore_adler32();
+        Some(RowDecoder {
+            width,
+            height,
+            len,
+            stream,
+            used: 0,
+            inflater,
+            window,
+            filled: 0,
+            next: 0,
+            produced: 0,
+            image: {
+                buffer.resize(len.checked_mul(height as usize)?, 0);
+                buffer
+            },
+            rows: 0,
+        })
+    }
 
-fn inflate_and_unfilter(stream: &[u8], width: u32, height: u32) -> Option<(u32, u32, Vec<u8>)> {
-    let len = width as usize * 3;
-    let h = height as usize;
-    let raw_len = (len + 1).checked_mul(h)?;
-    let mut buf = vec![0u8; raw_len];
-    let mut inflater = fdeflate::Decompressor::new();
-    // as the png crate: the IDAT chunks' CRCs already protect the data
-    inflater.ignore_adler32();
-    // All but the last byte first: fdeflate sums the adler32 of whatever the call that
-    // reaches the checksum produced, ignored or not, and that should be one byte, not the
-    // whole image.
-    let (used, produced) = inflater
-        .read(stream, &mut buf[..raw_len - 1], 0, true)
-        .ok()?;
-    if produced != raw_len - 1 {
-        return None;
+    /// (width, height) in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
     }
-    let (rest, last) = inflater
-        .read(&stream[used..], &mut buf, produced, true)
-        .ok()?;
-    if last != 1 || !inflater.is_done() || used + rest != stream.len() {
-        return None;
+
+    /// The whole image's buffer (3 bytes a pixel, rows top to bottom): the rows decoded so far
+    /// ([`RowDecoder::rows`]), then what the buffer held (zeros from [`RowDecoder::new`]).
+    pub fn image(&self) -> &[u8] {
+        &self.image
     }
-    // Row r's filtered bytes sit at r·(len + 1) + 1; its pixels go to r·len, below them, so
-    // the rows move down in order and each is unfiltered against the one before it.
-    for r in 0..h {
-        let filter = buf[r * (len + 1)];
-        let src = r * (len + 1) + 1;
-        buf.copy_within(src..src + len, r * len);
-        let (done, rest) = buf.split_at_mut(r * len);
-        let cur = &mut rest[..len];
+
+    /// Rows decoded so far.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Decodes rows until at least `n` (at most the height) are; `None` when the stream is
+    /// damaged (the decoder is then of no further use).
+    pub fn decode_rows(&mut self, n: usize) -> Option<()> {
+        let n = n.min(self.height as usize);
+        while self.rows < n {
+            if self.next + self.len < self.filled {
+                self.unfilter_row()?;
+            } else {
+                self.inflate()?;
+            }
+        }
+        Some(())
+    }
+
+    /// Decodes the rest and checks the stream ends exactly there: the image's (width, height,
+    /// RGB bytes).
+    pub fn finish(mut self) -> Option<(u32, u32, Vec<u8>)> {
+        self.decode_rows(self.height as usize)?;
+        Some((self.width, self.height, std::mem::take(&mut self.image)))
+    }
+
+    /// Unfilters the row at `next` into the image, against the row above it.
+    fn unfilter_row(&mut self) -> Option<()> {
+        let (r, len) = (self.rows, self.len);
+        let filter = self.window[self.next];
+        let src = &self.window[self.next + 1..self.next + 1 + len];
+        let (done, rest) = self.image.split_at_mut(r * len);
         let prev = if r == 0 {
             None
         } else {
             Some(&done[(r - 1) * len..])
         };
-        unfilter(filter, prev, cur)?;
+        unfilter(filter, prev, src, &mut rest[..len])?;
+        self.next += len + 1;
+        self.rows += 1;
+        Some(())
     }
-    buf.truncate(len * h);
-    Some((width, height, buf))
+
+    /// Inflates more bytes into the window (at least one, or `None`).
+    fn inflate(&mut self) -> Option<()> {
+        let raw_len = (self.len + 1) * self.height as usize;
+        if self.window.len() - self.filled < CHUNK.max(2 * (self.len + 1)) / 2 {
+            // keep the deflate history and the unconsumed part of the next row
+            let keep = self.next.min(self.filled.saturating_sub(HISTORY));
+            self.window.copy_within(keep..self.filled, 0);
+            self.filled -= keep;
+            self.next -= keep;
+        }
+        let input = &self.stream[self.used..];
+        if self.produced + 1 < raw_len {
+            // All but the image's last byte first: fdeflate sums the adler32 of whatever the
+            // call that reaches the checksum produced, ignored or not, and that should be one
+            // byte, not a window's worth.
+            let end = self
+                .window
+                .len()
+                .min(self.filled + (raw_len - 1 - self.produced));
+            let (used, n) = self
+                .inflater
+                .read(input, &mut self.window[..end], self.filled, true)
+                .ok()?;
+            if n == 0 {
+                return None;
+            }
+            self.used += used;
+            self.filled += n;
+            self.produced += n;
+        } else if self.produced + 1 == raw_len {
+            let (used, n) = self
+                .inflater
+                .read(
+                    input,
+                    &mut self.window[..self.filled + 1],
+                    self.filled,
+                    true,
+                )
+                .ok()?;
+            if n != 1 || !self.inflater.is_done() || self.used + used != self.stream.len() {
+                return None;
+            }
+            self.used += used;
+            self.filled += 1;
+            self.produced += 1;
+        } else {
+            return None;
+        }
+        Some(())
+    }
 }
 
-/// Undoes PNG filter `filter` on `cur` (3 bytes a pixel) given the row above (`None`: zeros).
-/// Each pixel is handled as a 3-byte array, which the compiler keeps in registers.
-fn unfilter(filter: u8, prev: Option<&[u8]>, cur: &mut [u8]) -> Option<()> {
+impl Drop for RowDecoder {
+    fn drop(&mut self) {
+        let stream = std::mem::take(&mut self.stream);
+        let window = std::mem::take(&mut self.window);
+        // (a second decoder on the same thread keeps its own buffers; they are freed here)
+        BUFFERS.with_borrow_mut(|b| {
+            if b.0.capacity() < stream.capacity() {
+                *b = (stream, window);
+            }
+        });
+    }
+}
+
+/// Undoes PNG filter `filter` of the row `src` into `cur` (3 bytes a pixel) given the row above
+/// (`None`: zeros). Each pixel is handled as a 3-byte array, which the compiler keeps in
+/// registers.
+fn unfilter(filter: u8, prev: Option<&[u8]>, src: &[u8], cur: &mut [u8]) -> Option<()> {
     let pixel = |px: &mut [u8], new: [u8; 3]| px.copy_from_slice(&new);
     match (filter, prev) {
-        (0, _) | (2, None) => {}
+        (0, _) | (2, None) => cur.copy_from_slice(src),
         (1, _) | (4, None) => {
             let mut a = [0u8; 3];
-            for px in cur.chunks_exact_mut(3) {
+            for (px, x) in cur.chunks_exact_mut(3).zip(src.chunks_exact(3)) {
                 a = [
-                    px[0].wrapping_add(a[0]),
-                    px[1].wrapping_add(a[1]),
-                    px[2].wrapping_add(a[2]),
+                    x[0].wrapping_add(a[0]),
+                    x[1].wrapping_add(a[1]),
+                    x[2].wrapping_add(a[2]),
                 ];
                 pixel(px, a);
             }
         }
         (2, Some(prev)) => {
-            for (x, b) in cur.iter_mut().zip(prev) {
-                *x = x.wrapping_add(*b);
+            for ((y, x), b) in cur.iter_mut().zip(src).zip(prev) {
+                *y = x.wrapping_add(*b);
             }
         }
         (3, None) => {
             let mut a = [0u8; 3];
-            for px in cur.chunks_exact_mut(3) {
+            for (px, x) in cur.chunks_exact_mut(3).zip(src.chunks_exact(3)) {
                 a = [
-                    px[0].wrapping_add(a[0] / 2),
-                    px[1].wrapping_add(a[1] / 2),
-                    px[2].wrapping_add(a[2] / 2),
+                    x[0].wrapping_add(a[0] / 2),
+                    x[1].wrapping_add(a[1] / 2),
+                    x[2].wrapping_add(a[2] / 2),
                 ];
                 pixel(px, a);
             }
@@ -139,22 +281,30 @@ fn unfilter(filter: u8, prev: Option<&[u8]>, cur: &mut [u8]) -> Option<()> {
         (3, Some(prev)) => {
             let avg = |a: u8, b: u8| ((a as u16 + b as u16) / 2) as u8;
             let mut a = [0u8; 3];
-            for (px, b) in cur.chunks_exact_mut(3).zip(prev.chunks_exact(3)) {
+            for ((px, x), b) in cur
+                .chunks_exact_mut(3)
+                .zip(src.chunks_exact(3))
+                .zip(prev.chunks_exact(3))
+            {
                 a = [
-                    px[0].wrapping_add(avg(a[0], b[0])),
-                    px[1].wrapping_add(avg(a[1], b[1])),
-                    px[2].wrapping_add(avg(a[2], b[2])),
+                    x[0].wrapping_add(avg(a[0], b[0])),
+                    x[1].wrapping_add(avg(a[1], b[1])),
+                    x[2].wrapping_add(avg(a[2], b[2])),
                 ];
                 pixel(px, a);
             }
         }
         (4, Some(prev)) => {
             let (mut a, mut c) = ([0u8; 3], [0u8; 3]);
-            for (px, b) in cur.chunks_exact_mut(3).zip(prev.chunks_exact(3)) {
+            for ((px, x), b) in cur
+                .chunks_exact_mut(3)
+                .zip(src.chunks_exact(3))
+                .zip(prev.chunks_exact(3))
+            {
                 a = [
-                    px[0].wrapping_add(paeth(a[0], b[0], c[0])),
-                    px[1].wrapping_add(paeth(a[1], b[1], c[1])),
-                    px[2].wrapping_add(paeth(a[2], b[2], c[2])),
+                    x[0].wrapping_add(paeth(a[0], b[0], c[0])),
+                    x[1].wrapping_add(paeth(a[1], b[1], c[1])),
+                    x[2].wrapping_add(paeth(a[2], b[2], c[2])),
                 ];
                 pixel(px, a);
                 c = [b[0], b[1], b[2]];

@@ -4,10 +4,9 @@
 use super::frame::{relative, Context};
 use super::views::{Draw, OutputView};
 use crate::camera::{CameraModel, ImageSize};
-use crate::codec::png::{self as png};
 use crate::error::{Error, Result};
 use crate::fs;
-use crate::fs::{read_file, read_file_into, split_lines};
+use crate::fs::{read_file, split_lines};
 use crate::image::RgbImage;
 use crate::kitti::calib::SourceCamera;
 use crate::kitti::Cam;
@@ -15,6 +14,7 @@ use crate::kitti::{velodyne, Layout};
 use crate::kitti::{Calib, LabelFile, Split};
 use crate::reproject::depth::rect_from_velo;
 use crate::reproject::labels::transform_label;
+use crate::warp::PngSource;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -55,7 +55,10 @@ impl Context<'_> {
         let image = read_png(&image_path, |bytes| {
             inputs.push((relative(root, &image_path), fs::hash_hex(bytes)));
         })?;
-        let size = ImageSize::new(image.width(), image.height());
+        let size = {
+            let (w, h) = image.size();
+            ImageSize::new(w, h)
+        };
         let objects = |camera: &dyn CameraModel| -> u32 {
             let source = cam2.camera(size);
             labels.as_ref().map_or(0, |l| {
@@ -76,7 +79,7 @@ impl Context<'_> {
             .iter()
             .map(|out| out.view.map_or(0, |v| v.attempt))
             .collect();
-        let mut images = vec![image];
+        let mut sources = vec![image];
 
         // The right camera, converted about its own centre C3 (labels stay with camera 2).
         let right = if self.job.cameras.contains(&Cam::C3) {
@@ -85,9 +88,12 @@ impl Context<'_> {
             let img = read_png(&path, |bytes| {
                 inputs.push((relative(root, &path), fs::hash_hex(bytes)));
             })?;
-            let size3 = ImageSize::new(img.width(), img.height());
+            let size3 = {
+                let (w, h) = img.size();
+                ImageSize::new(w, h)
+            };
             let views3 = self.views(split, id, &calib_path, cam3.k, size3, Draw::As(&attempts))?;
-            images.push(img);
+            sources.push(img);
             Some(RightCamera {
                 camera: cam3,
                 views: views3,
@@ -124,32 +130,28 @@ impl Context<'_> {
             views2,
             right,
             lidar,
-            images,
+            images: Vec::new(),
+            sources,
         };
-        if self.style_after_warp() {
-            frame.images = frame.warp_all();
+        if self.style.is_some() {
+            frame.images = std::mem::take(&mut frame.sources)
+                .into_iter()
+                .map(PngSource::decode)
+                .collect::<Result<_>>()?;
+            if self.style_after_warp() {
+                frame.images = frame.warp_all();
+            }
         }
         Ok(frame)
     }
 }
 
-thread_local! {
-    /// Each worker's buffer for the PNG files it reads: one allocation for the whole run, not
-    /// fresh (page-faulting) memory for every image.
-    static PNG_BYTES: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// Reads and decodes an RGB PNG, handing its bytes to `seen` first (for the manifest's hash).
-fn read_png(path: &Path, seen: impl FnOnce(&[u8])) -> Result<RgbImage> {
-    PNG_BYTES.with(|cell| {
-        let mut own = Vec::new();
-        // (a worker is never inside another read here, but a fresh buffer is correct anyway)
-        let mut borrowed = cell.try_borrow_mut();
-        let buf = borrowed.as_deref_mut().unwrap_or(&mut own);
-        read_file_into(path, buf)?;
-        seen(buf);
-        png::decode_rgb8(buf, path)
-    })
+/// Reads an RGB PNG, handing its bytes to `seen` first (for the manifest's hash). Its pixels
+/// are decoded by the warp, row by row as the warp reads them (or at once for the style pass).
+fn read_png(path: &Path, seen: impl FnOnce(&[u8])) -> Result<PngSource> {
+    let bytes = read_file(path)?;
+    seen(&bytes);
+    PngSource::new(bytes, path)
 }
 
 /// The right camera of a stereo frame (converted about its own centre C3; the labels stay
@@ -181,8 +183,12 @@ pub(super) struct Prepared {
     pub(super) right: Option<RightCamera>,
     pub(super) lidar: Option<LidarPoints>,
     /// What the style pass takes, in order: camera 2's source image then camera 3's; or, when
-    /// styling after the warp, each view's warped camera 2 and camera 3 images.
+    /// styling after the warp, each view's warped camera 2 and camera 3 images. Empty without
+    /// a style pass.
     pub(super) images: Vec<RgbImage>,
+    /// Without a style pass: camera 2's source PNG then camera 3's, decoded by their first
+    /// warp. Empty with a style pass (`images` holds them).
+    pub(super) sources: Vec<PngSource>,
 }
 
 impl Prepared {

@@ -6,19 +6,18 @@ use super::frame::{relative, Context, FrameOutput};
 use super::read::{Prepared, RightCamera};
 use super::views::OutputView;
 use crate::camera::{ImageSize, OutputCamera};
-use crate::codec::png::{self as png, PngCompression};
+use crate::codec::png::{self as png};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
 use crate::geometry::augment::view_id;
-use crate::image::RgbImage;
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::kitti::{Layout, OutputKind};
 use crate::reproject::depth::depth_map;
 use crate::reproject::labels::transform_label;
 use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
-use crate::warp::RemapTable;
+use crate::warp::{warp_encode, RemapTable};
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
@@ -109,16 +108,22 @@ impl Context<'_> {
             right,
             lidar,
             images,
+            mut sources,
         } = frame;
         let cameras_per_view = if right.is_some() { 2 } else { 1 };
         let compression = self.job.png_compression;
         // The PNG of view i's camera 2 (cam 0) or 3 (cam 1): the styled warped image, or the
         // source warped row by row as the encoder takes the rows.
-        let encode_view = |i: usize, cam: usize, table: &RemapTable| {
+        let mut encode_view = |i: usize, cam: usize, table: &RemapTable| -> Result<Vec<u8>> {
             if after_warp {
-                png::encode_rgb8(&images[i * cameras_per_view + cam], compression)
+                Ok(png::encode_rgb8(
+                    &images[i * cameras_per_view + cam],
+                    compression,
+                ))
+            } else if let Some(source) = sources.get_mut(cam) {
+                source.warp_encode(table, compression)
             } else {
-                warp_encode(table, &images[cam], compression)
+                Ok(warp_encode(table, &images[cam], compression))
             }
         };
         let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
@@ -136,7 +141,7 @@ impl Context<'_> {
                 view,
             } = out_view;
             if let Some(path) = out(OutputKind::Image(Cam::C2), &view_id) {
-                outputs.push((path, encode_view(i, 0, &mapping.table)));
+                outputs.push((path, encode_view(i, 0, &mapping.table)?));
             }
             if self.job.mask {
                 outputs.push((
@@ -193,7 +198,7 @@ impl Context<'_> {
             {
                 outputs.push((
                     out(OutputKind::Image(Cam::C3), &view_id).expect("every layout has image 3"),
-                    encode_view(i, 1, &views3[i].mapping.table),
+                    encode_view(i, 1, &views3[i].mapping.table)?,
                 ));
                 if self.job.mask {
                     outputs.push((
@@ -248,13 +253,4 @@ impl Context<'_> {
 fn encode_mask(table: &RemapTable) -> Vec<u8> {
     let size = table.size();
     png::encode_mask(size.width, size.height, |u, v| table.is_inside(u, v))
-}
-
-/// Warps `src` row by row as the PNG encoder takes the rows, so that the warped image never
-/// has to exist whole.
-fn warp_encode(table: &RemapTable, src: &RgbImage, compression: PngCompression) -> Vec<u8> {
-    let size = table.size();
-    png::encode_rgb8_rows(size.width, size.height, compression, |v, row| {
-        table.apply_row(src, v, row)
-    })
 }
