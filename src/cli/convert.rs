@@ -3,7 +3,7 @@
 use super::*;
 use panoconv::camera::description::CameraDescription;
 use panoconv::convert::kitti::{KittiSource, StyleOrder};
-use panoconv::geometry::FisheyeTarget;
+use panoconv::geometry::{FisheyeTarget, Target};
 use panoconv::kitti::Cam;
 
 pub(super) const RAW_EXAMPLES: &str = "Examples:
@@ -320,40 +320,47 @@ fn convert(
             "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into()
         ));
     }
-    let projection = projection_of(args.to);
-    let fisheye = match (projection, &args.camera) {
-        (Projection::Fisheye, Some(file)) => Some(fisheye_target(file)?),
-        (Projection::Fisheye, None) => bail!(Error::Setup(
+    let target = match (projection_of(args.to), &args.camera) {
+        (None, Some(file)) => {
+            for (given, flag) in [
+                (args.pano_width.is_some(), "--pano-width"),
+                (args.px_per_deg.is_some(), "--px-per-deg"),
+                (args.full_360, "--full-360"),
+                (args.size.is_some(), "--size"),
+            ] {
+                if given {
+                    bail!(Error::Setup(format!(
+                        "{flag}: a fisheye target has the size and scale of its camera file \
+                         (--crop and --resize apply)"
+                    )));
+                }
+            }
+            Target::Fisheye {
+                camera: Box::new(fisheye_target(file)?),
+                crop: args.crop,
+                resize: args.resize,
+            }
+        }
+        (None, None) => bail!(Error::Setup(
             "--to fisheye needs --camera FILE: a camera description or a KITTI-360, WoodScape \
              or OpenCV calibration file (docs/fisheye.md); to convert fisheye images instead, \
              `panoconv fisheye --camera CAMERA.json --to cylindrical`"
                 .into()
         )),
-        (_, Some(_)) => bail!(Error::Setup(
+        (Some(_), Some(_)) => bail!(Error::Setup(
             "--camera describes the camera of --to fisheye".into()
         )),
-        (_, None) => None,
-    };
-    if fisheye.is_some() {
-        for (given, flag) in [
-            (args.pano_width.is_some(), "--pano-width"),
-            (args.px_per_deg.is_some(), "--px-per-deg"),
-            (args.full_360, "--full-360"),
-            (args.size.is_some(), "--size"),
-        ] {
-            if given {
-                bail!(Error::Setup(format!(
-                    "{flag}: a fisheye target has the size and scale of its camera file \
-                     (--crop and --resize apply)"
-                )));
-            }
-        }
-    }
-    let scale = scale_of(args.pano_width, args.px_per_deg)?;
-    let canvas = match (args.full_360, args.size) {
-        (true, _) => Canvas::Full360,
-        (false, Some(s)) => Canvas::Size(s),
-        (false, None) => Canvas::Tight,
+        (Some(projection), None) => Target::Linear(OutputSpec {
+            projection,
+            scale: scale_of(args.pano_width, args.px_per_deg)?,
+            canvas: match (args.full_360, args.size) {
+                (true, _) => Canvas::Full360,
+                (false, Some(s)) => Canvas::Size(s),
+                (false, None) => Canvas::Tight,
+            },
+            crop: args.crop,
+            resize: args.resize,
+        }),
     };
     let frames = match (args.frames, &args.frames_from) {
         // `--frames "1, 4"`: the spaces are not part of the ids.
@@ -364,14 +371,7 @@ fn convert(
     let job = KittiJob {
         input,
         output: args.output,
-        output_spec: OutputSpec {
-            projection,
-            scale,
-            canvas,
-            crop: args.crop,
-            resize: args.resize,
-        },
-        fisheye,
+        target,
         mask: args.mask,
         source,
         frames,

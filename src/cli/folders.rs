@@ -178,15 +178,8 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
             "--yaw must be finite and --pitch within [-90, 90] degrees".into()
         ));
     }
-    let hfov = degrees(a.fov, "--fov")?.unwrap_or(match projection {
-        Projection::Perspective => 90f64.to_radians(),
-        _ => 2.0 * std::f64::consts::PI,
-    });
-    let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(match projection {
-        Projection::Perspective => hfov,
-        Projection::Cylindrical => 90f64.to_radians(),
-        Projection::Equirect | Projection::Fisheye => std::f64::consts::PI,
-    });
+    let hfov = degrees(a.fov, "--fov")?.unwrap_or(projection.default_pano_hfov());
+    let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(projection.default_pano_vfov(hfov));
     let views = PanoViews {
         projection,
         yaws,

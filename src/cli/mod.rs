@@ -127,13 +127,13 @@ enum To {
     Fisheye,
 }
 
-/// The projection of `--to`.
-fn projection_of(to: To) -> Projection {
+/// The linear projection of `--to`; None for `--to fisheye` (a camera, not a projection).
+fn projection_of(to: To) -> Option<Projection> {
     match to {
-        To::Equirect => Projection::Equirect,
-        To::Cylindrical => Projection::Cylindrical,
-        To::Perspective => Projection::Perspective,
-        To::Fisheye => Projection::Fisheye,
+        To::Equirect => Some(Projection::Equirect),
+        To::Cylindrical => Some(Projection::Cylindrical),
+        To::Perspective => Some(Projection::Perspective),
+        To::Fisheye => None,
     }
 }
 

@@ -16,7 +16,7 @@ pub use run::run_kitti;
 use crate::codec::png::PngCompression;
 use crate::error::Result;
 use crate::geometry::augment::Augment;
-use crate::geometry::{FisheyeTarget, OutputSpec};
+use crate::geometry::{FisheyeTarget, Target, TargetRecord};
 use crate::kitti::{raw, Cam, Dataset};
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::journal::Shard;
@@ -35,10 +35,9 @@ pub struct KittiJob {
     pub output: PathBuf,
     /// Which layout `input` has and what part of it is converted.
     pub source: KittiSource,
-    /// The target projection, scale, canvas, crop and resize.
-    pub output_spec: OutputSpec,
-    /// The fisheye camera of `--to fisheye`.
-    pub fisheye: Option<FisheyeTarget>,
+    /// What the frames are rendered into: a projection (scale, canvas) or a fisheye camera,
+    /// then the crop and resize.
+    pub target: Target,
     /// Write `mask_2/` (and `mask_3/`): where each output pixel has source data.
     pub mask: bool,
     /// Restrict to these frame ids.
@@ -99,7 +98,7 @@ impl KittiSource {
 #[derive(Debug, Serialize)]
 struct Parameters<'a> {
     input: &'a Path,
-    output_spec: &'a OutputSpec,
+    output_spec: TargetRecord,
     #[serde(skip_serializing_if = "Option::is_none")]
     fisheye: Option<&'a FisheyeTarget>,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
@@ -124,8 +123,8 @@ impl<'a> Parameters<'a> {
         };
         Parameters {
             input: &job.input,
-            output_spec: &job.output_spec,
-            fisheye: job.fisheye.as_ref(),
+            output_spec: job.target.record(),
+            fisheye: job.target.fisheye(),
             mask: job.mask,
             split,
             frames: job.frames.as_deref(),

@@ -212,12 +212,10 @@ fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> 
         };
         for (k, size) in super::tables::source_cameras(split, &first.id, &job.cameras) {
             let source = crate::camera::Perspective::new(k, size);
-            let Err(e) =
-                crate::geometry::target_camera(&job.output_spec, job.fisheye.as_ref(), k, &source)
-            else {
+            let Err(e) = job.target.camera(k, &source) else {
                 continue;
             };
-            let option = match job.output_spec.scale {
+            let option = match job.target.scale() {
                 crate::geometry::Scale::PanoWidth(w) => format!("--pano-width {w}"),
                 crate::geometry::Scale::PixelsPerDegree(d) => format!("--px-per-deg {d}"),
                 crate::geometry::Scale::SourceFocal => "the output size".to_owned(),

@@ -6,7 +6,6 @@ use super::frame::Context;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::error::{Error, Result};
 use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
-use crate::geometry::target_camera;
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
@@ -55,7 +54,10 @@ impl Context<'_> {
         parallel: bool,
     ) -> std::result::Result<CameraMapping, String> {
         let source = Perspective::new(k, size);
-        let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+        let output = self
+            .job
+            .target
+            .camera(k, &source)
             .map_err(|e| e.to_string())?;
         let table = table(output.as_ref(), &source, parallel);
         Ok(CameraMapping {
@@ -94,7 +96,10 @@ impl Context<'_> {
             }]);
         };
         let source = Perspective::new(k, size);
-        let canvas = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+        let canvas = self
+            .job
+            .target
+            .camera(k, &source)
             .map_err(|e| Error::file(calib_path, e.to_string()))?;
         let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
             let (kv, sv) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());
