@@ -18,6 +18,7 @@ pub mod fisheye;
 pub mod fit;
 mod intrinsics;
 mod lens;
+mod lens_domain;
 mod linear;
 mod output;
 mod perspective;
