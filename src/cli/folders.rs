@@ -1,6 +1,12 @@
 //! `fisheye` and `pano`: folders of fisheye images or panoramas.
 
-use super::*;
+use super::{count, scale_of, with_pool, Bar, RunArgs, EXIT_FRAMES_FAILED};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use panoconv::camera::Projection;
+use panoconv::error::Error;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 // ---------------------------------------------------------------------------------------------
 // Folder conversions: fisheye and pano

@@ -33,6 +33,19 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// The scale `--pano-width` or `--px-per-deg` asks for (default: the source's own).
+    pub fn from_flags(pano_width: Option<u32>, px_per_deg: Option<f64>) -> Result<Scale> {
+        match (pano_width, px_per_deg) {
+            (Some(0), _) => Err(Error::Setup("--pano-width must be positive".into())),
+            (Some(w), _) => Ok(Scale::PanoWidth(w)),
+            (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+                Err(Error::Setup("--px-per-deg must be positive".into()))
+            }
+            (None, Some(d)) => Ok(Scale::PixelsPerDegree(d)),
+            (None, None) => Ok(Scale::SourceFocal),
+        }
+    }
+
     /// Pixels per radian, given the source's own at its centre.
     pub fn px_per_rad(self, source: f64) -> f64 {
         match self {

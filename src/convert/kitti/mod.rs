@@ -5,12 +5,14 @@
 mod batch;
 mod frame;
 mod not_frames;
+mod options;
 mod read;
 mod run;
 mod tables;
 mod views;
 mod write;
 
+pub use options::KittiOptions;
 pub use run::run_kitti;
 
 use crate::codec::png::PngCompression;
@@ -20,7 +22,7 @@ use crate::geometry::{FisheyeTarget, Target, TargetRecord};
 use crate::kitti::{raw, Cam, Dataset};
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::journal::Shard;
-use crate::run::Summary;
+use crate::run::{OutputMode, Summary};
 use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -42,8 +44,9 @@ pub struct KittiJob {
     pub mask: bool,
     /// Restrict to these frame ids.
     pub frames: Option<Vec<String>>,
-    /// Write into a non-empty output folder.
-    pub overwrite: bool,
+    /// New, `--overwrite` or `--resume` (skip frames whose outputs a previous run
+    /// completed, with the same parameters and inputs).
+    pub mode: OutputMode,
     /// PNG encoder effort.
     pub png_compression: PngCompression,
     /// The CycleGAN style pass, if any.
@@ -56,8 +59,6 @@ pub struct KittiJob {
     pub depth: Option<DepthJob>,
     /// This process converts one shard of the frames.
     pub shard: Option<Shard>,
-    /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
-    pub resume: bool,
 }
 
 /// The input of a KITTI conversion.

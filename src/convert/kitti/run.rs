@@ -11,7 +11,7 @@ use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
 use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::names::IMAGE_SETS;
-use crate::run::{Claim, FrameWork, OutputFolder, OutputMode, Progress};
+use crate::run::{Claim, FrameWork, OutputFolder, Progress};
 use crate::style::{Device, StyleModel, StyleOptions};
 use std::collections::HashMap;
 use std::path::Path;
@@ -35,7 +35,7 @@ pub fn run_kitti(
         input: &job.input,
         output: &job.output,
         shard: job.shard,
-        mode: OutputMode::from_flags(job.overwrite, job.resume),
+        mode: job.mode,
         resumable: true,
         started,
     })?;
@@ -51,11 +51,6 @@ pub fn run_kitti(
     let parameters =
         serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
-    if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
-        return Err(Error::Setup(
-            "--augment is not available for KITTI raw drives (one calib per drive)".into(),
-        ));
-    }
     check_output_size(job, &dataset, &frames)?;
     folder.prepare()?;
     create_output_folders(job, &dataset)?;
