@@ -165,15 +165,15 @@ impl OutputFolder {
             journal.keep_derived(journal::previous_derived(&self.root));
         }
         progress.start(selected);
-        Ok(FrameRun::new(self, journal, previous, progress, stop))
-    }
-
-    pub(crate) fn resumable(&self) -> bool {
-        self.resumable
-    }
-
-    pub(crate) fn started(&self) -> Instant {
-        self.started
+        Ok(FrameRun::new(
+            (&self.input, &self.root),
+            self.resumable,
+            self.started,
+            journal,
+            previous,
+            progress,
+            stop,
+        ))
     }
 }
 

@@ -2,7 +2,7 @@
 //! built once and shared by every frame with that calibration, or drawn per frame for
 //! `--augment` (redrawn until a view holds enough objects).
 
-use super::frame::Context;
+use super::frame::{CameraMapping, Context};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::error::{Error, Result};
 use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
@@ -13,16 +13,6 @@ use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-
-/// The output camera and remap table of one source camera.
-#[derive(Clone)]
-pub(super) struct CameraMapping {
-    pub(super) output: Arc<dyn OutputCamera>,
-    pub(super) table: Arc<RemapTable>,
-}
-
-/// A source camera: its intrinsics' bits and image size.
-pub(super) type CameraMappingKey = ([u64; 4], ImageSize);
 
 /// One output view of a camera.
 pub(super) struct OutputView {
