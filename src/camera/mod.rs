@@ -23,7 +23,7 @@ mod linear;
 mod output;
 mod perspective;
 mod projection;
-pub mod rotated;
+pub(crate) mod rotated;
 mod unified;
 mod yaml_subset;
 

@@ -4,7 +4,7 @@ pub mod calib;
 mod cam;
 pub mod dataset;
 mod label;
-pub mod raw;
+pub(crate) mod raw;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};
