@@ -10,4 +10,4 @@ pub mod velodyne;
 pub use calib::{Calib, SourceCamera};
 pub use cam::Cam;
 pub use dataset::{Dataset, FrameRef, Layout, OutputKind, Split};
-pub use label::{Label, LabelFile};
+pub use label::{Label, LabelClass, LabelFile, DONT_CARE};
