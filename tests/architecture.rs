@@ -192,3 +192,203 @@ fn clap_and_anyhow_stay_in_the_binary() {
         }
     }
 }
+
+/// The library file that holds module `path` (`["run", "journal"]` → src/run/journal/mod.rs),
+/// if there is one.
+fn module_file(src: &Path, path: &[String]) -> Option<PathBuf> {
+    if path.is_empty() {
+        return Some(src.join("lib.rs"));
+    }
+    let joined: PathBuf = path.iter().collect();
+    [
+        src.join(&joined).with_extension("rs"),
+        src.join(&joined).join("mod.rs"),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+}
+
+/// The module path of a library file (src/run/frames.rs → ["run", "frames"]).
+fn module_of(src: &Path, file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src).unwrap().with_extension("");
+    let mut path: Vec<String> = rel
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if matches!(path.last().map(String::as_str), Some("mod" | "lib")) {
+        path.pop();
+    }
+    path
+}
+
+/// The paths a `crate::` or `super::` path names, groups expanded (`a::{b, c::{d, e}}`), as
+/// segments after the prefix.
+fn expand_paths(text: &str) -> Vec<Vec<String>> {
+    let ident = |s: &str| -> usize {
+        s.find(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .unwrap_or(s.len())
+    };
+    let mut out = Vec::new();
+    let mut prefix = Vec::new();
+    let mut rest = text;
+    loop {
+        let n = ident(rest);
+        if n == 0 {
+            break;
+        }
+        prefix.push(rest[..n].to_owned());
+        rest = &rest[n..];
+        match rest.strip_prefix("::") {
+            Some(r) if r.starts_with('{') => {
+                // the group's items at its top level, each expanded
+                let body = &r[1..];
+                let (mut depth, mut start) = (0usize, 0usize);
+                for (i, c) in body.char_indices() {
+                    match c {
+                        '{' => depth += 1,
+                        '}' | ',' if depth == 0 => {
+                            for mut p in expand_paths(body[start..i].trim()) {
+                                let mut full = prefix.clone();
+                                full.append(&mut p);
+                                out.push(full);
+                            }
+                            if c == '}' {
+                                return out;
+                            }
+                            start = i + 1;
+                        }
+                        '}' => depth -= 1,
+                        _ => {}
+                    }
+                }
+                return out;
+            }
+            Some(r) => rest = r,
+            None => break,
+        }
+    }
+    if !prefix.is_empty() {
+        out.push(prefix);
+    }
+    out
+}
+
+/// The library files a library file imports through `crate::` and `super::` paths (not its
+/// tests, not its comments).
+fn file_imports(src: &Path, file: &Path) -> Vec<PathBuf> {
+    let text = std::fs::read_to_string(file).unwrap();
+    let code = text.split("#[cfg(test)]").next().unwrap();
+    let code: String = code
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let own = module_of(src, file);
+    let mut out = Vec::new();
+    for (at, _) in code.match_indices("::") {
+        let before = &code[..at];
+        let word_start = before
+            .rfind(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .map_or(0, |i| i + 1);
+        let word = &before[word_start..];
+        // the start of a path only: `crate::`, `super::` (not `a::super::`)
+        if word_start >= 2 && &before[word_start - 2..word_start] == "::" {
+            continue;
+        }
+        let mut base = match word {
+            "crate" => Vec::new(),
+            "super" => own[..own.len().saturating_sub(1)].to_vec(),
+            _ => continue,
+        };
+        let mut tail = &code[at + 2..];
+        while let Some(t) = tail.strip_prefix("super::") {
+            base.pop();
+            tail = t;
+        }
+        for path in expand_paths(tail) {
+            let mut module = base.clone();
+            let mut found = module_file(src, &module);
+            for seg in path {
+                module.push(seg);
+                match module_file(src, &module) {
+                    Some(f) => found = Some(f),
+                    None => break,
+                }
+            }
+            if let Some(f) = found.filter(|f| f != file) {
+                out.push(f);
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
+}
+
+#[test]
+fn the_path_expander_sees_nested_groups() {
+    let paths = expand_paths("run::{names::MANIFEST, frames::{A, b::C}}, x");
+    let joined: Vec<String> = paths.iter().map(|p| p.join("::")).collect();
+    assert_eq!(
+        joined,
+        [
+            "run::names::MANIFEST",
+            "run::frames::A",
+            "run::frames::b::C"
+        ]
+    );
+}
+
+#[test]
+fn no_circle_of_imports_between_library_files() {
+    let src = repo().join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.retain(|f| {
+        let rel = f.strip_prefix(&src).unwrap();
+        !rel.starts_with("cli") && rel != Path::new("main.rs")
+    });
+    let graph: BTreeMap<PathBuf, Vec<PathBuf>> = files
+        .iter()
+        .map(|f| (f.clone(), file_imports(&src, f)))
+        .collect();
+    // Depth-first search; a back edge closes a circle, reported with the files on it.
+    fn visit(
+        f: &PathBuf,
+        graph: &BTreeMap<PathBuf, Vec<PathBuf>>,
+        state: &mut BTreeMap<PathBuf, u8>,
+        stack: &mut Vec<PathBuf>,
+        circles: &mut Vec<String>,
+    ) {
+        state.insert(f.clone(), 1);
+        stack.push(f.clone());
+        for g in graph.get(f).into_iter().flatten() {
+            match state.get(g).copied().unwrap_or(0) {
+                0 => visit(g, graph, state, stack, circles),
+                1 => {
+                    let at = stack.iter().position(|s| s == g).unwrap();
+                    let names: Vec<String> = stack[at..]
+                        .iter()
+                        .chain([g])
+                        .map(|p| p.strip_prefix(repo()).unwrap().display().to_string())
+                        .collect();
+                    circles.push(names.join(" -> "));
+                }
+                _ => {}
+            }
+        }
+        stack.pop();
+        state.insert(f.clone(), 2);
+    }
+    let (mut state, mut stack, mut circles) = (BTreeMap::new(), Vec::new(), Vec::new());
+    for f in graph.keys() {
+        if state.get(f).copied().unwrap_or(0) == 0 {
+            visit(f, &graph, &mut state, &mut stack, &mut circles);
+        }
+    }
+    assert!(
+        circles.is_empty(),
+        "circles of imports between files:\n{}",
+        circles.join("\n")
+    );
+}

@@ -19,7 +19,7 @@
 
 use super::eucm::unified_w;
 use super::fisheye::{check_intrinsics, FisheyeError};
-use super::lens::{bearing_within, field_angle, front_halfspace_of};
+use super::lens_domain::{bearing_within, field_angle, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 
@@ -45,7 +45,7 @@ impl DoubleSphere {
         let w2 = (w1 + xi) / (2.0 * w1 * xi + xi * xi + 1.0).sqrt();
         // The paper's bound is not sufficient for ξ < 0 (with α = 0, for instance, the image
         // exists only for z > −ξ): the image radius must exist and grow up to the limit.
-        super::lens::radial_limit((-w2).clamp(-1.0, 1.0).acos(), alpha > 0.5, |t| {
+        super::lens_domain::radial_limit((-w2).clamp(-1.0, 1.0).acos(), alpha > 0.5, |t| {
             let (s, c) = t.sin_cos();
             let shifted = xi + c;
             let den = alpha * (s * s + shifted * shifted).sqrt() + (1.0 - alpha) * shifted;
@@ -76,7 +76,7 @@ impl DoubleSphere {
             ));
         }
         let (limit, finite) = Self::fov_limit(xi, alpha);
-        super::lens::check_fov("double_sphere", max_theta, limit, finite)?;
+        super::lens_domain::check_fov("double_sphere", max_theta, limit, finite)?;
         Ok(Self {
             xi,
             alpha,

@@ -19,7 +19,7 @@
 //! Inverse: closed-form (eq. 25).
 
 use super::fisheye::{check_intrinsics, FisheyeError};
-use super::lens::{bearing_within, field_angle, front_halfspace_of};
+use super::lens_domain::{bearing_within, field_angle, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
@@ -58,7 +58,7 @@ impl Eucm {
             PI - (1.0 - w * w).sqrt().atan2(w * beta.sqrt())
         };
         // The bound above, checked: the image radius must exist and grow up to the limit.
-        super::lens::radial_limit(limit, alpha > 0.5, |t| {
+        super::lens_domain::radial_limit(limit, alpha > 0.5, |t| {
             let (s, c) = t.sin_cos();
             let den = alpha * (beta * s * s + c * c).sqrt() + (1.0 - alpha) * c;
             (den > 0.0).then(|| s / den)
@@ -88,7 +88,7 @@ impl Eucm {
             ));
         }
         let (limit, finite) = Self::fov_limit(alpha, beta);
-        super::lens::check_fov("eucm", max_theta, limit, finite)?;
+        super::lens_domain::check_fov("eucm", max_theta, limit, finite)?;
         Ok(Self {
             alpha,
             beta,

@@ -3,7 +3,8 @@
 //! how a bearing becomes (a, b) and back ([`Mapping`]).
 
 use super::{
-    CameraModel, ImageSize, Intrinsics, LinearCamera, OutputCamera, Projection, ProjectionReject,
+    CameraModel, ImageSize, Intrinsics, LinearCamera, OutputCamera, OutputProjection, Projection,
+    ProjectionReject,
 };
 use nalgebra::{Point2, Vector3};
 use std::marker::PhantomData;
@@ -81,8 +82,8 @@ impl<M: Mapping> CameraModel for Linear<M> {
 }
 
 impl<M: Mapping> OutputCamera for Linear<M> {
-    fn projection(&self) -> Projection {
-        M::PROJECTION
+    fn projection(&self) -> OutputProjection {
+        OutputProjection::Linear(M::PROJECTION)
     }
 
     fn intrinsics(&self) -> Intrinsics {

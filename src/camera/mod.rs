@@ -18,10 +18,12 @@ pub mod fisheye;
 pub mod fit;
 mod intrinsics;
 mod lens;
+mod lens_domain;
 mod linear;
 mod output;
 mod perspective;
-pub mod rotated;
+mod projection;
+pub(crate) mod rotated;
 mod unified;
 mod yaml_subset;
 
@@ -35,6 +37,7 @@ pub use lens::Lens;
 pub use linear::{Linear, Mapping};
 pub use output::{FisheyeCamera, OutputCamera};
 pub use perspective::Perspective;
+pub use projection::{OutputProjection, Projection};
 pub use rotated::{rotation_ypr, Rotated};
 pub use unified::{MeiDistortion, Unified};
 
@@ -49,56 +52,6 @@ pub enum ProjectionReject {
     Singular,
     /// The pixel lies outside the domain the projection maps (e.g. beyond a pole).
     OutsideDomain,
-}
-
-/// The projections panoconv writes; names as in the `projection:` calib line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Projection {
-    /// Pinhole: (a, b) = (x/z, y/z); sees only the front half-space.
-    Perspective,
-    /// Equirectangular: (a, b) = (longitude, latitude) in radians; longitude wraps.
-    Equirect,
-    /// Cylindrical: (a, b) = (azimuth in radians, y / rho); azimuth wraps.
-    Cylindrical,
-    /// A real fisheye lens ([`FisheyeCamera`]), described by its own calib lines.
-    Fisheye,
-}
-
-impl Projection {
-    /// The lowercase name written in calib `projection:` lines and exports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Projection::Perspective => "perspective",
-            Projection::Equirect => "equirect",
-            Projection::Cylindrical => "cylindrical",
-            Projection::Fisheye => "fisheye",
-        }
-    }
-
-    /// Whether K alone (with the projection) describes the camera.
-    pub fn is_linear(self) -> bool {
-        self != Projection::Fisheye
-    }
-
-    /// The linear camera of this projection with intrinsics `k` and image `size`. A fisheye
-    /// camera needs its lens: it is made as a [`FisheyeCamera`], never here.
-    pub fn camera(self, k: Intrinsics, size: ImageSize) -> Box<dyn LinearCamera> {
-        match self {
-            Projection::Perspective => Box::new(Perspective::new(k, size)),
-            Projection::Equirect => Box::new(Equirect::new(k, size)),
-            Projection::Cylindrical => Box::new(Cylindrical::new(k, size)),
-            Projection::Fisheye => {
-                unreachable!("a fisheye camera is made from its lens (FisheyeCamera)")
-            }
-        }
-    }
-}
-
-impl std::fmt::Display for Projection {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
 }
 
 /// A central camera: maps unit bearings (camera frame, axes above) to pixels and back.

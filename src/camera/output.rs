@@ -4,14 +4,14 @@
 //! crops, resizes and augmented views move, and the calib lines that describe them.
 
 use super::lens::Lens;
-use super::{CameraModel, ImageSize, Intrinsics, Projection, ProjectionReject};
+use super::{CameraModel, ImageSize, Intrinsics, OutputProjection, ProjectionReject};
 use nalgebra::{Matrix3, Point2, Vector3};
 
 /// A camera an image is written in. Bearings in and out are in the frame the labels live in
 /// (KITTI's rect axes: x right, y down, z forward), relative to the camera's optical centre.
 pub trait OutputCamera: CameraModel {
     /// The `projection:` line's value.
-    fn projection(&self) -> Projection;
+    fn projection(&self) -> OutputProjection;
     /// The affine part pixel = K · (a, b, 1) of the model's normalised coordinates.
     fn intrinsics(&self) -> Intrinsics;
     /// The same camera with other intrinsics and image size (a crop, a resize, a view).
@@ -71,8 +71,8 @@ impl CameraModel for FisheyeCamera {
 }
 
 impl OutputCamera for FisheyeCamera {
-    fn projection(&self) -> Projection {
-        Projection::Fisheye
+    fn projection(&self) -> OutputProjection {
+        OutputProjection::Fisheye
     }
 
     fn intrinsics(&self) -> Intrinsics {

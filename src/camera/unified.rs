@@ -28,7 +28,7 @@
 //! back to the sphere is closed-form.
 
 use super::fisheye::{check_intrinsics, FisheyeError};
-use super::lens::{bearing_within, front_halfspace_of};
+use super::lens_domain::{bearing_within, front_halfspace_of};
 use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
@@ -221,7 +221,7 @@ impl Unified {
             ));
         }
         let (limit, finite) = Self::fov_limit(xi, &distortion);
-        super::lens::check_fov("mei", max_theta, limit, finite)?;
+        super::lens_domain::check_fov("mei", max_theta, limit, finite)?;
         let r_max = max_theta.sin() / (max_theta.cos() + xi);
         Ok(Self {
             xi,

@@ -1,8 +1,12 @@
 //! `camera convert`: fit another lens model to a camera file.
 
-use super::*;
+use anyhow::{bail, Result};
+use clap::{Args, Subcommand, ValueEnum};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::fit::{fit, TargetModel};
+use panoconv::error::Error;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 pub(super) const CAMERA_EXAMPLES: &str = "Examples:
   panoconv camera convert kitti360/calibration/image_02.yaml --to kannala_brandt --output kb.json

@@ -1,10 +1,27 @@
 //! `kitti`, `kitti-raw` and `merge`: dataset conversion, its options and its signals.
 
-use super::*;
-use panoconv::camera::description::CameraDescription;
-use panoconv::convert::kitti::{KittiSource, StyleOrder};
-use panoconv::geometry::FisheyeTarget;
+use super::export::{export_after_kitti, FormatArg};
+use super::{
+    count, parse_size, projection_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED,
+    EXIT_INTERRUPTED,
+};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use panoconv::camera::ImageSize;
+use panoconv::convert::kitti::{
+    run_kitti, DepthJob, KittiOptions, KittiSource, StyleJob, StyleOrder,
+};
+use panoconv::error::Error;
+use panoconv::geometry::augment::Augment;
+use panoconv::geometry::Crop;
+use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::Cam;
+use panoconv::reproject::depth::OcclusionFilter;
+use panoconv::run::{OutputMode, Shard};
+use panoconv::style::{Device, StyleOptions};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub(super) const RAW_EXAMPLES: &str = "Examples:
   panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
@@ -314,86 +331,34 @@ fn convert(
     image_set: Option<Vec<String>>,
     augment: Option<Augment>,
 ) -> Result<ExitCode> {
-    let raw = matches!(source, KittiSource::Raw { .. });
-    if (raw || args.shard.is_some()) && !args.export.is_empty() {
-        bail!(Error::Setup(
-            "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into()
-        ));
-    }
-    let projection = projection_of(args.to);
-    let fisheye = match (projection, &args.camera) {
-        (Projection::Fisheye, Some(file)) => Some(fisheye_target(file)?),
-        (Projection::Fisheye, None) => bail!(Error::Setup(
-            "--to fisheye needs --camera FILE: a camera description or a KITTI-360, WoodScape \
-             or OpenCV calibration file (docs/fisheye.md); to convert fisheye images instead, \
-             `panoconv fisheye --camera CAMERA.json --to cylindrical`"
-                .into()
-        )),
-        (_, Some(_)) => bail!(Error::Setup(
-            "--camera describes the camera of --to fisheye".into()
-        )),
-        (_, None) => None,
-    };
-    if fisheye.is_some() {
-        for (given, flag) in [
-            (args.pano_width.is_some(), "--pano-width"),
-            (args.px_per_deg.is_some(), "--px-per-deg"),
-            (args.full_360, "--full-360"),
-            (args.size.is_some(), "--size"),
-        ] {
-            if given {
-                bail!(Error::Setup(format!(
-                    "{flag}: a fisheye target has the size and scale of its camera file \
-                     (--crop and --resize apply)"
-                )));
-            }
-        }
-    }
-    let scale = scale_of(args.pano_width, args.px_per_deg)?;
-    let canvas = match (args.full_360, args.size) {
-        (true, _) => Canvas::Full360,
-        (false, Some(s)) => Canvas::Size(s),
-        (false, None) => Canvas::Tight,
-    };
     let frames = match (args.frames, &args.frames_from) {
         // `--frames "1, 4"`: the spaces are not part of the ids.
         (Some(list), _) => Some(list.iter().map(|id| id.trim().to_owned()).collect()),
         (None, Some(file)) => Some(read_id_list_nonempty(file)?),
         (None, None) => image_set,
     };
-    let job = KittiJob {
+    let job = KittiOptions {
         input,
         output: args.output,
-        output_spec: OutputSpec {
-            projection,
-            scale,
-            canvas,
-            crop: args.crop,
-            resize: args.resize,
-        },
-        fisheye,
-        mask: args.mask,
         source,
+        to: projection_of(args.to),
+        camera: args.camera,
+        pano_width: args.pano_width,
+        px_per_deg: args.px_per_deg,
+        full_360: args.full_360,
+        size: args.size,
+        crop: args.crop,
+        resize: args.resize,
+        mask: args.mask,
         frames,
-        overwrite: args.run.overwrite,
+        mode: OutputMode::from_flags(args.run.overwrite, args.resume),
         png_compression: args.run.png_compression(),
-        cameras: {
-            let mut c = args.cameras.clone();
-            c.sort_unstable();
-            c.dedup();
-            if !c.contains(&Cam::C2) {
-                bail!(Error::Setup(
-                    "--cameras must include 2 (labels and depth belong to camera 2)".into()
-                ));
-            }
-            c
-        },
-        shard: args.shard,
-        resume: args.resume,
+        cameras: args.cameras.clone(),
         depth: args.depth.then(|| DepthJob {
             occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
         }),
         augment,
+        shard: args.shard,
         style: args.style.map(|model| StyleJob {
             options: StyleOptions {
                 model,
@@ -417,7 +382,9 @@ fn convert(
                 usize::from,
             ),
         }),
-    };
+        export: !args.export.is_empty(),
+    }
+    .validate()?;
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
     let summary = with_pool(args.run.jobs, || run_kitti(&job, &bar, &STOP))??;
@@ -475,7 +442,7 @@ fn convert(
     if summary.run.failed == 0 && !args.export.is_empty() {
         let augmented = job.augment.is_some();
         // A resumed run replaces the export of the run it continues.
-        let (overwrite, quiet) = (args.run.overwrite || args.resume, args.run.quiet);
+        let (overwrite, quiet) = (job.mode != OutputMode::New, args.run.quiet);
         return export_after_kitti(
             &job.input,
             &job.output,
@@ -489,19 +456,6 @@ fn convert(
         ExitCode::from(EXIT_FRAMES_FAILED)
     } else {
         ExitCode::SUCCESS
-    })
-}
-
-/// The fisheye target of `--camera FILE`.
-pub(super) fn fisheye_target(file: &std::path::Path) -> Result<FisheyeTarget> {
-    let desc = CameraDescription::read(file)?;
-    let bytes = panoconv::fs::read_file(file)?;
-    Ok(FisheyeTarget {
-        camera: file.to_path_buf(),
-        camera_blake3: panoconv::fs::hash_hex(&bytes),
-        model: desc.camera.name().to_owned(),
-        lens: desc.camera,
-        rect_from_camera: desc.output_from_camera,
     })
 }
 

@@ -1,9 +1,13 @@
 //! `export`: COCO, YOLO and Omni3D files from a converted (or plain KITTI) dataset, and the
 //! `--export` option of `kitti`.
 
-use super::*;
+use super::tools::record_derived;
+use super::{count, EXIT_FRAMES_FAILED};
+use anyhow::Result;
+use clap::{Args, ValueEnum};
 use panoconv::export::{ClassMap, ExportOptions, ExportReport, Format, SplitRule};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 pub(super) const EXPORT_EXAMPLES: &str = "Examples:
   panoconv export O --format coco   --output O/annotations      # instances_<split>.json

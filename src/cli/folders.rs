@@ -1,6 +1,12 @@
 //! `fisheye` and `pano`: folders of fisheye images or panoramas.
 
-use super::*;
+use super::{count, scale_of, with_pool, Bar, RunArgs, EXIT_FRAMES_FAILED};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use panoconv::camera::Projection;
+use panoconv::error::Error;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 // ---------------------------------------------------------------------------------------------
 // Folder conversions: fisheye and pano
@@ -178,15 +184,8 @@ pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
             "--yaw must be finite and --pitch within [-90, 90] degrees".into()
         ));
     }
-    let hfov = degrees(a.fov, "--fov")?.unwrap_or(match projection {
-        Projection::Perspective => 90f64.to_radians(),
-        _ => 2.0 * std::f64::consts::PI,
-    });
-    let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(match projection {
-        Projection::Perspective => hfov,
-        Projection::Cylindrical => 90f64.to_radians(),
-        Projection::Equirect | Projection::Fisheye => std::f64::consts::PI,
-    });
+    let hfov = degrees(a.fov, "--fov")?.unwrap_or(projection.default_pano_hfov());
+    let vfov = degrees(a.vfov, "--vfov")?.unwrap_or(projection.default_pano_vfov(hfov));
     let views = PanoViews {
         projection,
         yaws,

@@ -8,10 +8,10 @@ use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FR
 use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
-use panoconv::camera::{ImageSize, Projection};
-use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule, RigTarget};
+use panoconv::camera::{ImageSize, OutputProjection, Projection};
+use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule};
 use panoconv::error::Error;
-use panoconv::geometry::{Canvas, Crop, OutputSpec};
+use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
 use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::run::journal::Shard;
@@ -199,28 +199,39 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         }
         cameras.push(k);
     }
-    let projection = projection_of(args.to);
-    let fisheye = match (projection, &args.camera) {
-        (Projection::Fisheye, Some(file)) => Some(super::convert::fisheye_target(file)?),
-        (Projection::Fisheye, None) => bail!(setup(
-            "--to fisheye needs --camera FILE: a camera description or calibration file".into()
-        )),
-        (_, Some(_)) => bail!(setup(
-            "--camera describes the camera of --to fisheye".into()
-        )),
-        (_, None) => None,
-    };
-    if fisheye.is_some() && (args.pano_width.is_some() || args.px_per_deg.is_some()) {
-        bail!(setup(
-            "--pano-width/--px-per-deg: a fisheye target has the scale of its camera file".into()
-        ));
-    }
     // A panorama of several cameras covers 360°; one camera, or a perspective view, the first
     // camera's field of view.
-    let canvas = if cameras.len() > 1 && projection != Projection::Perspective {
-        Canvas::Full360
-    } else {
-        Canvas::Tight
+    let target = match (projection_of(args.to), &args.camera) {
+        (OutputProjection::Fisheye, Some(file)) => {
+            if args.pano_width.is_some() || args.px_per_deg.is_some() {
+                bail!(setup(
+                    "--pano-width/--px-per-deg: a fisheye target has the scale of its camera file"
+                        .into()
+                ));
+            }
+            Target::Fisheye {
+                camera: Box::new(FisheyeTarget::read(file)?),
+                crop: args.crop,
+                resize: args.resize,
+            }
+        }
+        (OutputProjection::Fisheye, None) => bail!(setup(
+            "--to fisheye needs --camera FILE: a camera description or calibration file".into()
+        )),
+        (OutputProjection::Linear(_), Some(_)) => bail!(setup(
+            "--camera describes the camera of --to fisheye".into()
+        )),
+        (OutputProjection::Linear(projection), None) => Target::Linear(OutputSpec {
+            projection,
+            scale: scale_of(args.pano_width, args.px_per_deg)?,
+            canvas: if cameras.len() > 1 && projection != Projection::Perspective {
+                Canvas::Full360
+            } else {
+                Canvas::Tight
+            },
+            crop: args.crop,
+            resize: args.resize,
+        }),
     };
     let frames = match &args.frames {
         Some(list) => {
@@ -273,16 +284,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         input: args.input,
         sequences: args.sequence.iter().map(|s| s.trim().to_owned()).collect(),
         output: args.output,
-        target: RigTarget {
-            spec: OutputSpec {
-                projection,
-                scale: scale_of(args.pano_width, args.px_per_deg)?,
-                canvas,
-                crop: args.crop,
-                resize: args.resize,
-            },
-            fisheye,
-        },
+        target,
         cameras,
         frames,
         stitch: StitchOptions {

@@ -4,23 +4,15 @@
 //! error, nothing written.
 
 use anyhow::{bail, Context as _, Result};
-use clap::{Args, CommandFactory, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use panoconv::camera::{ImageSize, Projection};
+use panoconv::camera::{ImageSize, OutputProjection, Projection};
 use panoconv::codec::png::PngCompression;
-use panoconv::convert::kitti::{run_kitti, DepthJob, KittiJob, StyleJob};
 use panoconv::error::Error;
-use panoconv::geometry::augment::Augment;
-use panoconv::geometry::{Canvas, Crop, OutputSpec, Scale};
-use panoconv::kitti::dataset::read_id_list;
-use panoconv::reproject::depth::OcclusionFilter;
+use panoconv::geometry::Scale;
 use panoconv::run::Progress;
-use panoconv::run::Shard;
-use panoconv::style::{Device, StyleOptions};
 use std::io::IsTerminal;
-use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 mod camera;
 mod convert;
@@ -29,12 +21,19 @@ mod folders;
 mod kitti360;
 mod tools;
 
-use camera::*;
-use convert::*;
-use export::*;
-use folders::*;
+use camera::{CameraArgs, CAMERA_EXAMPLES};
+use convert::{
+    kitti, kitti_raw, merge, KittiArgs, MergeArgs, RawArgs, KITTI_EXAMPLES, RAW_EXAMPLES,
+};
+use export::{ExportArgs, EXPORT_EXAMPLES};
+use folders::{fisheye, pano, FisheyeArgs, PanoArgs, FISHEYE_EXAMPLES, PANO_EXAMPLES};
 use kitti360::{kitti360, Kitti360Args, KITTI360_EXAMPLES};
-use tools::*;
+use tools::{
+    completions, eval_depth, inspect, labels_to_pixels, man, preview, synth, unproject, verify,
+    CompletionsArgs, EvalDepthArgs, InspectArgs, LabelsToPixelsArgs, ManArgs, PreviewArgs,
+    SynthArgs, UnprojectArgs, VerifyArgs, COMPLETIONS_EXAMPLES, INSPECT_EXAMPLES, MAN_EXAMPLES,
+    PREVIEW_EXAMPLES,
+};
 
 const EXIT_FRAMES_FAILED: u8 = 1;
 const EXIT_SETUP: u8 = 2;
@@ -133,27 +132,19 @@ enum To {
     Fisheye,
 }
 
-/// The projection of `--to`.
-fn projection_of(to: To) -> Projection {
+/// What `--to` names: a linear projection or a fisheye camera.
+fn projection_of(to: To) -> OutputProjection {
     match to {
-        To::Equirect => Projection::Equirect,
-        To::Cylindrical => Projection::Cylindrical,
-        To::Perspective => Projection::Perspective,
-        To::Fisheye => Projection::Fisheye,
+        To::Equirect => Projection::Equirect.into(),
+        To::Cylindrical => Projection::Cylindrical.into(),
+        To::Perspective => Projection::Perspective.into(),
+        To::Fisheye => OutputProjection::Fisheye,
     }
 }
 
 /// The output scale `--pano-width` or `--px-per-deg` asks for (default: the source's own).
 fn scale_of(pano_width: Option<u32>, px_per_deg: Option<f64>) -> Result<Scale> {
-    Ok(match (pano_width, px_per_deg) {
-        (Some(0), _) => bail!(Error::Setup("--pano-width must be positive".into())),
-        (Some(w), _) => Scale::PanoWidth(w),
-        (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
-            bail!(Error::Setup("--px-per-deg must be positive".into()))
-        }
-        (None, Some(d)) => Scale::PixelsPerDegree(d),
-        (None, None) => Scale::SourceFocal,
-    })
+    Ok(Scale::from_flags(pano_width, px_per_deg)?)
 }
 
 /// `1 frame`, `2 frames`.
@@ -313,9 +304,9 @@ fn run() -> Result<ExitCode> {
         Command::Synth(a) => synth(a),
         Command::Fisheye(a) => fisheye(a),
         Command::Pano(a) => pano(a),
-        Command::Camera(a) => camera(a),
+        Command::Camera(a) => camera::camera(a),
         Command::Inspect(a) => inspect(a),
-        Command::Export(a) => export(a),
+        Command::Export(a) => export::export(a),
         Command::Completions(a) => completions(a),
         Command::Man(a) => man(a),
     }

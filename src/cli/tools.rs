@@ -1,7 +1,14 @@
 //! The tools around a conversion: preview, inspect, verify, predictions, depth metrics,
 //! completions, man pages and the synthetic sample.
 
-use super::*;
+use super::{count, parse_size, Bar, Cli, EXIT_FRAMES_FAILED};
+use anyhow::{bail, Context as _, Result};
+use clap::{Args, CommandFactory, ValueEnum};
+use panoconv::camera::ImageSize;
+use panoconv::codec::png::PngCompression;
+use panoconv::error::Error;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 pub(super) const PREVIEW_EXAMPLES: &str = "Examples:
   panoconv preview /data/kitti_equi --frame 000123 --output preview.png

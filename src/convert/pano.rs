@@ -197,15 +197,11 @@ impl FisheyeView {
 
     /// The field of view (radians) used for `desc`.
     pub fn fov(&self, desc: &CameraDescription) -> (f64, f64) {
-        let full = 2.0 * desc.camera.max_theta();
-        let hfov = self.hfov.unwrap_or(match self.projection {
-            Projection::Perspective => full.min(120f64.to_radians()),
-            _ => full.min(2.0 * PI),
-        });
-        let vfov = self.vfov.unwrap_or(match self.projection {
-            Projection::Equirect => full.min(PI),
-            _ => full.min(120f64.to_radians()),
-        });
+        let (h, v) = self
+            .projection
+            .default_fisheye_view(2.0 * desc.camera.max_theta());
+        let hfov = self.hfov.unwrap_or(h);
+        let vfov = self.vfov.unwrap_or(v);
         (hfov, vfov)
     }
 
@@ -229,10 +225,7 @@ impl FisheyeView {
     pub fn plan(&self, desc: &CameraDescription) -> Result<FolderView> {
         let centre = desc.camera.centre_intrinsics();
         let fu = self.scale.px_per_rad(centre.fu);
-        let fv = match self.projection {
-            Projection::Equirect => fu,
-            _ => fu * centre.fv / centre.fu,
-        };
+        let fv = self.projection.fv(fu, centre.fu, centre.fv);
         let (hfov, vfov) = self.fov(desc);
         let camera: Arc<dyn crate::camera::LinearCamera> =
             Arc::from(view_camera(self.projection, fu, fv, hfov, vfov)?);

@@ -15,7 +15,7 @@ pub const KITTI_CLASSES: [&str; 8] = [
 ];
 
 /// KITTI's ignore regions: never a category, always an ignore region (COCO) or left out.
-pub const DONT_CARE: &str = "DontCare";
+pub use crate::kitti::DONT_CARE;
 
 /// What a label's type becomes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

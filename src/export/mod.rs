@@ -14,7 +14,7 @@ mod split;
 mod yolo;
 
 pub use classes::{ClassLookup, ClassMap};
-pub use split::SplitRule;
+pub use split::{ExportSplit, SplitRule};
 
 use crate::camera::{ImageSize, OutputCamera};
 use crate::codec::png;
@@ -80,7 +80,7 @@ pub struct ExportReport {
     /// Every file written (YOLO: its label files and `data.yaml`, not the image links).
     pub files: Vec<ExportedFile>,
     /// Images per export split, in the order train, val, test.
-    pub images: Vec<(&'static str, usize)>,
+    pub images: Vec<(ExportSplit, usize)>,
     /// Objects exported (DontCare and dropped classes aside).
     pub objects: usize,
     /// DontCare regions of the exported frames (COCO writes them as `iscrowd` annotations).
@@ -103,8 +103,8 @@ pub struct Object {
 /// One image of the export with everything the formats need.
 #[derive(Debug)]
 pub struct Frame {
-    /// `train`, `val` or `test`.
-    pub split: &'static str,
+    /// Train, val or test.
+    pub split: ExportSplit,
     /// The frame id (file stem of `image_2/ID.png`).
     pub id: String,
     /// The image's id in the export split's file: the frame number when every id of the split is
@@ -145,8 +145,8 @@ pub struct ExportData {
 
 impl ExportData {
     /// The export splits present, in order, with their frames.
-    pub fn splits(&self) -> Vec<(&'static str, Vec<&Frame>)> {
-        [split::TRAIN, split::VAL, split::TEST]
+    pub fn splits(&self) -> Vec<(ExportSplit, Vec<&Frame>)> {
+        ExportSplit::ALL
             .into_iter()
             .map(|s| (s, self.frames.iter().filter(|f| f.split == s).collect()))
             .filter(|(_, f): &(_, Vec<&Frame>)| !f.is_empty())
@@ -193,7 +193,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
         } else {
             s.frames
                 .iter()
-                .map(|id| (id.clone(), split::TEST))
+                .map(|id| (id.clone(), ExportSplit::Test))
                 .collect()
         };
         for (id, export_split) in assigned {
@@ -216,13 +216,8 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
             }
         }
     }
-    let order = |s: &str| {
-        [split::TRAIN, split::VAL, split::TEST]
-            .iter()
-            .position(|x| *x == s)
-    };
     data.frames
-        .sort_by(|a, b| order(a.split).cmp(&order(b.split)).then(a.id.cmp(&b.id)));
+        .sort_by(|a, b| a.split.cmp(&b.split).then(a.id.cmp(&b.id)));
     data.failed.sort_by(|a, b| a.0.cmp(&b.0));
     // Each export split is a file of its own: ids are unique within it (KITTI's training/ and
     // testing/ both count from 000000).
@@ -287,7 +282,7 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
                 continue;
             }
             let label = Label::parse(&path, i + 1, line)?;
-            if label.kind == classes::DONT_CARE {
+            if label.is_dont_care() {
                 ignore_regions.push(label.bbox);
                 continue;
             }
@@ -351,7 +346,7 @@ fn write_json_files(
 ) -> Result<Vec<ExportedFile>> {
     let mut rendered = Vec::new();
     for (split, frames) in data.splits() {
-        let (name, bytes) = render(data, split, &frames)?;
+        let (name, bytes) = render(data, split.name(), &frames)?;
         rendered.push((output.join(name), bytes));
     }
     if rendered.is_empty() {

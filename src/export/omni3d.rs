@@ -8,7 +8,7 @@
 //! `get_cuboid_verts_faces` (v0..v3 the face at −w/2, v4..v7 the one at +w/2). 2D boxes are
 //! [x1, y1, x2, y2] in the pixel convention of K (pixel centres at integers, as KITTI's P2).
 
-use crate::camera::{OutputCamera, Projection};
+use crate::camera::{OutputCamera, OutputProjection, Projection};
 use crate::error::{Error, Result};
 use crate::export::{round_to, ExportData, Frame, Object};
 use crate::reproject::labels::{box_bounds, clip};
@@ -174,8 +174,9 @@ fn annotation<'a>(
     // a corner behind the image plane (Omni3D's meaning); a panorama or a fisheye sees
     // behind its optical axis, so there the flag means "not visible in this image".
     a.behind_camera = match camera.projection() {
-        Projection::Perspective => corners.iter().any(|c| !(c.z > 0.0)),
-        _ => !visible,
+        OutputProjection::Linear(Projection::Perspective) => corners.iter().any(|c| !(c.z > 0.0)),
+        OutputProjection::Linear(Projection::Equirect | Projection::Cylindrical)
+        | OutputProjection::Fisheye => !visible,
     };
     a
 }

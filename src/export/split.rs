@@ -38,12 +38,36 @@ impl SplitRule {
     }
 }
 
-/// The export split of the labelled frames not in `val`.
-pub const TRAIN: &str = "train";
-/// The export split held out for validation.
-pub const VAL: &str = "val";
-/// The export split of unlabelled frames (`testing/`).
-pub const TEST: &str = "test";
+/// An export split; the order of the variants is the order of the files and the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ExportSplit {
+    /// The labelled frames not in `val`.
+    Train,
+    /// Held out for validation.
+    Val,
+    /// The unlabelled frames (`testing/`).
+    Test,
+}
+
+impl ExportSplit {
+    /// Every split, in order.
+    pub const ALL: [ExportSplit; 3] = [ExportSplit::Train, ExportSplit::Val, ExportSplit::Test];
+
+    /// The split's name in file and folder names (`train`, `val`, `test`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ExportSplit::Train => "train",
+            ExportSplit::Val => "val",
+            ExportSplit::Test => "test",
+        }
+    }
+}
+
+impl std::fmt::Display for ExportSplit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// The source frame of each `--augment` view of `split`, from the manifest at `root`
 /// (empty for a dataset that is not augmented, or has no manifest).
@@ -89,16 +113,19 @@ pub fn assign(
     ids: &[String],
     rule: &SplitRule,
     sources: &BTreeMap<String, String>,
-) -> Result<BTreeMap<String, &'static str>> {
+) -> Result<BTreeMap<String, ExportSplit>> {
     let source = |id: &String| sources.get(id).unwrap_or(id).clone();
     let mut out = BTreeMap::new();
     match rule {
         SplitRule::AllTrain => {
-            out.extend(ids.iter().map(|id| (id.clone(), TRAIN)));
+            out.extend(ids.iter().map(|id| (id.clone(), ExportSplit::Train)));
         }
         SplitRule::ImageSets(dir) => {
-            let mut listed: BTreeMap<String, &'static str> = BTreeMap::new();
-            for (name, split) in [("train.txt", TRAIN), ("val.txt", VAL)] {
+            let mut listed: BTreeMap<String, ExportSplit> = BTreeMap::new();
+            for (name, split) in [
+                ("train.txt", ExportSplit::Train),
+                ("val.txt", ExportSplit::Val),
+            ] {
                 let file = dir.join(name);
                 if !file.is_file() {
                     return Err(Error::Setup(format!(
@@ -144,10 +171,17 @@ pub fn assign(
                 .collect();
             keyed.sort();
             let n_val = (fraction * units.len() as f64).round() as usize;
-            let side: BTreeMap<&String, &'static str> = keyed
+            let side: BTreeMap<&String, ExportSplit> = keyed
                 .into_iter()
                 .enumerate()
-                .map(|(i, (_, unit))| (unit, if i < n_val { VAL } else { TRAIN }))
+                .map(|(i, (_, unit))| {
+                    let split = if i < n_val {
+                        ExportSplit::Val
+                    } else {
+                        ExportSplit::Train
+                    };
+                    (unit, split)
+                })
                 .collect();
             for id in ids {
                 out.insert(id.clone(), side[&source(id)]);
@@ -174,7 +208,7 @@ mod tests {
         };
         let none = BTreeMap::new();
         let a = assign(&all, &rule, &none).unwrap();
-        assert_eq!(a.values().filter(|s| **s == VAL).count(), 10);
+        assert_eq!(a.values().filter(|s| **s == ExportSplit::Val).count(), 10);
         let mut reversed = all.clone();
         reversed.reverse();
         assert_eq!(assign(&reversed, &rule, &none).unwrap(), a);

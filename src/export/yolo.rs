@@ -12,7 +12,7 @@
 
 use crate::error::{Error, Result};
 use crate::export::coco::{frame_boxes, COCO_FROM_KITTI_PIXEL};
-use crate::export::{exported_file, split, ExportData, ExportOptions, ExportedFile, Frame};
+use crate::export::{exported_file, ExportData, ExportOptions, ExportSplit, ExportedFile, Frame};
 use crate::fs::resolve;
 use std::fmt::Write as _;
 use std::path::{Component, Path, PathBuf};
@@ -36,20 +36,20 @@ fn quoted(s: &str) -> String {
     serde_json::to_string(s).expect("a string serialises")
 }
 
-fn data_yaml(data: &ExportData, root: &Path, splits: &[&str]) -> String {
+fn data_yaml(data: &ExportData, root: &Path, splits: &[ExportSplit]) -> String {
     let mut y = String::from("# Ultralytics dataset written by panoconv export\n");
     let _ = writeln!(y, "path: {}", quoted(&root.to_string_lossy()));
-    let has = |s: &str| splits.contains(&s);
-    let _ = writeln!(y, "train: images/{}", split::TRAIN);
+    let has = |s: ExportSplit| splits.contains(&s);
+    let _ = writeln!(y, "train: images/{}", ExportSplit::Train);
     // Ultralytics needs a val entry: without a val split, training images stand in.
-    let val = if has(split::VAL) {
-        split::VAL
+    let val = if has(ExportSplit::Val) {
+        ExportSplit::Val
     } else {
-        split::TRAIN
+        ExportSplit::Train
     };
     let _ = writeln!(y, "val: images/{val}");
-    if has(split::TEST) {
-        let _ = writeln!(y, "test: images/{}", split::TEST);
+    if has(ExportSplit::Test) {
+        let _ = writeln!(y, "test: images/{}", ExportSplit::Test);
     }
     y.push_str("names:\n");
     for (i, name) in data.categories.iter().enumerate() {
@@ -156,18 +156,18 @@ fn fill(
     data: &ExportData,
     out: &Path,
     staging: &Path,
-    splits: &[(&'static str, Vec<&Frame>)],
+    splits: &[(ExportSplit, Vec<&Frame>)],
 ) -> Result<Vec<(String, Vec<u8>)>> {
     let mut files = Vec::new();
     for (split, frames) in splits {
         let (images, labels) = (
-            staging.join("images").join(split),
-            staging.join("labels").join(split),
+            staging.join("images").join(split.name()),
+            staging.join("labels").join(split.name()),
         );
         for dir in [&images, &labels] {
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         }
-        let final_images = out.join("images").join(split);
+        let final_images = out.join("images").join(split.name());
         for f in frames {
             let image = resolve(&f.image)?;
             let target = relative_path(&final_images, &image);
@@ -180,7 +180,7 @@ fn fill(
             files.push((rel, text));
         }
     }
-    let names: Vec<&str> = splits.iter().map(|(s, _)| *s).collect();
+    let names: Vec<ExportSplit> = splits.iter().map(|(s, _)| *s).collect();
     let yaml = data_yaml(data, out, &names).into_bytes();
     std::fs::write(staging.join("data.yaml"), &yaml)
         .map_err(|e| Error::io(&staging.join("data.yaml"), e))?;

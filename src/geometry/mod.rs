@@ -11,7 +11,8 @@ mod view;
 pub use view::view_camera;
 
 use crate::camera::{
-    CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, LinearCamera, OutputCamera, Projection,
+    CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, LinearCamera, OutputCamera,
+    OutputProjection, Projection,
 };
 use crate::error::{Error, Result};
 use nalgebra::Matrix3;
@@ -32,6 +33,19 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// The scale `--pano-width` or `--px-per-deg` asks for (default: the source's own).
+    pub fn from_flags(pano_width: Option<u32>, px_per_deg: Option<f64>) -> Result<Scale> {
+        match (pano_width, px_per_deg) {
+            (Some(0), _) => Err(Error::Setup("--pano-width must be positive".into())),
+            (Some(w), _) => Ok(Scale::PanoWidth(w)),
+            (None, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+                Err(Error::Setup("--px-per-deg must be positive".into()))
+            }
+            (None, Some(d)) => Ok(Scale::PixelsPerDegree(d)),
+            (None, None) => Ok(Scale::SourceFocal),
+        }
+    }
+
     /// Pixels per radian, given the source's own at its centre.
     pub fn px_per_rad(self, source: f64) -> f64 {
         match self {
@@ -126,6 +140,22 @@ pub struct FisheyeTarget {
     pub rect_from_camera: Matrix3<f64>,
 }
 
+impl FisheyeTarget {
+    /// The fisheye target described by `file` (a camera description or a native calibration
+    /// file), with the file's hash for the manifest.
+    pub fn read(file: &std::path::Path) -> Result<Self> {
+        let desc = crate::camera::description::CameraDescription::read(file)?;
+        let bytes = crate::fs::read_file(file)?;
+        Ok(FisheyeTarget {
+            camera: file.to_path_buf(),
+            camera_blake3: crate::fs::hash_hex(&bytes),
+            model: desc.camera.name().to_owned(),
+            lens: desc.camera,
+            rect_from_camera: desc.output_from_camera,
+        })
+    }
+}
+
 /// Rounds up, forgiving floating-point noise so that an exact fit is not one pixel wider.
 fn ceil_px(x: f64) -> u32 {
     (x - 1e-6).ceil().max(1.0) as u32
@@ -199,29 +229,113 @@ pub fn resize_intrinsics(k: Intrinsics, from: ImageSize, to: ImageSize) -> Intri
     )
 }
 
-/// The camera a conversion writes: the fisheye target's lens, or the linear output camera of
-/// [`output_camera`], after the spec's crop and resize either way.
-pub fn target_camera(
-    spec: &OutputSpec,
-    fisheye: Option<&FisheyeTarget>,
-    src_k: Intrinsics,
-    source: &dyn CameraModel,
-) -> Result<Box<dyn OutputCamera>> {
-    match (spec.projection, fisheye) {
-        (Projection::Fisheye, Some(f)) => {
-            let camera = FisheyeCamera {
-                lens: f.lens.clone(),
-                rect_from_camera: f.rect_from_camera,
-            };
-            let (k, size) = crop_and_resize(spec, camera.intrinsics(), camera.size())?;
-            camera
-                .with_intrinsics(k, size)
-                .map_err(|e| Error::Setup(format!("{}: {e}", f.camera.display())))
+/// What a conversion renders into: a linear projection (with its scale and canvas rules) or
+/// a real fisheye camera, whose size and scale are its file's. Either way the spec's crop and
+/// resize apply.
+#[derive(Debug, Clone)]
+pub enum Target {
+    /// A linear projection: `spec.projection` at `spec.scale` over `spec.canvas`.
+    Linear(OutputSpec),
+    /// A real fisheye camera (`--to fisheye --camera FILE`).
+    Fisheye {
+        /// The camera, read from its file.
+        camera: Box<FisheyeTarget>,
+        /// Applied to the camera's image first; may reach beyond it.
+        crop: Option<Crop>,
+        /// Then the (cropped) image is resized to this size.
+        resize: Option<ImageSize>,
+    },
+}
+
+/// The manifest's record of a [`Target`]'s projection and geometry (`output_spec`), in the
+/// shape of [`OutputSpec`]: a fisheye target's scale and canvas are its camera's own.
+#[derive(Debug, Serialize)]
+pub struct TargetRecord {
+    projection: &'static str,
+    scale: Scale,
+    canvas: Canvas,
+    crop: Option<Crop>,
+    resize: Option<ImageSize>,
+}
+
+impl Target {
+    /// The projection the written calib names.
+    pub fn projection(&self) -> OutputProjection {
+        match self {
+            Target::Linear(spec) => OutputProjection::Linear(spec.projection),
+            Target::Fisheye { .. } => OutputProjection::Fisheye,
         }
-        (Projection::Fisheye, None) => Err(Error::Setup(
-            "a fisheye target needs its camera (--camera FILE)".into(),
-        )),
-        _ => Ok(output_camera(spec, src_k, source)?),
+    }
+
+    /// The fisheye camera, for a fisheye target.
+    pub fn fisheye(&self) -> Option<&FisheyeTarget> {
+        match self {
+            Target::Linear(_) => None,
+            Target::Fisheye { camera, .. } => Some(camera),
+        }
+    }
+
+    /// Whether every output image has the target camera's own size (then cropped and
+    /// resized) whatever the source: a fisheye target's.
+    pub fn has_fixed_size(&self) -> bool {
+        match self {
+            Target::Linear(_) => false,
+            Target::Fisheye { .. } => true,
+        }
+    }
+
+    /// The scale of the output (a fisheye target's is its camera's: [`Scale::SourceFocal`]).
+    pub fn scale(&self) -> Scale {
+        match self {
+            Target::Linear(spec) => spec.scale,
+            Target::Fisheye { .. } => Scale::SourceFocal,
+        }
+    }
+
+    /// What the manifest records of the target's geometry.
+    pub fn record(&self) -> TargetRecord {
+        let (scale, canvas, crop, resize) = match self {
+            Target::Linear(s) => (s.scale, s.canvas, s.crop, s.resize),
+            Target::Fisheye { crop, resize, .. } => {
+                (Scale::SourceFocal, Canvas::Tight, *crop, *resize)
+            }
+        };
+        TargetRecord {
+            projection: self.projection().name(),
+            scale,
+            canvas,
+            crop,
+            resize,
+        }
+    }
+
+    /// The camera a conversion writes: the fisheye target's lens, or the linear output camera
+    /// of [`output_camera`] for a source camera (intrinsics `src_k` of a perspective source
+    /// for the default scale; `source` for the field of view), after the crop and resize
+    /// either way.
+    pub fn camera(
+        &self,
+        src_k: Intrinsics,
+        source: &dyn CameraModel,
+    ) -> Result<Box<dyn OutputCamera>> {
+        match self {
+            Target::Fisheye {
+                camera: f,
+                crop,
+                resize,
+            } => {
+                let camera = FisheyeCamera {
+                    lens: f.lens.clone(),
+                    rect_from_camera: f.rect_from_camera,
+                };
+                let (k, size) =
+                    crop_and_resize(*crop, *resize, camera.intrinsics(), camera.size())?;
+                camera
+                    .with_intrinsics(k, size)
+                    .map_err(|e| Error::Setup(format!("{}: {e}", f.camera.display())))
+            }
+            Target::Linear(spec) => Ok(output_camera(spec, src_k, source)?),
+        }
     }
 }
 
@@ -233,18 +347,19 @@ pub fn output_camera(
     source: &dyn CameraModel,
 ) -> Result<Box<dyn LinearCamera>> {
     let canvas = canvas_camera(spec, src_k, source)?;
-    let (k, size) = crop_and_resize(spec, canvas.intrinsics(), canvas.size())?;
+    let (k, size) = crop_and_resize(spec.crop, spec.resize, canvas.intrinsics(), canvas.size())?;
     Ok(spec.projection.camera(k, size))
 }
 
 /// Intrinsics and size of a canvas after the spec's crop, then resize.
 fn crop_and_resize(
-    spec: &OutputSpec,
+    crop: Option<Crop>,
+    resize: Option<ImageSize>,
     k: Intrinsics,
     size: ImageSize,
 ) -> Result<(Intrinsics, ImageSize)> {
     let (mut k, mut size) = (k, size);
-    if let Some(c) = &spec.crop {
+    if let Some(c) = &crop {
         if c.width == 0 || c.height == 0 {
             return Err(Error::Setup(
                 "crop width and height must be positive".into(),
@@ -252,7 +367,7 @@ fn crop_and_resize(
         }
         (k, size) = crop_intrinsics(k, c);
     }
-    if let Some(to) = spec.resize {
+    if let Some(to) = resize {
         if to.width == 0 || to.height == 0 {
             return Err(Error::Setup(
                 "resize width and height must be positive".into(),
@@ -286,11 +401,7 @@ fn canvas_camera(
     if !(fu > 0.0 && fu.is_finite()) {
         return Err(Error::Setup(format!("invalid output scale {fu} px/rad")));
     }
-    // Equirect pixels are square in angle; the others keep the source's aspect (Plaut: f_phi/f_y = f_X/f_Y).
-    let fv = match proj {
-        Projection::Equirect => fu,
-        _ => fu * src_k.fv / src_k.fu,
-    };
+    let fv = proj.fv(fu, src_k.fu, src_k.fv);
     let unit = proj.camera(Intrinsics::new(1.0, 1.0, 0.0, 0.0), ImageSize::new(1, 1));
     let [a0, b0, a1, b1] = fov_bounds(unit.as_ref(), source)?;
     let tight = |f: f64, lo: f64, hi: f64| {
@@ -311,8 +422,8 @@ fn canvas_camera(
             (s.width, s.height, Intrinsics::new(fu, fv, cu, cv))
         }
         Canvas::Full360 => {
-            if proj == Projection::Perspective {
-                return Err(Error::Setup("a perspective image cannot cover 360°".into()));
+            if !proj.wraps() {
+                return Err(Error::Setup(format!("a {proj} image cannot cover 360°")));
             }
             // The width must hold exactly 2π so that the panorama wraps without a seam.
             let w = match spec.scale {
@@ -327,7 +438,7 @@ fn canvas_camera(
                     let fv = h as f64 / PI;
                     (w, h, Intrinsics::new(fu, fv, cu, h as f64 / 2.0 - 0.5))
                 }
-                _ => {
+                Projection::Perspective | Projection::Cylindrical => {
                     let fv = fu * src_k.fv / src_k.fu;
                     let (h, cv) = tight(fv, b0, b1);
                     (w, h, Intrinsics::new(fu, fv, cu, cv))

@@ -22,21 +22,9 @@ pub fn view_camera(
         )));
     }
     let full = (hfov - 2.0 * PI).abs() < 1e-9;
-    let (max_h, max_v) = match projection {
-        Projection::Perspective => (PI, PI),
-        Projection::Cylindrical => (2.0 * PI, PI),
-        Projection::Equirect => (2.0 * PI, PI),
-        Projection::Fisheye => {
-            return Err(Error::Setup(
-                "folder views are equirect, cylindrical or perspective; a fisheye target is \
-                 `panoconv kitti --to fisheye --camera FILE`"
-                    .into(),
-            ))
-        }
-    };
-    let h_ok = hfov > 0.0 && (hfov < max_h || (full && projection != Projection::Perspective));
-    let v_ok = vfov > 0.0
-        && (vfov < max_v || (projection == Projection::Equirect && (vfov - PI).abs() < 1e-9));
+    let ((max_h, h_limit_ok), (max_v, v_limit_ok)) = projection.view_limits();
+    let h_ok = hfov > 0.0 && (hfov < max_h || (h_limit_ok && (hfov - max_h).abs() < 1e-9));
+    let v_ok = vfov > 0.0 && (vfov < max_v || (v_limit_ok && (vfov - max_v).abs() < 1e-9));
     if !h_ok || !v_ok {
         return Err(Error::Setup(format!(
             "a {projection} view cannot cover {:.3}°x{:.3}° (perspective: both below 180°; \
@@ -45,11 +33,7 @@ pub fn view_camera(
             vfov.to_degrees()
         )));
     }
-    let (a_half, b_half) = match projection {
-        Projection::Perspective => ((hfov / 2.0).tan(), (vfov / 2.0).tan()),
-        Projection::Cylindrical => (hfov / 2.0, (vfov / 2.0).tan()),
-        Projection::Equirect | Projection::Fisheye => (hfov / 2.0, (vfov / 2.0).min(PI / 2.0)),
-    };
+    let (a_half, b_half) = projection.view_half_extent(hfov, vfov);
     let (width, fu, cu) = if full {
         let w = (2.0 * PI * fu).round().max(1.0) as u32;
         (w, w as f64 / (2.0 * PI), w as f64 / 2.0 - 0.5)

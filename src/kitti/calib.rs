@@ -5,7 +5,8 @@
 //! `Tr_velo_cam`, `Tr_imu_velo`, with or without a colon) are accepted as aliases.
 
 use crate::camera::{
-    FisheyeCamera, ImageSize, Intrinsics, Lens, OutputCamera, Perspective, Projection,
+    FisheyeCamera, ImageSize, Intrinsics, Lens, OutputCamera, OutputProjection, Perspective,
+    Projection,
 };
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
@@ -30,7 +31,7 @@ pub struct Calib {
     /// `Tr_imu_to_velo`: Velodyne from the IMU, [R | t] in metres.
     pub tr_imu_to_velo: Option<Matrix3x4<f64>>,
     /// The `projection:` line panoconv adds (present when the file describes a converted image).
-    pub projection: Option<Projection>,
+    pub projection: Option<OutputProjection>,
     /// `K0:`..`K3:`: the intrinsics of each converted camera's output image.
     pub k_out: [Option<Intrinsics>; 4],
     /// `C0:`..`C3:`: each converted camera's optical centre in rect, metres.
@@ -170,20 +171,15 @@ impl Calib {
             };
             let rest = rest.trim_start_matches(':');
             if name == "projection" {
-                calib.projection = Some(match rest.trim() {
-                    "perspective" => Projection::Perspective,
-                    "equirect" => Projection::Equirect,
-                    "cylindrical" => Projection::Cylindrical,
-                    "fisheye" => Projection::Fisheye,
-                    other => {
-                        return Err(Error::parse(
-                            path,
-                            line_no,
-                            "projection",
-                            format!("unknown projection {other:?}"),
-                        ));
-                    }
-                });
+                let other = rest.trim();
+                calib.projection = Some(OutputProjection::parse(other).ok_or_else(|| {
+                    Error::parse(
+                        path,
+                        line_no,
+                        "projection",
+                        format!("unknown projection {other:?}"),
+                    )
+                })?);
                 continue;
             }
             if let Some(n) = output_key(name, 'K') {
@@ -307,10 +303,10 @@ impl Calib {
         let projection = self.projection.ok_or_else(|| missing("projection:"))?;
         let k = self.k_out[n.number()].ok_or_else(|| missing(&format!("K{n}:")))?;
         let c = self.c_out[n.number()].ok_or_else(|| missing(&format!("C{n}:")))?;
-        if projection.is_linear() {
-            return Ok((projection.camera(k, size), c));
-        }
-        let lines = &self.lens_out[n.number()];
+        let lines = match projection {
+            OutputProjection::Linear(p) => return Ok((p.camera(k, size), c)),
+            OutputProjection::Fisheye => &self.lens_out[n.number()],
+        };
         let model = lines
             .model
             .as_deref()
@@ -336,7 +332,9 @@ impl Calib {
     pub fn render_output(&self, cameras: &[(Cam, &dyn OutputCamera, Vector3<f64>)]) -> String {
         let projection = cameras
             .first()
-            .map_or(Projection::Perspective, |(_, cam, _)| cam.projection());
+            .map_or(Projection::Perspective.into(), |(_, cam, _)| {
+                cam.projection()
+            });
         let mut out = String::new();
         for line in &self.lines {
             let name = line
@@ -450,7 +448,7 @@ mod tests {
             text.lines().map(str::to_owned).collect(),
         )
         .unwrap();
-        assert_eq!(back.projection, Some(Projection::Equirect));
+        assert_eq!(back.projection, Some(Projection::Equirect.into()));
         let k2 = back.k_out[2].unwrap();
         assert!((k2.fu - k.fu).abs() < 1e-9 && (k2.cv - k.cv).abs() < 1e-9);
         assert!((back.c_out[2].unwrap() - c).norm() < 1e-12);

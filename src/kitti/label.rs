@@ -27,6 +27,19 @@ const FIELD_NAMES: [&str; 16] = [
     "score",
 ];
 
+/// The class KITTI gives its ignore regions: an area whose objects are not labelled, never an
+/// object itself.
+pub const DONT_CARE: &str = "DontCare";
+
+/// What a label's class means to panoconv: an object of a named class, or an ignore region.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LabelClass<'a> {
+    /// An object (`Car`, `Pedestrian`, ...): it has a 3D box.
+    Object(&'a str),
+    /// A `DontCare` region: a 2D box only.
+    DontCare,
+}
+
 /// One object of a KITTI label file (`label_2/NNNNNN.txt`), in camera 2's rect frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Label {
@@ -125,7 +138,7 @@ impl Label {
         let dimensions = [num(8)?, num(9)?, num(10)?];
         // Only DontCare rows carry KITTI's -1 placeholders; an object with a flipped or empty
         // box would get a 2D box computed from nonsense.
-        if tokens[0] != "DontCare" {
+        if tokens[0] != DONT_CARE {
             if let Some(i) = dimensions.iter().position(|&d| !(d > 0.0)) {
                 return Err(Error::parse(
                     path,
@@ -157,11 +170,23 @@ impl Label {
         })
     }
 
+    /// The label's class: an object's, or an ignore region.
+    pub fn class(&self) -> LabelClass<'_> {
+        if self.kind == DONT_CARE {
+            LabelClass::DontCare
+        } else {
+            LabelClass::Object(&self.kind)
+        }
+    }
+
+    /// Whether the label is an ignore region (`DontCare`), not an object.
+    pub fn is_dont_care(&self) -> bool {
+        self.class() == LabelClass::DontCare
+    }
+
     /// Whether the object carries a 3D box (DontCare and placeholder rows do not).
     pub fn has_box_3d(&self) -> bool {
-        self.kind != "DontCare"
-            && self.dimensions.iter().all(|&d| d > 0.0)
-            && self.location.z > -999.0
+        !self.is_dont_care() && self.dimensions.iter().all(|&d| d > 0.0) && self.location.z > -999.0
     }
 
     /// The 8 corners of the 3D box in rect: bottom face first (y = location.y), then top.

@@ -4,11 +4,11 @@ pub mod calib;
 mod cam;
 pub mod dataset;
 mod label;
-pub mod raw;
+pub(crate) mod raw;
 pub mod rig_output;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};
 pub use cam::Cam;
 pub use dataset::{Dataset, FrameRef, Layout, OutputKind, Split};
-pub use label::{Label, LabelFile};
+pub use label::{Label, LabelClass, LabelFile, DONT_CARE};

@@ -7,12 +7,12 @@ use crate::error::{Error, Result};
 use crate::fs::hash_hex;
 use crate::run::journal::{Journal, Previous};
 use crate::run::manifest::{FrameRecord, FrameStatus};
-use crate::run::output::OutputFolder;
 use crate::run::{Progress, Summary};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::OnceLock;
+use std::time::Instant;
 
 /// What a command converts: its items, their keys and the conversion of a group.
 pub trait FrameWork: Sync {
@@ -28,10 +28,16 @@ pub trait FrameWork: Sync {
     fn convert(&self, group: &[&Self::Item]) -> Vec<Result<FrameRecord>>;
 }
 
-/// A running conversion's frames (from [`OutputFolder::start`]): the journal, the previous
+/// A running conversion's frames (from [`crate::run::OutputFolder::start`]): the journal, the previous
 /// run's records and what the workers share.
 pub struct FrameRun<'a> {
-    folder: &'a OutputFolder,
+    /// Where the records' input and output files are relative to.
+    input: &'a Path,
+    output: &'a Path,
+    /// Whether the command offers `--resume` (what a full device's message advises).
+    resumable: bool,
+    /// When the run began.
+    started: Instant,
     journal: Journal,
     previous: Previous,
     progress: &'a dyn Progress,
@@ -71,15 +77,21 @@ pub fn still_valid(r: &FrameRecord, input: &Path, output: &Path) -> bool {
 }
 
 impl<'a> FrameRun<'a> {
+    /// The loop of a run from `input` into `output` (see [`crate::run::OutputFolder::start`]).
     pub(crate) fn new(
-        folder: &'a OutputFolder,
+        (input, output): (&'a Path, &'a Path),
+        resumable: bool,
+        started: Instant,
         journal: Journal,
         previous: Previous,
         progress: &'a dyn Progress,
         stop: &'a AtomicBool,
     ) -> Self {
         Self {
-            folder,
+            input,
+            output,
+            resumable,
+            started,
             journal,
             previous,
             progress,
@@ -137,7 +149,7 @@ impl<'a> FrameRun<'a> {
         for (i, item) in group.iter().enumerate() {
             let (split, id) = work.key(item);
             if let Some(r) = self.previous.get(split, id) {
-                if still_valid(&r, self.folder.input(), self.folder.root()) {
+                if still_valid(&r, self.input, self.output) {
                     self.journal.record(r);
                     self.written.fetch_add(1, Ordering::Relaxed);
                     self.progress.frame_done();
@@ -196,7 +208,7 @@ impl<'a> FrameRun<'a> {
         let interrupted = self.taken < self.offered;
         let written = self.written.load(Ordering::Relaxed);
         let device_full = self.device_full.into_inner().map(|e| {
-            if self.folder.resumable() {
+            if self.resumable {
                 format!(
                     "output device full after {written} of {} frames ({e}): free space and run again with --resume",
                     self.offered
@@ -221,7 +233,7 @@ impl<'a> FrameRun<'a> {
             resumed: self.resumed,
             interrupted: interrupted && device_full.is_none(),
             device_full,
-            seconds: self.folder.started().elapsed().as_secs_f64(),
+            seconds: self.started.elapsed().as_secs_f64(),
             tables_built,
         })
     }
@@ -230,7 +242,7 @@ impl<'a> FrameRun<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::run::{Claim, OutputMode, Silent};
+    use crate::run::{Claim, OutputFolder, OutputMode, Silent};
     use std::time::Instant;
 
     /// A client as small as a command's: frames "000001".. of one split, each written as a

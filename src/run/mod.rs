@@ -5,14 +5,14 @@
 //! `--overwrite`.
 
 pub mod alloc;
-pub mod clear;
+pub(crate) mod clear;
 pub mod derived;
-pub mod frames;
+pub(crate) mod frames;
 pub mod journal;
 pub mod manifest;
 pub mod names;
 mod once_map;
-pub mod output;
+pub(crate) mod output;
 mod shard;
 
 pub use frames::{FrameRun, FrameWork};

@@ -20,7 +20,8 @@ use std::time::Instant;
 pub enum OutputMode {
     /// The folder must be empty (or absent).
     New,
-    /// `--overwrite`: a previous run's files are removed first (see [`crate::run::clear`]).
+    /// `--overwrite`: a previous run's files are removed first (only files a previous run
+    /// accounts for; anything else is refused, and nothing is removed).
     Overwrite,
     /// `--resume`: a previous run's records are kept where they still stand.
     Resume,
@@ -165,15 +166,15 @@ impl OutputFolder {
             journal.keep_derived(journal::previous_derived(&self.root));
         }
         progress.start(selected);
-        Ok(FrameRun::new(self, journal, previous, progress, stop))
-    }
-
-    pub(crate) fn resumable(&self) -> bool {
-        self.resumable
-    }
-
-    pub(crate) fn started(&self) -> Instant {
-        self.started
+        Ok(FrameRun::new(
+            (&self.input, &self.root),
+            self.resumable,
+            self.started,
+            journal,
+            previous,
+            progress,
+            stop,
+        ))
     }
 }
 

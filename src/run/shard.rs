@@ -17,9 +17,4 @@ impl Shard {
         let v = u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes"));
         v % self.count as u64 == self.index as u64
     }
-
-    /// File name of this shard's manifest part: `panoconv.shard-K-of-N.json`.
-    pub fn manifest_name(&self) -> String {
-        crate::run::names::manifest_name(Some(*self))
-    }
 }

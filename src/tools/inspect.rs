@@ -305,7 +305,7 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
                     Ok(label) => {
                         *classes.entry(label.kind.clone()).or_default() += 1;
                         let h = label.bbox[3] - label.bbox[1];
-                        if label.kind != "DontCare" && h < SMALL_OBJECT_PX {
+                        if !label.is_dont_care() && h < SMALL_OBJECT_PX {
                             small.count += 1;
                             *small.classes.entry(label.kind.clone()).or_default() += 1;
                         }

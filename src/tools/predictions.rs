@@ -168,7 +168,9 @@ pub fn unproject(
             let (camera, centre, calib) = frame_camera(calib_dir, images_dir, &id)?;
             let converted_only = matches!(
                 calib.projection,
-                None | Some(crate::camera::Projection::Perspective)
+                None | Some(crate::camera::OutputProjection::Linear(
+                    crate::camera::Projection::Perspective
+                ))
             );
             let source = match boxes {
                 BoxChoice::Source { size } if !converted_only => {

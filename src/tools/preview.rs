@@ -164,7 +164,7 @@ pub fn draw_labels(
         return;
     }
     let mut placed: Vec<[i64; 4]> = Vec::new();
-    for label in labels.iter().filter(|l| l.kind != "DontCare") {
+    for label in labels.iter().filter(|l| !l.is_dont_care()) {
         let text = label_text(label, camera, centre);
         let (tw, th) = text_size(&text, text_scale);
         let (tw, th) = (tw as i64, th as i64);

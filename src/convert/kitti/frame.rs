@@ -1,16 +1,29 @@
 //! One frame's conversion, in two halves around the style pass: [`Context::prepare`] (read,
 //! parse, decode; `read.rs`) and [`Context::finish`] (warp, labels, depth, encode, write;
 //! `write.rs`), so that the style pass can take several frames' images at once. The output
-//! cameras and remap tables a frame uses, shared or drawn for `--augment`, are `views.rs`'s.
+//! cameras and remap tables a frame uses (cached here as `CameraMapping`s), shared or drawn for
+//! `--augment`, are made in `views.rs`.
 
-use super::views::{CameraMapping, CameraMappingKey};
 use super::{KittiJob, StyleOrder};
+use crate::camera::{ImageSize, OutputCamera};
 use crate::kitti::Dataset;
 use crate::run::manifest::FrameRecord;
 use crate::run::OnceMap;
 use crate::style::StyleModel;
+use crate::warp::RemapTable;
 use std::path::Path;
 use std::sync::atomic::AtomicUsize;
+use std::sync::Arc;
+
+/// The output camera and remap table of one source camera.
+#[derive(Clone)]
+pub(super) struct CameraMapping {
+    pub(super) output: Arc<dyn OutputCamera>,
+    pub(super) table: Arc<RemapTable>,
+}
+
+/// A source camera: its intrinsics' bits and image size.
+pub(super) type CameraMappingKey = ([u64; 4], ImageSize);
 
 pub(super) struct Context<'a> {
     pub(super) job: &'a KittiJob,

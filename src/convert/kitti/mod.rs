@@ -5,22 +5,24 @@
 mod batch;
 mod frame;
 mod not_frames;
+mod options;
 mod read;
 mod run;
 mod tables;
 mod views;
 mod write;
 
+pub use options::KittiOptions;
 pub use run::run_kitti;
 
 use crate::codec::png::PngCompression;
 use crate::error::Result;
 use crate::geometry::augment::Augment;
-use crate::geometry::{FisheyeTarget, OutputSpec};
+use crate::geometry::{FisheyeTarget, Target, TargetRecord};
 use crate::kitti::{raw, Cam, Dataset};
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::journal::Shard;
-use crate::run::Summary;
+use crate::run::{OutputMode, Summary};
 use crate::style::{StyleInfo, StyleModel, StyleOptions};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -35,16 +37,16 @@ pub struct KittiJob {
     pub output: PathBuf,
     /// Which layout `input` has and what part of it is converted.
     pub source: KittiSource,
-    /// The target projection, scale, canvas, crop and resize.
-    pub output_spec: OutputSpec,
-    /// The fisheye camera of `--to fisheye`.
-    pub fisheye: Option<FisheyeTarget>,
+    /// What the frames are rendered into: a projection (scale, canvas) or a fisheye camera,
+    /// then the crop and resize.
+    pub target: Target,
     /// Write `mask_2/` (and `mask_3/`): where each output pixel has source data.
     pub mask: bool,
     /// Restrict to these frame ids.
     pub frames: Option<Vec<String>>,
-    /// Write into a non-empty output folder.
-    pub overwrite: bool,
+    /// New, `--overwrite` or `--resume` (skip frames whose outputs a previous run
+    /// completed, with the same parameters and inputs).
+    pub mode: OutputMode,
     /// PNG encoder effort.
     pub png_compression: PngCompression,
     /// The CycleGAN style pass, if any.
@@ -57,8 +59,6 @@ pub struct KittiJob {
     pub depth: Option<DepthJob>,
     /// This process converts one shard of the frames.
     pub shard: Option<Shard>,
-    /// Skip frames whose outputs a previous run completed (same parameters, same inputs).
-    pub resume: bool,
 }
 
 /// The input of a KITTI conversion.
@@ -99,7 +99,7 @@ impl KittiSource {
 #[derive(Debug, Serialize)]
 struct Parameters<'a> {
     input: &'a Path,
-    output_spec: &'a OutputSpec,
+    output_spec: TargetRecord,
     #[serde(skip_serializing_if = "Option::is_none")]
     fisheye: Option<&'a FisheyeTarget>,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
@@ -124,8 +124,8 @@ impl<'a> Parameters<'a> {
         };
         Parameters {
             input: &job.input,
-            output_spec: &job.output_spec,
-            fisheye: job.fisheye.as_ref(),
+            output_spec: job.target.record(),
+            fisheye: job.target.fisheye(),
             mask: job.mask,
             split,
             frames: job.frames.as_deref(),

@@ -64,7 +64,7 @@ impl Context<'_> {
             labels.as_ref().map_or(0, |l| {
                 l.labels
                     .iter()
-                    .filter(|label| label.kind != "DontCare")
+                    .filter(|label| !label.is_dont_care())
                     .filter(|label| transform_label(label, &cam2.centre, &source, camera).is_some())
                     .count() as u32
             })

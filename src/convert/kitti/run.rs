@@ -11,7 +11,7 @@ use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
 use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::names::IMAGE_SETS;
-use crate::run::{Claim, FrameWork, OutputFolder, OutputMode, Progress};
+use crate::run::{Claim, FrameWork, OutputFolder, Progress};
 use crate::style::{Device, StyleModel, StyleOptions};
 use std::collections::HashMap;
 use std::path::Path;
@@ -35,7 +35,7 @@ pub fn run_kitti(
         input: &job.input,
         output: &job.output,
         shard: job.shard,
-        mode: OutputMode::from_flags(job.overwrite, job.resume),
+        mode: job.mode,
         resumable: true,
         started,
     })?;
@@ -51,11 +51,6 @@ pub fn run_kitti(
     let parameters =
         serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
-    if matches!(job.source, KittiSource::Raw { .. }) && job.augment.is_some() {
-        return Err(Error::Setup(
-            "--augment is not available for KITTI raw drives (one calib per drive)".into(),
-        ));
-    }
     check_output_size(job, &dataset, &frames)?;
     folder.prepare()?;
     create_output_folders(job, &dataset)?;
@@ -212,12 +207,10 @@ fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> 
         };
         for (k, size) in super::tables::source_cameras(split, &first.id, &job.cameras) {
             let source = crate::camera::Perspective::new(k, size);
-            let Err(e) =
-                crate::geometry::target_camera(&job.output_spec, job.fisheye.as_ref(), k, &source)
-            else {
+            let Err(e) = job.target.camera(k, &source) else {
                 continue;
             };
-            let option = match job.output_spec.scale {
+            let option = match job.target.scale() {
                 crate::geometry::Scale::PanoWidth(w) => format!("--pano-width {w}"),
                 crate::geometry::Scale::PixelsPerDegree(d) => format!("--px-per-deg {d}"),
                 crate::geometry::Scale::SourceFocal => "the output size".to_owned(),

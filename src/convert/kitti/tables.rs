@@ -52,7 +52,7 @@ pub(super) fn build_ahead(
     }
     // A corrupt PNG header (an absurd size, read before the decoder has refused the file)
     // must not cost a huge table.
-    let fixed_size = ctx.job.fisheye.is_some();
+    let fixed_size = ctx.job.target.has_fixed_size();
     let todo: Vec<_> = distinct
         .into_values()
         .filter(|&(_, size, frames)| {

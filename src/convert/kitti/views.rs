@@ -2,11 +2,10 @@
 //! built once and shared by every frame with that calibration, or drawn per frame for
 //! `--augment` (redrawn until a view holds enough objects).
 
-use super::frame::Context;
+use super::frame::{CameraMapping, Context};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::error::{Error, Result};
 use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
-use crate::geometry::target_camera;
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
@@ -14,16 +13,6 @@ use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
-
-/// The output camera and remap table of one source camera.
-#[derive(Clone)]
-pub(super) struct CameraMapping {
-    pub(super) output: Arc<dyn OutputCamera>,
-    pub(super) table: Arc<RemapTable>,
-}
-
-/// A source camera: its intrinsics' bits and image size.
-pub(super) type CameraMappingKey = ([u64; 4], ImageSize);
 
 /// One output view of a camera.
 pub(super) struct OutputView {
@@ -55,7 +44,10 @@ impl Context<'_> {
         parallel: bool,
     ) -> std::result::Result<CameraMapping, String> {
         let source = Perspective::new(k, size);
-        let output = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+        let output = self
+            .job
+            .target
+            .camera(k, &source)
             .map_err(|e| e.to_string())?;
         let table = table(output.as_ref(), &source, parallel);
         Ok(CameraMapping {
@@ -94,7 +86,10 @@ impl Context<'_> {
             }]);
         };
         let source = Perspective::new(k, size);
-        let canvas = target_camera(&self.job.output_spec, self.job.fisheye.as_ref(), k, &source)
+        let canvas = self
+            .job
+            .target
+            .camera(k, &source)
             .map_err(|e| Error::file(calib_path, e.to_string()))?;
         let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
             let (kv, sv) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());

@@ -9,8 +9,8 @@
 //! record the rule (`frame_ids`).
 
 use super::objects::{DropReason, ObjectOutcome, ObjectRule};
-use super::pass::RigTarget;
 use crate::codec::png::PngCompression;
+use crate::geometry::Target;
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::Shard;
 use crate::run::Summary;
@@ -58,7 +58,7 @@ pub struct Kitti360Job {
     /// The output folder.
     pub output: PathBuf,
     /// The output camera.
-    pub target: RigTarget,
+    pub target: Target,
     /// The rig cameras used (0 to 3: image_00 to image_03), in order.
     pub cameras: Vec<usize>,
     /// Only these frame numbers (of every sequence); None: every frame with a pose.
@@ -174,7 +174,7 @@ pub(super) struct Parameters<'a> {
     pub(super) sequences: &'a [String],
     /// `frame` (one sequence) or `drive_frame` (several): see [`frame_id`].
     pub(super) frame_ids: &'static str,
-    pub(super) output_spec: &'a crate::geometry::OutputSpec,
+    pub(super) output_spec: crate::geometry::TargetRecord,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) fisheye: Option<&'a crate::geometry::FisheyeTarget>,
     pub(super) cameras: Vec<&'static str>,
@@ -201,8 +201,8 @@ impl<'a> Parameters<'a> {
             } else {
                 "frame"
             },
-            output_spec: &job.target.spec,
-            fisheye: job.target.fisheye.as_ref(),
+            output_spec: job.target.record(),
+            fisheye: job.target.fisheye(),
             cameras: job
                 .cameras
                 .iter()

@@ -12,7 +12,7 @@
 use super::objects::{label_objects, ObjectOutcome, ObjectRule};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, ProjectionReject};
 use crate::error::{Error, Result};
-use crate::geometry::{target_camera, FisheyeTarget, OutputSpec};
+use crate::geometry::Target;
 use crate::image::RgbImage;
 use crate::reproject::depth::{depth_map, DepthMap, OcclusionFilter};
 use crate::source::{Frame, SourceBox};
@@ -30,15 +30,6 @@ pub struct CameraInfo {
     pub focal: Intrinsics,
     /// Half the field of view of a lens that has one, radians.
     pub max_theta: Option<f64>,
-}
-
-/// The output camera: projection, scale, canvas, crop and resize, and a fisheye target's lens.
-#[derive(Debug, Clone)]
-pub struct RigTarget {
-    /// As for KITTI (`--to`, `--pano-width`, `--crop`, `--resize`).
-    pub spec: OutputSpec,
-    /// The lens of `--to fisheye`.
-    pub fisheye: Option<FisheyeTarget>,
 }
 
 /// How a frame is converted.
@@ -106,7 +97,7 @@ impl CameraModel for InReference<'_> {
 pub fn output_camera(
     frame: &Frame,
     info: &[CameraInfo],
-    target: &RigTarget,
+    target: &Target,
     first: usize,
 ) -> Result<Box<dyn OutputCamera>> {
     let camera = &frame.rig[first];
@@ -118,12 +109,7 @@ pub fn output_camera(
             .try_inverse()
             .ok_or_else(|| Error::Setup(format!("{}: singular pose", camera.name)))?,
     };
-    target_camera(
-        &target.spec,
-        target.fisheye.as_ref(),
-        info[first].focal,
-        &source,
-    )
+    target.camera(info[first].focal, &source)
 }
 
 /// Converts `frame` (its rig described by `info`, one per rig camera) into `target`, writing
@@ -131,7 +117,7 @@ pub fn output_camera(
 pub fn convert_frame(
     frame: &Frame,
     info: &[CameraInfo],
-    target: &RigTarget,
+    target: &Target,
     options: &RigOptions,
     keep_class: ClassFilter,
 ) -> Result<RigFrame> {

@@ -1,0 +1,290 @@
+//! The rules of a KITTI conversion's options, as a library step between the options as given
+//! ([`KittiOptions`], what the command line says, field for field) and the job that runs
+//! ([`KittiJob`]): every rule that needs no file is checked here, before the output folder is
+//! locked or a style model loaded, and each can be tested without the binary.
+
+use super::{DepthJob, KittiJob, KittiSource, StyleJob};
+use crate::camera::{ImageSize, OutputProjection};
+use crate::codec::png::PngCompression;
+use crate::error::{Error, Result};
+use crate::geometry::augment::Augment;
+use crate::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Scale, Target};
+use crate::kitti::Cam;
+use crate::run::{OutputMode, Shard};
+use std::path::PathBuf;
+
+/// A KITTI conversion's options as given, before their rules are checked.
+#[derive(Debug, Clone)]
+pub struct KittiOptions {
+    /// The dataset's root.
+    pub input: PathBuf,
+    /// The output folder.
+    pub output: PathBuf,
+    /// Which layout `input` has and what part of it is converted.
+    pub source: KittiSource,
+    /// `--to`: a projection, or a fisheye camera (then `camera` is its file).
+    pub to: OutputProjection,
+    /// `--camera FILE`: the fisheye target's camera.
+    pub camera: Option<PathBuf>,
+    /// `--pano-width`.
+    pub pano_width: Option<u32>,
+    /// `--px-per-deg`.
+    pub px_per_deg: Option<f64>,
+    /// `--full-360`.
+    pub full_360: bool,
+    /// `--size`.
+    pub size: Option<ImageSize>,
+    /// `--crop`.
+    pub crop: Option<Crop>,
+    /// `--resize`.
+    pub resize: Option<ImageSize>,
+    /// `--mask`.
+    pub mask: bool,
+    /// The frames asked for (`--frames`, `--frames-from`, `--image-set`); None: all.
+    pub frames: Option<Vec<String>>,
+    /// New, `--overwrite` or `--resume`.
+    pub mode: OutputMode,
+    /// PNG encoder effort.
+    pub png_compression: PngCompression,
+    /// `--cameras`, in any order, repeats allowed.
+    pub cameras: Vec<Cam>,
+    /// `--depth` and its occlusion filter.
+    pub depth: Option<DepthJob>,
+    /// `--augment` and its draw.
+    pub augment: Option<Augment>,
+    /// `--shard K/N`.
+    pub shard: Option<Shard>,
+    /// `--style` and its options.
+    pub style: Option<StyleJob>,
+    /// Whether `--export` asks for an export after the conversion.
+    pub export: bool,
+}
+
+impl KittiOptions {
+    /// Checks the options' rules and makes the job: `--export` needs a whole object dataset,
+    /// `--to fisheye` its camera file and none of the scale and canvas options (a fisheye
+    /// target has its camera's), `--camera` only with `--to fisheye`, `--cameras` camera 2,
+    /// `--augment` an object dataset. Reads the fisheye camera file, nothing else.
+    pub fn validate(self) -> Result<KittiJob> {
+        let raw = matches!(self.source, KittiSource::Raw { .. });
+        if (raw || self.shard.is_some()) && self.export {
+            return Err(Error::Setup(
+                "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into(),
+            ));
+        }
+        let target = self.target()?;
+        let mut cameras = self.cameras.clone();
+        cameras.sort_unstable();
+        cameras.dedup();
+        if !cameras.contains(&Cam::C2) {
+            return Err(Error::Setup(
+                "--cameras must include 2 (labels and depth belong to camera 2)".into(),
+            ));
+        }
+        if raw && self.augment.is_some() {
+            return Err(Error::Setup(
+                "--augment is not available for KITTI raw drives (one calib per drive)".into(),
+            ));
+        }
+        Ok(KittiJob {
+            input: self.input,
+            output: self.output,
+            source: self.source,
+            target,
+            mask: self.mask,
+            frames: self.frames,
+            mode: self.mode,
+            png_compression: self.png_compression,
+            style: self.style,
+            augment: self.augment,
+            cameras,
+            depth: self.depth,
+            shard: self.shard,
+        })
+    }
+
+    /// What the frames are rendered into.
+    fn target(&self) -> Result<Target> {
+        match (self.to, &self.camera) {
+            (OutputProjection::Fisheye, Some(file)) => {
+                for (given, flag) in [
+                    (self.pano_width.is_some(), "--pano-width"),
+                    (self.px_per_deg.is_some(), "--px-per-deg"),
+                    (self.full_360, "--full-360"),
+                    (self.size.is_some(), "--size"),
+                ] {
+                    if given {
+                        return Err(Error::Setup(format!(
+                            "{flag}: a fisheye target has the size and scale of its camera file \
+                             (--crop and --resize apply)"
+                        )));
+                    }
+                }
+                Ok(Target::Fisheye {
+                    camera: Box::new(FisheyeTarget::read(file)?),
+                    crop: self.crop,
+                    resize: self.resize,
+                })
+            }
+            (OutputProjection::Fisheye, None) => Err(Error::Setup(
+                "--to fisheye needs --camera FILE: a camera description or a KITTI-360, WoodScape \
+                 or OpenCV calibration file (docs/fisheye.md); to convert fisheye images instead, \
+                 `panoconv fisheye --camera CAMERA.json --to cylindrical`"
+                    .into(),
+            )),
+            (OutputProjection::Linear(_), Some(_)) => Err(Error::Setup(
+                "--camera describes the camera of --to fisheye".into(),
+            )),
+            (OutputProjection::Linear(projection), None) => Ok(Target::Linear(OutputSpec {
+                projection,
+                scale: Scale::from_flags(self.pano_width, self.px_per_deg)?,
+                canvas: match (self.full_360, self.size) {
+                    (true, _) => Canvas::Full360,
+                    (false, Some(s)) => Canvas::Size(s),
+                    (false, None) => Canvas::Tight,
+                },
+                crop: self.crop,
+                resize: self.resize,
+            })),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Projection;
+
+    fn options() -> KittiOptions {
+        KittiOptions {
+            input: "in".into(),
+            output: "out".into(),
+            source: KittiSource::Object { split: None },
+            to: Projection::Equirect.into(),
+            camera: None,
+            pano_width: None,
+            px_per_deg: None,
+            full_360: false,
+            size: None,
+            crop: None,
+            resize: None,
+            mask: false,
+            frames: None,
+            mode: OutputMode::New,
+            png_compression: PngCompression::Fast,
+            cameras: vec![Cam::C3, Cam::C2, Cam::C3],
+            depth: None,
+            augment: None,
+            shard: None,
+            style: None,
+            export: false,
+        }
+    }
+
+    fn refusal(o: KittiOptions) -> String {
+        match o.validate() {
+            Err(Error::Setup(m)) => m,
+            other => panic!("expected a set-up error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn valid_options_make_the_job() {
+        let job = options().validate().unwrap();
+        assert_eq!(job.cameras, [Cam::C2, Cam::C3]);
+        assert_eq!(job.target.projection(), Projection::Equirect);
+        assert_eq!(job.target.scale(), Scale::SourceFocal);
+        let job = KittiOptions {
+            pano_width: Some(2048),
+            full_360: true,
+            ..options()
+        }
+        .validate()
+        .unwrap();
+        match job.target {
+            Target::Linear(spec) => {
+                assert_eq!(spec.scale, Scale::PanoWidth(2048));
+                assert_eq!(spec.canvas, Canvas::Full360);
+            }
+            Target::Fisheye { .. } => panic!("a linear target was asked for"),
+        }
+    }
+
+    #[test]
+    fn each_rule_refuses_before_anything_is_read() {
+        let fisheye = || KittiOptions {
+            to: OutputProjection::Fisheye,
+            camera: Some("no/such/camera.json".into()),
+            ..options()
+        };
+        let m = refusal(KittiOptions {
+            pano_width: Some(2048),
+            ..fisheye()
+        });
+        assert!(m.starts_with("--pano-width: a fisheye target"), "{m}");
+        let m = refusal(KittiOptions {
+            size: Some(ImageSize::new(10, 10)),
+            ..fisheye()
+        });
+        assert!(m.starts_with("--size:"), "{m}");
+        let m = refusal(KittiOptions {
+            camera: None,
+            ..fisheye()
+        });
+        assert!(m.starts_with("--to fisheye needs --camera FILE"), "{m}");
+        let m = refusal(KittiOptions {
+            camera: Some("front.json".into()),
+            ..options()
+        });
+        assert!(m.contains("--camera describes"), "{m}");
+        let m = refusal(KittiOptions {
+            shard: Some(Shard { index: 0, count: 2 }),
+            export: true,
+            ..options()
+        });
+        assert!(
+            m.starts_with("--export needs a whole KITTI object dataset"),
+            "{m}"
+        );
+        let m = refusal(KittiOptions {
+            source: KittiSource::Raw { drive: None },
+            export: true,
+            ..options()
+        });
+        assert!(m.starts_with("--export needs"), "{m}");
+        let m = refusal(KittiOptions {
+            cameras: vec![Cam::C3],
+            ..options()
+        });
+        assert!(m.starts_with("--cameras must include 2"), "{m}");
+        let m = refusal(KittiOptions {
+            pano_width: Some(0),
+            ..options()
+        });
+        assert_eq!(m, "--pano-width must be positive");
+        let m = refusal(KittiOptions {
+            px_per_deg: Some(f64::NAN),
+            ..options()
+        });
+        assert_eq!(m, "--px-per-deg must be positive");
+        let augment = Augment {
+            count: 2,
+            seed: 0,
+            scale_range: (1.0, 1.0),
+            crop_size: ImageSize::new(100, 50),
+            min_objects: 0,
+        };
+        let m = refusal(KittiOptions {
+            source: KittiSource::Raw { drive: None },
+            augment: Some(augment),
+            ..options()
+        });
+        assert!(
+            m.starts_with("--augment is not available for KITTI raw"),
+            "{m}"
+        );
+        // A fisheye camera file that does not exist is named (read only once the rules pass).
+        let e = fisheye().validate().unwrap_err().to_string();
+        assert!(e.contains("no/such/camera.json"), "{e}");
+    }
+}
