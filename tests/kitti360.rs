@@ -162,6 +162,7 @@ fn image_01_is_moved_by_its_mounting_once_and_zero_baseline_rigs_share_one_centr
 #[test]
 fn boxes_come_in_the_level_frame_with_the_class_table_and_the_frame_rules() {
     let seq = open(&fixture());
+    let mut tilted = 0;
     for f in seq.frames() {
         let frame = seq.frame(f).unwrap();
         let level_from_world = frame.world_from_reference.unwrap().inverse().unwrap();
@@ -202,10 +203,22 @@ fn boxes_come_in_the_level_frame_with_the_class_table_and_the_frame_rules() {
                     b.class
                 );
             }
-            assert!(
-                b.tilt() < 1e-9,
-                "upright in the world, upright in the level frame"
-            );
+            if o.lean == 0.0 {
+                assert!(
+                    b.tilt() < 1e-9,
+                    "upright in the world, upright in the level frame"
+                );
+            } else {
+                // the leaning bicycle keeps its full rotation: its lean, not upright
+                assert!(b.tilt() > 1e-3 && !b.is_upright(1e-3), "{b:?}");
+                assert!(
+                    (b.tilt() - o.lean).abs() < 1e-9,
+                    "{} vs {}",
+                    b.tilt(),
+                    o.lean
+                );
+                tilted += 1;
+            }
             let [h, w, l] = scene_box.dimensions;
             assert!((b.size - Vector3::new(l, h, w)).norm() < 1e-12);
             // the bottom face is on the ground
@@ -216,6 +229,7 @@ fn boxes_come_in_the_level_frame_with_the_class_table_and_the_frame_rules() {
             assert!((world_to_scene(&bottom).y - GROUND_Y).abs() < 1e-9);
         }
     }
+    assert_eq!(tilted, 3, "the bicycle in each frame");
     // all_classes keeps the building, named by its KITTI-360 class
     let all = Sequence::open(
         &fixture(),
@@ -242,8 +256,9 @@ fn off_surface(p: &Vector3<f64>, frame: u32) -> f64 {
         let [h, w, l] = b.dimensions;
         let (s, c) = b.rotation_y.sin_cos();
         let v = p - b.location;
-        // local = Ry(ry)ᵀ·v, local y from −h to 0
-        let local = Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z);
+        // local = (Ry(ry)·T)ᵀ·v, local y from −h to 0
+        let yawed = Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z);
+        let local = b.tilt.map_or(yawed, |t| t.transpose() * yawed);
         let half = Vector3::new(l / 2.0, h / 2.0, w / 2.0);
         let centred = local - Vector3::new(0.0, -h / 2.0, 0.0);
         let outside = (centred.abs() - half).map(|x| x.max(0.0)).norm();
