@@ -32,6 +32,9 @@ pub struct SceneBox {
     pub rotation_y: f64,
     /// Base RGB colour, 0 to 255, before texture and shading.
     pub colour: [f64; 3],
+    /// A lean from upright (pitch, roll): a rotation about the bottom centre in the box's own
+    /// axes (x length, y down, z width), applied before the yaw; None for an upright box.
+    pub tilt: Option<nalgebra::Matrix3<f64>>,
 }
 
 /// A synthetic scene: the ground plane at [`GROUND_Y`], the sky, and these boxes.
@@ -72,7 +75,12 @@ impl SceneBox {
         let [h, w, l] = self.dimensions;
         let (s, c) = self.rotation_y.sin_cos();
         // world = R(ry)·local + location; local = R(ry)ᵀ·(world - location)
-        let to_local = |v: &Vector3<f64>| Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z);
+        let yawed = |v: &Vector3<f64>| Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z);
+        // a tilted box: world = R(ry)·T·local + location
+        let to_local = |v: &Vector3<f64>| match &self.tilt {
+            Some(t) => t.transpose() * yawed(v),
+            None => yawed(v),
+        };
         let lo = to_local(&(o - self.location));
         let ld = to_local(d);
         let min = Vector3::new(-l / 2.0, -h, -w / 2.0);
@@ -349,6 +357,7 @@ fn car(x: f64, z: f64, ry: f64, colour: [f64; 3]) -> SceneBox {
         location: Vector3::new(x, GROUND_Y, z),
         rotation_y: ry,
         colour,
+        tilt: None,
     }
 }
 

@@ -3,6 +3,7 @@
 
 mod footprint;
 mod kernel;
+pub mod mask;
 pub mod stitch;
 mod stream;
 mod table;
@@ -10,6 +11,7 @@ mod table;
 pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
+pub use mask::EgoMask;
 pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
 pub use stream::{warp_encode, PngSource};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

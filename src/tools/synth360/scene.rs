@@ -90,6 +90,8 @@ pub struct Object {
     pub colour: [f64; 3],
     /// Where it is.
     pub motion: Motion,
+    /// Lean from upright about the box's length axis (roll), radians, about its bottom centre.
+    pub lean: f64,
 }
 
 impl Object {
@@ -113,6 +115,8 @@ impl Object {
             location: Vector3::new(x, GROUND_Y, z),
             rotation_y: self.rotation_y,
             colour: self.colour,
+            tilt: (self.lean != 0.0)
+                .then(|| Rotation3::from_axis_angle(&Vector3::x_axis(), self.lean).into_inner()),
         })
     }
 
@@ -130,16 +134,17 @@ pub fn world_transform(b: &SceneBox) -> Matrix4<f64> {
     let yaw = Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c);
     // KITTI-360 box axes in the scene's box axes (x length, y down, z width): X→x, Y→z, Z→−y
     let axes = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0);
-    let r = world_from_scene() * yaw * axes * Matrix3::from_diagonal(&Vector3::new(l, w, h));
-    let centre = scene_to_world(&(b.location - Vector3::new(0.0, h / 2.0, 0.0)));
+    let tilt = b.tilt.unwrap_or_else(Matrix3::identity);
+    let r = world_from_scene() * yaw * tilt * axes * Matrix3::from_diagonal(&Vector3::new(l, w, h));
+    let centre = scene_to_world(&(b.location + yaw * tilt * Vector3::new(0.0, -h / 2.0, 0.0)));
     let mut m = Matrix4::identity();
     m.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
     m.fixed_view_mut::<3, 1>(0, 3).copy_from(&centre);
     m
 }
 
-/// The objects of the synthetic drive: vehicles, a pedestrian and a cyclist all around the
-/// rig, a building (a class KITTI has no type for), a parked car that is annotated for the
+/// The objects of the synthetic drive: vehicles, a pedestrian and a bicycle leaning 12° (a box
+/// that is not upright) all around the rig, a building (a class KITTI has no type for), a parked car that is annotated for the
 /// first two frames only, and one car driving towards the rig.
 pub fn objects() -> Vec<Object> {
     use std::f64::consts::FRAC_PI_2;
@@ -156,6 +161,7 @@ pub fn objects() -> Vec<Object> {
         rotation_y,
         colour,
         motion,
+        lean: 0.0,
     };
     vec![
         o(
@@ -203,15 +209,19 @@ pub fn objects() -> Vec<Object> {
             [90.0, 140.0, 90.0],
             stat([3.4, 6.0]),
         ),
-        o(
-            18,
-            1,
-            "bicycle",
-            [1.1, 0.6, 1.7],
-            -1.5,
-            [120.0, 50.0, 140.0],
-            stat([-3.3, -4.5]),
-        ),
+        // a parked bicycle leaning on its stand, 12° from upright
+        Object {
+            lean: 12f64.to_radians(),
+            ..o(
+                18,
+                1,
+                "bicycle",
+                [1.1, 0.6, 1.7],
+                -1.5,
+                [120.0, 50.0, 140.0],
+                stat([-3.3, -4.5]),
+            )
+        },
         o(
             14,
             1,
