@@ -253,26 +253,115 @@ fn off_surface(p: &Vector3<f64>, frame: u32) -> f64 {
     best
 }
 
+/// The worst distance of `frame`'s points from the scene's surfaces, and how many are more
+/// than `far` metres off.
+fn lidar_off_surface(frame: &Frame, number: u32, far: f64) -> (f64, usize) {
+    let world = frame.world_from_reference.unwrap();
+    let mut worst: f64 = 0.0;
+    let mut off = 0;
+    for p in &frame.lidar {
+        let d = off_surface(&world_to_scene(&world.apply(&p.position)), number);
+        worst = worst.max(d);
+        off += usize::from(d > far);
+    }
+    (worst, off)
+}
+
 #[test]
 fn lidar_points_land_on_the_scenes_surfaces_in_the_level_frame() {
     let seq = open(&fixture());
     let frame = seq.frame(251).unwrap();
     assert!(frame.lidar.len() > 20_000, "{}", frame.lidar.len());
-    let world = frame.world_from_reference.unwrap();
-    let mut worst: f64 = 0.0;
-    let mut behind = 0;
-    for p in &frame.lidar {
-        let scene = world_to_scene(&world.apply(&p.position));
-        worst = worst.max(off_surface(&scene, 251));
-        behind += usize::from(p.position.z < -5.0);
-    }
-    // float32 coordinates in the Velodyne frame, up to 80 m away
-    assert!(worst < 2e-4, "a point is {worst} m off every surface");
+    let behind = frame.lidar.iter().filter(|p| p.position.z < -5.0).count();
     assert!(behind > 1000, "a 360° sweep sees behind the car");
     assert!(frame
         .provenance
         .iter()
         .any(|p| p.ends_with("velodyne_points/data/0000000251.bin")));
+    // compensated: on the surfaces to the float32 rounding of coordinates up to 80 m away, on
+    // the first frame (compensated from the motion to the frame after) and the others (from
+    // the frame before)
+    for number in [250, 251, 252] {
+        let frame = seq.frame(number).unwrap();
+        let (worst, _) = lidar_off_surface(&frame, number, 0.0);
+        assert!(
+            worst < 2e-4,
+            "frame {number}: a point is {worst} m off every surface"
+        );
+    }
+    // as measured: the rig drives 1.2 m a frame, so the points off the forward direction are
+    // up to 0.6 m off (those that hit the ground along their own ray are still on it)
+    let raw = Sequence::open(
+        &fixture(),
+        SEQUENCE,
+        Options {
+            compensate_sweep: false,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let frame = raw.frame(251).unwrap();
+    let (worst, off) = lidar_off_surface(&frame, 251, 0.05);
+    assert!(worst > 0.3, "uncompensated points are only {worst} m off");
+    assert!(
+        off > frame.lidar.len() / 20,
+        "{off} of {}",
+        frame.lidar.len()
+    );
+    // the same constant motion whichever neighbour gives it
+    let (a, b) = (
+        seq.sweep_motion(250).unwrap().unwrap(),
+        seq.sweep_motion(252).unwrap().unwrap(),
+    );
+    assert!(
+        (a.rotation - b.rotation).norm() < 1e-12 && (a.translation - b.translation).norm() < 1e-9
+    );
+    // the frame before lies about 1.2 m behind the Velodyne (x forward; its mounting's lever
+    // arm turned by 3° moves it a little)
+    assert!(
+        a.translation.x < -1.1 && a.translation.norm() < 1.25,
+        "{}",
+        a.translation
+    );
+    assert!(
+        (a.rotation.norm() - 3f64.to_radians()).abs() < 1e-3,
+        "{}",
+        a.rotation
+    );
+}
+
+#[test]
+fn a_frame_without_neighbouring_poses_is_read_as_measured() {
+    let (_tmp, root) = scratch();
+    // frame 251 loses its pose: 250 and 252 are left without neighbours
+    let poses = root.join(format!("data_poses/{SEQUENCE}/poses.txt"));
+    let text = std::fs::read_to_string(&poses).unwrap();
+    let kept: String = text
+        .lines()
+        .filter(|l| !l.starts_with("251 "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_eq!(kept.lines().count(), 2);
+    std::fs::write(&poses, kept).unwrap();
+    let seq = open(&root);
+    assert_eq!(seq.sweep_motion(250).unwrap(), None);
+    assert_eq!(seq.sweep_motion(252).unwrap(), None);
+    let with = seq.frame(250).unwrap();
+    let raw = Sequence::open(
+        &root,
+        SEQUENCE,
+        Options {
+            compensate_sweep: false,
+            ..Options::default()
+        },
+    )
+    .unwrap()
+    .frame(250)
+    .unwrap();
+    assert_eq!(with.lidar, raw.lidar);
+    // frame 250's sweep was measured moving, so uncompensated it is off the surfaces
+    let (worst, _) = lidar_off_surface(&with, 250, 0.0);
+    assert!(worst > 0.3, "{worst}");
 }
 
 /// A copy of the fixture to break.

@@ -19,7 +19,7 @@ use super::bboxes::{read_boxes, WorldBox};
 use super::calib::{Calibration, CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
 use super::level::world_from_level;
 use super::poses::read_poses;
-use super::velodyne::parse_scan;
+use super::velodyne::{parse_scan, SweepMotion};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{Frame, LidarPoint, Pose, RigCamera};
@@ -36,6 +36,9 @@ pub struct Options {
     pub lidar: bool,
     /// Keep the objects of classes KITTI has no type for (named by their KITTI-360 class).
     pub all_classes: bool,
+    /// Motion-compensate each Velodyne sweep ([`Sequence::sweep_motion`]); off, the points are
+    /// read as the scanner measured them.
+    pub compensate_sweep: bool,
 }
 
 impl Default for Options {
@@ -44,6 +47,7 @@ impl Default for Options {
             fisheye_fov_deg: [DEFAULT_FISHEYE_FOV_DEG; 2],
             lidar: true,
             all_classes: false,
+            compensate_sweep: true,
         }
     }
 }
@@ -185,6 +189,25 @@ impl Sequence {
             .compose(&self.calibration.pose_from_velo()))
     }
 
+    /// The Velodyne's motion during the sweep of `frame` ([`SweepMotion`]), from the
+    /// neighbouring poses: the motion from the frame before to `frame` when the frame before
+    /// has a pose, else the motion from `frame` to the frame after (the first frame of a
+    /// sequence, or one after a gap), else None: a frame with neither neighbour is not
+    /// compensated (its points are read as measured).
+    pub fn sweep_motion(&self, frame: u32) -> Result<Option<SweepMotion>> {
+        let listed = |f: Option<u32>| f.filter(|f| self.poses.contains_key(f));
+        let (later, earlier) = match (listed(frame.checked_sub(1)), listed(frame.checked_add(1))) {
+            (Some(previous), _) => (frame, previous),
+            (None, Some(next)) => (next, frame),
+            (None, None) => return Ok(None),
+        };
+        let velo_later = self.world_from_velo(later)?.inverse().ok_or_else(|| {
+            Error::file(&self.poses_path, format!("frame {later}: singular pose"))
+        })?;
+        let motion = velo_later.compose(&self.world_from_velo(earlier)?);
+        Ok(Some(SweepMotion::from_frame_motion(&motion)))
+    }
+
     /// world_from_level at `frame`: KITTI's `Tr_rect_to_world` of the frame.
     pub fn world_from_level(&self, frame: u32) -> Result<Pose> {
         let rect0 = self.world_from_image(frame, 0)?;
@@ -202,7 +225,8 @@ impl Sequence {
     }
 
     /// Frame `frame` in its level frame: the four cameras, the boxes (KITTI classes only
-    /// unless [`Options::all_classes`]), the scan when [`Options::lidar`].
+    /// unless [`Options::all_classes`]), the scan when [`Options::lidar`] (motion-compensated
+    /// unless [`Options::compensate_sweep`] is off).
     pub fn frame(&self, frame: u32) -> Result<Frame> {
         let world_from_level = self.world_from_level(frame)?;
         let level_from_world = world_from_level.inverse().ok_or_else(|| {
@@ -234,11 +258,18 @@ impl Sequence {
             let path = scan_path(&self.root, &self.name, frame);
             let bytes = crate::fs::read_file(&path)?;
             let level_from_velo = level_from_world.compose(&self.world_from_velo(frame)?);
+            let motion = match self.options.compensate_sweep {
+                true => self.sweep_motion(frame)?,
+                false => None,
+            };
             lidar = parse_scan(&bytes, &path)?
                 .into_iter()
-                .map(|(p, intensity)| LidarPoint {
-                    position: level_from_velo.apply(&p),
-                    intensity,
+                .map(|(p, intensity)| {
+                    let p = motion.map_or(p, |m| m.compensate(&p));
+                    LidarPoint {
+                        position: level_from_velo.apply(&p),
+                        intensity,
+                    }
                 })
                 .collect();
             provenance.push(path);

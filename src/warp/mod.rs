@@ -3,11 +3,13 @@
 
 mod footprint;
 mod kernel;
+pub mod mask;
 pub mod stitch;
 mod table;
 
 pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
+pub use mask::EgoMask;
 pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

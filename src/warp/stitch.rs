@@ -27,13 +27,19 @@
 //!    without overlaps), solved exactly as its normal equations; then every g_i is divided by
 //!    g_0, so the first camera keeps its exposure. Gains that are not finite and positive, or
 //!    a singular system, give g_i = 1.
+//! 6. With an ego mask for camera i ([`EgoMask`], `Stitch::build_masked`), w_i = 0 wherever
+//!    camera i's sample would touch its mask: where a masked pixel centre lies within
+//!    1 + ρ/2 pixels of p_i in x and in y, ρ the larger distance from p_i to the samples of the
+//!    output pixels to the right and below (the footprint a supersampled tap can reach).
 //!
 //! When every camera's centre is C (a zero-baseline rig) the proxy distance plays no part and
 //! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer
 //! or farther ones show the parallax between the cameras at the seams.
 
+use super::mask::EgoMask;
 use super::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
+use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
@@ -94,7 +100,7 @@ impl Proxy<'_> {
 }
 
 impl CameraModel for Proxy<'_> {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+    fn project(&self, d: &Vector3<f64>) -> std::result::Result<Point2<f64>, ProjectionReject> {
         let q = self.local(d);
         if let Some(t) = self.camera.max_theta {
             if q.x.hypot(q.y).atan2(q.z) > t {
@@ -106,7 +112,7 @@ impl CameraModel for Proxy<'_> {
 
     /// The output bearing whose proxy point the pixel sees: the camera's ray met with the
     /// sphere of radius s around the output centre.
-    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+    fn unproject(&self, p: &Point2<f64>) -> std::result::Result<Vector3<f64>, ProjectionReject> {
         let b = self.camera.model.unproject(p)?;
         let inv = self
             .camera
@@ -205,6 +211,32 @@ fn margin(camera: &StitchCamera, q: &Vector3<f64>) -> Option<f64> {
     Some(fov.min(border / scale))
 }
 
+/// Step 6 of the model: whether camera `proxy`'s sample for output pixel (u, v), seeing camera
+/// point `q`, touches `mask`.
+fn touches_mask(
+    output: &dyn CameraModel,
+    proxy: &Proxy,
+    mask: &EgoMask,
+    u: usize,
+    v: usize,
+    q: &Vector3<f64>,
+) -> bool {
+    let Ok(p) = proxy.camera.model.project_point(q) else {
+        return false;
+    };
+    let sample = |u: usize, v: usize| {
+        let d = output.unproject(&Point2::new(u as f64, v as f64)).ok()?;
+        proxy.camera.model.project_point(&proxy.local(&d)).ok()
+    };
+    let rho = [sample(u + 1, v), sample(u, v + 1)]
+        .into_iter()
+        .flatten()
+        .map(|n| (n - p).norm())
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    mask.touches(&p, 1.0 + rho / 2.0)
+}
+
 impl Stitch {
     /// The stitch of `cameras` into `output` (its bearings in the reference frame's axes,
     /// from `centre`).
@@ -214,11 +246,65 @@ impl Stitch {
         cameras: &[StitchCamera],
         options: StitchOptions,
     ) -> Stitch {
+        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, &[], options);
+        Stitch {
+            size: output.size(),
+            tables,
+            weights,
+            even_exposure: options.even_exposure,
+        }
+    }
+
+    /// [`Stitch::build`] with an ego mask per camera (`masks[i]` for `cameras[i]`; None, or a
+    /// shorter list, for cameras without one): step 6 of the model. A mask of another size
+    /// than its camera's image is an error.
+    pub fn build_masked(
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        cameras: &[StitchCamera],
+        masks: &[Option<&EgoMask>],
+        options: StitchOptions,
+    ) -> Result<Stitch> {
+        if masks.len() > cameras.len() {
+            return Err(Error::Setup(format!(
+                "{} ego masks for {} cameras",
+                masks.len(),
+                cameras.len()
+            )));
+        }
+        for (i, (camera, mask)) in cameras.iter().zip(masks).enumerate() {
+            if let Some(mask) = mask {
+                let (a, b) = (mask.size(), camera.model.size());
+                if a != b {
+                    return Err(Error::Setup(format!(
+                        "camera {i}: an ego mask of {}x{} for an image of {}x{}",
+                        a.width, a.height, b.width, b.height
+                    )));
+                }
+            }
+        }
+        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, masks, options);
+        Ok(Stitch {
+            size: output.size(),
+            tables,
+            weights,
+            even_exposure: options.even_exposure,
+        })
+    }
+
+    fn tables_and_weights(
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        cameras: &[StitchCamera],
+        masks: &[Option<&EgoMask>],
+        options: StitchOptions,
+    ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
         let size = output.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
-        for camera in cameras {
+        for (i, camera) in cameras.iter().enumerate() {
+            let mask = masks.get(i).copied().flatten();
             let proxy = Proxy {
                 camera: *camera,
                 centre: *centre,
@@ -243,16 +329,16 @@ impl Stitch {
                         if let Some(m) = margin(camera, &q) {
                             *out = smoothstep(m / options.blend_width) as f32;
                         }
+                        if let Some(mask) = mask.filter(|_| *out > 0.0) {
+                            if touches_mask(output, &proxy, mask, u, v, &q) {
+                                *out = 0.0;
+                            }
+                        }
                     }
                 });
             weights.push(wi);
         }
-        Stitch {
-            size,
-            tables,
-            weights,
-            even_exposure: options.even_exposure,
-        }
+        (tables, weights)
     }
 
     /// Camera i's weight at output pixel (u, v).
