@@ -242,6 +242,8 @@ fn open_sequences(job: &Kitti360Job) -> Result<Vec<(Sequence, Vec<CameraInfo>)>>
         fisheye_fov_deg: job.fisheye_fov_deg,
         lidar: job.needs_lidar(),
         all_classes: job.classes != super::Kitti360Classes::Kitti,
+        // the reader's default (motion-compensated sweeps) until the command has an option
+        ..Options::default()
     };
     let mut out = Vec::new();
     for name in &job.sequences {
