@@ -37,6 +37,7 @@
 //! or farther ones show the parallax between the cameras at the seams.
 
 use super::mask::EgoMask;
+use super::reach::{border_cone, Cone, Gated, Reach};
 use super::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use crate::error::{Error, Result};
@@ -301,28 +302,62 @@ impl Stitch {
     ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
         let size = output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let mut tables = Vec::with_capacity(cameras.len());
-        let mut weights = Vec::with_capacity(cameras.len());
-        for (i, camera) in cameras.iter().enumerate() {
-            let mask = masks.get(i).copied().flatten();
-            let proxy = Proxy {
+        let proxies: Vec<Proxy> = cameras
+            .iter()
+            .map(|camera| Proxy {
                 camera: *camera,
                 centre: *centre,
                 distance: options.distance,
+            })
+            .collect();
+        let locals: Vec<_> = proxies
+            .iter()
+            .map(|proxy| move |d: &Vector3<f64>| proxy.local(d))
+            .collect();
+        let cones: Vec<Cone> = proxies
+            .iter()
+            .zip(&locals)
+            .map(|(proxy, local)| {
+                let camera = &proxy.camera;
+                let inverse = camera.rotation.try_inverse();
+                let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
+                Cone {
+                    local,
+                    half_angle: camera.max_theta.or_else(|| border_cone(camera.model)),
+                    parallax: baseline
+                        .filter(|b| b.is_finite() && *b < options.distance)
+                        .map(|b| options.distance / (options.distance - b)),
+                }
+            })
+            .collect();
+        let reach = Reach::new(output, &cones);
+        let mut tables = Vec::with_capacity(cameras.len());
+        let mut weights = Vec::with_capacity(cameras.len());
+        for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
+            let mask = masks.get(i).copied().flatten();
+            let gated = Gated {
+                output,
+                reach: &reach,
+                camera: i,
             };
             tables.push(RemapTable::build_parallel(
-                output,
-                &proxy,
+                &gated,
+                proxy,
                 &Matrix3::identity(),
                 Wrap::None,
                 MAX_SUPERSAMPLE,
             ));
+            // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
+            // the pixels beyond the bound keep w_i = 0
             let mut wi = vec![0f32; w * h];
             wi.par_chunks_mut(w.max(1))
                 .enumerate()
                 .for_each(|(v, row)| {
                     for (u, out) in row.iter_mut().enumerate() {
-                        let Ok(d) = output.unproject(&Point2::new(u as f64, v as f64)) else {
+                        if !reach.may_reach_pixel(i, u, v) {
+                            continue;
+                        }
+                        let Some(d) = reach.bearing(u, v) else {
                             continue;
                         };
                         let q = proxy.local(&d);
@@ -330,7 +365,7 @@ impl Stitch {
                             *out = smoothstep(m / options.blend_width) as f32;
                         }
                         if let Some(mask) = mask.filter(|_| *out > 0.0) {
-                            if touches_mask(output, &proxy, mask, u, v, &q) {
+                            if touches_mask(output, proxy, mask, u, v, &q) {
                                 *out = 0.0;
                             }
                         }
