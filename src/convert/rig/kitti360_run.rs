@@ -26,6 +26,9 @@ const FOLDERS: [&str; 6] = [
     "image_2", "calib", "label_2", "source_2", "objects", "depth_2",
 ];
 
+/// Ego masks by rig index (None: the camera has none).
+type Masks = Vec<Option<Arc<EgoMask>>>;
+
 /// One frame to convert.
 struct Item {
     sequence: usize,
@@ -40,7 +43,7 @@ struct Ctx<'a> {
     hashes: OnceMap<PathBuf, std::result::Result<String, String>>,
     objects: Mutex<ObjectCounts>,
     /// The ego masks by rig index.
-    masks: Vec<Option<Arc<EgoMask>>>,
+    masks: Masks,
 }
 
 fn relative(root: &Path, path: &Path) -> String {
@@ -338,8 +341,8 @@ fn select(job: &Kitti360Job, sequences: &[(Sequence, Vec<CameraInfo>)]) -> Resul
 fn read_ego_masks(
     job: &Kitti360Job,
     sequences: &[(Sequence, Vec<CameraInfo>)],
-) -> Result<(Vec<Option<Arc<EgoMask>>>, Vec<EgoMaskRecord>)> {
-    let mut masks: Vec<Option<Arc<EgoMask>>> = vec![None; 4];
+) -> Result<(Masks, Vec<EgoMaskRecord>)> {
+    let mut masks: Masks = vec![None; 4];
     let mut records = Vec::new();
     for (k, path) in &job.ego_masks {
         let name = crate::kitti360::CAMERAS.get(*k).ok_or_else(|| {
