@@ -247,7 +247,8 @@ impl Stitch {
         cameras: &[StitchCamera],
         options: StitchOptions,
     ) -> Stitch {
-        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, &[], options);
+        let (tables, weights) =
+            Self::tables_and_weights(output, centre, cameras, &[], options, true);
         Stitch {
             size: output.size(),
             tables,
@@ -284,7 +285,8 @@ impl Stitch {
                 }
             }
         }
-        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, masks, options);
+        let (tables, weights) =
+            Self::tables_and_weights(output, centre, cameras, masks, options, true);
         Ok(Stitch {
             size: output.size(),
             tables,
@@ -299,6 +301,7 @@ impl Stitch {
         cameras: &[StitchCamera],
         masks: &[Option<&EgoMask>],
         options: StitchOptions,
+        bounded: bool,
     ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
         let size = output.size();
         let (w, h) = (size.width as usize, size.height as usize);
@@ -323,7 +326,11 @@ impl Stitch {
                 let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
                 Cone {
                     local,
-                    half_angle: camera.max_theta.or_else(|| border_cone(camera.model)),
+                    // unbounded: every pixel mapped (the tests' reference)
+                    half_angle: camera
+                        .max_theta
+                        .or_else(|| border_cone(camera.model))
+                        .filter(|_| bounded),
                     parallax: baseline
                         .filter(|b| b.is_finite() && *b < options.distance)
                         .map(|b| options.distance / (options.distance - b)),
@@ -499,7 +506,70 @@ impl Stitch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::{Intrinsics, Perspective};
+    use crate::camera::{Equirect, Intrinsics, Perspective};
+
+    #[test]
+    fn the_reach_bound_changes_no_table_entry_and_no_weight() {
+        let wide = Perspective::new(
+            Intrinsics::new(60.0, 60.0, 99.5, 49.5),
+            ImageSize::new(200, 100),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(300.0, 300.0, 70.0, 40.0),
+            ImageSize::new(150, 90),
+        );
+        let turn =
+            |deg: f64| *nalgebra::Rotation3::from_euler_angles(0.1, deg.to_radians(), 0.0).matrix();
+        let cameras = [
+            StitchCamera {
+                model: &wide,
+                rotation: turn(80.0),
+                translation: Vector3::new(0.3, 0.0, -0.2),
+                max_theta: Some(1.0),
+            },
+            StitchCamera {
+                model: &narrow,
+                rotation: Matrix3::identity(),
+                translation: Vector3::new(-0.5, 0.1, 0.0),
+                max_theta: None,
+            },
+            StitchCamera {
+                model: &wide,
+                rotation: turn(-100.0),
+                translation: Vector3::new(0.0, 0.0, 0.4),
+                max_theta: None,
+            },
+        ];
+        let output = Equirect::new(
+            Intrinsics::new(
+                320.0 / (2.0 * std::f64::consts::PI),
+                320.0 / (2.0 * std::f64::consts::PI),
+                160.0,
+                80.0,
+            ),
+            ImageSize::new(320, 160),
+        );
+        let centre = Vector3::new(0.05, -0.02, 0.1);
+        let options = StitchOptions::default();
+        let build =
+            |bounded| Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded);
+        let (bounded, every) = (build(true), build(false));
+        for i in 0..cameras.len() {
+            assert!(bounded.0[i] == every.0[i], "camera {i}: tables differ");
+            let bits = |w: &[f32]| w.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&bounded.1[i]),
+                bits(&every.1[i]),
+                "camera {i}: weights"
+            );
+            // the camera is seen somewhere, and not everywhere
+            let seen = every.1[i].iter().filter(|w| **w > 0.0).count();
+            assert!(
+                seen > 100 && seen < every.1[i].len() / 2,
+                "camera {i}: {seen}"
+            );
+        }
+    }
 
     #[test]
     fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
