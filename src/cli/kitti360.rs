@@ -116,6 +116,10 @@ pub(super) struct Kitti360Args {
     /// Resize the (cropped) output to this size.
     #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
     resize: Option<ImageSize>,
+    /// Ego masks, one per camera (PNG, the camera's image size; non-zero = the vehicle's
+    /// body): the camera gives no output pixel whose sample would touch its mask.
+    #[arg(long, value_delimiter = ',', value_name = "K=PATH,...")]
+    ego_mask: Vec<String>,
     /// Continue a killed or interrupted run.
     #[arg(long)]
     resume: bool,
@@ -198,6 +202,24 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             bail!(setup(format!("--cameras names {c} twice")));
         }
         cameras.push(k);
+    }
+    let mut ego_masks = Vec::new();
+    for given in &args.ego_mask {
+        let (k, path) = given.split_once('=').ok_or_else(|| {
+            setup(format!(
+                "--ego-mask {given:?}: expected CAMERA=PATH, e.g. 02=masks/image_02.png"
+            ))
+        })?;
+        let k = match k.trim() {
+            "00" | "0" => 0,
+            "01" | "1" => 1,
+            "02" | "2" => 2,
+            "03" | "3" => 3,
+            other => bail!(setup(format!(
+                "--ego-mask {other:?}={path}: the camera is 00, 01, 02 or 03"
+            ))),
+        };
+        ego_masks.push((k, PathBuf::from(path)));
     }
     // A panorama of several cameras covers 360°; one camera, or a perspective view, the first
     // camera's field of view.
@@ -309,6 +331,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         resume: args.resume,
         shard: args.shard,
         png_compression: args.run.png_compression(),
+        ego_masks,
     };
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);

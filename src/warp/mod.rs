@@ -4,6 +4,7 @@
 mod footprint;
 mod kernel;
 pub mod mask;
+mod reach;
 pub mod stitch;
 mod stream;
 mod table;

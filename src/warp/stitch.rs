@@ -37,6 +37,7 @@
 //! or farther ones show the parallax between the cameras at the seams.
 
 use super::mask::EgoMask;
+use super::reach::{border_cone, Cone, Gated, Reach};
 use super::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use crate::error::{Error, Result};
@@ -246,7 +247,8 @@ impl Stitch {
         cameras: &[StitchCamera],
         options: StitchOptions,
     ) -> Stitch {
-        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, &[], options);
+        let (tables, weights) =
+            Self::tables_and_weights(output, centre, cameras, &[], options, true);
         Stitch {
             size: output.size(),
             tables,
@@ -283,7 +285,8 @@ impl Stitch {
                 }
             }
         }
-        let (tables, weights) = Self::tables_and_weights(output, centre, cameras, masks, options);
+        let (tables, weights) =
+            Self::tables_and_weights(output, centre, cameras, masks, options, true);
         Ok(Stitch {
             size: output.size(),
             tables,
@@ -298,31 +301,70 @@ impl Stitch {
         cameras: &[StitchCamera],
         masks: &[Option<&EgoMask>],
         options: StitchOptions,
+        bounded: bool,
     ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
         let size = output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let mut tables = Vec::with_capacity(cameras.len());
-        let mut weights = Vec::with_capacity(cameras.len());
-        for (i, camera) in cameras.iter().enumerate() {
-            let mask = masks.get(i).copied().flatten();
-            let proxy = Proxy {
+        let proxies: Vec<Proxy> = cameras
+            .iter()
+            .map(|camera| Proxy {
                 camera: *camera,
                 centre: *centre,
                 distance: options.distance,
+            })
+            .collect();
+        let locals: Vec<_> = proxies
+            .iter()
+            .map(|proxy| move |d: &Vector3<f64>| proxy.local(d))
+            .collect();
+        let cones: Vec<Cone> = proxies
+            .iter()
+            .zip(&locals)
+            .map(|(proxy, local)| {
+                let camera = &proxy.camera;
+                let inverse = camera.rotation.try_inverse();
+                let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
+                Cone {
+                    local,
+                    // unbounded: every pixel mapped (the tests' reference)
+                    half_angle: camera
+                        .max_theta
+                        .or_else(|| border_cone(camera.model))
+                        .filter(|_| bounded),
+                    parallax: baseline
+                        .filter(|b| b.is_finite() && *b < options.distance)
+                        .map(|b| options.distance / (options.distance - b)),
+                }
+            })
+            .collect();
+        let reach = Reach::new(output, &cones);
+        let mut tables = Vec::with_capacity(cameras.len());
+        let mut weights = Vec::with_capacity(cameras.len());
+        for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
+            let mask = masks.get(i).copied().flatten();
+            let gated = Gated {
+                output,
+                reach: &reach,
+                camera: i,
             };
             tables.push(RemapTable::build_parallel(
-                output,
-                &proxy,
+                &gated,
+                proxy,
                 &Matrix3::identity(),
                 Wrap::None,
                 MAX_SUPERSAMPLE,
             ));
+            // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
+            // the pixels beyond the bound keep w_i = 0
             let mut wi = vec![0f32; w * h];
             wi.par_chunks_mut(w.max(1))
                 .enumerate()
                 .for_each(|(v, row)| {
                     for (u, out) in row.iter_mut().enumerate() {
-                        let Ok(d) = output.unproject(&Point2::new(u as f64, v as f64)) else {
+                        if !reach.may_reach_pixel(i, u, v) {
+                            continue;
+                        }
+                        let Some(d) = reach.bearing(u, v) else {
                             continue;
                         };
                         let q = proxy.local(&d);
@@ -330,7 +372,7 @@ impl Stitch {
                             *out = smoothstep(m / options.blend_width) as f32;
                         }
                         if let Some(mask) = mask.filter(|_| *out > 0.0) {
-                            if touches_mask(output, &proxy, mask, u, v, &q) {
+                            if touches_mask(output, proxy, mask, u, v, &q) {
                                 *out = 0.0;
                             }
                         }
@@ -464,7 +506,70 @@ impl Stitch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::{Intrinsics, Perspective};
+    use crate::camera::{Equirect, Intrinsics, Perspective};
+
+    #[test]
+    fn the_reach_bound_changes_no_table_entry_and_no_weight() {
+        let wide = Perspective::new(
+            Intrinsics::new(60.0, 60.0, 99.5, 49.5),
+            ImageSize::new(200, 100),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(300.0, 300.0, 70.0, 40.0),
+            ImageSize::new(150, 90),
+        );
+        let turn =
+            |deg: f64| *nalgebra::Rotation3::from_euler_angles(0.1, deg.to_radians(), 0.0).matrix();
+        let cameras = [
+            StitchCamera {
+                model: &wide,
+                rotation: turn(80.0),
+                translation: Vector3::new(0.3, 0.0, -0.2),
+                max_theta: Some(1.0),
+            },
+            StitchCamera {
+                model: &narrow,
+                rotation: Matrix3::identity(),
+                translation: Vector3::new(-0.5, 0.1, 0.0),
+                max_theta: None,
+            },
+            StitchCamera {
+                model: &wide,
+                rotation: turn(-100.0),
+                translation: Vector3::new(0.0, 0.0, 0.4),
+                max_theta: None,
+            },
+        ];
+        let output = Equirect::new(
+            Intrinsics::new(
+                320.0 / (2.0 * std::f64::consts::PI),
+                320.0 / (2.0 * std::f64::consts::PI),
+                160.0,
+                80.0,
+            ),
+            ImageSize::new(320, 160),
+        );
+        let centre = Vector3::new(0.05, -0.02, 0.1);
+        let options = StitchOptions::default();
+        let build =
+            |bounded| Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded);
+        let (bounded, every) = (build(true), build(false));
+        for i in 0..cameras.len() {
+            assert!(bounded.0[i] == every.0[i], "camera {i}: tables differ");
+            let bits = |w: &[f32]| w.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&bounded.1[i]),
+                bits(&every.1[i]),
+                "camera {i}: weights"
+            );
+            // the camera is seen somewhere, and not everywhere
+            let seen = every.1[i].iter().filter(|w| **w > 0.0).count();
+            assert!(
+                seen > 100 && seen < every.1[i].len() / 2,
+                "camera {i}: {seen}"
+            );
+        }
+    }
 
     #[test]
     fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {

@@ -83,6 +83,9 @@ pub struct Kitti360Job {
     pub shard: Option<Shard>,
     /// PNG encoder effort.
     pub png_compression: PngCompression,
+    /// Ego masks: (rig camera 0 to 3, mask image) pairs (non-zero pixels are the vehicle's
+    /// body; `warp::EgoMask`).
+    pub ego_masks: Vec<(usize, PathBuf)>,
 }
 
 impl Kitti360Job {
@@ -189,10 +192,23 @@ pub(super) struct Parameters<'a> {
     pub(super) fisheye_fov_deg: [f64; 2],
     pub(super) shard: Option<Shard>,
     pub(super) png_compression: PngCompression,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    pub(super) ego_masks: &'a [EgoMaskRecord],
+}
+
+/// An ego mask as the manifest records it.
+#[derive(Debug, Clone, Serialize)]
+pub(super) struct EgoMaskRecord {
+    /// The camera (`image_02`).
+    pub(super) camera: &'static str,
+    /// The mask image as given.
+    pub(super) path: PathBuf,
+    /// blake3 of its bytes.
+    pub(super) hash: String,
 }
 
 impl<'a> Parameters<'a> {
-    pub(super) fn new(job: &'a Kitti360Job) -> Self {
+    pub(super) fn new(job: &'a Kitti360Job, ego_masks: &'a [EgoMaskRecord]) -> Self {
         Parameters {
             input: &job.input,
             sequences: &job.sequences,
@@ -219,6 +235,7 @@ impl<'a> Parameters<'a> {
             fisheye_fov_deg: job.fisheye_fov_deg,
             shard: job.shard,
             png_compression: job.png_compression,
+            ego_masks,
         }
     }
 }

@@ -5,6 +5,7 @@
 //! frame leaves no file.
 
 use super::gray::encode_gray8;
+use super::kitti360::EgoMaskRecord;
 use super::kitti360::{
     drive_number, frame_id, Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT,
 };
@@ -15,14 +16,18 @@ use crate::fs;
 use crate::kitti360::{Options, Sequence};
 use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
+use crate::warp::EgoMask;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// The per-frame output folders under `OUT/training/`.
 const FOLDERS: [&str; 6] = [
     "image_2", "calib", "label_2", "source_2", "objects", "depth_2",
 ];
+
+/// Ego masks by rig index (None: the camera has none).
+type Masks = Vec<Option<Arc<EgoMask>>>;
 
 /// One frame to convert.
 struct Item {
@@ -37,6 +42,8 @@ struct Ctx<'a> {
     /// blake3 of the input files shared by frames (calibration, poses, boxes), by path.
     hashes: OnceMap<PathBuf, std::result::Result<String, String>>,
     objects: Mutex<ObjectCounts>,
+    /// The ego masks by rig index.
+    masks: Masks,
 }
 
 fn relative(root: &Path, path: &Path) -> String {
@@ -96,6 +103,7 @@ impl Ctx<'_> {
             centre: job.centre,
             objects: job.objects,
             depth: job.depth,
+            ego_masks: self.masks.clone(),
         };
         let out = convert_frame(&frame, info, &job.target, &options, &keep)?;
         let world_from_level = sequence.world_from_level(item.frame)?;
@@ -242,6 +250,8 @@ fn open_sequences(job: &Kitti360Job) -> Result<Vec<(Sequence, Vec<CameraInfo>)>>
         fisheye_fov_deg: job.fisheye_fov_deg,
         lidar: job.needs_lidar(),
         all_classes: job.classes != super::Kitti360Classes::Kitti,
+        // the reader's default (motion-compensated sweeps) until the command has an option
+        ..Options::default()
     };
     let mut out = Vec::new();
     for name in &job.sequences {
@@ -326,6 +336,54 @@ fn select(job: &Kitti360Job, sequences: &[(Sequence, Vec<CameraInfo>)]) -> Resul
     Ok(items)
 }
 
+/// The ego masks of `job` by rig index, and their manifest records: each mask must belong to a
+/// chosen camera, once, and have its image size in every sequence (an error names the file).
+fn read_ego_masks(
+    job: &Kitti360Job,
+    sequences: &[(Sequence, Vec<CameraInfo>)],
+) -> Result<(Masks, Vec<EgoMaskRecord>)> {
+    let mut masks: Masks = vec![None; 4];
+    let mut records = Vec::new();
+    for (k, path) in &job.ego_masks {
+        let name = crate::kitti360::CAMERAS.get(*k).ok_or_else(|| {
+            Error::file(path, format!("an ego mask for camera {k}: no such camera"))
+        })?;
+        if !job.cameras.contains(k) {
+            return Err(Error::file(
+                path,
+                format!("an ego mask for {name}, which --cameras does not use"),
+            ));
+        }
+        if masks[*k].is_some() {
+            return Err(Error::file(path, format!("a second ego mask for {name}")));
+        }
+        let mut mask = None;
+        for (seq, _) in sequences {
+            let c = &seq.calibration;
+            let size = match k {
+                0 | 1 => crate::camera::CameraModel::size(&c.perspective[*k].model),
+                _ => crate::camera::CameraModel::size(&c.fisheye[*k - 2]),
+            };
+            let m = EgoMask::read(path, size)?;
+            if mask.as_ref().is_some_and(|old| *old != m) {
+                return Err(Error::file(
+                    path,
+                    "the sequences' images differ in size".to_owned(),
+                ));
+            }
+            mask = Some(m);
+        }
+        let bytes = fs::read_file(path)?;
+        records.push(EgoMaskRecord {
+            camera: name,
+            path: path.clone(),
+            hash: fs::hash_hex(&bytes),
+        });
+        masks[*k] = mask.map(Arc::new);
+    }
+    Ok((masks, records))
+}
+
 /// An output camera that cannot be made (a scale too large, a crop of no pixel) is a set-up
 /// error, not one error per frame: checked on the first frame that reads.
 fn check_output_camera(
@@ -369,7 +427,9 @@ pub fn run_kitti360(
     if let Some(shard) = job.shard {
         items.retain(|i| shard.owns(SPLIT, &i.id));
     }
-    let parameters = serde_json::to_value(Parameters::new(job)).expect("parameters serialise");
+    let (masks, mask_records) = read_ego_masks(job, &sequences)?;
+    let parameters =
+        serde_json::to_value(Parameters::new(job, &mask_records)).expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
     for name in FOLDERS {
@@ -384,6 +444,7 @@ pub fn run_kitti360(
         sequences,
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
+        masks,
     };
     let mut run = folder.start(
         "kitti360",

@@ -19,8 +19,9 @@ use crate::source::{Frame, SourceBox};
 
 /// Which objects' classes are written (the others are dropped for their class).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
-use crate::warp::{Stitch, StitchCamera, StitchOptions};
+use crate::warp::{EgoMask, Stitch, StitchCamera, StitchOptions};
 use nalgebra::{Matrix3, Point2, Vector3};
+use std::sync::Arc;
 
 /// What a reader knows of a rig camera besides its model and pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,6 +46,8 @@ pub struct RigOptions {
     pub objects: ObjectRule,
     /// Write a depth map: with the occlusion filter, or without (None inside).
     pub depth: Option<Option<OcclusionFilter>>,
+    /// Ego masks by rig index (None, or a shorter list, for cameras without one).
+    pub ego_masks: Vec<Option<Arc<EgoMask>>>,
 }
 
 /// A converted frame.
@@ -179,7 +182,12 @@ pub fn convert_frame(
         }
         images.push(image);
     }
-    let stitch = Stitch::build(camera.as_ref(), &centre, &cameras, options.stitch);
+    let masks: Vec<Option<&EgoMask>> = options
+        .cameras
+        .iter()
+        .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
+        .collect();
+    let stitch = Stitch::build_masked(camera.as_ref(), &centre, &cameras, &masks, options.stitch)?;
     let refs: Vec<&RgbImage> = images.iter().collect();
     let stitched = stitch.apply(&refs);
     let source: Vec<u8> = stitched

@@ -1,0 +1,239 @@
+//! Where a stitch's source camera can reach in its output: a conservative per-pixel bound that
+//! lets the stitch build skip the table entries and weights of the output pixels a camera
+//! cannot see (most of them: a fisheye sees about half the sphere, a forward camera a few
+//! percent), without changing a byte of the result.
+//!
+//! Camera i samples output position x at the proxy point q_i(x), which has an image only
+//! within the cone of half-angle c_i about the camera's optical axis: its field of view, or,
+//! for a camera without one, the widest angle of its image border (one pixel out) plus a
+//! margin. The bearings of the output pixel centres (and of the ring one pixel outside) are
+//! computed once. Between adjacent centres the output bearing turns by at most A, and seen
+//! from camera i the proxy point turns by at most A·s/(s − b_i) (s the proxy distance, b_i the
+//! camera's distance from the output centre). A tap lies within half a pixel of its pixel's
+//! centre, so a pixel with a tap in the image has θ(q_i) ≤ c_i + δ_i at its centre, with
+//! δ_i = 2·A·s/(s − b_i): those centres are the candidates, and a centre without a bearing is
+//! one too. Widened by two pixels (a pixel's scale estimate reads its neighbours' centres),
+//! they are the pixels the table maps; the others take nothing from the camera.
+
+use crate::camera::{CameraModel, ImageSize, ProjectionReject};
+use nalgebra::{Point2, Vector3};
+use rayon::prelude::*;
+
+/// Pixels the candidates are widened by.
+const WIDEN: usize = 2;
+/// Radians added to a cone measured on an image border.
+const BORDER_SLACK: f64 = 1e-3;
+
+/// The bearings of an output's pixel centres and, per camera, the pixels it may reach.
+#[derive(Debug)]
+pub(super) struct Reach {
+    size: ImageSize,
+    /// Bearings of positions -1..=width × -1..=height, row-major (NaN: none).
+    bearings: Vec<Vector3<f64>>,
+    /// Per camera, over the same positions: whether the camera may reach it (None: all).
+    reach: Vec<Option<Vec<bool>>>,
+}
+
+/// One camera as the bound sees it.
+pub(super) struct Cone<'a> {
+    /// The proxy point of an output bearing, in the camera's coordinates.
+    pub local: &'a (dyn Fn(&Vector3<f64>) -> Vector3<f64> + Sync),
+    /// Half-angle c_i of the cone holding every point with an image (None: unbounded).
+    pub half_angle: Option<f64>,
+    /// s/(s − b_i), None where the camera lies on or beyond the proxy sphere.
+    pub parallax: Option<f64>,
+}
+
+/// The widest angle from the optical axis of `model`'s image border, one pixel out, plus a
+/// slack; None where part of the border has no bearing. For a pinhole camera every point with
+/// an image lies within it (the angle grows with the distance from the principal point, whose
+/// largest value over a rectangle is on its border).
+pub(super) fn border_cone(model: &dyn CameraModel) -> Option<f64> {
+    let size = model.size();
+    let (x0, y0) = (-1.5, -1.5);
+    let (x1, y1) = (size.width as f64 + 0.5, size.height as f64 + 0.5);
+    let mut widest: f64 = 0.0;
+    let mut edge = |a: Point2<f64>, b: Point2<f64>| -> Option<()> {
+        let steps = ((b - a).norm() * 2.0).ceil().max(1.0) as usize;
+        for k in 0..=steps {
+            let p = a + (b - a) * (k as f64 / steps as f64);
+            let d = model.unproject(&p).ok()?;
+            let theta = d.x.hypot(d.y).atan2(d.z);
+            if !theta.is_finite() {
+                return None;
+            }
+            widest = widest.max(theta);
+        }
+        Some(())
+    };
+    let c = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| Point2::new(x, y));
+    for i in 0..4 {
+        edge(c[i], c[(i + 1) % 4])?;
+    }
+    Some(widest + BORDER_SLACK)
+}
+
+impl Reach {
+    /// The bound of `cameras` in `output`.
+    pub(super) fn new(output: &dyn CameraModel, cameras: &[Cone]) -> Reach {
+        let size = output.size();
+        let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
+        let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
+        bearings
+            .par_chunks_mut(gw)
+            .enumerate()
+            .for_each(|(j, row)| {
+                for (i, out) in row.iter_mut().enumerate() {
+                    let p = Point2::new(i as f64 - 1.0, j as f64 - 1.0);
+                    if let Ok(d) = output.unproject(&p) {
+                        *out = d;
+                    }
+                }
+            });
+        // A: the largest turn between adjacent centres (across, down and both diagonals)
+        let turn = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            let chord = (a.normalize() - b.normalize()).norm();
+            if chord.is_finite() {
+                2.0 * (chord / 2.0).min(1.0).asin()
+            } else {
+                0.0
+            }
+        };
+        let step = (0..gh)
+            .into_par_iter()
+            .map(|j| {
+                let mut a: f64 = 0.0;
+                for i in 0..gw {
+                    let here = &bearings[j * gw + i];
+                    if i + 1 < gw {
+                        a = a.max(turn(here, &bearings[j * gw + i + 1]));
+                    }
+                    if j + 1 < gh {
+                        a = a.max(turn(here, &bearings[(j + 1) * gw + i]));
+                        if i + 1 < gw {
+                            a = a.max(turn(here, &bearings[(j + 1) * gw + i + 1]));
+                        }
+                        if i > 0 {
+                            a = a.max(turn(here, &bearings[(j + 1) * gw + i - 1]));
+                        }
+                    }
+                }
+                a
+            })
+            .reduce(|| 0.0, f64::max);
+        let reach = cameras
+            .iter()
+            .map(|cone| {
+                let (Some(c), Some(k)) = (cone.half_angle, cone.parallax) else {
+                    return None;
+                };
+                let limit = c + 2.0 * step * k + 1e-9;
+                if !(limit < std::f64::consts::PI) {
+                    return None;
+                }
+                let candidate: Vec<bool> = bearings
+                    .par_iter()
+                    .map(|d| {
+                        if !d.x.is_finite() {
+                            return true;
+                        }
+                        let q = (cone.local)(d);
+                        // NaN compares false: such a point is a candidate too
+                        !(q.x.hypot(q.y).atan2(q.z) > limit)
+                    })
+                    .collect();
+                Some(widen(&candidate, gw, gh))
+            })
+            .collect();
+        Reach {
+            size,
+            bearings,
+            reach,
+        }
+    }
+
+    /// The output's bearing of pixel (u, v), as its `unproject` gave it (None where it gave
+    /// none).
+    pub(super) fn bearing(&self, u: usize, v: usize) -> Option<Vector3<f64>> {
+        let d = self.bearings[(v + 1) * (self.size.width as usize + 2) + u + 1];
+        d.x.is_finite().then_some(d)
+    }
+
+    /// Whether camera `i` may reach the pixel nearest to output position `p` (true beyond the
+    /// positions the bound covers).
+    pub(super) fn may_reach(&self, i: usize, p: &Point2<f64>) -> bool {
+        let Some(reach) = &self.reach[i] else {
+            return true;
+        };
+        let gw = self.size.width as usize + 2;
+        let (x, y) = ((p.x + 0.5).floor() + 1.0, (p.y + 0.5).floor() + 1.0);
+        if !(x >= 0.0 && y >= 0.0 && x < gw as f64 && y < (self.size.height + 2) as f64) {
+            return true;
+        }
+        reach[y as usize * gw + x as usize]
+    }
+
+    /// Whether camera `i` may reach output pixel (u, v).
+    pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
+        self.reach[i]
+            .as_ref()
+            .is_none_or(|r| r[(v + 1) * (self.size.width as usize + 2) + u + 1])
+    }
+}
+
+/// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter).
+fn widen(set: &[bool], w: usize, h: usize) -> Vec<bool> {
+    let mut across = vec![false; set.len()];
+    across
+        .par_chunks_mut(w)
+        .zip(set.par_chunks(w))
+        .for_each(|(out, row)| {
+            for (i, o) in out.iter_mut().enumerate() {
+                let lo = i.saturating_sub(WIDEN);
+                let hi = (i + WIDEN).min(w - 1);
+                *o = row[lo..=hi].iter().any(|b| *b);
+            }
+        });
+    let mut out = vec![false; set.len()];
+    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+        let lo = j.saturating_sub(WIDEN);
+        let hi = (j + WIDEN).min(h - 1);
+        for (i, o) in row.iter_mut().enumerate() {
+            *o = (lo..=hi).any(|k| across[k * w + i]);
+        }
+    });
+    out
+}
+
+/// An output camera whose `unproject` refuses the positions one camera cannot reach: a remap
+/// table built from it maps only the pixels the bound keeps (the others take nothing).
+#[derive(Debug)]
+pub(super) struct Gated<'a> {
+    /// The output camera.
+    pub output: &'a dyn CameraModel,
+    /// The bound.
+    pub reach: &'a Reach,
+    /// The camera whose reach gates it.
+    pub camera: usize,
+}
+
+impl CameraModel for Gated<'_> {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        self.output.project(d)
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        if !self.reach.may_reach(self.camera, p) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        self.output.unproject(p)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.output.distance(p)
+    }
+
+    fn size(&self) -> ImageSize {
+        self.output.size()
+    }
+}
