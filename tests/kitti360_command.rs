@@ -13,7 +13,7 @@ use panoconv::kitti::{Calib, Cam, LabelFile};
 use panoconv::kitti360::classes::kitti_type;
 use panoconv::kitti360::{Options, Sequence};
 use panoconv::tools::synth360::scene::{
-    objects, scene_at, scene_to_world, world_from_scene, world_to_scene, world_transform,
+    objects, scene_at, world_from_scene, world_to_scene, world_transform,
 };
 use panoconv::tools::synth360::SEQUENCE;
 use std::f64::consts::PI;
@@ -151,10 +151,13 @@ fn truths(w: &Written, frame: u32) -> Vec<Truth> {
             });
             // the length axis (the box's X) in the level frame
             let x = level_from_world * r.column(0).normalize();
-            let bottom = to_level(scene_to_world(&b.location));
+            // KITTI's location: the centre moved down by half the height (for an upright box
+            // its bottom face's centre; a tilted box, the leaning bicycle, keeps its centre)
+            let height = r.column(2).norm();
+            let location = to_level(t) + Vector3::new(0.0, height / 2.0, 0.0);
             Some(Truth {
                 kind,
-                location: bottom,
+                location,
                 rotation_y: (-x.z).atan2(x.x),
                 corners,
                 world_centre: t,
@@ -443,8 +446,21 @@ fn the_offset_rig_has_exact_labels_and_depth_the_same_with_any_jobs_and_the_tool
         a.extend(["--jobs", jobs]);
         let run = kitti360(root, out, &a);
         assert_success(&run);
+        // every object is written, so the tilted count is the scene's leaning boxes
+        let tilted: usize = [250, 251]
+            .iter()
+            .map(|&f| {
+                objects()
+                    .iter()
+                    .filter(|o| kitti_type(o.kitti_id).is_some())
+                    .filter(|o| o.at(f).is_some_and(|b| b.tilt.is_some()))
+                    .count()
+            })
+            .sum();
+        assert!(tilted > 0, "the synthetic scene has a leaning bicycle");
         assert!(
-            run.stderr.contains("objects written (0 tilted)"),
+            run.stderr
+                .contains(&format!("objects written ({tilted} tilted)")),
             "{}",
             run.stderr
         );
