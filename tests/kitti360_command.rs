@@ -532,6 +532,60 @@ fn the_offset_rig_has_exact_labels_and_depth_the_same_with_any_jobs_and_the_tool
         serde_json::from_str(&read_text(&one.join("annotations/instances_train.json"))).unwrap();
     assert_eq!(coco["images"].as_array().unwrap().len(), 2);
     assert_eq!(coco["images"][0]["id"], 250);
+    // Omni3D carries each box exactly, the leaning bicycle's pitch and roll too: its corners
+    // (camera frame, from C2) are the scene's
+    let omni: serde_json::Value =
+        serde_json::from_str(&read_text(&one.join("annotations/Omni3D_train.json"))).unwrap();
+    let mut tilted_annotations = 0;
+    for a in omni["annotations"].as_array().unwrap() {
+        let frame = a["image_id"].as_u64().unwrap() as u32;
+        let w = written(&one, &format!("{frame:06}"));
+        let corners: Vec<Vector3<f64>> = a["bbox3D_cam"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| {
+                let v: Vec<f64> = c
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect();
+                Vector3::new(v[0], v[1], v[2]) + w.centre
+            })
+            .collect();
+        let centroid = corners.iter().sum::<Vector3<f64>>() / 8.0;
+        let truth = truths(&w, frame)
+            .into_iter()
+            .min_by(|p, q| {
+                let c = |t: &Truth| t.corners.iter().sum::<Vector3<f64>>() / 8.0;
+                (c(p) - centroid)
+                    .norm()
+                    .total_cmp(&(c(q) - centroid).norm())
+            })
+            .unwrap();
+        for c in &corners {
+            let nearest = truth
+                .corners
+                .iter()
+                .map(|t| (t - c).norm())
+                .fold(f64::INFINITY, f64::min);
+            // 6 decimals in the file, float32-free maths: far below a centimetre
+            assert!(
+                nearest < 1e-3,
+                "{} corner {c} is {nearest} m off",
+                truth.kind
+            );
+        }
+        let r = &a["R_cam"];
+        if r[1][1].as_f64().unwrap().abs() < (1e-3f64).cos() {
+            tilted_annotations += 1;
+        }
+    }
+    assert!(
+        tilted_annotations > 0,
+        "the leaning bicycle keeps its lean in Omni3D"
+    );
 
     // labels-to-pixels, then unproject: the boxes come back in the level frame, and through
     // Tr_rect_to_world in the world

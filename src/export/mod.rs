@@ -9,11 +9,13 @@
 mod boxes;
 mod classes;
 mod coco;
+mod exact;
 mod omni3d;
 mod split;
 mod yolo;
 
 pub use classes::{ClassLookup, ClassMap};
+pub use exact::ExactBox;
 pub use split::{ExportSplit, SplitRule};
 
 use crate::camera::{ImageSize, OutputCamera};
@@ -98,6 +100,8 @@ pub struct Object {
     pub label: Label,
     /// Index into the categories (id = index + 1).
     pub category: usize,
+    /// The box with its full rotation, where the conversion wrote one (`objects/ID.json`).
+    pub exact: Option<ExactBox>,
 }
 
 /// One image of the export with everything the formats need.
@@ -277,17 +281,37 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
     let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
     if split.has_labels {
         let path = split.label_path(id);
-        for (i, line) in read_lines(&path)?.iter().enumerate() {
+        let exact_path = split.dir.join("objects").join(format!("{id}.json"));
+        let exact = exact::read_exact_boxes(&exact_path)?;
+        let lines = read_lines(&path)?;
+        let labelled = lines.iter().filter(|l| !l.trim().is_empty()).count();
+        if let Some(e) = exact.as_ref().filter(|e| e.len() != labelled) {
+            return Err(Error::file(
+                &exact_path,
+                format!(
+                    "lists {} written objects but {} has {labelled} label lines",
+                    e.len(),
+                    path.display()
+                ),
+            ));
+        }
+        let mut exact = exact.map(Vec::into_iter);
+        for (i, line) in lines.iter().enumerate() {
             if line.trim().is_empty() {
                 continue;
             }
+            let exact = exact.as_mut().and_then(Iterator::next);
             let label = Label::parse(&path, i + 1, line)?;
             if label.is_dont_care() {
                 ignore_regions.push(label.bbox);
                 continue;
             }
             match classes.lookup(&label.kind) {
-                ClassLookup::Category(category) => objects.push(Object { label, category }),
+                ClassLookup::Category(category) => objects.push(Object {
+                    label,
+                    category,
+                    exact,
+                }),
                 ClassLookup::Dropped => {}
                 ClassLookup::Unknown => {
                     let hint = format!(

@@ -152,10 +152,21 @@ fn annotation<'a>(
     if !a.valid3D {
         return a;
     }
-    let [h, w, l] = label.dimensions;
-    // KITTI's location is the bottom centre; the camera frame's origin is the optical centre.
-    let center = label.location - Vector3::new(0.0, h / 2.0, 0.0) - frame.centre;
-    let r = r_cam(label.rotation_y);
+    // The camera frame's origin is the optical centre. A rig conversion's exact box keeps a
+    // tilted box's pitch and roll; else KITTI's location is the bottom centre and its one angle
+    // the rotation.
+    let (center, r, [h, w, l]) = match &object.exact {
+        Some(e) => (
+            e.centre - frame.centre,
+            e.rotation,
+            [e.size.y, e.size.z, e.size.x],
+        ),
+        None => {
+            let [h, w, l] = label.dimensions;
+            let bottom = label.location - Vector3::new(0.0, h / 2.0, 0.0);
+            (bottom - frame.centre, r_cam(label.rotation_y), [h, w, l])
+        }
+    };
     let corners = UNIT_CORNERS.map(|[x, y, z]| r * Vector3::new(x * l, y * h, z * w) + center);
     a.bbox3D_cam = corners.map(|c| point(&c));
     a.center_cam = point(&center);
