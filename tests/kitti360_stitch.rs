@@ -13,6 +13,37 @@ use panoconv::tools::synth360::{write_sequence, Synth360Options, SEQUENCE};
 use panoconv::warp::{EgoMask, Stitch, StitchCamera, StitchOptions};
 use std::f64::consts::PI;
 
+/// A full-sphere equirect camera of `size` (pixel centres at integers) and its intrinsics.
+fn full_equirect(size: ImageSize) -> (Intrinsics, Equirect) {
+    let k = Intrinsics::new(
+        size.width as f64 / (2.0 * PI),
+        size.height as f64 / PI,
+        size.width as f64 / 2.0 - 0.5,
+        size.height as f64 / 2.0 - 0.5,
+    );
+    (k, Equirect::new(k, size))
+}
+
+/// The frame's four rig cameras as the stitch takes them (the fisheyes with their field of
+/// view).
+fn stitch_cameras<'a>(frame: &'a panoconv::source::Frame, seq: &Sequence) -> Vec<StitchCamera<'a>> {
+    let lenses = &seq.calibration.fisheye;
+    frame
+        .rig
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let inv = c.reference_from_camera.inverse().unwrap();
+            StitchCamera {
+                model: c.model.as_ref(),
+                rotation: inv.rotation,
+                translation: inv.translation,
+                max_theta: (i >= 2).then(|| lenses[i - 2].max_theta()),
+            }
+        })
+        .collect()
+}
+
 /// PSNR the stitch must reach in every camera's region.
 const MIN_PSNR_DB: f64 = 50.0;
 
@@ -45,31 +76,9 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
     // two pixels per degree (114.6 px/rad): 1.2x coarser than image_00/01 (138.1 px/rad), below
     // the 1.5x at which the remap supersamples
     let size = ImageSize::new(720, 360);
-    let k = Intrinsics::new(
-        size.width as f64 / (2.0 * PI),
-        size.height as f64 / PI,
-        size.width as f64 / 2.0 - 0.5,
-        size.height as f64 / 2.0 - 0.5,
-    );
-    let output = Equirect::new(k, size);
-    let inverses: Vec<_> = frame
-        .rig
-        .iter()
-        .map(|c| c.reference_from_camera.inverse().unwrap())
-        .collect();
+    let (k, output) = full_equirect(size);
     let lenses = &seq.calibration.fisheye;
-    let cameras: Vec<StitchCamera> = frame
-        .rig
-        .iter()
-        .zip(&inverses)
-        .enumerate()
-        .map(|(i, (c, inv))| StitchCamera {
-            model: c.model.as_ref(),
-            rotation: inv.rotation,
-            translation: inv.translation,
-            max_theta: (i >= 2).then(|| lenses[i - 2].max_theta()),
-        })
-        .collect();
+    let cameras = stitch_cameras(&frame, &seq);
     // the resampling is compared without exposure evening (which moves the fisheyes by 0.27 %
     // on this rig, below)
     let build = |even_exposure| {
@@ -285,31 +294,8 @@ fn an_ego_mask_keeps_the_cars_body_out_of_the_stitch() {
     .unwrap();
     let frame = seq.frame(250).unwrap();
     let size = ImageSize::new(360, 180);
-    let k = Intrinsics::new(
-        size.width as f64 / (2.0 * PI),
-        size.height as f64 / PI,
-        size.width as f64 / 2.0 - 0.5,
-        size.height as f64 / 2.0 - 0.5,
-    );
-    let output = Equirect::new(k, size);
-    let inverses: Vec<_> = frame
-        .rig
-        .iter()
-        .map(|c| c.reference_from_camera.inverse().unwrap())
-        .collect();
-    let lenses = &seq.calibration.fisheye;
-    let cameras: Vec<StitchCamera> = frame
-        .rig
-        .iter()
-        .zip(&inverses)
-        .enumerate()
-        .map(|(i, (c, inv))| StitchCamera {
-            model: c.model.as_ref(),
-            rotation: inv.rotation,
-            translation: inv.translation,
-            max_theta: (i >= 2).then(|| lenses[i - 2].max_theta()),
-        })
-        .collect();
+    let (_, output) = full_equirect(size);
+    let cameras = stitch_cameras(&frame, &seq);
     // the lower third of image_02 (350x350 here) is the car's side, as a grey PNG (any
     // non-zero value is the body)
     let fisheye = frame.rig[2].model.size();

@@ -155,6 +155,17 @@ fn parse_centre(s: &str) -> std::result::Result<Vector3<f64>, String> {
     }
 }
 
+/// The rig index of a camera named `00` to `03` (or `0` to `3`): image_00 to image_03.
+fn rig_camera(name: &str) -> Option<usize> {
+    match name.trim() {
+        "00" | "0" => Some(0),
+        "01" | "1" => Some(1),
+        "02" | "2" => Some(2),
+        "03" | "3" => Some(3),
+        _ => None,
+    }
+}
+
 fn setup(message: String) -> anyhow::Error {
     Error::Setup(message).into()
 }
@@ -189,14 +200,11 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
     }
     let mut cameras = Vec::new();
     for c in &args.cameras {
-        let k = match c.trim() {
-            "00" | "0" => 0,
-            "01" | "1" => 1,
-            "02" | "2" => 2,
-            "03" | "3" => 3,
-            other => bail!(setup(format!(
-                "--cameras {other:?}: expected 00, 01, 02 or 03 (image_00 to image_03)"
-            ))),
+        let Some(k) = rig_camera(c) else {
+            bail!(setup(format!(
+                "--cameras {:?}: expected 00, 01, 02 or 03 (image_00 to image_03)",
+                c.trim()
+            )))
         };
         if cameras.contains(&k) {
             bail!(setup(format!("--cameras names {c} twice")));
@@ -210,14 +218,11 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
                 "--ego-mask {given:?}: expected CAMERA=PATH, e.g. 02=masks/image_02.png"
             ))
         })?;
-        let k = match k.trim() {
-            "00" | "0" => 0,
-            "01" | "1" => 1,
-            "02" | "2" => 2,
-            "03" | "3" => 3,
-            other => bail!(setup(format!(
-                "--ego-mask {other:?}={path}: the camera is 00, 01, 02 or 03"
-            ))),
+        let Some(k) = rig_camera(k) else {
+            bail!(setup(format!(
+                "--ego-mask {:?}={path}: the camera is 00, 01, 02 or 03",
+                k.trim()
+            )))
         };
         ego_masks.push((k, PathBuf::from(path)));
     }
