@@ -4,9 +4,9 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use nalgebra::Matrix3;
 use panoconv::camera::{Perspective, Projection};
 use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
+use panoconv::convert::kitti::transform_label;
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::kitti::Label;
-use panoconv::reproject::labels::transform_label;
 use panoconv::tools::synth::{frames, label_lines};
 use panoconv::warp::{warp_encode, PngSource, RemapTable, Wrap};
 use std::hint::black_box;

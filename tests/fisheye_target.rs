@@ -322,7 +322,7 @@ const WIDE_EQUIDISTANT: &str = "{\"version\": 1, \"model\": \"equidistant\", \"w
 
 #[test]
 fn boxes_all_around_a_190_degree_fisheye_match_the_dense_projection() {
-    use panoconv::reproject::labels::transform_label;
+    use panoconv::convert::kitti::transform_label;
     let dir = tempfile::tempdir().unwrap();
     let mut cameras = vec![(
         "equidistant",

@@ -290,12 +290,8 @@ fn pano_scale_canvas_keeps_every_synthetic_object() {
         let text = label_lines(&calib, &scene, dc);
         for line in text.lines() {
             let l = Label::parse(Path::new("x"), 1, line).unwrap();
-            let t = panoconv::reproject::labels::transform_label(
-                &l,
-                &calib.centre(),
-                &src,
-                out.as_ref(),
-            );
+            let t =
+                panoconv::convert::kitti::transform_label(&l, &calib.centre(), &src, out.as_ref());
             let t = t.unwrap_or_else(|| panic!("object lost: {line}"));
             let new = Label::parse(Path::new("y"), 1, &t).unwrap();
             // nothing but bbox and truncation changes

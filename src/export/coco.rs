@@ -9,6 +9,7 @@
 use crate::error::{Error, Result};
 use crate::export::boxes::{image_boxes, PixelBox};
 use crate::export::{round_to, ExportData, Frame};
+use crate::reproject::source_box::box_distance;
 use serde::Serialize;
 
 /// COCO's pixel (0, 0) is centred at (0.5, 0.5), KITTI's at (0, 0).
@@ -153,12 +154,10 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
                 iscrowd: 0,
                 truncated: label.truncated,
                 occluded: label.occluded,
-                distance: crate::reproject::labels::label_distance(
-                    label,
-                    f.camera.as_ref(),
-                    &f.centre,
-                )
-                .map(|d| round_to(d, 4)),
+                distance: label
+                    .to_source_box()
+                    .map(|b| box_distance(&b, f.camera.as_ref(), &f.centre))
+                    .map(|d| round_to(d, 4)),
                 wraps_seam,
             });
             next_id += 1;

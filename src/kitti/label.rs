@@ -5,6 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
+use crate::source::{SourceBox, SourceRegion};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
@@ -203,6 +204,40 @@ impl Label {
             out[i] = self.location + Vector3::new(c * x + s * z, y, -s * x + c * z);
         }
         out
+    }
+
+    /// The neutral box of an object with a 3D box (None for DontCare and placeholder rows):
+    /// its truncation where the row gives one (not KITTI's −1), its occlusion.
+    pub fn to_source_box(&self) -> Option<SourceBox> {
+        if !self.has_box_3d() {
+            return None;
+        }
+        Some(SourceBox {
+            truncation: (self.truncated >= 0.0).then_some(self.truncated),
+            occlusion: u8::try_from(self.occluded).ok(),
+            ..SourceBox::from_kitti(&self.kind, self.dimensions, self.location, self.rotation_y)
+        })
+    }
+
+    /// The label's 2D box as a region of rig camera `camera`'s image: an ignore region for
+    /// DontCare, else an object without a 3D box.
+    pub fn to_region(&self, camera: usize) -> SourceRegion {
+        SourceRegion {
+            camera,
+            bounds: self.bbox,
+            class: match self.class() {
+                LabelClass::Object(kind) => Some(kind.to_owned()),
+                LabelClass::DontCare => None,
+            },
+        }
+    }
+
+    /// The label's line in an output camera: its 2D box there (`bbox`, clipped), and its
+    /// truncation raised to the fraction of the box that clipping removed (`clipped`); a row
+    /// without a truncation (DontCare's −1, "not applicable") keeps it. Other tokens verbatim.
+    pub fn moved_line(&self, bbox: [f64; 4], clipped: f64) -> String {
+        let truncated = (self.truncated >= 0.0).then(|| self.truncated.max(clipped));
+        self.to_line_with(bbox, truncated)
     }
 
     /// The label line with a new 2D box and truncation (None keeps it); other tokens verbatim.

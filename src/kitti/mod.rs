@@ -4,7 +4,9 @@ pub mod calib;
 mod cam;
 pub mod dataset;
 mod label;
+pub(crate) mod not_frames;
 pub(crate) mod raw;
+mod reader;
 pub mod rig_output;
 pub mod velodyne;
 
@@ -12,3 +14,4 @@ pub use calib::{Calib, SourceCamera};
 pub use cam::Cam;
 pub use dataset::{Dataset, FrameRef, Layout, OutputKind, Split};
 pub use label::{Label, LabelClass, LabelFile, DONT_CARE};
+pub use reader::{FrameLabels, KittiFrame, LabelItem, Wants};

@@ -59,3 +59,14 @@ pub fn encode(points: &[(Vector3<f64>, f32)]) -> Vec<u8> {
     }
     out
 }
+
+/// LiDAR points (LiDAR frame) to rect: X = R0_rect · Tr_velo_to_cam · p.
+pub fn rect_from_velo(
+    points: &[Vector3<f64>],
+    r0_rect: &nalgebra::Matrix3<f64>,
+    tr_velo_to_cam: &nalgebra::Matrix3x4<f64>,
+) -> Vec<Vector3<f64>> {
+    let r = tr_velo_to_cam.fixed_view::<3, 3>(0, 0).into_owned();
+    let t = tr_velo_to_cam.column(3).into_owned();
+    points.iter().map(|p| r0_rect * (r * p + t)).collect()
+}

@@ -279,6 +279,7 @@ impl Sequence {
             provenance,
             rig,
             objects,
+            regions: Vec::new(),
             lidar,
             world_from_reference: Some(world_from_level),
         })

@@ -14,7 +14,7 @@
 //! every place in the image.
 
 use crate::camera::CameraModel;
-use nalgebra::{Matrix3, Point2, Vector3};
+use nalgebra::{Point2, Vector3};
 
 /// Parameters of the occlusion filter (defaults for a Velodyne HDL-64E, as KITTI).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -211,13 +211,5 @@ fn occlusion_mask(
         .collect()
 }
 
-/// LiDAR points (LiDAR frame) to rect: X = R0_rect · Tr_velo_to_cam · p.
-pub fn rect_from_velo(
-    points: &[Vector3<f64>],
-    r0_rect: &Matrix3<f64>,
-    tr_velo_to_cam: &nalgebra::Matrix3x4<f64>,
-) -> Vec<Vector3<f64>> {
-    let r = tr_velo_to_cam.fixed_view::<3, 3>(0, 0).into_owned();
-    let t = tr_velo_to_cam.column(3).into_owned();
-    points.iter().map(|p| r0_rect * (r * p + t)).collect()
-}
+/// LiDAR points (LiDAR frame) to rect (KITTI's calibration convention, kept in `kitti/`).
+pub use crate::kitti::velodyne::rect_from_velo;

@@ -1,4 +1,6 @@
-//! Labels under a reprojection: 2D boxes recomputed from the exact projection of the 3D box.
+//! Boxes under a reprojection: 2D boxes recomputed from the exact projection of a 3D box's
+//! corners ([`box_bounds`]) or from the outline of a source-pixel rectangle ([`rect_bounds`]).
+//! The neutral annotations of a frame go through them in `source_box`.
 //!
 //! Straight 3D edges become curves in a panoramic image, so a box's extremes can lie inside an
 //! edge rather than at a corner: every face edge is sampled and each extreme refined by a
@@ -7,7 +9,6 @@
 //! behind a one-sided camera is clipped at a near plane first.
 
 use crate::camera::{CameraModel, ProjectionReject};
-use crate::kitti::Label;
 use nalgebra::{Point2, Vector3};
 
 /// Near plane (metres along the camera's front normal) for one-sided cameras.
@@ -397,43 +398,4 @@ pub fn clipped_fraction(unclipped: Bounds, clipped: Bounds) -> f64 {
         return 0.0;
     }
     (1.0 - area(clipped) / full).clamp(0.0, 1.0)
-}
-
-/// One label in the output camera: its new line, or None when it left the image.
-pub fn transform_label(
-    label: &Label,
-    centre: &Vector3<f64>,
-    source: &dyn CameraModel,
-    output: &dyn CameraModel,
-) -> Option<String> {
-    let size = output.size();
-    let unclipped = if label.has_box_3d() {
-        let corners = label.corners().map(|c| c - centre);
-        box_bounds(&corners, output)?
-    } else {
-        let map = |p: Point2<f64>| -> Option<Point2<f64>> {
-            let d = source.unproject(&p).ok()?;
-            output.project(&d).ok()
-        };
-        rect_bounds(label.bbox, &map, output.horizontal_period())?
-    };
-    let clipped = clip(unclipped, size.width, size.height)?;
-    // DontCare rows carry -1 ("not applicable"), which stays as it is.
-    let truncated =
-        (label.truncated >= 0.0).then(|| label.truncated.max(clipped_fraction(unclipped, clipped)));
-    Some(label.to_line_with(clipped, truncated))
-}
-
-/// The distance the projection pairs with (z, range or cylindrical rho, see the spec) of the
-/// centre of the label's 3D box, seen from the camera centre; None without a 3D box.
-pub fn label_distance(
-    label: &Label,
-    camera: &dyn CameraModel,
-    centre: &Vector3<f64>,
-) -> Option<f64> {
-    if !label.has_box_3d() {
-        return None;
-    }
-    let mid = label.location - Vector3::new(0.0, label.dimensions[0] / 2.0, 0.0) - centre;
-    Some(camera.distance(&mid))
 }

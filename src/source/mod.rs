@@ -2,7 +2,8 @@
 //!
 //! A [`Frame`] is one moment of a drive: its id and the input files it came from, a rig of
 //! source cameras (each a camera model from `camera/` with its pose and its image), the 3D
-//! objects as neutral boxes ([`SourceBox`]), the LiDAR points, and the frame's place in the
+//! objects as neutral boxes ([`SourceBox`]), the annotations that are only 2D boxes in a
+//! camera's image ([`SourceRegion`]: ignore regions), the LiDAR points, and the frame's place in the
 //! dataset's world. Everything geometric is in the frame's *reference frame*, whose axes are
 //! the camera convention (x right, y down, z forward, metres), so that downstream code (warps,
 //! labels, depth) treats a KITTI frame and a KITTI-360 frame alike. Readers fill these types;
@@ -10,10 +11,12 @@
 
 mod object;
 mod pose;
+mod region;
 mod rig;
 
 pub use object::SourceBox;
 pub use pose::Pose;
+pub use region::SourceRegion;
 pub use rig::RigCamera;
 
 use nalgebra::Vector3;
@@ -39,6 +42,8 @@ pub struct Frame {
     pub rig: Vec<RigCamera>,
     /// The annotated 3D objects.
     pub objects: Vec<SourceBox>,
+    /// The annotations given only in a camera's pixels (KITTI's DontCare regions).
+    pub regions: Vec<SourceRegion>,
     /// LiDAR points (empty when the frame has no scan or it was not asked for).
     pub lidar: Vec<LidarPoint>,
     /// Reference frame to the dataset's world frame, where the dataset has one.

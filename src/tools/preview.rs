@@ -12,7 +12,7 @@ use crate::fs::read_file;
 use crate::image::RgbImage;
 use crate::kitti::Cam;
 use crate::kitti::{Calib, Label};
-use crate::reproject::labels::label_distance;
+use crate::reproject::source_box::box_distance;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -117,7 +117,10 @@ pub fn draw_box_2d(img: &mut RgbImage, bbox: [f64; 4], colour: [u8; 3]) {
 
 /// The text drawn next to a box: class and distance, e.g. `Car 12.3m`.
 pub fn label_text(label: &Label, camera: &dyn CameraModel, centre: &Vector3<f64>) -> String {
-    match label_distance(label, camera, centre) {
+    match label
+        .to_source_box()
+        .map(|b| box_distance(&b, camera, centre))
+    {
         Some(d) => format!("{} {:.1}m", label.kind, d),
         None => label.kind.clone(),
     }

@@ -4,7 +4,7 @@
 
 mod batch;
 mod frame;
-mod not_frames;
+mod labels;
 mod options;
 mod read;
 mod run;
@@ -12,6 +12,7 @@ mod tables;
 mod views;
 mod write;
 
+pub use labels::transform_label;
 pub use options::KittiOptions;
 pub use run::run_kitti;
 

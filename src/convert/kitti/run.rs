@@ -73,7 +73,7 @@ pub fn run_kitti(
     }
     let unusable = unusable_frames(job, &dataset);
     let not_frames = if job.frames.is_none() && folder.writes_shared_files() {
-        super::not_frames::list(&dataset)
+        crate::kitti::not_frames::list(&dataset)
     } else {
         Vec::new()
     };

@@ -11,7 +11,7 @@ use super::frame::Context;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::codec::png;
 use crate::kitti::Cam;
-use crate::kitti::{Calib, Layout, Split};
+use crate::kitti::Split;
 use crate::run::Progress;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -88,21 +88,8 @@ pub(super) fn source_cameras(
     id: &str,
     cameras: &[Cam],
 ) -> Vec<(Intrinsics, ImageSize)> {
-    let calib = match &split.layout {
-        Layout::Object => {
-            let path = split.calib_path(id);
-            let Ok(bytes) = std::fs::read(&path) else {
-                return Vec::new();
-            };
-            let Ok(lines) = crate::fs::split_lines(&bytes, &path) else {
-                return Vec::new();
-            };
-            match Calib::parse(&path, lines) {
-                Ok(c) => c,
-                Err(_) => return Vec::new(),
-            }
-        }
-        Layout::Raw { calib } => (**calib).clone(),
+    let Ok((calib, _)) = split.read_calib(id) else {
+        return Vec::new();
     };
     let mut found: Vec<(Intrinsics, ImageSize)> = cameras
         .iter()

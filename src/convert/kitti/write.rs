@@ -3,8 +3,8 @@
 //! files a failed frame must not leave behind.
 
 use super::frame::{relative, Context, FrameOutput};
-use super::read::{Prepared, RightCamera};
-use super::views::OutputView;
+use super::labels::label_text;
+use super::read::Prepared;
 use crate::camera::{ImageSize, OutputCamera};
 use crate::codec::png::{self as png};
 use crate::error::{Error, Result};
@@ -12,10 +12,9 @@ use crate::fs;
 use crate::fs::read_file;
 use crate::geometry::augment::view_id;
 use crate::kitti::Cam;
+use crate::kitti::OutputKind;
 use crate::kitti::Split;
-use crate::kitti::{Layout, OutputKind};
 use crate::reproject::depth::depth_map;
-use crate::reproject::labels::transform_label;
 use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
 use crate::warp::{warp_encode, RemapTable};
 use nalgebra::Vector3;
@@ -54,9 +53,9 @@ impl Context<'_> {
 
     /// The calib of a layout that has one per split (raw drives), from its first frame's size.
     pub(super) fn write_split_calib(&self, split: &Split) -> Result<()> {
-        let (Some(rel), Layout::Raw { calib }, Some(first)) = (
+        let (Some(rel), Some(calib), Some(first)) = (
             split.split_calib_output(),
-            &split.layout,
+            split.drive_calib(),
             split.frames.first(),
         ) else {
             return Ok(());
@@ -99,31 +98,26 @@ impl Context<'_> {
     pub(super) fn finish(&self, split: &Split, id: &str, frame: Prepared) -> Result<FrameOutput> {
         let after_warp = self.style_after_warp();
         let Prepared {
-            calib,
-            cam2,
-            labels,
+            kitti,
             inputs,
-            size,
-            views2,
-            right,
-            lidar,
+            views,
             images,
             mut sources,
         } = frame;
-        let cameras_per_view = if right.is_some() { 2 } else { 1 };
+        let cameras_per_view = views.len();
         let compression = self.job.png_compression;
-        // The PNG of view i's camera 2 (cam 0) or 3 (cam 1): the styled warped image, or the
-        // source warped row by row as the encoder takes the rows.
-        let mut encode_view = |i: usize, cam: usize, table: &RemapTable| -> Result<Vec<u8>> {
+        // The PNG of view i's rig camera j: the styled warped image, or the source warped row
+        // by row as the encoder takes the rows.
+        let mut encode_view = |i: usize, j: usize, table: &RemapTable| -> Result<Vec<u8>> {
             if after_warp {
                 Ok(png::encode_rgb8(
-                    &images[i * cameras_per_view + cam],
+                    &images[i * cameras_per_view + j],
                     compression,
                 ))
-            } else if let Some(source) = sources.get_mut(cam) {
+            } else if let Some(source) = sources.get_mut(j) {
                 source.warp_encode(table, compression)
             } else {
-                Ok(warp_encode(table, &images[cam], compression))
+                Ok(warp_encode(table, &images[j], compression))
             }
         };
         let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
@@ -131,93 +125,73 @@ impl Context<'_> {
         let out = |kind: OutputKind, view_id: &str| {
             split.output_path(kind, view_id).map(|p| out_split.join(p))
         };
-        let mut views = Vec::new();
+        let mut view_records = Vec::new();
         let mut lidar_record = None;
-        let source = cam2.camera(size);
-        for (i, out_view) in views2.into_iter().enumerate() {
-            let OutputView {
-                id: view_id,
-                mapping,
-                view,
-            } = out_view;
-            if let Some(path) = out(OutputKind::Image(Cam::C2), &view_id) {
-                outputs.push((path, encode_view(i, 0, &mapping.table)?));
-            }
-            if self.job.mask {
-                outputs.push((
-                    out(OutputKind::Mask(Cam::C2), &view_id).expect("every layout has masks"),
-                    encode_mask(&mapping.table),
-                ));
-            }
-            if let Some(labels) = &labels {
-                let mut text = String::new();
-                for label in &labels.labels {
-                    if let Some(line) =
-                        transform_label(label, &cam2.centre, &source, mapping.output.as_ref())
-                    {
-                        text.push_str(&line);
-                        text.push('\n');
-                    }
+        let frame = &kitti.frame;
+        // Labels and depth belong to camera 2, rig camera 0 (centre C2).
+        let (centre, source) = (frame.rig[0].centre(), frame.rig[0].model.as_ref());
+        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
+        let view_count = views.first().map_or(0, Vec::len);
+        for i in 0..view_count {
+            let view_id = &views[0][i].id;
+            let mut cameras = Vec::with_capacity(views.len());
+            for (j, camera_views) in views.iter().enumerate() {
+                let (cam, mapping) = (kitti.cams[j], &camera_views[i].mapping);
+                if let Some(path) = out(OutputKind::Image(cam), view_id) {
+                    outputs.push((path, encode_view(i, j, &mapping.table)?));
                 }
-                if let Some(path) = out(OutputKind::Label, &view_id) {
-                    outputs.push((path, text.into_bytes()));
-                }
-            }
-            if let (Some(lidar), Some(depth)) = (&lidar, &self.job.depth) {
-                let (points, non_finite) = (&lidar.points, &lidar.dropped_non_finite);
-                let filter = depth.occlusion_filter.as_ref();
-                // Projected straight into the final camera: crops and resizes never resample it.
-                let (map, occluded) = depth_map(
-                    points,
-                    &cam2.centre,
-                    mapping.output.as_ref(),
-                    &source,
-                    filter,
-                );
-                lidar_record = Some(LidarRecord {
-                    points: points.len() + non_finite,
-                    dropped_non_finite: *non_finite,
-                    dropped_occluded: occluded,
-                    depth_pixels: map.valid(),
-                });
-                outputs.push((
-                    out(OutputKind::Depth, &view_id).expect("every layout has depth maps"),
-                    png::encode_gray16(
-                        map.width,
-                        map.height,
-                        &map.to_u16(),
-                        self.job.png_compression,
-                    ),
-                ));
-            }
-            let mut cameras = vec![(Cam::C2, mapping.output.clone(), cam2.centre)];
-            if let Some(RightCamera {
-                camera: cam3,
-                views: views3,
-            }) = &right
-            {
-                outputs.push((
-                    out(OutputKind::Image(Cam::C3), &view_id).expect("every layout has image 3"),
-                    encode_view(i, 1, &views3[i].mapping.table)?,
-                ));
                 if self.job.mask {
                     outputs.push((
-                        out(OutputKind::Mask(Cam::C3), &view_id).expect("every layout has masks"),
-                        encode_mask(&views3[i].mapping.table),
+                        out(OutputKind::Mask(cam), view_id).expect("every layout has masks"),
+                        encode_mask(&mapping.table),
                     ));
                 }
-                cameras.push((Cam::C3, views3[i].mapping.output.clone(), cam3.centre));
+                cameras.push((cam, mapping.output.clone(), frame.rig[j].centre()));
+                if j > 0 {
+                    continue;
+                }
+                let output = mapping.output.as_ref();
+                if let Some(labels) = &kitti.labels {
+                    let text = label_text(labels, frame, &centre, output);
+                    if let Some(path) = out(OutputKind::Label, view_id) {
+                        outputs.push((path, text.into_bytes()));
+                    }
+                }
+                if let Some(depth) = &self.job.depth {
+                    let non_finite = kitti.dropped_non_finite;
+                    let filter = depth.occlusion_filter.as_ref();
+                    // Projected straight into the final camera: crops and resizes never resample it.
+                    let (map, occluded) = depth_map(&points, &centre, output, source, filter);
+                    lidar_record = Some(LidarRecord {
+                        points: points.len() + non_finite,
+                        dropped_non_finite: non_finite,
+                        dropped_occluded: occluded,
+                        depth_pixels: map.valid(),
+                    });
+                    outputs.push((
+                        out(OutputKind::Depth, view_id).expect("every layout has depth maps"),
+                        png::encode_gray16(
+                            map.width,
+                            map.height,
+                            &map.to_u16(),
+                            self.job.png_compression,
+                        ),
+                    ));
+                }
             }
             let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
                 .iter()
                 .map(|(n, c, v)| (*n, c.as_ref(), *v))
                 .collect();
-            let calib_text = calib.render_output(&cameras);
-            if let Some(path) = out(OutputKind::Calib, &view_id) {
+            let calib_text = kitti.calib.render_output(&cameras);
+            if let Some(path) = out(OutputKind::Calib, view_id) {
                 outputs.push((path, calib_text.into_bytes()));
             }
-            if view.is_some() {
-                views.push(ViewRecord { id: view_id, view });
+            if let Some(view) = views[0][i].view {
+                view_records.push(ViewRecord {
+                    id: view_id.clone(),
+                    view: Some(view),
+                });
             }
         }
 
@@ -242,7 +216,7 @@ impl Context<'_> {
                 error: None,
                 inputs,
                 outputs: record_outputs,
-                views,
+                views: view_records,
                 lidar: lidar_record,
             },
         })

@@ -3,7 +3,7 @@
 //! (they are not frames), but it names them in its summary, as `inspect` does, so that a
 //! dataset smaller than its folder does not go unnoticed.
 
-use crate::kitti::{Dataset, Layout};
+use super::{Dataset, Layout};
 
 /// Each such file as `split/folder/name: why`, in name order (every split's, object layout
 /// only; hidden files aside).

@@ -1,0 +1,78 @@
+//! A KITTI frame's annotations in an output camera: each neutral object or region of the
+//! [`Frame`] placed by `reproject` (the exact outline of a 3D box, or a 2D box through the
+//! source camera's bearings), then each label line written back by `kitti/` with its new 2D
+//! box and truncation.
+
+use crate::camera::CameraModel;
+use crate::kitti::{FrameLabels, Label, LabelItem};
+use crate::reproject::source_box::{region_in_image, source_box_in_image, BoxInImage};
+use crate::source::Frame;
+use nalgebra::Vector3;
+
+/// Where the object or region `item` of `frame` lies in `output`, a camera about `centre`
+/// with the reference frame's axes; None when it has no image there.
+fn place(
+    frame: &Frame,
+    item: LabelItem,
+    centre: &Vector3<f64>,
+    output: &dyn CameraModel,
+) -> Option<BoxInImage> {
+    match item {
+        LabelItem::Object(i) => source_box_in_image(&frame.objects[i], centre, output),
+        LabelItem::Region(i) => {
+            let region = &frame.regions[i];
+            region_in_image(region, frame.rig[region.camera].model.as_ref(), output)
+        }
+    }
+}
+
+/// The label file of `output`: the line of each label that has an image there, in the
+/// file's order.
+pub(super) fn label_text(
+    labels: &FrameLabels,
+    frame: &Frame,
+    centre: &Vector3<f64>,
+    output: &dyn CameraModel,
+) -> String {
+    let mut text = String::new();
+    for (label, &item) in labels.file.labels.iter().zip(&labels.items) {
+        if let Some(placed) = place(frame, item, centre, output) {
+            text.push_str(&label.moved_line(placed.bounds, placed.truncation));
+            text.push('\n');
+        }
+    }
+    text
+}
+
+/// How many objects (ignore regions aside) have an image in `output`.
+pub(super) fn objects_in(
+    labels: &FrameLabels,
+    frame: &Frame,
+    centre: &Vector3<f64>,
+    output: &dyn CameraModel,
+) -> u32 {
+    labels
+        .items
+        .iter()
+        .filter(|item| match item {
+            LabelItem::Object(_) => true,
+            LabelItem::Region(i) => !frame.regions[*i].is_ignore(),
+        })
+        .filter(|&&item| place(frame, item, centre, output).is_some())
+        .count() as u32
+}
+
+/// One label in the output camera `output` of the source camera `source` (both about
+/// `centre`, rect axes): its new line, or None when it left the image.
+pub fn transform_label(
+    label: &Label,
+    centre: &Vector3<f64>,
+    source: &dyn CameraModel,
+    output: &dyn CameraModel,
+) -> Option<String> {
+    let placed = match label.to_source_box() {
+        Some(b) => source_box_in_image(&b, centre, output),
+        None => region_in_image(&label.to_region(0), source, output),
+    }?;
+    Some(label.moved_line(placed.bounds, placed.truncation))
+}
