@@ -7,8 +7,9 @@
 //! bytes batched as run singly (checked once per size on a fixed pattern): `--shard`,
 //! `--resume` and the batch size then cannot change an output.
 
-use super::frame::{Context, FrameOutput};
-use super::read::Prepared;
+use super::context::Context;
+use super::read::{prepare, Prepared};
+use super::write::{finish, FrameOutput};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
 use crate::kitti::Cam;
@@ -74,7 +75,7 @@ pub(super) fn convert_group(
 ) -> Vec<Result<FrameOutput>> {
     let mut prepared: Vec<Result<Prepared>> = frames
         .iter()
-        .map(|&(split, id)| guarded(split, id, || ctx.prepare(split, id)))
+        .map(|&(split, id)| guarded(split, id, || prepare(ctx, split, id)))
         .collect();
     if let Some(pass) = style {
         style_group(pass, frames, &mut prepared);
@@ -82,7 +83,7 @@ pub(super) fn convert_group(
     prepared
         .into_iter()
         .zip(frames)
-        .map(|(p, &(split, id))| p.and_then(|p| guarded(split, id, || ctx.finish(split, id, p))))
+        .map(|(p, &(split, id))| p.and_then(|p| guarded(split, id, || finish(ctx, split, id, p))))
         .collect()
 }
 

@@ -3,7 +3,7 @@
 //! (the only owner of threads).
 
 mod batch;
-mod frame;
+mod context;
 mod labels;
 mod options;
 mod read;

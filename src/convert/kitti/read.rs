@@ -1,7 +1,7 @@
 //! Reading a frame: the KITTI reader's neutral frame (calib, labels, images, scan, with the
 //! hash of every file read), and each rig camera's output views.
 
-use super::frame::{relative, Context};
+use super::context::{relative, Context};
 use super::labels::objects_in;
 use super::views::{Draw, OutputView};
 use crate::camera::CameraModel;
@@ -10,75 +10,73 @@ use crate::image::RgbImage;
 use crate::kitti::{KittiFrame, Split, Wants};
 use crate::warp::PngSource;
 
-impl Context<'_> {
-    /// Reads, parses and decodes a frame: everything before the style pass. Styling after the
-    /// warp, the views are warped here too, so `images` is always what the style pass takes.
-    pub(super) fn prepare(&self, split: &Split, id: &str) -> Result<Prepared> {
-        let mut kitti = split.read_frame(
-            id,
-            Wants {
-                cameras: &self.job.cameras,
-                lidar: self.job.depth.is_some(),
-            },
-        )?;
-        let root = &self.dataset.root;
-        let inputs = kitti
-            .frame
-            .provenance
-            .iter()
-            .zip(&kitti.hashes)
-            .map(|(path, hash)| (relative(root, path), hash.clone()))
-            .collect();
-        let sources = std::mem::take(&mut kitti.images);
+/// Reads, parses and decodes a frame: everything before the style pass. Styling after the
+/// warp, the views are warped here too, so `images` is always what the style pass takes.
+pub(super) fn prepare(ctx: &Context, split: &Split, id: &str) -> Result<Prepared> {
+    let mut kitti = split.read_frame(
+        id,
+        Wants {
+            cameras: &ctx.job.cameras,
+            lidar: ctx.job.depth.is_some(),
+        },
+    )?;
+    let root = &ctx.dataset.root;
+    let inputs = kitti
+        .frame
+        .provenance
+        .iter()
+        .zip(&kitti.hashes)
+        .map(|(path, hash)| (relative(root, path), hash.clone()))
+        .collect();
+    let sources = std::mem::take(&mut kitti.images);
 
-        // Camera 2 (rig camera 0) draws its views, the others follow its draws.
-        let frame = &kitti.frame;
-        let centre = frame.rig[0].centre();
-        let objects = |camera: &dyn CameraModel| -> u32 {
-            kitti
-                .labels
-                .as_ref()
-                .map_or(0, |l| objects_in(l, frame, &centre, camera))
+    // Camera 2 (rig camera 0) draws its views, the others follow its draws.
+    let frame = &kitti.frame;
+    let centre = frame.rig[0].centre();
+    let objects = |camera: &dyn CameraModel| -> u32 {
+        kitti
+            .labels
+            .as_ref()
+            .map_or(0, |l| objects_in(l, frame, &centre, camera))
+    };
+    let mut views: Vec<Vec<OutputView>> = Vec::with_capacity(frame.rig.len());
+    let mut attempts: Vec<u32> = Vec::new();
+    for (j, camera) in frame.rig.iter().enumerate() {
+        let size = camera.model.size();
+        let draw = match (j, &kitti.labels) {
+            (0, Some(_)) => Draw::Fewest(&objects),
+            // (views of an unlabelled split have no objects to count: their first draws stand)
+            (0, None) => Draw::First,
+            _ => Draw::As(&attempts),
         };
-        let mut views: Vec<Vec<OutputView>> = Vec::with_capacity(frame.rig.len());
-        let mut attempts: Vec<u32> = Vec::new();
-        for (j, camera) in frame.rig.iter().enumerate() {
-            let size = camera.model.size();
-            let draw = match (j, &kitti.labels) {
-                (0, Some(_)) => Draw::Fewest(&objects),
-                // (views of an unlabelled split have no objects to count: their first draws stand)
-                (0, None) => Draw::First,
-                _ => Draw::As(&attempts),
-            };
-            let k = kitti.intrinsics[j];
-            let camera_views = self.views(split, id, &kitti.calib.path, k, size, draw)?;
-            if j == 0 {
-                attempts = camera_views
-                    .iter()
-                    .map(|out| out.view.map_or(0, |v| v.attempt))
-                    .collect();
-            }
-            views.push(camera_views);
+        let k = kitti.intrinsics[j];
+        let camera_views = ctx.views.of(split, id, &kitti.calib.path, k, size, draw)?;
+        if j == 0 {
+            attempts = camera_views
+                .iter()
+                .map(|out| out.view.map_or(0, |v| v.attempt))
+                .collect();
         }
-
-        let mut frame = Prepared {
-            kitti,
-            inputs,
-            views,
-            images: Vec::new(),
-            sources,
-        };
-        if self.style.is_some() {
-            frame.images = std::mem::take(&mut frame.sources)
-                .into_iter()
-                .map(PngSource::decode)
-                .collect::<Result<_>>()?;
-            if self.style_after_warp() {
-                frame.images = frame.warp_all();
-            }
-        }
-        Ok(frame)
+        views.push(camera_views);
     }
+
+    let mut frame = Prepared {
+        kitti,
+        inputs,
+        views,
+        images: Vec::new(),
+        sources,
+    };
+    if ctx.style.is_some() {
+        frame.images = std::mem::take(&mut frame.sources)
+            .into_iter()
+            .map(PngSource::decode)
+            .collect::<Result<_>>()?;
+        if ctx.style_after_warp() {
+            frame.images = frame.warp_all();
+        }
+    }
+    Ok(frame)
 }
 
 /// A frame read and decoded, waiting for the style pass and the rest of its conversion.

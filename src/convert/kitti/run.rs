@@ -3,7 +3,8 @@
 //! the image sets and the manifest.
 
 use super::batch::{self, StylePass};
-use super::frame::Context;
+use super::context::Context;
+use super::write::{remove_outputs, write_split_calib};
 use super::{KittiJob, KittiSource, KittiSummary, Parameters};
 use crate::error::{Error, Result};
 use crate::fs;
@@ -69,7 +70,7 @@ pub fn run_kitti(
         super::tables::build_ahead(&ctx, &todo, &job.cameras, progress);
     }
     for split in &dataset.splits {
-        ctx.write_split_calib(split)?;
+        write_split_calib(&ctx, split)?;
     }
     let unusable = unusable_frames(job, &dataset);
     let not_frames = if job.frames.is_none() && folder.writes_shared_files() {
@@ -102,7 +103,7 @@ pub fn run_kitti(
         );
         run.record_failed(&split.name, name, &e);
     }
-    let summary = run.finish(ctx.tables_built(), |journal| {
+    let summary = run.finish(ctx.views.tables_built(), |journal| {
         if job.augment.is_some() && job.shard.is_none() {
             // augmented ids are new: list them so KITTI loaders find the views
             write_image_sets(&job.output, &dataset, journal)?;
@@ -114,7 +115,7 @@ pub fn run_kitti(
         style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job
             .augment
-            .map(|a| (ctx.thin_views(), a.min_objects.max(1) as usize)),
+            .map(|a| (ctx.views.thin_views(), a.min_objects.max(1) as usize)),
         not_frames,
     })
 }
@@ -296,7 +297,7 @@ impl FrameWork for KittiFrames<'_> {
             .map(|(converted, &(split, id))| {
                 converted.map(|out| out.record).inspect_err(|_| {
                     // (an output an earlier run left for this frame included)
-                    self.ctx.remove_outputs(split, id);
+                    remove_outputs(self.ctx, split, id);
                 })
             })
             .collect()

@@ -7,7 +7,7 @@
 //! cameras comes from each frame's calib and PNG header; a frame whose files cannot be read is
 //! skipped here and fails in its turn with the full error.
 
-use super::frame::Context;
+use super::context::Context;
 use crate::camera::{ImageSize, Intrinsics};
 use crate::codec::png;
 use crate::kitti::Cam;
@@ -71,13 +71,13 @@ pub(super) fn build_ahead(
         .filter_map(|(k, size)| {
             // A panic here (a bug) must not end the run: the frames then build the table
             // themselves, each failing alone.
-            let build = || ctx.build_mapping(k, size, true);
+            let build = || ctx.views.build_mapping(k, size, true);
             let mapping = std::panic::catch_unwind(std::panic::AssertUnwindSafe(build)).ok()?;
             Some((k, size, mapping))
         })
         .collect();
     for (k, size, mapping) in built {
-        ctx.insert_mapping(k, size, mapping);
+        ctx.views.insert_mapping(k, size, mapping);
     }
     progress.note("");
 }

@@ -1,18 +1,38 @@
-//! The output views of a frame: the output camera and remap table of each source camera,
-//! built once and shared by every frame with that calibration, or drawn per frame for
-//! `--augment` (redrawn until a view holds enough objects).
+//! [`Views`]: the output views of a frame: the output camera and remap table of each source
+//! camera, built once and shared by every frame with that calibration (cached as
+//! [`CameraMapping`]s), or drawn per frame for `--augment` (redrawn until a view holds enough
+//! objects).
 
-use super::frame::{CameraMapping, Context};
+use super::KittiJob;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
 use crate::error::{Error, Result};
 use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::kitti::Cam;
 use crate::kitti::Split;
+use crate::run::OnceMap;
 use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
+
+/// The output camera and remap table of one source camera.
+#[derive(Clone)]
+pub(super) struct CameraMapping {
+    pub(super) output: Arc<dyn OutputCamera>,
+    pub(super) table: Arc<RemapTable>,
+}
+
+/// A source camera: its intrinsics' bits and image size.
+type CameraMappingKey = ([u64; 4], ImageSize);
+
+/// The output views of a run's frames: the mappings shared by source camera, and the count of
+/// augmented views that hold fewer objects than asked.
+pub(super) struct Views<'a> {
+    job: &'a KittiJob,
+    mappings: OnceMap<CameraMappingKey, std::result::Result<CameraMapping, String>>,
+    thin_views: AtomicUsize,
+}
 
 /// One output view of a camera.
 pub(super) struct OutputView {
@@ -23,7 +43,21 @@ pub(super) struct OutputView {
     pub(super) view: Option<View>,
 }
 
-impl Context<'_> {
+impl<'a> Views<'a> {
+    pub(super) fn new(job: &'a KittiJob) -> Self {
+        Views {
+            job,
+            mappings: OnceMap::default(),
+            thin_views: AtomicUsize::new(0),
+        }
+    }
+
+    /// Distinct (source camera → output camera) mappings built so far.
+    pub(super) fn tables_built(&self) -> usize {
+        self.mappings.len()
+    }
+
+    /// The shared mapping of a source camera (`calib_path` names its calibration in errors).
     pub(super) fn mapping(
         &self,
         calib_path: &Path,
@@ -69,7 +103,7 @@ impl Context<'_> {
     /// The output views of a frame: the frame itself, or its augmented views, drawn as `draw`
     /// says. The last element of each augmented view tells how many objects it holds when
     /// they were counted.
-    pub(super) fn views(
+    pub(super) fn of(
         &self,
         split: &Split,
         id: &str,

@@ -2,7 +2,7 @@
 //! each output camera, the calib, all written atomically and hashed for the manifest; and the
 //! files a failed frame must not leave behind.
 
-use super::frame::{relative, Context, FrameOutput};
+use super::context::{relative, Context};
 use super::labels::label_text;
 use super::read::Prepared;
 use crate::camera::{ImageSize, OutputCamera};
@@ -20,207 +20,216 @@ use crate::warp::{warp_encode, RemapTable};
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
-impl Context<'_> {
-    /// Every file `convert` may write for a frame.
-    fn output_paths(&self, split: &Split, id: &str) -> Vec<PathBuf> {
-        let dir = self.job.output.join(&split.name);
-        let ids: Vec<String> = match &self.job.augment {
-            Some(a) => (0..a.count)
-                .filter_map(|i| view_id(id, a.count, i))
-                .collect(),
-            None => vec![id.to_owned()],
-        };
-        let kinds = [
-            OutputKind::Image(Cam::C2),
-            OutputKind::Image(Cam::C3),
-            OutputKind::Mask(Cam::C2),
-            OutputKind::Mask(Cam::C3),
-            OutputKind::Depth,
-            OutputKind::Label,
-            OutputKind::Calib,
-        ];
-        ids.iter()
-            .flat_map(|v| kinds.iter().filter_map(|k| split.output_path(*k, v)))
-            .map(|p| dir.join(p))
-            .collect()
-    }
+/// What a finished frame gives the run: its manifest record.
+pub(super) struct FrameOutput {
+    pub(super) record: FrameRecord,
+}
 
-    pub(super) fn remove_outputs(&self, split: &Split, id: &str) {
-        for path in self.output_paths(split, id) {
-            let _ = std::fs::remove_file(path);
+/// Every file `convert` may write for a frame.
+fn output_paths(ctx: &Context, split: &Split, id: &str) -> Vec<PathBuf> {
+    let dir = ctx.job.output.join(&split.name);
+    let ids: Vec<String> = match &ctx.job.augment {
+        Some(a) => (0..a.count)
+            .filter_map(|i| view_id(id, a.count, i))
+            .collect(),
+        None => vec![id.to_owned()],
+    };
+    let kinds = [
+        OutputKind::Image(Cam::C2),
+        OutputKind::Image(Cam::C3),
+        OutputKind::Mask(Cam::C2),
+        OutputKind::Mask(Cam::C3),
+        OutputKind::Depth,
+        OutputKind::Label,
+        OutputKind::Calib,
+    ];
+    ids.iter()
+        .flat_map(|v| kinds.iter().filter_map(|k| split.output_path(*k, v)))
+        .map(|p| dir.join(p))
+        .collect()
+}
+
+pub(super) fn remove_outputs(ctx: &Context, split: &Split, id: &str) {
+    for path in output_paths(ctx, split, id) {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// The calib of a layout that has one per split (raw drives), from its first frame's size.
+pub(super) fn write_split_calib(ctx: &Context, split: &Split) -> Result<()> {
+    let (Some(rel), Some(calib), Some(first)) = (
+        split.split_calib_output(),
+        split.drive_calib(),
+        split.frames.first(),
+    ) else {
+        return Ok(());
+    };
+    let setup =
+        |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
+    let size_of = |cam: Cam| -> Result<ImageSize> {
+        let path = split.image_path(cam, first);
+        let (w, h) = png::read_size(&read_file(&path)?, &path)?;
+        Ok(ImageSize::new(w, h))
+    };
+    let mut cameras = Vec::new();
+    for &n in &ctx.job.cameras {
+        let cam = calib.camera(n).map_err(setup)?;
+        let mapping = ctx
+            .views
+            .mapping(&calib.path, cam.k, size_of(n).map_err(setup)?)
+            .map_err(setup)?;
+        cameras.push((n, mapping.output.clone(), cam.centre));
+    }
+    let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
+        .iter()
+        .map(|(n, c, v)| (*n, c.as_ref(), *v))
+        .collect();
+    let text = calib.render_output(&cameras);
+    let path = ctx.job.output.join(&split.name).join(rel);
+    fs::write_atomic(&path, text.as_bytes())?;
+    let entry = (
+        relative(&ctx.job.output, &path),
+        fs::hash_hex(text.as_bytes()),
+    );
+    ctx.split_files
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(split.name.clone(), entry);
+    Ok(())
+}
+
+/// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
+/// whose `images` have been through the style pass, if any.
+pub(super) fn finish(
+    ctx: &Context,
+    split: &Split,
+    id: &str,
+    frame: Prepared,
+) -> Result<FrameOutput> {
+    let after_warp = ctx.style_after_warp();
+    let Prepared {
+        kitti,
+        inputs,
+        views,
+        images,
+        mut sources,
+    } = frame;
+    let cameras_per_view = views.len();
+    let compression = ctx.job.png_compression;
+    // The PNG of view i's rig camera j: the styled warped image, or the source warped row
+    // by row as the encoder takes the rows.
+    let mut encode_view = |i: usize, j: usize, table: &RemapTable| -> Result<Vec<u8>> {
+        if after_warp {
+            Ok(png::encode_rgb8(
+                &images[i * cameras_per_view + j],
+                compression,
+            ))
+        } else if let Some(source) = sources.get_mut(j) {
+            source.warp_encode(table, compression)
+        } else {
+            Ok(warp_encode(table, &images[j], compression))
         }
-    }
-
-    /// The calib of a layout that has one per split (raw drives), from its first frame's size.
-    pub(super) fn write_split_calib(&self, split: &Split) -> Result<()> {
-        let (Some(rel), Some(calib), Some(first)) = (
-            split.split_calib_output(),
-            split.drive_calib(),
-            split.frames.first(),
-        ) else {
-            return Ok(());
-        };
-        let setup =
-            |e: Error| Error::Setup(format!("{}: cannot write the drive calib: {e}", split.name));
-        let size_of = |cam: Cam| -> Result<ImageSize> {
-            let path = split.image_path(cam, first);
-            let (w, h) = png::read_size(&read_file(&path)?, &path)?;
-            Ok(ImageSize::new(w, h))
-        };
-        let mut cameras = Vec::new();
-        for &n in &self.job.cameras {
-            let cam = calib.camera(n).map_err(setup)?;
-            let mapping = self
-                .mapping(&calib.path, cam.k, size_of(n).map_err(setup)?)
-                .map_err(setup)?;
-            cameras.push((n, mapping.output.clone(), cam.centre));
+    };
+    let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    let out_split = ctx.job.output.join(&split.name);
+    let out = |kind: OutputKind, view_id: &str| {
+        split.output_path(kind, view_id).map(|p| out_split.join(p))
+    };
+    let mut view_records = Vec::new();
+    let mut lidar_record = None;
+    let frame = &kitti.frame;
+    // Labels and depth belong to camera 2, rig camera 0 (centre C2).
+    let (centre, source) = (frame.rig[0].centre(), frame.rig[0].model.as_ref());
+    let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
+    let view_count = views.first().map_or(0, Vec::len);
+    for i in 0..view_count {
+        let view_id = &views[0][i].id;
+        let mut cameras = Vec::with_capacity(views.len());
+        for (j, camera_views) in views.iter().enumerate() {
+            let (cam, mapping) = (kitti.cams[j], &camera_views[i].mapping);
+            if let Some(path) = out(OutputKind::Image(cam), view_id) {
+                outputs.push((path, encode_view(i, j, &mapping.table)?));
+            }
+            if ctx.job.mask {
+                outputs.push((
+                    out(OutputKind::Mask(cam), view_id).expect("every layout has masks"),
+                    encode_mask(&mapping.table),
+                ));
+            }
+            cameras.push((cam, mapping.output.clone(), frame.rig[j].centre()));
+            if j > 0 {
+                continue;
+            }
+            let output = mapping.output.as_ref();
+            if let Some(labels) = &kitti.labels {
+                let text = label_text(labels, frame, &centre, output);
+                if let Some(path) = out(OutputKind::Label, view_id) {
+                    outputs.push((path, text.into_bytes()));
+                }
+            }
+            if let Some(depth) = &ctx.job.depth {
+                let non_finite = kitti.dropped_non_finite;
+                let filter = depth.occlusion_filter.as_ref();
+                // Projected straight into the final camera: crops and resizes never resample it.
+                let (map, occluded) = depth_map(&points, &centre, output, source, filter);
+                lidar_record = Some(LidarRecord {
+                    points: points.len() + non_finite,
+                    dropped_non_finite: non_finite,
+                    dropped_occluded: occluded,
+                    depth_pixels: map.valid(),
+                });
+                outputs.push((
+                    out(OutputKind::Depth, view_id).expect("every layout has depth maps"),
+                    png::encode_gray16(
+                        map.width,
+                        map.height,
+                        &map.to_u16(),
+                        ctx.job.png_compression,
+                    ),
+                ));
+            }
         }
         let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
             .iter()
             .map(|(n, c, v)| (*n, c.as_ref(), *v))
             .collect();
-        let text = calib.render_output(&cameras);
-        let path = self.job.output.join(&split.name).join(rel);
-        fs::write_atomic(&path, text.as_bytes())?;
-        let entry = (
-            relative(&self.job.output, &path),
-            fs::hash_hex(text.as_bytes()),
-        );
-        self.split_files
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .insert(split.name.clone(), entry);
-        Ok(())
+        let calib_text = kitti.calib.render_output(&cameras);
+        if let Some(path) = out(OutputKind::Calib, view_id) {
+            outputs.push((path, calib_text.into_bytes()));
+        }
+        if let Some(view) = views[0][i].view {
+            view_records.push(ViewRecord {
+                id: view_id.clone(),
+                view: Some(view),
+            });
+        }
     }
 
-    /// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
-    /// whose `images` have been through the style pass, if any.
-    pub(super) fn finish(&self, split: &Split, id: &str, frame: Prepared) -> Result<FrameOutput> {
-        let after_warp = self.style_after_warp();
-        let Prepared {
-            kitti,
+    let mut record_outputs = Vec::new();
+    for (path, bytes) in &outputs {
+        fs::write_atomic(path, bytes)?;
+        record_outputs.push((relative(&ctx.job.output, path), fs::hash_hex(bytes)));
+    }
+    if let Some(file) = ctx
+        .split_files
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .get(&split.name)
+    {
+        record_outputs.push(file.clone());
+    }
+    Ok(FrameOutput {
+        record: FrameRecord {
+            split: split.name.clone(),
+            id: id.to_owned(),
+            status: FrameStatus::Ok,
+            error: None,
             inputs,
-            views,
-            images,
-            mut sources,
-        } = frame;
-        let cameras_per_view = views.len();
-        let compression = self.job.png_compression;
-        // The PNG of view i's rig camera j: the styled warped image, or the source warped row
-        // by row as the encoder takes the rows.
-        let mut encode_view = |i: usize, j: usize, table: &RemapTable| -> Result<Vec<u8>> {
-            if after_warp {
-                Ok(png::encode_rgb8(
-                    &images[i * cameras_per_view + j],
-                    compression,
-                ))
-            } else if let Some(source) = sources.get_mut(j) {
-                source.warp_encode(table, compression)
-            } else {
-                Ok(warp_encode(table, &images[j], compression))
-            }
-        };
-        let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-        let out_split = self.job.output.join(&split.name);
-        let out = |kind: OutputKind, view_id: &str| {
-            split.output_path(kind, view_id).map(|p| out_split.join(p))
-        };
-        let mut view_records = Vec::new();
-        let mut lidar_record = None;
-        let frame = &kitti.frame;
-        // Labels and depth belong to camera 2, rig camera 0 (centre C2).
-        let (centre, source) = (frame.rig[0].centre(), frame.rig[0].model.as_ref());
-        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
-        let view_count = views.first().map_or(0, Vec::len);
-        for i in 0..view_count {
-            let view_id = &views[0][i].id;
-            let mut cameras = Vec::with_capacity(views.len());
-            for (j, camera_views) in views.iter().enumerate() {
-                let (cam, mapping) = (kitti.cams[j], &camera_views[i].mapping);
-                if let Some(path) = out(OutputKind::Image(cam), view_id) {
-                    outputs.push((path, encode_view(i, j, &mapping.table)?));
-                }
-                if self.job.mask {
-                    outputs.push((
-                        out(OutputKind::Mask(cam), view_id).expect("every layout has masks"),
-                        encode_mask(&mapping.table),
-                    ));
-                }
-                cameras.push((cam, mapping.output.clone(), frame.rig[j].centre()));
-                if j > 0 {
-                    continue;
-                }
-                let output = mapping.output.as_ref();
-                if let Some(labels) = &kitti.labels {
-                    let text = label_text(labels, frame, &centre, output);
-                    if let Some(path) = out(OutputKind::Label, view_id) {
-                        outputs.push((path, text.into_bytes()));
-                    }
-                }
-                if let Some(depth) = &self.job.depth {
-                    let non_finite = kitti.dropped_non_finite;
-                    let filter = depth.occlusion_filter.as_ref();
-                    // Projected straight into the final camera: crops and resizes never resample it.
-                    let (map, occluded) = depth_map(&points, &centre, output, source, filter);
-                    lidar_record = Some(LidarRecord {
-                        points: points.len() + non_finite,
-                        dropped_non_finite: non_finite,
-                        dropped_occluded: occluded,
-                        depth_pixels: map.valid(),
-                    });
-                    outputs.push((
-                        out(OutputKind::Depth, view_id).expect("every layout has depth maps"),
-                        png::encode_gray16(
-                            map.width,
-                            map.height,
-                            &map.to_u16(),
-                            self.job.png_compression,
-                        ),
-                    ));
-                }
-            }
-            let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
-                .iter()
-                .map(|(n, c, v)| (*n, c.as_ref(), *v))
-                .collect();
-            let calib_text = kitti.calib.render_output(&cameras);
-            if let Some(path) = out(OutputKind::Calib, view_id) {
-                outputs.push((path, calib_text.into_bytes()));
-            }
-            if let Some(view) = views[0][i].view {
-                view_records.push(ViewRecord {
-                    id: view_id.clone(),
-                    view: Some(view),
-                });
-            }
-        }
-
-        let mut record_outputs = Vec::new();
-        for (path, bytes) in &outputs {
-            fs::write_atomic(path, bytes)?;
-            record_outputs.push((relative(&self.job.output, path), fs::hash_hex(bytes)));
-        }
-        if let Some(file) = self
-            .split_files
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .get(&split.name)
-        {
-            record_outputs.push(file.clone());
-        }
-        Ok(FrameOutput {
-            record: FrameRecord {
-                split: split.name.clone(),
-                id: id.to_owned(),
-                status: FrameStatus::Ok,
-                error: None,
-                inputs,
-                outputs: record_outputs,
-                views: view_records,
-                lidar: lidar_record,
-            },
-        })
-    }
+            outputs: record_outputs,
+            views: view_records,
+            lidar: lidar_record,
+        },
+    })
 }
 
 /// The mask of a table's output: white where every tap of the pixel lies inside the source.

@@ -1,44 +1,26 @@
-//! One frame's conversion, in two halves around the style pass: [`Context::prepare`] (read,
-//! parse, decode; `read.rs`) and [`Context::finish`] (warp, labels, depth, encode, write;
-//! `write.rs`), so that the style pass can take several frames' images at once. The output
-//! cameras and remap tables a frame uses (cached here as `CameraMapping`s), shared or drawn for
-//! `--augment`, are made in `views.rs`.
+//! [`Context`]: what every frame of a run shares: the job, the style model, the dataset, the
+//! output views ([`Views`]: the cached output cameras and remap tables, `views.rs`) and the
+//! files written once per split. A frame's conversion takes it in two halves around the style
+//! pass, `read::prepare` (read, parse, decode) and `write::finish` (warp, labels, depth,
+//! encode, write), so that the style pass can take several frames' images at once.
 
+use super::views::Views;
 use super::{KittiJob, StyleOrder};
-use crate::camera::{ImageSize, OutputCamera};
 use crate::kitti::Dataset;
-use crate::run::manifest::FrameRecord;
-use crate::run::OnceMap;
 use crate::style::StyleModel;
-use crate::warp::RemapTable;
 use std::path::Path;
-use std::sync::atomic::AtomicUsize;
-use std::sync::Arc;
 
-/// The output camera and remap table of one source camera.
-#[derive(Clone)]
-pub(super) struct CameraMapping {
-    pub(super) output: Arc<dyn OutputCamera>,
-    pub(super) table: Arc<RemapTable>,
-}
-
-/// A source camera: its intrinsics' bits and image size.
-pub(super) type CameraMappingKey = ([u64; 4], ImageSize);
-
+/// What the frames of a run share.
 pub(super) struct Context<'a> {
     pub(super) job: &'a KittiJob,
     pub(super) style: Option<&'a StyleModel>,
     pub(super) dataset: &'a Dataset,
-    pub(super) mappings: OnceMap<CameraMappingKey, std::result::Result<CameraMapping, String>>,
+    /// The output cameras and tables, built once per source camera (or drawn per frame).
+    pub(super) views: Views<'a>,
     /// Per split: the file written once for the whole split (raw drives' `calib.txt`), as
     /// (path relative to the output, blake3). Every frame of the split lists it, so the
     /// manifest covers it whichever frames a shard or a resumed run converts.
     pub(super) split_files: std::sync::Mutex<std::collections::HashMap<String, (String, String)>>,
-    pub(super) thin_views: AtomicUsize,
-}
-
-pub(super) struct FrameOutput {
-    pub(super) record: FrameRecord,
 }
 
 /// `path` relative to `root`, with `/` separators (the manifest's form).
@@ -59,15 +41,9 @@ impl<'a> Context<'a> {
             job,
             style,
             dataset,
-            mappings: OnceMap::default(),
+            views: Views::new(job),
             split_files: Default::default(),
-            thin_views: AtomicUsize::new(0),
         }
-    }
-
-    /// Distinct (source camera → output camera) mappings built so far.
-    pub(super) fn tables_built(&self) -> usize {
-        self.mappings.len()
     }
 
     /// Whether the style pass takes the warped views (else the source images).
