@@ -79,9 +79,8 @@ pub fn encode_rows(
     // header and CRC, IEND: under 64 bytes): no regrowth, and no copy of the stream, while
     // compressing. Camera images compress to about half of it; the rest is never touched.
     let raw_size = (len + 1) * height;
-    let mut out = Vec::with_capacity(
-        fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) + 64,
-    );
+    let mut out =
+        Vec::with_capacity(fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) + 64);
     out.extend_from_slice(&SIGNATURE);
     let mut ihdr = [0u8; 13];
     ihdr[..4].copy_from_slice(&header.width.to_be_bytes());
