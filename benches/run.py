@@ -160,24 +160,27 @@ def main():
         all_loads = [x for ls in loads.values() for l in ls for x in l]
         load_note = f"load {min(all_loads):.1f}-{max(all_loads):.1f}" if all_loads else "load ?"
 
-        def paired(other):
-            """Per round, other's wall time over panoconv's (the two ran minutes apart at most,
-            so a slow spell of a shared machine slows both): median and range."""
-            rs = [o[0] / p[0] for p, o in zip(results["panoconv"], results[other])]
+        def paired(other, i=0):
+            """Per round, other's wall time (i=0) or CPU time (i=1) over panoconv's (the two ran
+            minutes apart at most, so a slow spell of a shared machine slows both): median and
+            range."""
+            rs = [o[i] / p[i] for p, o in zip(results["panoconv"], results[other])]
             return f"per round {statistics.median(rs):.2f}x ({min(rs):.2f}-{max(rs):.2f})"
 
         if "panoconv" in med and "opencv" in med:
             p, o = med["panoconv"], med["opencv"]
             print(f"panoconv/opencv: {p['fps'] / o['fps']:.2f}x frames/s"
                   f" [{paired('opencv')}],"
-                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU, {p['bytes'] / o['bytes']:.3f}x bytes"
-                  f" ({load_note})")
+                  f" {p['cpu_s'] / o['cpu_s']:.2f}x CPU [{paired('opencv', 1)} less],"
+                  f" {p['bytes'] / o['bytes']:.3f}x bytes ({load_note})")
         if "panoconv" in med and "floor" in med:
             p, f = med["panoconv"], med["floor"]
             inv = [p_[0] / f_[0] for p_, f_ in zip(results["panoconv"], results["floor"])]
+            inv_cpu = [p_[1] / f_[1] for p_, f_ in zip(results["panoconv"], results["floor"])]
             print(f"panoconv/floor: {p['wall_s'] / f['wall_s']:.2f}x wall"
                   f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
-                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU ({load_note})")
+                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU [per round {statistics.median(inv_cpu):.2f}x"
+                  f" ({min(inv_cpu):.2f}-{max(inv_cpu):.2f})] ({load_note})")
         if "panoconv" in med and "old" in med:
             p, o = med["panoconv"], med["old"]
             print(f"panoconv/old: {p['fps'] / o['fps']:.2f}x frames/s [{paired('old')}],"

@@ -75,8 +75,12 @@ pub fn encode_rows(
 ) -> Vec<u8> {
     let len = header.row_len();
     let height = header.height as usize;
-    // Room for a typical camera image (about half its raw size): no regrowth while compressing.
-    let mut out = Vec::with_capacity(len * height / 2 + 4096);
+    // Room for the stored-block size, which bounds what is kept (the signature, IHDR, IDAT
+    // header and CRC, IEND: under 64 bytes): no regrowth, and no copy of the stream, while
+    // compressing. Camera images compress to about half of it; the rest is never touched.
+    let raw_size = (len + 1) * height;
+    let mut out =
+        Vec::with_capacity(fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) + 64);
     out.extend_from_slice(&SIGNATURE);
     let mut ihdr = [0u8; 13];
     ihdr[..4].copy_from_slice(&header.width.to_be_bytes());
@@ -108,7 +112,6 @@ pub fn encode_rows(
         std::mem::swap(&mut prev, &mut cur);
     }
     let mut out = z.finish().expect("write to a Vec");
-    let raw_size = (len + 1) * height;
     if out.len() - stream > fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) {
         // Deflate made it larger: stored blocks of unfiltered rows, as the png crate does.
         out.truncate(stream);
