@@ -9,7 +9,7 @@ use panoconv::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Lens, Rotat
 use panoconv::image::RgbImage;
 use panoconv::kitti360::{Options, Sequence};
 use panoconv::tools::synth360::scene::{scene_at, world_from_scene, world_to_scene};
-use panoconv::tools::synth360::{write_sequence, Synth360Options, SEQUENCE};
+use panoconv::tools::synth360::SEQUENCE;
 use panoconv::warp::{EgoMask, Stitch, StitchCamera, StitchOptions};
 use std::f64::consts::PI;
 
@@ -241,16 +241,10 @@ fn rgb(path: &std::path::Path) -> RgbImage {
 
 #[test]
 fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
-    let tmp = tempfile::tempdir().unwrap();
-    let root = tmp.path().join("zero");
-    let options = Synth360Options {
-        frames: 1,
-        scale: 0.25,
-        zero_baseline: true,
-    };
-    write_sequence(&root, &options, false, &panoconv::run::Silent).unwrap();
+    // the zero-baseline sequence of tests/kitti360_command.rs (scale 0.25), made once per build
+    let root = crate::kitti360_command::sequence(true);
     let seq = Sequence::open(
-        &root,
+        root,
         SEQUENCE,
         Options {
             lidar: false,
