@@ -26,6 +26,8 @@ pub(super) const KITTI360_EXAMPLES: &str = "Examples:
   panoconv kitti360 --to equirect --depth --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O --frames 250,251
   panoconv kitti360 --to cylindrical --cameras 02 --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O_left
   panoconv kitti360 --to equirect --input R --sequence 2013_05_28_drive_0000_sync,2013_05_28_drive_0003_sync --output O --export coco
+  panoconv kitti360 --to equirect --style miami_BtoA.onnx --input R --sequence 2013_05_28_drive_0000_sync --output O_miami
+  panoconv kitti360 --to equirect --augment 4 --seed 7 --crop-size 1024x512 --min-objects 2 --input R --sequence 2013_05_28_drive_0000_sync --output O_aug
 
 Output: OUT/training/{image_2,label_2,calib,source_2,objects}/ID.* (depth_2 with --depth) and
 OUT/panoconv.json. ID is the frame number in 6 digits (000250); with several sequences the

@@ -34,6 +34,10 @@ const FOLDERS: [&str; 6] = [
 /// Ego masks by rig index (None: the camera has none).
 type Masks = Vec<Option<Arc<EgoMask>>>;
 
+/// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
+/// its camera.
+type OutputView = (String, Option<View>, Box<dyn OutputCamera>);
+
 /// One frame to convert.
 struct Item {
     sequence: usize,
@@ -120,7 +124,7 @@ impl Ctx<'_> {
         info: &[CameraInfo],
         options: &RigOptions,
         keep: ClassFilter,
-    ) -> Result<Vec<(String, Option<View>, Box<dyn OutputCamera>)>> {
+    ) -> Result<Vec<OutputView>> {
         let job = self.job;
         let canvas = output_camera(frame, info, &job.target, job.cameras[0])?;
         let Some(aug) = &job.augment else {
