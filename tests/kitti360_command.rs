@@ -22,19 +22,19 @@ use std::sync::OnceLock;
 
 /// The bars of the issue.
 const MIN_PSNR_DB: f64 = 50.0;
-const MIN_IOU: f64 = 0.99;
+pub(crate) const MIN_IOU: f64 = 0.99;
 /// Labels are written with two decimals.
-const ROUNDING: f64 = 0.005 + 1e-6;
+pub(crate) const ROUNDING: f64 = 0.005 + 1e-6;
 const DEPTH_TOLERANCE: f64 = 0.05;
 const MIN_DEPTH_CORRECT: f64 = 0.995;
 const MAX_DEPTH_LEAKS: f64 = 0.002;
 /// Panorama width of the tests: two pixels per degree.
 const WIDTH: &str = "720";
 /// The synthetic sweep's azimuth step at scale 0.25 (0.2° / 0.25).
-const LIDAR_STEP: &str = "0.8";
+pub(crate) const LIDAR_STEP: &str = "0.8";
 
 /// A synthetic sequence (scale 0.25, two frames), made once per binary build.
-fn sequence(zero_baseline: bool) -> &'static Path {
+pub(crate) fn sequence(zero_baseline: bool) -> &'static Path {
     static ZERO: OnceLock<PathBuf> = OnceLock::new();
     static OFFSET: OnceLock<PathBuf> = OnceLock::new();
     let cell = if zero_baseline { &ZERO } else { &OFFSET };
@@ -74,7 +74,7 @@ fn sequence(zero_baseline: bool) -> &'static Path {
 }
 
 /// `panoconv kitti360 --input ROOT --sequence SEQ --output OUT EXTRA...`
-fn kitti360(root: &Path, output: &Path, extra: &[&str]) -> common::Run {
+pub(crate) fn kitti360(root: &Path, output: &Path, extra: &[&str]) -> common::Run {
     let mut args = vec![
         "kitti360",
         "--input",
@@ -89,16 +89,16 @@ fn kitti360(root: &Path, output: &Path, extra: &[&str]) -> common::Run {
 }
 
 /// One converted frame read back through its written files only.
-struct Written {
-    camera: Box<dyn OutputCamera>,
-    centre: Vector3<f64>,
+pub(crate) struct Written {
+    pub(crate) camera: Box<dyn OutputCamera>,
+    pub(crate) centre: Vector3<f64>,
     /// Tr_rect_to_world: level frame → world.
-    world_rotation: Matrix3<f64>,
-    world_translation: Vector3<f64>,
-    labels: LabelFile,
+    pub(crate) world_rotation: Matrix3<f64>,
+    pub(crate) world_translation: Vector3<f64>,
+    pub(crate) labels: LabelFile,
 }
 
-fn written(out: &Path, id: &str) -> Written {
+pub(crate) fn written(out: &Path, id: &str) -> Written {
     let split = out.join("training");
     let calib = Calib::read(&split.join(format!("calib/{id}.txt"))).unwrap();
     let image = common::read_rgb8(&split.join(format!("image_2/{id}.png")));
@@ -119,22 +119,22 @@ fn written(out: &Path, id: &str) -> Written {
 }
 
 /// A scene object at a frame, in the written frame's level frame.
-struct Truth {
-    kind: &'static str,
+pub(crate) struct Truth {
+    pub(crate) kind: &'static str,
     /// Bottom centre (KITTI's location), level frame.
-    location: Vector3<f64>,
-    rotation_y: f64,
+    pub(crate) location: Vector3<f64>,
+    pub(crate) rotation_y: f64,
     /// The box's corners, level frame.
-    corners: [Vector3<f64>; 8],
+    pub(crate) corners: [Vector3<f64>; 8],
     /// Centre, world.
-    world_centre: Vector3<f64>,
+    pub(crate) world_centre: Vector3<f64>,
 }
 
-fn wrap(a: f64) -> f64 {
+pub(crate) fn wrap(a: f64) -> f64 {
     (a + PI).rem_euclid(2.0 * PI) - PI
 }
 
-fn truths(w: &Written, frame: u32) -> Vec<Truth> {
+pub(crate) fn truths(w: &Written, frame: u32) -> Vec<Truth> {
     let level_from_world = w.world_rotation.try_inverse().unwrap();
     let to_level = |p: Vector3<f64>| level_from_world * (p - w.world_translation);
     objects()
@@ -168,7 +168,7 @@ fn truths(w: &Written, frame: u32) -> Vec<Truth> {
 
 /// The exact 2D box of a box (level-frame corners) in the written camera: its faces sampled
 /// densely, unwrapped about the centroid's column on a panorama, clipped as KITTI's.
-fn exact_box(w: &Written, corners: &[Vector3<f64>; 8]) -> Option<[f64; 4]> {
+pub(crate) fn exact_box(w: &Written, corners: &[Vector3<f64>; 8]) -> Option<[f64; 4]> {
     let size = w.camera.size();
     let centroid = corners.iter().sum::<Vector3<f64>>() / 8.0 - w.centre;
     let ref_u = w.camera.project_point(&centroid).ok()?.x;
@@ -288,7 +288,19 @@ fn check_labels(w: &Written, frame: u32, what: &str) -> usize {
 
 /// The depth map against the scene seen from C2 through each pixel's centre: (pixels, share
 /// within 5 %, share farther than the truth by more than 5 %).
-fn check_depth(out: &Path, id: &str, w: &Written, frame: u32, what: &str) {
+pub(crate) fn check_depth(out: &Path, id: &str, w: &Written, frame: u32, what: &str) {
+    check_depth_share(out, id, w, frame, what, MIN_DEPTH_CORRECT);
+}
+
+/// [`check_depth`] with `min_correct` the share of pixels that must be within 5 %.
+pub(crate) fn check_depth_share(
+    out: &Path,
+    id: &str,
+    w: &Written,
+    frame: u32,
+    what: &str,
+    min_correct: f64,
+) {
     let depth = common::read_png(&out.join(format!("training/depth_2/{id}.png")));
     assert_eq!(depth.depth, png::BitDepth::Sixteen);
     let scene = scene_at(frame);
@@ -326,7 +338,7 @@ fn check_depth(out: &Path, id: &str, w: &Written, frame: u32, what: &str) {
         100.0 * leak
     );
     assert!(n > 2000, "{what}: only {n} depth pixels");
-    assert!(ok >= MIN_DEPTH_CORRECT, "{what}: {ok} within 5 %");
+    assert!(ok >= min_correct, "{what}: {ok} within 5 %");
     assert!(leak <= MAX_DEPTH_LEAKS, "{what}: {leak} leaks");
 }
 
@@ -781,12 +793,12 @@ fn bad_input_is_named_with_its_file_and_counted() {
     let run = kitti360(
         &root,
         &tmp.path().join("o3"),
-        &["--to", "equirect", "--augment", "4"],
+        &["--to", "equirect", "--style-after-warp"],
     );
     assert_eq!(run.code, 2);
     assert!(
         run.stderr
-            .contains("--augment is not supported by kitti360"),
+            .contains("--style-after-warp is not supported by kitti360"),
         "{}",
         run.stderr
     );

@@ -30,6 +30,7 @@ mod fuzz_parsers;
 mod inspect;
 mod kitti360;
 mod kitti360_command;
+mod kitti360_options;
 mod kitti360_scripts;
 mod kitti360_stitch;
 mod kitti_benchmark;

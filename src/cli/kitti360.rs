@@ -1,7 +1,7 @@
 //! `panoconv kitti360`: a KITTI-360 sequence's rig into panoramas (or one camera converted),
 //! with labels, calib, depth and the source map, as a KITTI dataset.
 
-use super::convert::{install_stop_handler, parse_crop, parse_shard, STOP};
+use super::convert::{install_stop_handler, parse_crop, parse_range, parse_shard, DeviceArg, STOP};
 use super::export::{export_after_kitti, FormatArg};
 use super::EXIT_INTERRUPTED;
 use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED};
@@ -11,10 +11,12 @@ use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
 use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule};
 use panoconv::error::Error;
+use panoconv::geometry::augment::Augment;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
 use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::run::journal::Shard;
+use panoconv::style::{Device, StyleOptions};
 use panoconv::warp::StitchOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -24,6 +26,8 @@ pub(super) const KITTI360_EXAMPLES: &str = "Examples:
   panoconv kitti360 --to equirect --depth --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O --frames 250,251
   panoconv kitti360 --to cylindrical --cameras 02 --input /data/KITTI-360 --sequence 2013_05_28_drive_0000_sync --output O_left
   panoconv kitti360 --to equirect --input R --sequence 2013_05_28_drive_0000_sync,2013_05_28_drive_0003_sync --output O --export coco
+  panoconv kitti360 --to equirect --style miami_BtoA.onnx --input R --sequence 2013_05_28_drive_0000_sync --output O_miami
+  panoconv kitti360 --to equirect --augment 4 --seed 7 --crop-size 1024x512 --min-objects 2 --input R --sequence 2013_05_28_drive_0000_sync --output O_aug
 
 Output: OUT/training/{image_2,label_2,calib,source_2,objects}/ID.* (depth_2 with --depth) and
 OUT/panoconv.json. ID is the frame number in 6 digits (000250); with several sequences the
@@ -132,12 +136,36 @@ pub(super) struct Kitti360Args {
     export: Vec<FormatArg>,
     #[command(flatten)]
     run: RunArgs,
-    /// Not supported by kitti360 (named here to say so).
-    #[arg(long, hide = true, value_name = "N")]
-    augment: Option<String>,
-    /// Not supported by kitti360 (named here to say so).
-    #[arg(long, hide = true, value_name = "MODEL.onnx")]
+    /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
+    /// the frame.
+    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+    augment: Option<u32>,
+    /// Seed of --augment (same seed, same views, whatever --jobs).
+    #[arg(long, default_value_t = 0, requires = "augment")]
+    seed: u64,
+    /// Range of the --augment scale factor, drawn uniformly.
+    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
+    scale_range: (f64, f64),
+    /// Size of every --augment view.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size, requires = "augment")]
+    crop_size: Option<ImageSize>,
+    /// Redraw an --augment view (up to 16 times) until it holds at least N objects; the
+    /// summary says how many views still hold fewer.
+    #[arg(long, value_name = "N", requires = "augment")]
+    min_objects: Option<u32>,
+    /// CycleGAN generator (ONNX) giving each camera's image the target domain's look, before
+    /// the stitch.
+    #[arg(long, value_name = "MODEL.onnx")]
     style: Option<PathBuf>,
+    /// ONNX Runtime library (libonnxruntime.so); else $ORT_DYLIB_PATH, else beside the binary.
+    #[arg(long, value_name = "PATH", requires = "style")]
+    ort_lib: Option<PathBuf>,
+    /// Where the style model runs.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu, requires = "style")]
+    device: DeviceArg,
+    /// Not supported by kitti360 (named here to say so).
+    #[arg(long, hide = true)]
+    style_after_warp: bool,
     /// Not supported by kitti360 (named here to say so).
     #[arg(long, hide = true)]
     mask: bool,
@@ -173,14 +201,10 @@ fn setup(message: String) -> anyhow::Error {
 pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
     for (given, flag, why) in [
         (
-            args.augment.is_some(),
-            "--augment",
-            "random views of a panorama are not built",
-        ),
-        (
-            args.style.is_some(),
-            "--style",
-            "the style pass runs on KITTI frames only",
+            args.style_after_warp,
+            "--style-after-warp",
+            "each camera's image is styled before the stitch, so that the blend and the \
+             exposure gains work on styled images",
         ),
         (
             args.mask,
@@ -337,6 +361,24 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         shard: args.shard,
         png_compression: args.run.png_compression(),
         ego_masks,
+        style: args.style.map(|model| StyleOptions {
+            model,
+            ort_lib: args.ort_lib,
+            device: match args.device {
+                DeviceArg::Cpu => Device::Cpu,
+                DeviceArg::Cuda => Device::Cuda,
+            },
+            intra_threads: 1,
+        }),
+        augment: args.augment.map(|count| Augment {
+            count,
+            seed: args.seed,
+            scale_range: args.scale_range,
+            crop_size: args
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+            min_objects: args.min_objects.unwrap_or(0),
+        }),
     };
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
@@ -363,6 +405,21 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             job.objects.min_points,
             o.outside
         );
+        if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
+            eprintln!(
+                "panoconv: {} with fewer than {} objects after {} draws",
+                count(thin, "augmented view"),
+                job.augment.map_or(0, |a| a.min_objects),
+                panoconv::geometry::augment::MAX_ATTEMPTS
+            );
+        }
+        if let Some((runs, images)) = summary.style_runs {
+            eprintln!(
+                "panoconv: style pass: {} in {}",
+                count(images, "image"),
+                count(runs, "model run")
+            );
+        }
     }
     if let Some(full) = &run.device_full {
         eprintln!("panoconv: {full}");
@@ -378,7 +435,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             &job.output,
             &job.output,
             &args.export,
-            false,
+            job.augment.is_some(),
             overwrite,
             args.run.quiet,
         );

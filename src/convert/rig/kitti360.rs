@@ -10,10 +10,12 @@
 
 use super::objects::{DropReason, ObjectOutcome, ObjectRule};
 use crate::codec::png::PngCompression;
+use crate::geometry::augment::Augment;
 use crate::geometry::Target;
 use crate::reproject::depth::OcclusionFilter;
 use crate::run::Shard;
 use crate::run::Summary;
+use crate::style::{StyleInfo, StyleOptions};
 use crate::warp::StitchOptions;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -86,6 +88,12 @@ pub struct Kitti360Job {
     /// Ego masks: (rig camera 0 to 3, mask image) pairs (non-zero pixels are the vehicle's
     /// body; `warp::EgoMask`).
     pub ego_masks: Vec<(usize, PathBuf)>,
+    /// The CycleGAN style pass: each used camera's image styled before the stitch (so the
+    /// blend and the exposure gains work on styled images).
+    pub style: Option<StyleOptions>,
+    /// Random scale-and-crop views of each frame's output (ids frame × N + k) instead of the
+    /// whole output.
+    pub augment: Option<Augment>,
 }
 
 impl Kitti360Job {
@@ -166,8 +174,13 @@ impl ObjectCounts {
 pub struct Kitti360Summary {
     /// Frames, failures, time.
     pub run: Summary,
-    /// Objects written and dropped, by reason, over the frames converted by this run.
+    /// Objects written and dropped, by reason, over the frames converted by this run (each
+    /// augmented view counted as a frame).
     pub objects: ObjectCounts,
+    /// Style model runs and the images they took, if styled.
+    pub style_runs: Option<(usize, usize)>,
+    /// With `--augment`: the views holding fewer objects than asked (at least one).
+    pub thin_views: Option<usize>,
 }
 
 /// The manifest's `parameters`: what decides the outputs.
@@ -194,6 +207,11 @@ pub(super) struct Parameters<'a> {
     pub(super) png_compression: PngCompression,
     #[serde(skip_serializing_if = "<[_]>::is_empty")]
     pub(super) ego_masks: &'a [EgoMaskRecord],
+    /// The style model (name, blake3, convention), applied to each camera's image.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) style: Option<&'a StyleInfo>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) augment: Option<&'a Augment>,
 }
 
 /// An ego mask as the manifest records it.
@@ -208,7 +226,11 @@ pub(super) struct EgoMaskRecord {
 }
 
 impl<'a> Parameters<'a> {
-    pub(super) fn new(job: &'a Kitti360Job, ego_masks: &'a [EgoMaskRecord]) -> Self {
+    pub(super) fn new(
+        job: &'a Kitti360Job,
+        ego_masks: &'a [EgoMaskRecord],
+        style: Option<&'a StyleInfo>,
+    ) -> Self {
         Parameters {
             input: &job.input,
             sequences: &job.sequences,
@@ -236,6 +258,8 @@ impl<'a> Parameters<'a> {
             shard: job.shard,
             png_compression: job.png_compression,
             ego_masks,
+            style,
+            augment: job.augment.as_ref(),
         }
     }
 }

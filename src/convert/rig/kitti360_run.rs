@@ -9,16 +9,21 @@ use super::kitti360::EgoMaskRecord;
 use super::kitti360::{
     drive_number, frame_id, Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT,
 };
-use super::pass::{convert_frame, CameraInfo};
+use super::pass::{
+    convert_into, count_objects, output_camera, read_images, CameraInfo, ClassFilter, RigOptions,
+};
+use crate::camera::OutputCamera;
 use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs;
+use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::kitti360::{Options, Sequence};
-use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord};
+use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
+use crate::style::{Device, StyleModel, StyleOptions};
 use crate::warp::EgoMask;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The per-frame output folders under `OUT/training/`.
@@ -28,6 +33,10 @@ const FOLDERS: [&str; 6] = [
 
 /// Ego masks by rig index (None: the camera has none).
 type Masks = Vec<Option<Arc<EgoMask>>>;
+
+/// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
+/// its camera.
+type OutputView = (String, Option<View>, Box<dyn OutputCamera>);
 
 /// One frame to convert.
 struct Item {
@@ -44,6 +53,10 @@ struct Ctx<'a> {
     objects: Mutex<ObjectCounts>,
     /// The ego masks by rig index.
     masks: Masks,
+    /// The style model, if any.
+    style: Option<Arc<StyleModel>>,
+    /// Augmented views holding fewer objects than asked.
+    thin_views: AtomicUsize,
 }
 
 fn relative(root: &Path, path: &Path) -> String {
@@ -92,20 +105,82 @@ impl Ctx<'_> {
             .map_err(|m| Error::file(path, m))
     }
 
+    /// The output ids of a frame: its own, or its augmented views'.
+    fn output_ids(&self, item: &Item) -> Vec<String> {
+        match &self.job.augment {
+            None => vec![item.id.clone()],
+            Some(aug) => (0..aug.count)
+                .filter_map(|i| view_id(&item.id, aug.count, i))
+                .collect(),
+        }
+    }
+
+    /// The output cameras of a frame: the target's, or the augmented views drawn from it
+    /// (each redrawn, up to `MAX_ATTEMPTS` times, until it holds `min_objects` objects).
+    fn output_views(
+        &self,
+        item: &Item,
+        frame: &crate::source::Frame,
+        info: &[CameraInfo],
+        options: &RigOptions,
+        keep: ClassFilter,
+    ) -> Result<Vec<OutputView>> {
+        let job = self.job;
+        let canvas = output_camera(frame, info, &job.target, job.cameras[0])?;
+        let Some(aug) = &job.augment else {
+            return Ok(vec![(item.id.clone(), None, canvas)]);
+        };
+        let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
+            let (k, size) = Augment::view_camera(view, canvas.intrinsics(), canvas.size());
+            canvas
+                .with_intrinsics(k, size)
+                .map_err(|e| Error::file(&frame.provenance[0], e))
+        };
+        let mut views = Vec::new();
+        for i in 0..aug.count {
+            let id = view_id(&item.id, aug.count, i)
+                .ok_or_else(|| Error::Setup(format!("frame {}: view {i} has no id", item.id)))?;
+            let mut best: Option<(usize, View, Box<dyn OutputCamera>)> = None;
+            for attempt in 0..MAX_ATTEMPTS.max(1) {
+                let view = aug.view(SPLIT, &item.id, i, attempt, canvas.size());
+                let camera = view_camera(&view)?;
+                if aug.min_objects == 0 {
+                    best = Some((0, view, camera));
+                    break;
+                }
+                let n = count_objects(frame, camera.as_ref(), options, keep)?;
+                if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
+                    best = Some((n, view, camera));
+                }
+                if n >= aug.min_objects as usize {
+                    break;
+                }
+            }
+            let (n, view, camera) = best.expect("at least one draw");
+            if aug.min_objects > 0 && n < aug.min_objects as usize {
+                self.thin_views.fetch_add(1, Ordering::Relaxed);
+            }
+            views.push((id, Some(view), camera));
+        }
+        Ok(views)
+    }
+
     fn frame_record(&self, item: &Item) -> Result<FrameRecord> {
         let (sequence, info) = &self.sequences[item.sequence];
         let job = self.job;
         let frame = sequence.frame(item.frame)?;
         let keep = |b: &crate::source::SourceBox| job.classes.keeps(&b.class, &b.dataset_class);
-        let options = super::pass::RigOptions {
+        let options = RigOptions {
             cameras: job.cameras.clone(),
             stitch: job.stitch,
             centre: job.centre,
             objects: job.objects,
             depth: job.depth,
             ego_masks: self.masks.clone(),
+            style: self.style.clone(),
         };
-        let out = convert_frame(&frame, info, &job.target, &options, &keep)?;
+        let views = self.output_views(item, &frame, info, &options, &keep)?;
+        let images = read_images(&frame, &options)?;
         let world_from_level = sequence.world_from_level(item.frame)?;
         let level_from_world = world_from_level.inverse().ok_or_else(|| {
             Error::file(
@@ -115,62 +190,72 @@ impl Ctx<'_> {
         })?;
         let level_from_velo = level_from_world.compose(&sequence.world_from_velo(item.frame)?);
         let velo_from_imu = sequence.calibration.pose_from_velo().inverse();
-        let calib = crate::kitti::rig_output::rig_calib_text(
-            out.camera.as_ref(),
-            &out.centre,
-            &level_from_velo,
-            velo_from_imu.as_ref(),
-            frame.world_from_reference.as_ref(),
-        );
-        let mut labels = out.labels.join("\n");
-        if !labels.is_empty() {
-            labels.push('\n');
-        }
-        #[derive(serde::Serialize)]
-        struct ObjectsFile<'a> {
-            sequence: &'a str,
-            frame: u32,
-            gains: &'a [f64],
-            counts: ObjectCounts,
-            objects: &'a [super::objects::ObjectOutcome],
-        }
-        let counts = ObjectCounts::of(&out.objects);
-        let objects = serde_json::to_vec_pretty(&ObjectsFile {
-            sequence: &sequence.name,
-            frame: item.frame,
-            gains: &out.gains,
-            counts,
-            objects: &out.objects,
-        })
-        .expect("the objects record serialises");
-        let size = out.camera.size();
         let compression = job.png_compression;
-        let id = &item.id;
-        let mut files: Vec<(PathBuf, Vec<u8>)> = vec![
-            (
-                self.output_path("image_2", id, "png"),
-                png::encode_rgb8(&out.image, compression),
-            ),
-            (self.output_path("calib", id, "txt"), calib.into_bytes()),
-            (self.output_path("label_2", id, "txt"), labels.into_bytes()),
-            (
-                self.output_path("source_2", id, "png"),
-                encode_gray8(size.width, size.height, &out.source),
-            ),
-            (self.output_path("objects", id, "json"), objects),
-        ];
+        let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
         let mut lidar = None;
-        if let Some((map, occluded)) = &out.depth {
-            files.push((
-                self.output_path("depth_2", id, "png"),
-                png::encode_gray16(map.width, map.height, &map.to_u16(), compression),
-            ));
-            lidar = Some(LidarRecord {
-                points: frame.lidar.len(),
-                dropped_non_finite: 0,
-                dropped_occluded: *occluded,
-                depth_pixels: map.valid(),
-            });
+        let mut counts = ObjectCounts::default();
+        let mut view_records = Vec::new();
+        for (id, view, camera) in views {
+            let out = convert_into(&frame, info, camera, &images, &options, &keep)?;
+            let calib = crate::kitti::rig_output::rig_calib_text(
+                out.camera.as_ref(),
+                &out.centre,
+                &level_from_velo,
+                velo_from_imu.as_ref(),
+                frame.world_from_reference.as_ref(),
+            );
+            let mut labels = out.labels.join("\n");
+            if !labels.is_empty() {
+                labels.push('\n');
+            }
+            #[derive(serde::Serialize)]
+            struct ObjectsFile<'a> {
+                sequence: &'a str,
+                frame: u32,
+                gains: &'a [f64],
+                counts: ObjectCounts,
+                objects: &'a [super::objects::ObjectOutcome],
+            }
+            let view_counts = ObjectCounts::of(&out.objects);
+            counts.add(&view_counts);
+            let objects = serde_json::to_vec_pretty(&ObjectsFile {
+                sequence: &sequence.name,
+                frame: item.frame,
+                gains: &out.gains,
+                counts: view_counts,
+                objects: &out.objects,
+            })
+            .expect("the objects record serialises");
+            let size = out.camera.size();
+            files.extend([
+                (
+                    self.output_path("image_2", &id, "png"),
+                    png::encode_rgb8(&out.image, compression),
+                ),
+                (self.output_path("calib", &id, "txt"), calib.into_bytes()),
+                (self.output_path("label_2", &id, "txt"), labels.into_bytes()),
+                (
+                    self.output_path("source_2", &id, "png"),
+                    encode_gray8(size.width, size.height, &out.source),
+                ),
+                (self.output_path("objects", &id, "json"), objects),
+            ]);
+            if let Some((map, occluded)) = &out.depth {
+                files.push((
+                    self.output_path("depth_2", &id, "png"),
+                    png::encode_gray16(map.width, map.height, &map.to_u16(), compression),
+                ));
+                // (with --augment, the last view's, as `kitti` records)
+                lidar = Some(LidarRecord {
+                    points: frame.lidar.len(),
+                    dropped_non_finite: 0,
+                    dropped_occluded: *occluded,
+                    depth_pixels: map.valid(),
+                });
+            }
+            if view.is_some() {
+                view_records.push(ViewRecord { id, view });
+            }
         }
         // the images of the cameras used, and every other input the frame read
         let unused: Vec<&PathBuf> = frame
@@ -197,12 +282,12 @@ impl Ctx<'_> {
             .add(&counts);
         Ok(FrameRecord {
             split: SPLIT.to_owned(),
-            id: id.clone(),
+            id: item.id.clone(),
             status: FrameStatus::Ok,
             error: None,
             inputs,
             outputs,
-            views: Vec::new(),
+            views: view_records,
             lidar,
         })
     }
@@ -221,8 +306,10 @@ impl FrameWork for Ctx<'_> {
             .map(|item| {
                 self.frame_record(item).inspect_err(|_| {
                     // a failed frame leaves no output, not even one of an earlier run
-                    for p in self.output_paths(&item.id) {
-                        let _ = std::fs::remove_file(p);
+                    for id in self.output_ids(item) {
+                        for p in self.output_paths(&id) {
+                            let _ = std::fs::remove_file(p);
+                        }
                     }
                 })
             })
@@ -416,6 +503,7 @@ pub fn run_kitti360(
     let sequences = open_sequences(job)?;
     let mut items = select(job, &sequences)?;
     check_output_camera(job, &sequences, &items)?;
+    let style = load_style(job)?.map(Arc::new);
     let folder = OutputFolder::claim(Claim {
         input: &job.input,
         output: &job.output,
@@ -428,8 +516,12 @@ pub fn run_kitti360(
         items.retain(|i| shard.owns(SPLIT, &i.id));
     }
     let (masks, mask_records) = read_ego_masks(job, &sequences)?;
-    let parameters =
-        serde_json::to_value(Parameters::new(job, &mask_records)).expect("parameters serialise");
+    let parameters = serde_json::to_value(Parameters::new(
+        job,
+        &mask_records,
+        style.as_deref().map(StyleModel::info),
+    ))
+    .expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
     for name in FOLDERS {
@@ -445,6 +537,8 @@ pub fn run_kitti360(
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
         masks,
+        style,
+        thin_views: AtomicUsize::new(0),
     };
     let mut run = folder.start(
         "kitti360",
@@ -460,5 +554,34 @@ pub fn run_kitti360(
     Ok(Kitti360Summary {
         run: summary,
         objects,
+        style_runs: ctx.style.as_deref().map(StyleModel::runs),
+        thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
     })
+}
+
+/// The style model's sessions, loaded before anything is written (a missing model or ONNX
+/// Runtime library is a set-up error): on the CPU one session per worker with one thread each,
+/// so --jobs alone sets the core count; on a GPU two (one runs while the other's input is
+/// prepared), as `kitti` loads them.
+fn load_style(job: &Kitti360Job) -> Result<Option<StyleModel>> {
+    let Some(s) = &job.style else {
+        return Ok(None);
+    };
+    // The model is the user's own file: name it missing before asking for the runtime.
+    if !s.model.is_file() {
+        return Err(Error::Setup(format!(
+            "--style {}: no such model file",
+            s.model.display()
+        )));
+    }
+    let options = StyleOptions {
+        intra_threads: 1,
+        ..s.clone()
+    };
+    let workers = rayon::current_num_threads();
+    let sessions = match options.device {
+        Device::Cpu => workers,
+        Device::Cuda => workers.min(2),
+    };
+    Ok(Some(StyleModel::load_pool(&options, sessions)?))
 }

@@ -20,4 +20,6 @@ mod pass;
 pub use kitti360::{frame_id, Kitti360Classes, Kitti360Job, Kitti360Summary, ObjectCounts};
 pub use kitti360_run::run_kitti360;
 pub use objects::{DropReason, ObjectOutcome, ObjectRule, GROUND_MARGIN, TILT_TOLERANCE};
-pub use pass::{convert_frame, CameraInfo, RigFrame, RigOptions};
+pub use pass::{
+    convert_frame, convert_into, count_objects, read_images, CameraInfo, RigFrame, RigOptions,
+};

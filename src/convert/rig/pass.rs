@@ -15,7 +15,8 @@ use crate::error::{Error, Result};
 use crate::geometry::Target;
 use crate::image::RgbImage;
 use crate::reproject::depth::{depth_map, DepthMap, OcclusionFilter};
-use crate::source::{Frame, SourceBox};
+use crate::source::{Frame, RigCamera, SourceBox};
+use crate::style::StyleModel;
 
 /// Which objects' classes are written (the others are dropped for their class).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
@@ -48,6 +49,8 @@ pub struct RigOptions {
     pub depth: Option<Option<OcclusionFilter>>,
     /// Ego masks by rig index (None, or a shorter list, for cameras without one).
     pub ego_masks: Vec<Option<Arc<EgoMask>>>,
+    /// The style model each chosen camera's image goes through before the stitch.
+    pub style: Option<Arc<StyleModel>>,
 }
 
 /// A converted frame.
@@ -124,7 +127,45 @@ pub fn convert_frame(
     options: &RigOptions,
     keep_class: ClassFilter,
 ) -> Result<RigFrame> {
-    let chosen: Vec<&crate::source::RigCamera> = options
+    let Some(&first) = options.cameras.first() else {
+        return Err(Error::Setup("no camera chosen".into()));
+    };
+    chosen_cameras(frame, options)?;
+    let camera = output_camera(frame, info, target, first)?;
+    let images = read_images(frame, options)?;
+    convert_into(frame, info, camera, &images, options, keep_class)
+}
+
+/// The output centre C2: the given one, else the mean of the chosen cameras' centres.
+fn output_centre(chosen: &[&RigCamera], options: &RigOptions) -> Vector3<f64> {
+    options.centre.unwrap_or_else(|| {
+        chosen.iter().map(|c| c.centre()).sum::<Vector3<f64>>() / chosen.len() as f64
+    })
+}
+
+/// How many objects `camera` would hold as labels (what an augmented view's draw counts).
+pub fn count_objects(
+    frame: &Frame,
+    camera: &dyn OutputCamera,
+    options: &RigOptions,
+    keep_class: ClassFilter,
+) -> Result<usize> {
+    let chosen = chosen_cameras(frame, options)?;
+    let centre = output_centre(&chosen, options);
+    let (labels, _) = label_objects(
+        &frame.objects,
+        &frame.lidar,
+        &centre,
+        camera,
+        &options.objects,
+        keep_class,
+    );
+    Ok(labels.len())
+}
+
+/// The chosen cameras of the frame's rig, in the options' order.
+fn chosen_cameras<'f>(frame: &'f Frame, options: &RigOptions) -> Result<Vec<&'f RigCamera>> {
+    options
         .cameras
         .iter()
         .map(|&i| {
@@ -135,14 +176,62 @@ pub fn convert_frame(
                 ))
             })
         })
-        .collect::<Result<_>>()?;
-    let Some(&first) = options.cameras.first() else {
-        return Err(Error::Setup("no camera chosen".into()));
-    };
-    let centre = options.centre.unwrap_or_else(|| {
-        chosen.iter().map(|c| c.centre()).sum::<Vector3<f64>>() / chosen.len() as f64
-    });
-    let camera = output_camera(frame, info, target, first)?;
+        .collect()
+}
+
+/// The images of the chosen cameras, decoded, checked against their calibration's size and,
+/// with a style model, styled (each image on its own, so a pixel's style does not depend on
+/// the other cameras).
+pub fn read_images(frame: &Frame, options: &RigOptions) -> Result<Vec<RgbImage>> {
+    let chosen = chosen_cameras(frame, options)?;
+    let mut images = Vec::with_capacity(chosen.len());
+    for c in &chosen {
+        let bytes = crate::fs::read_file(&c.image)?;
+        let image = crate::codec::decode_rgb8(&bytes, &c.image)?;
+        let want = c.model.size();
+        if (image.width(), image.height()) != (want.width, want.height) {
+            return Err(Error::file(
+                &c.image,
+                format!(
+                    "the image is {}x{}, the calibration of {} says {}x{}",
+                    image.width(),
+                    image.height(),
+                    c.name,
+                    want.width,
+                    want.height
+                ),
+            ));
+        }
+        let image = match &options.style {
+            Some(model) => model
+                .stylize(&image)
+                .map_err(|e| Error::file(&c.image, format!("style pass: {e}")))?,
+            None => image,
+        };
+        images.push(image);
+    }
+    Ok(images)
+}
+
+/// [`convert_frame`] into a given output `camera` (its axes the reference frame's), from the
+/// chosen cameras' `images` as [`read_images`] gives them.
+pub fn convert_into(
+    frame: &Frame,
+    info: &[CameraInfo],
+    camera: Box<dyn OutputCamera>,
+    images: &[RgbImage],
+    options: &RigOptions,
+    keep_class: ClassFilter,
+) -> Result<RigFrame> {
+    let chosen = chosen_cameras(frame, options)?;
+    if images.len() != chosen.len() {
+        return Err(Error::Setup(format!(
+            "{} images for {} cameras",
+            images.len(),
+            chosen.len()
+        )));
+    }
+    let centre = output_centre(&chosen, options);
     let mut inverses = Vec::with_capacity(chosen.len());
     for c in &chosen {
         inverses.push(
@@ -162,26 +251,6 @@ pub fn convert_frame(
             max_theta: info[i].max_theta,
         })
         .collect();
-    let mut images = Vec::with_capacity(chosen.len());
-    for c in &chosen {
-        let bytes = crate::fs::read_file(&c.image)?;
-        let image = crate::codec::decode_rgb8(&bytes, &c.image)?;
-        let want = c.model.size();
-        if (image.width(), image.height()) != (want.width, want.height) {
-            return Err(Error::file(
-                &c.image,
-                format!(
-                    "the image is {}x{}, the calibration of {} says {}x{}",
-                    image.width(),
-                    image.height(),
-                    c.name,
-                    want.width,
-                    want.height
-                ),
-            ));
-        }
-        images.push(image);
-    }
     let masks: Vec<Option<&EgoMask>> = options
         .cameras
         .iter()
