@@ -633,6 +633,63 @@ mod tests {
     }
 
     #[test]
+    fn the_cosine_shortcuts_decide_as_the_angle_does() {
+        let model = crate::camera::Unified::new(
+            2.0,
+            crate::camera::MeiDistortion {
+                k1: 0.01,
+                k2: 0.3,
+                p1: 4e-4,
+                p2: 4e-4,
+            },
+            Intrinsics::new(300.0, 300.0, 349.5, 349.5),
+            0.0,
+            ImageSize::new(700, 700),
+            92.5f64.to_radians(),
+        )
+        .unwrap();
+        let t = 92.5f64.to_radians();
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            max_theta: Some(t),
+        };
+        let proxy = Proxy::new(camera, Vector3::zeros(), 10.0);
+        let b = 5f64.to_radians();
+        let deep = Some(((t - b - FOV_SLACK).cos(), b));
+        let (mut inside, mut outside, mut saturated) = (0, 0, 0);
+        // angles on both sides of the field of view's edge and of the blend band's, down to
+        // 1e-9 rad away, at several azimuths
+        for k in 0..4000 {
+            let offset = (k as f64 / 4000.0 - 0.5) * 2e-3 * (1e-6f64).powf((k % 7) as f64 / 6.0);
+            let edge = if k % 2 == 0 { t } else { t - b };
+            let theta = edge + offset;
+            let phi = k as f64 * 0.37;
+            let q = Vector3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ) * (0.5 + (k % 5) as f64);
+            let exact = !(q.x.hypot(q.y).atan2(q.z) > t);
+            assert_eq!(proxy.within(&q), exact, "θ = {theta}");
+            if exact {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+            let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
+            let full = margin(&camera, &q);
+            assert_eq!(w(margin_capped(&camera, &q, deep)), w(full), "θ = {theta}");
+            saturated += usize::from(full.is_some_and(|m| m >= b));
+        }
+        assert!(
+            inside > 1000 && outside > 500 && saturated > 100,
+            "{inside} {outside} {saturated}"
+        );
+    }
+
+    #[test]
     fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
         let model = Perspective::new(
             Intrinsics::new(100.0, 100.0, 99.5, 49.5),
