@@ -25,6 +25,10 @@ pub(crate) fn bearing_within(
         return Err(ProjectionReject::Singular);
     }
     let s = d / n;
+    // in front (z > 0) the angle is below π/2: no atan2 for a lens that sees that far
+    if s.z > 0.0 && max_theta >= std::f64::consts::FRAC_PI_2 {
+        return Ok(s);
+    }
     if field_angle(&s) > max_theta * (1.0 + 1e-12) {
         return Err(ProjectionReject::OutsideDomain);
     }

@@ -90,11 +90,12 @@ impl Reach {
                     }
                 }
             });
-        // A: the largest turn between adjacent centres (across, down and both diagonals)
+        // A: the largest turn between adjacent centres (across, down and both diagonals), the
+        // turn 2·asin(chord/2) of the longest chord (asin grows with its argument)
         let turn = |a: &Vector3<f64>, b: &Vector3<f64>| {
             let chord = (a.normalize() - b.normalize()).norm();
             if chord.is_finite() {
-                2.0 * (chord / 2.0).min(1.0).asin()
+                chord
             } else {
                 0.0
             }
@@ -121,6 +122,7 @@ impl Reach {
                 a
             })
             .reduce(|| 0.0, f64::max);
+        let step = 2.0 * (step / 2.0).min(1.0).asin();
         let reach = cameras
             .iter()
             .map(|cone| {
@@ -131,6 +133,10 @@ impl Reach {
                 if !(limit < std::f64::consts::PI) {
                     return None;
                 }
+                // θ(q) > limit + 1e-6 as cos θ < cos(limit + 1e-6): no atan2 per position, and
+                // the few positions within 1e-6 rad beyond the limit stay candidates (a larger
+                // set changes no value); near π a cosine no longer resolves the angle
+                let cos_limit = (limit < 3.0).then(|| (limit + 1e-6).cos());
                 let candidate: Vec<bool> = bearings
                     .par_iter()
                     .map(|d| {
@@ -139,7 +145,10 @@ impl Reach {
                         }
                         let q = (cone.local)(d);
                         // NaN compares false: such a point is a candidate too
-                        !(q.x.hypot(q.y).atan2(q.z) > limit)
+                        match cos_limit {
+                            Some(c) => !(q.z < c * q.norm()),
+                            None => !(q.x.hypot(q.y).atan2(q.z) > limit),
+                        }
                     })
                     .collect();
                 Some(widen(&candidate, gw, gh))
@@ -157,6 +166,22 @@ impl Reach {
     pub(super) fn bearing(&self, u: usize, v: usize) -> Option<Vector3<f64>> {
         let d = self.bearings[(v + 1) * (self.size.width as usize + 2) + u + 1];
         d.x.is_finite().then_some(d)
+    }
+
+    /// The stored bearing of output position `p` when it is a pixel centre the bound covers
+    /// (Some(None) where the output's `unproject` gave none), None for another position.
+    #[inline]
+    pub(super) fn stored_bearing(&self, p: &Point2<f64>) -> Option<Option<Vector3<f64>>> {
+        let (x, y) = (p.x + 1.0, p.y + 1.0);
+        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
+        if !(x >= 0.0 && y >= 0.0 && x < gw as f64 && y < gh as f64)
+            || x.fract() != 0.0
+            || y.fract() != 0.0
+        {
+            return None;
+        }
+        let d = self.bearings[y as usize * gw + x as usize];
+        Some(d.x.is_finite().then_some(d))
     }
 
     /// Whether camera `i` may reach the pixel nearest to output position `p` (true beyond the
@@ -225,6 +250,10 @@ impl CameraModel for Gated<'_> {
     fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
         if !self.reach.may_reach(self.camera, p) {
             return Err(ProjectionReject::OutsideDomain);
+        }
+        // a pixel centre's bearing is the one the bound computed (the same call's result)
+        if let Some(d) = self.reach.stored_bearing(p) {
+            return d.ok_or(ProjectionReject::OutsideDomain);
         }
         self.output.unproject(p)
     }

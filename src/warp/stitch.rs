@@ -91,22 +91,60 @@ struct Proxy<'a> {
     camera: StitchCamera<'a>,
     centre: Vector3<f64>,
     distance: f64,
+    /// cos of the field of view's half-angle less and plus [`FOV_SLACK`]: a point whose
+    /// cosine from the axis lies outside that interval is decided without `atan2` (None:
+    /// no lens bound, or one too near 0 or π for the shortcut).
+    fov_cos: Option<(f64, f64)>,
 }
 
-impl Proxy<'_> {
+/// Radians between the half field of view and the angles the shortcut of [`Proxy::within`]
+/// decides: far beyond the rounding of a cosine, so its answer is `atan2`'s.
+const FOV_SLACK: f64 = 1e-6;
+
+impl<'a> Proxy<'a> {
+    fn new(camera: StitchCamera<'a>, centre: Vector3<f64>, distance: f64) -> Self {
+        let fov_cos = camera
+            .max_theta
+            .filter(|t| *t > 1e-3 && *t < 3.0)
+            .map(|t| ((t - FOV_SLACK).cos(), (t + FOV_SLACK).cos()));
+        Self {
+            camera,
+            centre,
+            distance,
+            fov_cos,
+        }
+    }
+
     fn local(&self, d: &Vector3<f64>) -> Vector3<f64> {
         let x = self.centre + d.normalize() * self.distance;
         self.camera.rotation * x + self.camera.translation
+    }
+
+    /// Whether camera point `q` lies within the lens's field of view: θ(q) ≤ θ_max, θ the
+    /// angle from the optical axis (`atan2` only within [`FOV_SLACK`] of the edge).
+    #[inline]
+    fn within(&self, q: &Vector3<f64>) -> bool {
+        let Some(t) = self.camera.max_theta else {
+            return true;
+        };
+        if let Some((inner, outer)) = self.fov_cos.filter(|_| q.iter().all(|x| x.is_finite())) {
+            let n = q.norm();
+            if q.z >= inner * n && n > 0.0 {
+                return true;
+            }
+            if q.z < outer * n {
+                return false;
+            }
+        }
+        !(q.x.hypot(q.y).atan2(q.z) > t)
     }
 }
 
 impl CameraModel for Proxy<'_> {
     fn project(&self, d: &Vector3<f64>) -> std::result::Result<Point2<f64>, ProjectionReject> {
         let q = self.local(d);
-        if let Some(t) = self.camera.max_theta {
-            if q.x.hypot(q.y).atan2(q.z) > t {
-                return Err(ProjectionReject::OutsideDomain);
-            }
+        if !self.within(&q) {
+            return Err(ProjectionReject::OutsideDomain);
         }
         self.camera.model.project_point(&q)
     }
@@ -186,9 +224,28 @@ fn perpendiculars(q: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
 
 /// Camera i's angular margin m_i at camera point `q` (step 3 of the model), None without an
 /// image.
+#[cfg(test)]
 fn margin(camera: &StitchCamera, q: &Vector3<f64>) -> Option<f64> {
-    let theta = q.x.hypot(q.y).atan2(q.z);
-    let fov = camera.max_theta.map_or(f64::INFINITY, |t| t - theta);
+    margin_capped(camera, q, None)
+}
+
+/// [`margin`], or any value ≥ `cap` where the margin is at least `cap`: with `inner_cos` =
+/// cos(θ_max − cap − [`FOV_SLACK`]), a point at a cosine above it has a field-of-view margin
+/// beyond the cap, and its angle is not computed (the weight saturates there).
+fn margin_capped(
+    camera: &StitchCamera,
+    q: &Vector3<f64>,
+    inner_cos: Option<(f64, f64)>,
+) -> Option<f64> {
+    let deep = inner_cos.is_some_and(|(c, cap)| {
+        let n = q.norm();
+        cap.is_finite() && n.is_finite() && n > 0.0 && q.z >= c * n
+    });
+    let fov = match (camera.max_theta, inner_cos) {
+        (Some(_), Some((_, cap))) if deep => cap,
+        (Some(t), _) => t - q.x.hypot(q.y).atan2(q.z),
+        (None, _) => f64::INFINITY,
+    };
     let p = camera.model.project_point(q).ok()?;
     let size = camera.model.size();
     let border = (p.x + 0.5)
@@ -307,11 +364,7 @@ impl Stitch {
         let (w, h) = (size.width as usize, size.height as usize);
         let proxies: Vec<Proxy> = cameras
             .iter()
-            .map(|camera| Proxy {
-                camera: *camera,
-                centre: *centre,
-                distance: options.distance,
-            })
+            .map(|camera| Proxy::new(*camera, *centre, options.distance))
             .collect();
         let locals: Vec<_> = proxies
             .iter()
@@ -356,6 +409,14 @@ impl Stitch {
             ));
             // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
             // the pixels beyond the bound keep w_i = 0
+            // where the field of view's margin exceeds the blend width the weight is set by
+            // the border's margin alone (or saturates): its angle is not needed there
+            let b = options.blend_width;
+            let deep = camera
+                .max_theta
+                .map(|t| t - b - FOV_SLACK)
+                .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
+                .map(|a| (a.cos(), b));
             let mut wi = vec![0f32; w * h];
             wi.par_chunks_mut(w.max(1))
                 .enumerate()
@@ -368,7 +429,7 @@ impl Stitch {
                             continue;
                         };
                         let q = proxy.local(&d);
-                        if let Some(m) = margin(camera, &q) {
+                        if let Some(m) = margin_capped(camera, &q, deep) {
                             *out = smoothstep(m / options.blend_width) as f32;
                         }
                         if let Some(mask) = mask.filter(|_| *out > 0.0) {
@@ -572,6 +633,63 @@ mod tests {
     }
 
     #[test]
+    fn the_cosine_shortcuts_decide_as_the_angle_does() {
+        let model = crate::camera::Unified::new(
+            2.0,
+            crate::camera::MeiDistortion {
+                k1: 0.01,
+                k2: 0.3,
+                p1: 4e-4,
+                p2: 4e-4,
+            },
+            Intrinsics::new(300.0, 300.0, 349.5, 349.5),
+            0.0,
+            ImageSize::new(700, 700),
+            92.5f64.to_radians(),
+        )
+        .unwrap();
+        let t = 92.5f64.to_radians();
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            max_theta: Some(t),
+        };
+        let proxy = Proxy::new(camera, Vector3::zeros(), 10.0);
+        let b = 5f64.to_radians();
+        let deep = Some(((t - b - FOV_SLACK).cos(), b));
+        let (mut inside, mut outside, mut saturated) = (0, 0, 0);
+        // angles on both sides of the field of view's edge and of the blend band's, down to
+        // 1e-9 rad away, at several azimuths
+        for k in 0..4000 {
+            let offset = (k as f64 / 4000.0 - 0.5) * 2e-3 * (1e-6f64).powf((k % 7) as f64 / 6.0);
+            let edge = if k % 2 == 0 { t } else { t - b };
+            let theta = edge + offset;
+            let phi = k as f64 * 0.37;
+            let q = Vector3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ) * (0.5 + (k % 5) as f64);
+            let exact = !(q.x.hypot(q.y).atan2(q.z) > t);
+            assert_eq!(proxy.within(&q), exact, "θ = {theta}");
+            if exact {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+            let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
+            let full = margin(&camera, &q);
+            assert_eq!(w(margin_capped(&camera, &q, deep)), w(full), "θ = {theta}");
+            saturated += usize::from(full.is_some_and(|m| m >= b));
+        }
+        assert!(
+            inside > 1000 && outside > 500 && saturated > 100,
+            "{inside} {outside} {saturated}"
+        );
+    }
+
+    #[test]
     fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
         let model = Perspective::new(
             Intrinsics::new(100.0, 100.0, 99.5, 49.5),
@@ -598,11 +716,7 @@ mod tests {
         let defaults = StitchOptions::default();
         assert!(defaults.even_exposure && defaults.distance == 10.0);
         // the proxy's unproject is its project's inverse, with a baseline
-        let proxy = Proxy {
-            camera,
-            centre: Vector3::new(0.1, 0.2, 0.0),
-            distance: 7.0,
-        };
+        let proxy = Proxy::new(camera, Vector3::new(0.1, 0.2, 0.0), 7.0);
         let d = Vector3::new(0.2, -0.1, 1.0).normalize();
         let px = proxy.project(&d).unwrap();
         let back = proxy.unproject(&px).unwrap();
