@@ -16,7 +16,7 @@ pub mod description;
 mod double_sphere;
 mod equirect;
 mod eucm;
-pub mod fisheye;
+mod fisheye;
 pub mod fit;
 mod intrinsics;
 mod lens;

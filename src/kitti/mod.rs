@@ -5,7 +5,7 @@ mod cam;
 pub mod dataset;
 mod label;
 pub(crate) mod raw;
-pub mod rig_output;
+pub(crate) mod rig_output;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};

@@ -22,7 +22,7 @@
 //! the sweep model of `kitti360::velodyne::SweepMotion` assumes, uncompensated as KITTI-360's
 //! raw scans are ([`lidar_sweep_moving`]).
 
-pub mod calibration;
+mod calibration;
 pub mod scene;
 
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
