@@ -10,7 +10,7 @@ mod level;
 mod poses;
 mod sequence;
 mod text;
-pub(crate) mod velodyne;
+pub mod velodyne;
 
 pub use bboxes::WorldBox;
 pub use calib::{Calibration, RectCamera, CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
