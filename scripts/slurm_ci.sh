@@ -78,24 +78,28 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-# --- the data: each real frame under $copies ids (hard links when the file system allows)
+# --- the data: each real frame under $copies ids (hard links when the file system allows), in
+# one process (a process per link took most of a minute)
 input="$work/kitti"
-for split in training testing; do
-    for sub in image_2 label_2 calib; do
-        src="$kitti_src/$split/$sub"
-        [ -d "$src" ] || continue
-        mkdir -p "$input/$split/$sub"
-        n=0
-        for f in "$src"/*; do
-            ext="${f##*.}"
-            for ((c = 0; c < copies; c++)); do
-                id=$(printf '%06d' $((n * copies + c)))
-                ln "$f" "$input/$split/$sub/$id.$ext" 2>/dev/null || cp "$f" "$input/$split/$sub/$id.$ext"
-            done
-            n=$((n + 1))
-        done
-    done
-done
+python3 - "$kitti_src" "$input" "$copies" <<'PY'
+import os, shutil, sys
+source, target, copies = sys.argv[1], sys.argv[2], int(sys.argv[3])
+for split in ("training", "testing"):
+    for sub in ("image_2", "label_2", "calib"):
+        folder = os.path.join(source, split, sub)
+        if not os.path.isdir(folder):
+            continue
+        out = os.path.join(target, split, sub)
+        os.makedirs(out, exist_ok=True)
+        for n, name in enumerate(sorted(os.listdir(folder))):
+            ext = name.rsplit(".", 1)[-1]
+            for c in range(copies):
+                made = os.path.join(out, f"{n * copies + c:06d}.{ext}")
+                try:
+                    os.link(os.path.join(folder, name), made)
+                except OSError:
+                    shutil.copyfile(os.path.join(folder, name), made)
+PY
 frames=$(find "$input" -path '*/image_2/*.png' | wc -l)
 say "dataset: $frames frames ($copies ids for each frame of $kitti_src)"
 

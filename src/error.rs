@@ -1,5 +1,7 @@
 //! Library errors. Every error that concerns a file names it, and the line and field when the
-//! problem is inside it, so a batch log points straight at the culprit.
+//! problem is inside it, so a batch log points straight at the culprit. A set-up error that a
+//! caller acts on (a folder to overwrite, a lock to wait for, a resume to start afresh, a full
+//! device) is a variant of its own; the others are [`Error::Setup`] messages.
 
 use std::path::{Path, PathBuf};
 
@@ -35,9 +37,36 @@ pub enum Error {
         /// The operating system's error.
         cause: std::io::Error,
     },
-    /// A problem with the run's set-up (paths, options); nothing has been written.
+    /// A problem with the run's set-up (paths, options) that no caller tells from another;
+    /// nothing has been written.
     #[error("{0}")]
     Setup(String),
+    /// The output folder holds files and `--overwrite` was not given; nothing has been written.
+    #[error("output {} is not empty ({advice})", output.display())]
+    OutputNotEmpty {
+        /// The output folder as given.
+        output: PathBuf,
+        /// What to do about it (the option that writes into it anyway).
+        advice: &'static str,
+    },
+    /// Another live process holds the output folder's lock; nothing has been written.
+    #[error("{} is being written by {holder} (it holds {}); wait for it to end, or write to another --output (distinct --shard K/N may share a folder)", output.display(), lock.display())]
+    OutputLocked {
+        /// The output folder.
+        output: PathBuf,
+        /// The lock file.
+        lock: PathBuf,
+        /// Who holds it (`pid P on host H`, or `another process`).
+        holder: String,
+    },
+    /// `--resume` on a folder written with other parameters; nothing has been written.
+    #[error("cannot resume: {} was written with other parameters ({}); use the same options, or a new output folder", manifest.display(), differ.join(", "))]
+    ResumeMismatch {
+        /// The previous run's manifest.
+        manifest: PathBuf,
+        /// The parameters that differ.
+        differ: Vec<String>,
+    },
     /// A failure of the style model (a `style::StyleError`), boxed so that this lowest layer
     /// does not depend on the ONNX code above it.
     #[error(transparent)]

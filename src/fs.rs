@@ -175,10 +175,10 @@ pub fn check_output_dir(input: &Path, output: &Path, overwrite: bool) -> Result<
         }
         let mut entries = std::fs::read_dir(output).map_err(|e| Error::io(output, e))?;
         if entries.next().is_some() && !overwrite {
-            return Err(Error::Setup(format!(
-                "output {} is not empty (use --overwrite to write into it)",
-                output.display()
-            )));
+            return Err(Error::OutputNotEmpty {
+                output: output.to_path_buf(),
+                advice: "use --overwrite to write into it",
+            });
         }
     }
     Ok(())

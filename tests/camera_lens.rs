@@ -15,7 +15,7 @@ fn lenses() -> Vec<Lens> {
     let k = Intrinsics::new(300.0, 302.0, 451.2, 349.7);
     let t = 95f64.to_radians();
     vec![
-        Lens::Radial(
+        Lens::from(
             Fisheye::new(
                 RadialModel::KannalaBrandt([0.04, -0.012, 0.002, -0.0002]),
                 k,
@@ -24,7 +24,7 @@ fn lenses() -> Vec<Lens> {
             )
             .unwrap(),
         ),
-        Lens::Radial(
+        Lens::from(
             Fisheye::new(
                 RadialModel::Polynomial([339.749, -31.988, 48.275, -7.201]),
                 Intrinsics::new(1.0, 1.02, 453.4, 346.9),
@@ -33,7 +33,7 @@ fn lenses() -> Vec<Lens> {
             )
             .unwrap(),
         ),
-        Lens::Unified(
+        Lens::from(
             Unified::new(
                 1.7,
                 MeiDistortion {
@@ -49,8 +49,8 @@ fn lenses() -> Vec<Lens> {
             )
             .unwrap(),
         ),
-        Lens::Eucm(Eucm::new(0.6, 1.1, k, size, t).unwrap()),
-        Lens::DoubleSphere(DoubleSphere::new(-0.1, 0.58, k, size, t).unwrap()),
+        Lens::from(Eucm::new(0.6, 1.1, k, size, t).unwrap()),
+        Lens::from(DoubleSphere::new(-0.1, 0.58, k, size, t).unwrap()),
     ]
 }
 

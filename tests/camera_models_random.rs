@@ -33,14 +33,14 @@ fn lens(model: usize, a: f64, b: f64, d: [f64; 4], skew: f64, fraction: f64) -> 
         0 => {
             let (alpha, beta) = (a, 0.3 + 2.7 * b);
             let (limit, finite) = Eucm::fov_limit(alpha, beta);
-            Lens::Eucm(
+            Lens::from(
                 Eucm::new(alpha, beta, k(), size(), usable(limit, finite, fraction)).unwrap(),
             )
         }
         1 => {
             let (xi, alpha) = (-0.9 + 1.85 * b, a);
             let (limit, finite) = DoubleSphere::fov_limit(xi, alpha);
-            Lens::DoubleSphere(
+            Lens::from(
                 DoubleSphere::new(xi, alpha, k(), size(), usable(limit, finite, fraction)).unwrap(),
             )
         }
@@ -54,7 +54,7 @@ fn lens(model: usize, a: f64, b: f64, d: [f64; 4], skew: f64, fraction: f64) -> 
             };
             let (limit, finite) = Unified::fov_limit(xi, &distortion);
             let f = Intrinsics::new(k().fu * (1.0 + xi), k().fv * (1.0 + xi), k().cu, k().cv);
-            Lens::Unified(
+            Lens::from(
                 Unified::new(
                     xi,
                     distortion,

@@ -6,7 +6,7 @@ use crate::common;
 use crate::common::{panoconv, read_text};
 use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
-use panoconv::camera::fisheye::FisheyeError;
+use panoconv::camera::FisheyeError;
 use panoconv::camera::{
     rotation_ypr, CameraModel, Fisheye, ImageSize, Intrinsics, Projection, RadialModel, Rotated,
 };

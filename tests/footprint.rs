@@ -29,7 +29,7 @@ fn lenses(size: ImageSize, fov_deg: f64) -> Vec<Lens> {
     let fov = fov_deg.to_radians();
     let t = fov / 2.0;
     let radial = |m: RadialModel, k: Intrinsics, fov: f64| {
-        Lens::Radial(Fisheye::new(m, k, size, fov).unwrap())
+        Lens::from(Fisheye::new(m, k, size, fov).unwrap())
     };
     vec![
         radial(RadialModel::Equidistant, k, fov),
@@ -46,7 +46,7 @@ fn lenses(size: ImageSize, fov_deg: f64) -> Vec<Lens> {
             Intrinsics::new(1.0, 1.01, cu, cv),
             fov,
         ),
-        Lens::Unified(
+        Lens::from(
             Unified::new(
                 1.2,
                 MeiDistortion {
@@ -62,8 +62,8 @@ fn lenses(size: ImageSize, fov_deg: f64) -> Vec<Lens> {
             )
             .unwrap(),
         ),
-        Lens::Eucm(Eucm::new(0.6, 1.1, k, size, t).unwrap()),
-        Lens::DoubleSphere(DoubleSphere::new(-0.2, 0.59, k.scaled(0.8), size, t).unwrap()),
+        Lens::from(Eucm::new(0.6, 1.1, k, size, t).unwrap()),
+        Lens::from(DoubleSphere::new(-0.2, 0.59, k.scaled(0.8), size, t).unwrap()),
     ]
 }
 

@@ -577,10 +577,10 @@ fn the_fisheyes_see_185_degrees_not_the_models_fold() {
     let seq = open(&fixture());
     for lens in &seq.calibration.fisheye {
         assert!((2.0 * lens.max_theta().to_degrees() - 185.0).abs() < 1e-9);
-        let panoconv::camera::Lens::Unified(m) = lens else {
+        let Some(m) = lens.downcast::<panoconv::camera::MeiModel>() else {
             panic!("not MEI")
         };
-        let (fold, _) = panoconv::camera::Unified::fov_limit(m.xi, &m.distortion);
+        let (fold, _) = panoconv::camera::Unified::fov_limit(m.model.xi, &m.model.distortion);
         // ξ > 1: the model folds back at acos(−1/ξ), about 117° and 113° from the axis
         assert!(
             fold.to_degrees() > 112.0 && fold.to_degrees() < 118.0,

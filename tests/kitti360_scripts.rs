@@ -7,7 +7,7 @@
 
 use crate::opencv_ref::test_python;
 use nalgebra::{Matrix4, Point2, Vector3};
-use panoconv::camera::{CameraModel, Lens, MeiDistortion, Unified};
+use panoconv::camera::{CameraModel, MeiDistortion, MeiModel, Unified};
 use panoconv::kitti360::{Options, Sequence};
 use panoconv::tools::synth360::SEQUENCE;
 use serde_json::Value;
@@ -77,13 +77,13 @@ fn kitti360scripts_reads_the_synthetic_sequence_to_panoconvs_numbers() {
         assert_eq!(r.fixed_view::<3, 3>(0, 0).into_owned(), ours.r_rect);
     }
     for (i, lens) in calib.fisheye.iter().enumerate() {
-        let Lens::Unified(m) = lens else {
+        let Some(m) = lens.downcast::<MeiModel>() else {
             panic!("not MEI")
         };
         let y = &dk["fisheye"][i];
         let f = |a: &str, b: &str| y[a][b].as_f64().unwrap();
-        assert_eq!(f("mirror_parameters", "xi"), m.xi);
-        let d = m.distortion;
+        assert_eq!(f("mirror_parameters", "xi"), m.model.xi);
+        let d = m.model.distortion;
         let dist = ["k1", "k2", "p1", "p2"].map(|k| f("distortion_parameters", k));
         assert_eq!(dist, [d.k1, d.k2, d.p1, d.p2]);
         let proj = ["gamma1", "gamma2", "u0", "v0"].map(|k| f("projection_parameters", k));
@@ -180,17 +180,17 @@ fn kitti360scripts_reads_the_synthetic_sequence_to_panoconvs_numbers() {
                     }
                     continue;
                 }
-                let Lens::Unified(m) = &seq.calibration.fisheye[k - 2] else {
+                let Some(m) = seq.calibration.fisheye[k - 2].downcast::<MeiModel>() else {
                     unreachable!()
                 };
                 // the devkit's model: no p1/p2 and no field-of-view limit
                 let no_p = MeiDistortion {
                     p1: 0.0,
                     p2: 0.0,
-                    ..m.distortion
+                    ..m.model.distortion
                 };
-                let limit = Unified::fov_limit(m.xi, &no_p).0;
-                let bare = Unified::new(m.xi, no_p, m.k, 0.0, m.size, limit).unwrap();
+                let limit = Unified::fov_limit(m.model.xi, &no_p).0;
+                let bare = Unified::new(m.model.xi, no_p, m.k, 0.0, m.size, limit).unwrap();
                 let local = camera_from_level.apply(&level);
                 if let Ok(px) = bare.project_point(&local) {
                     let e = (px - Point2::new(u[i], v[i])).norm();

@@ -15,8 +15,9 @@
 //! fisheye model is defined for z > 0 only, so at most 180°. Errors name the file, the line and
 //! the field.
 
-use super::fisheye::{Fisheye, FisheyeError, RadialModel};
+use super::fisheye::{Fisheye, RadialModel};
 use super::lens::Lens;
+use super::lens_domain::FisheyeError;
 use super::unified::{MeiDistortion, Unified};
 use super::yaml_subset::{self, Node};
 use super::{ImageSize, Intrinsics};
@@ -284,7 +285,8 @@ fn mei_lens(
     let (limit, finite) = Unified::fov_limit(xi, &distortion);
     let camera = Unified::new(xi, distortion, k, skew, size, usable(limit, finite))
         .map_err(|e| refused(path, line, "xi", e))?;
-    Lens::Unified(camera)
+    camera
+        .erased()
         .covering_image()
         .map_err(|e| refused(path, line, "xi", e))
 }
@@ -382,7 +384,8 @@ fn woodscape(root: &Node, path: &Path) -> Result<Lens> {
     let k_line = intrinsic.get("k1").map_or(line, Node::line);
     let camera = Fisheye::new(model, k, size, 2.0 * max_theta)
         .map_err(|e| refused(path, k_line, "intrinsic.k1", e))?;
-    Lens::Radial(camera)
+    camera
+        .erased()
         .covering_image()
         .map_err(|e| refused(path, k_line, "intrinsic.k1", e))
 }
@@ -464,7 +467,8 @@ fn opencv(root: &Node, path: &Path) -> Result<Lens> {
     let max_theta = radial_limit(&model, FRAC_PI_2);
     let camera =
         Fisheye::new(model, k, size, 2.0 * max_theta).map_err(|e| refused(path, d_line, "D", e))?;
-    Lens::Radial(camera)
+    camera
+        .erased()
         .covering_image()
         .map_err(|e| refused(path, d_line, "D", e))
 }

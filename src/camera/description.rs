@@ -7,8 +7,9 @@
 
 use super::double_sphere::DoubleSphere;
 use super::eucm::Eucm;
-use super::fisheye::{Fisheye, FisheyeError, RadialModel};
+use super::fisheye::{Fisheye, RadialModel};
 use super::lens::Lens;
+use super::lens_domain::FisheyeError;
 use super::rotated::{is_rotation, rotation_ypr};
 use super::unified::{MeiDistortion, Unified};
 use super::{ImageSize, Intrinsics};
@@ -314,7 +315,7 @@ impl CameraDescription {
             bad(field, e.to_string())
         })?;
         Ok(Self {
-            camera: Lens::Radial(camera),
+            camera: camera.erased(),
             output_from_camera: rotation_of(&file, &bad)?,
         })
     }
@@ -386,7 +387,7 @@ fn unified_family(
                 size,
                 max_theta,
             )
-            .map(Lens::Unified)
+            .map(Lens::erased)
         }
         ModelName::Eucm => {
             if file.k.is_some() {
@@ -399,7 +400,7 @@ fn unified_family(
                 size,
                 max_theta,
             )
-            .map(Lens::Eucm)
+            .map(Lens::erased)
         }
         _ => {
             if file.k.is_some() {
@@ -412,7 +413,7 @@ fn unified_family(
                 size,
                 max_theta,
             )
-            .map(Lens::DoubleSphere)
+            .map(Lens::erased)
         }
     };
     built.map_err(|e| {
@@ -470,7 +471,7 @@ impl CameraDescription {
     pub fn to_json(&self, comment: Option<&str>) -> String {
         use serde_json::{json, Map, Value};
         let lens = &self.camera;
-        let size = crate::camera::CameraModel::size(lens);
+        let size = lens.size;
         let k = lens.intrinsics();
         let mut out = Map::new();
         out.insert("version".into(), json!(VERSION));
@@ -481,54 +482,8 @@ impl CameraDescription {
             "max_fov_deg".into(),
             json!(2.0 * lens.max_theta().to_degrees()),
         );
-        let affine = |out: &mut Map<String, Value>| {
-            out.insert("fx".into(), json!(k.fu));
-            out.insert("fy".into(), json!(k.fv));
-            out.insert("cx".into(), json!(k.cu));
-            out.insert("cy".into(), json!(k.cv));
-        };
-        match lens {
-            Lens::Radial(f) => match &f.model {
-                RadialModel::Polynomial(c) => {
-                    // r in pixels = fx·poly(θ): fold fx into the coefficients, fy/fx is the
-                    // aspect ratio, the principal point an offset from the image centre.
-                    out.insert("k".into(), json!(c.map(|v| v * k.fu)));
-                    out.insert("aspect_ratio".into(), json!(k.fv / k.fu));
-                    out.insert(
-                        "cx_offset".into(),
-                        json!(k.cu - (size.width as f64 / 2.0 - 0.5)),
-                    );
-                    out.insert(
-                        "cy_offset".into(),
-                        json!(k.cv - (size.height as f64 / 2.0 - 0.5)),
-                    );
-                }
-                RadialModel::KannalaBrandt(c) => {
-                    affine(&mut out);
-                    out.insert("k".into(), json!(c));
-                }
-                _ => affine(&mut out),
-            },
-            Lens::Unified(m) => {
-                affine(&mut out);
-                let d = m.distortion;
-                out.insert("xi".into(), json!(m.xi));
-                out.insert("k".into(), json!([d.k1, d.k2]));
-                out.insert("p".into(), json!([d.p1, d.p2]));
-                if m.skew != 0.0 {
-                    out.insert("skew".into(), json!(m.skew));
-                }
-            }
-            Lens::Eucm(m) => {
-                affine(&mut out);
-                out.insert("alpha".into(), json!(m.alpha));
-                out.insert("beta".into(), json!(m.beta));
-            }
-            Lens::DoubleSphere(m) => {
-                affine(&mut out);
-                out.insert("xi".into(), json!(m.xi));
-                out.insert("alpha".into(), json!(m.alpha));
-            }
+        for (field, value) in lens.model.description_fields(&k, size) {
+            out.insert(field.into(), value);
         }
         if self.output_from_camera != Matrix3::identity() {
             let m = self.output_from_camera;

@@ -18,37 +18,29 @@
 //!
 //! Inverse: closed-form (eq. 25).
 
-use super::fisheye::{check_intrinsics, FisheyeError};
-use super::lens_domain::{bearing_within, field_angle, front_halfspace_of};
-use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+use super::lens::Lens;
+use super::lens_domain::{
+    bearing_within, check_fov, expect_parameters, field_angle, radial_limit, unified_w,
+    FisheyeError,
+};
+use super::lens_model::{LensModel, ReadLensModel};
+use super::{ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::f64::consts::PI;
 
-/// An extended unified (EUCM) camera (formula in the module documentation).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Eucm {
+/// The extended unified model's parameters (formula in the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EucmModel {
     /// α: the blend between the ellipsoid term d and z, in [0, 1].
     pub alpha: f64,
     /// β: the ellipsoid's shape (> 0; 1 is a sphere, the unified model).
     pub beta: f64,
-    /// fx, fy, cx, cy (pixel centres at integers).
-    pub k: Intrinsics,
-    /// Image size in pixels.
-    pub size: ImageSize,
-    /// Half the field of view (radians); bearings beyond it are rejected.
-    pub max_theta: f64,
 }
 
-/// w of Usenko et al.: the valid region is z > −w·d.
-pub(crate) fn unified_w(alpha: f64) -> f64 {
-    if alpha <= 0.5 {
-        alpha / (1.0 - alpha)
-    } else {
-        (1.0 - alpha) / alpha
-    }
-}
+/// An extended unified (EUCM) camera: a [`Lens`] of an [`EucmModel`].
+pub type Eucm = Lens<EucmModel>;
 
-impl Eucm {
+impl EucmModel {
     /// The supremum of the half field of view, and whether the image radius is finite there.
     pub fn fov_limit(alpha: f64, beta: f64) -> (f64, bool) {
         let w = unified_w(alpha);
@@ -58,11 +50,25 @@ impl Eucm {
             PI - (1.0 - w * w).sqrt().atan2(w * beta.sqrt())
         };
         // The bound above, checked: the image radius must exist and grow up to the limit.
-        super::lens_domain::radial_limit(limit, alpha > 0.5, |t| {
+        radial_limit(limit, alpha > 0.5, |t| {
             let (s, c) = t.sin_cos();
             let den = alpha * (beta * s * s + c * c).sqrt() + (1.0 - alpha) * c;
             (den > 0.0).then(|| s / den)
         })
+    }
+
+    /// Normalised coordinates (mx, my) of a unit bearing, before fx, fy, cx, cy.
+    fn normalised(&self, s: &Vector3<f64>) -> Option<(f64, f64)> {
+        let d = (self.beta * (s.x * s.x + s.y * s.y) + s.z * s.z).sqrt();
+        let den = self.alpha * d + (1.0 - self.alpha) * s.z;
+        (den > 0.0).then(|| (s.x / den, s.y / den))
+    }
+}
+
+impl Eucm {
+    /// [`EucmModel::fov_limit`].
+    pub fn fov_limit(alpha: f64, beta: f64) -> (f64, bool) {
+        EucmModel::fov_limit(alpha, beta)
     }
 
     /// A camera seeing up to `max_theta` (half field of view, radians) within
@@ -74,7 +80,21 @@ impl Eucm {
         size: ImageSize,
         max_theta: f64,
     ) -> Result<Self, FisheyeError> {
-        check_intrinsics(&k, size)?;
+        Lens::with_model(EucmModel { alpha, beta }, k, size, max_theta)
+    }
+}
+
+impl LensModel for EucmModel {
+    fn name(&self) -> &'static str {
+        "eucm"
+    }
+
+    fn parameters(&self) -> Vec<(&'static str, f64)> {
+        vec![("alpha", self.alpha), ("beta", self.beta)]
+    }
+
+    fn check(&self) -> Result<(), FisheyeError> {
+        let (alpha, beta) = (self.alpha, self.beta);
         if !(0.0..=1.0).contains(&alpha) {
             return Err(FisheyeError::Parameter(
                 "alpha",
@@ -87,39 +107,36 @@ impl Eucm {
                 format!("beta must be positive, not {beta}"),
             ));
         }
-        let (limit, finite) = Self::fov_limit(alpha, beta);
-        super::lens_domain::check_fov("eucm", max_theta, limit, finite)?;
-        Ok(Self {
-            alpha,
-            beta,
-            k,
-            size,
-            max_theta,
-        })
+        Ok(())
     }
 
-    /// Normalised coordinates (mx, my) of a unit bearing, before fx, fy, cx, cy.
-    fn normalised(&self, s: &Vector3<f64>) -> Option<(f64, f64)> {
-        let d = (self.beta * (s.x * s.x + s.y * s.y) + s.z * s.z).sqrt();
-        let den = self.alpha * d + (1.0 - self.alpha) * s.z;
-        (den > 0.0).then(|| (s.x / den, s.y / den))
+    fn usable_max_theta(&self, max_theta: f64) -> Result<f64, FisheyeError> {
+        let (limit, finite) = Self::fov_limit(self.alpha, self.beta);
+        check_fov("eucm", max_theta, limit, finite)?;
+        Ok(max_theta)
     }
-}
 
-impl CameraModel for Eucm {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let s = bearing_within(d, self.max_theta)?;
+    fn project(
+        &self,
+        k: &Intrinsics,
+        max_theta: f64,
+        d: &Vector3<f64>,
+    ) -> Result<Point2<f64>, ProjectionReject> {
+        let s = bearing_within(d, max_theta)?;
         let (mx, my) = self.normalised(&s).ok_or(ProjectionReject::OutsideDomain)?;
-        Ok(Point2::new(
-            self.k.fu * mx + self.k.cu,
-            self.k.fv * my + self.k.cv,
-        ))
+        Ok(Point2::new(k.fu * mx + k.cu, k.fv * my + k.cv))
     }
 
-    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+    fn unproject(
+        &self,
+        k: &Intrinsics,
+        max_theta: f64,
+        _edge: f64,
+        p: &Point2<f64>,
+    ) -> Result<Vector3<f64>, ProjectionReject> {
         let (a, b) = (self.alpha, self.beta);
-        let mx = (p.x - self.k.cu) / self.k.fu;
-        let my = (p.y - self.k.cv) / self.k.fv;
+        let mx = (p.x - k.cu) / k.fu;
+        let my = (p.y - k.cv) / k.fv;
         let r2 = mx * mx + my * my;
         let inside = 1.0 - (2.0 * a - 1.0) * b * r2;
         if !(r2.is_finite() && inside >= -1e-12) {
@@ -127,21 +144,31 @@ impl CameraModel for Eucm {
         }
         let mz = (1.0 - b * a * a * r2) / (a * inside.max(0.0).sqrt() + (1.0 - a));
         let d = Vector3::new(mx, my, mz).normalize();
-        if !(d.iter().all(|v| v.is_finite()) && field_angle(&d) <= self.max_theta * (1.0 + 1e-9)) {
+        if !(d.iter().all(|v| v.is_finite()) && field_angle(&d) <= max_theta * (1.0 + 1e-9)) {
             return Err(ProjectionReject::OutsideDomain);
         }
         Ok(d)
     }
 
-    fn distance(&self, p: &Vector3<f64>) -> f64 {
-        p.norm()
+    fn centre_intrinsics(&self, k: &Intrinsics) -> Intrinsics {
+        *k
     }
+}
 
-    fn size(&self) -> ImageSize {
-        self.size
+impl ReadLensModel for EucmModel {
+    fn from_parameters(name: &str, values: &[f64]) -> Option<Result<Self, FisheyeError>> {
+        (name == "eucm").then(|| {
+            expect_parameters(name, 2, values)?;
+            Ok(EucmModel {
+                alpha: values[0],
+                beta: values[1],
+            })
+        })
     }
+}
 
-    fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        front_halfspace_of(self.max_theta)
+impl From<Eucm> for Lens {
+    fn from(lens: Eucm) -> Self {
+        lens.erased()
     }
 }

@@ -8,10 +8,17 @@
 //! pixels beyond `max_theta` (outside the fisheye circle) have none, so warps leave them black.
 //! Inverting R is closed-form for the classic models and safeguarded Newton (bisection fallback)
 //! for the polynomial ones, accurate to ~1e-12 rad; a polynomial that is not strictly increasing
-//! over the field of view is refused by [`Fisheye::new`].
+//! over the field of view is refused by [`Fisheye::new`]. A [`Fisheye`] is a [`Lens`] of a
+//! [`RadialModel`].
 
-use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+pub use super::lens_domain::FisheyeError;
+
+use super::lens::Lens;
+use super::lens_domain::expect_parameters;
+use super::lens_model::{affine_fields, LensModel, ReadLensModel};
+use super::{ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
+use serde_json::{json, Value};
 use std::f64::consts::PI;
 
 /// The radial function r = R(θ) of a lens model (r in units of fx/fy).
@@ -148,69 +155,6 @@ pub fn invert_newton(
     t
 }
 
-/// Why a fisheye description is unusable.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FisheyeError {
-    /// Field of view outside (0°, 360°) or beyond what the model can represent.
-    FieldOfView(String),
-    /// R(θ) is not strictly increasing over the field of view.
-    NotMonotonic(String),
-    /// Focal lengths, principal point or size unusable.
-    Intrinsics(String),
-    /// A model parameter (named) outside the range the model is defined for.
-    Parameter(&'static str, String),
-}
-
-impl std::fmt::Display for FisheyeError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            FisheyeError::FieldOfView(m)
-            | FisheyeError::NotMonotonic(m)
-            | FisheyeError::Intrinsics(m)
-            | FisheyeError::Parameter(_, m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for FisheyeError {}
-
-/// Refuses non-positive or non-finite focal lengths, a non-finite principal point and an empty
-/// image: the checks every lens model shares.
-pub(crate) fn check_intrinsics(k: &Intrinsics, size: ImageSize) -> Result<(), FisheyeError> {
-    if !(k.fu.is_finite() && k.fv.is_finite() && k.fu > 0.0 && k.fv > 0.0) {
-        return Err(FisheyeError::Intrinsics(format!(
-            "focal lengths must be positive (fx {}, fy {})",
-            k.fu, k.fv
-        )));
-    }
-    if !(k.cu.is_finite() && k.cv.is_finite()) {
-        return Err(FisheyeError::Intrinsics(
-            "principal point must be finite".into(),
-        ));
-    }
-    if size.width == 0 || size.height == 0 {
-        return Err(FisheyeError::Intrinsics(
-            "image size must be positive".into(),
-        ));
-    }
-    Ok(())
-}
-
-/// A fisheye camera: a radial model, the affine part (fx, fy, cx, cy) and the field of view.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Fisheye {
-    /// The radial function R(θ).
-    pub model: RadialModel,
-    /// fx, fy: pixels per unit of r; cx, cy: principal point (pixel centres at integers).
-    pub k: Intrinsics,
-    /// Image size in pixels.
-    pub size: ImageSize,
-    /// Half the maximum field of view (radians): rays beyond it have no image.
-    pub max_theta: f64,
-    /// R(max_theta).
-    r_max: f64,
-}
-
 /// Samples of the monotonicity check over the field of view.
 const MONOTONIC_SAMPLES: usize = 4096;
 
@@ -232,6 +176,10 @@ fn turning_angle(model: &RadialModel, mut lo: f64, mut hi: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// A fisheye camera: a [`RadialModel`], the affine part (fx, fy, cx, cy: pixels per unit of r
+/// and the principal point), the image size and the field of view.
+pub type Fisheye = Lens<RadialModel>;
+
 impl Fisheye {
     /// A fisheye seeing up to `max_fov` radians (full angle). Refuses a field of view the model
     /// cannot represent and a radial function that is not strictly increasing over it.
@@ -241,8 +189,40 @@ impl Fisheye {
         size: ImageSize,
         max_fov: f64,
     ) -> Result<Self, FisheyeError> {
-        check_intrinsics(&k, size)?;
-        let max_theta = max_fov / 2.0;
+        Lens::with_model(model, k, size, max_fov / 2.0)
+    }
+
+    /// θ of a normalised radius, as used by `unproject`.
+    pub fn theta_of_radius(&self, r: f64) -> f64 {
+        self.model.theta(r, self.max_theta)
+    }
+}
+
+impl From<Fisheye> for Lens {
+    fn from(f: Fisheye) -> Self {
+        f.erased()
+    }
+}
+
+impl LensModel for RadialModel {
+    fn name(&self) -> &'static str {
+        RadialModel::name(self)
+    }
+
+    fn parameters(&self) -> Vec<(&'static str, f64)> {
+        match self {
+            RadialModel::KannalaBrandt(k) | RadialModel::Polynomial(k) => {
+                vec![("k1", k[0]), ("k2", k[1]), ("k3", k[2]), ("k4", k[3])]
+            }
+            _ => vec![],
+        }
+    }
+
+    /// At most the model's own limit (the limit itself when asked for up to 1e-12 more), over
+    /// which R must be strictly increasing.
+    fn usable_max_theta(&self, max_theta: f64) -> Result<f64, FisheyeError> {
+        let model = self;
+        let max_fov = 2.0 * max_theta;
         let limit = model.theta_limit();
         if !(max_theta > 0.0 && max_theta < PI) || max_theta > limit + 1e-12 {
             return Err(FisheyeError::FieldOfView(format!(
@@ -266,7 +246,7 @@ impl Fisheye {
             let bad_slope = !(d > 0.0 || edge_flat);
             if bad_slope || (i > 0 && !(r > prev)) || !r.is_finite() {
                 let turn = turning_angle(
-                    &model,
+                    model,
                     max_theta * (i.max(1) - 1) as f64 / MONOTONIC_SAMPLES as f64,
                     t,
                 );
@@ -283,73 +263,99 @@ impl Fisheye {
             }
             prev = r;
         }
-        let r_max = model.radius(max_theta);
-        Ok(Self {
-            model,
-            k,
-            size,
-            max_theta,
-            r_max,
-        })
+        Ok(max_theta)
     }
 
-    /// Pixels per radian at the image centre (fx·R'(0), fy·R'(0)), the scale an output keeps by
-    /// default, as intrinsics with the principal point.
-    pub fn centre_intrinsics(&self) -> Intrinsics {
-        let d = self.model.derivative(0.0);
-        Intrinsics::new(self.k.fu * d, self.k.fv * d, self.k.cu, self.k.cv)
+    /// R(max_theta).
+    fn edge_radius(&self, max_theta: f64) -> f64 {
+        self.radius(max_theta)
     }
 
-    /// θ of a normalised radius, as used by `unproject`.
-    pub fn theta_of_radius(&self, r: f64) -> f64 {
-        self.model.theta(r, self.max_theta)
-    }
-}
-
-impl CameraModel for Fisheye {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+    fn project(
+        &self,
+        k: &Intrinsics,
+        max_theta: f64,
+        d: &Vector3<f64>,
+    ) -> Result<Point2<f64>, ProjectionReject> {
         let rho = d.x.hypot(d.y);
         if !(rho.is_finite() && d.z.is_finite()) || !(rho > 0.0 || d.z > 0.0) {
             return Err(ProjectionReject::Singular);
         }
         let theta = rho.atan2(d.z);
-        if theta > self.max_theta * (1.0 + 1e-12) {
+        if theta > max_theta * (1.0 + 1e-12) {
             return Err(ProjectionReject::OutsideDomain);
         }
         if !(rho > 1e-300) {
-            return Ok(Point2::new(self.k.cu, self.k.cv));
+            return Ok(Point2::new(k.cu, k.cv));
         }
-        let r = self.model.radius(theta.min(self.max_theta)) / rho;
-        Ok(Point2::new(
-            self.k.cu + self.k.fu * r * d.x,
-            self.k.cv + self.k.fv * r * d.y,
-        ))
+        let r = self.radius(theta.min(max_theta)) / rho;
+        Ok(Point2::new(k.cu + k.fu * r * d.x, k.cv + k.fv * r * d.y))
     }
 
-    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
-        let mx = (p.x - self.k.cu) / self.k.fu;
-        let my = (p.y - self.k.cv) / self.k.fv;
+    fn unproject(
+        &self,
+        k: &Intrinsics,
+        max_theta: f64,
+        r_max: f64,
+        p: &Point2<f64>,
+    ) -> Result<Vector3<f64>, ProjectionReject> {
+        let mx = (p.x - k.cu) / k.fu;
+        let my = (p.y - k.cv) / k.fv;
         let r = mx.hypot(my);
-        if !r.is_finite() || r > self.r_max * (1.0 + 1e-12) {
+        if !r.is_finite() || r > r_max * (1.0 + 1e-12) {
             return Err(ProjectionReject::OutsideDomain);
         }
         if !(r > 1e-300) {
             return Ok(Vector3::z());
         }
-        let theta = self.theta_of_radius(r.min(self.r_max));
+        let theta = self.theta(r.min(r_max), max_theta);
         let (s, c) = theta.sin_cos();
         Ok(Vector3::new(s * mx / r, s * my / r, c))
     }
 
-    fn distance(&self, p: &Vector3<f64>) -> f64 {
-        p.norm()
+    /// (fx·R'(0), fy·R'(0)).
+    fn centre_intrinsics(&self, k: &Intrinsics) -> Intrinsics {
+        let d = self.derivative(0.0);
+        Intrinsics::new(k.fu * d, k.fv * d, k.cu, k.cv)
     }
 
-    fn size(&self) -> ImageSize {
-        self.size
+    fn description_fields(&self, k: &Intrinsics, size: ImageSize) -> Vec<(&'static str, Value)> {
+        match self {
+            RadialModel::Polynomial(c) => {
+                // r in pixels = fx·poly(θ): fold fx into the coefficients, fy/fx is the
+                // aspect ratio, the principal point an offset from the image centre.
+                vec![
+                    ("k", json!(c.map(|v| v * k.fu))),
+                    ("aspect_ratio", json!(k.fv / k.fu)),
+                    ("cx_offset", json!(k.cu - (size.width as f64 / 2.0 - 0.5))),
+                    ("cy_offset", json!(k.cv - (size.height as f64 / 2.0 - 0.5))),
+                ]
+            }
+            RadialModel::KannalaBrandt(c) => {
+                let mut out = affine_fields(k);
+                out.push(("k", json!(c)));
+                out
+            }
+            _ => affine_fields(k),
+        }
     }
+}
 
-    fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        (self.max_theta <= PI / 2.0).then(Vector3::z)
+impl ReadLensModel for RadialModel {
+    fn from_parameters(name: &str, values: &[f64]) -> Option<Result<Self, FisheyeError>> {
+        let (n, model): (usize, fn([f64; 4]) -> RadialModel) = match name {
+            "equidistant" => (0, |_| RadialModel::Equidistant),
+            "equisolid" => (0, |_| RadialModel::Equisolid),
+            "stereographic" => (0, |_| RadialModel::Stereographic),
+            "orthographic" => (0, |_| RadialModel::Orthographic),
+            "kannala_brandt" => (4, RadialModel::KannalaBrandt),
+            "woodscape" => (4, RadialModel::Polynomial),
+            _ => return None,
+        };
+        Some(expect_parameters(name, n, values).map(|()| {
+            model(std::array::from_fn(|i| {
+                values.get(i).copied().unwrap_or(0.0)
+            }))
+        }))
     }
 }

@@ -8,8 +8,9 @@
 
 use super::double_sphere::DoubleSphere;
 use super::eucm::Eucm;
-use super::fisheye::{Fisheye, FisheyeError, RadialModel};
+use super::fisheye::{Fisheye, RadialModel};
 use super::lens::Lens;
+use super::lens_domain::FisheyeError;
 use super::unified::{MeiDistortion, Unified};
 use super::{CameraModel, Intrinsics};
 use nalgebra::{DMatrix, DVector, Point2, Vector3};
@@ -92,13 +93,14 @@ fn build(
     let k = Intrinsics::new(p[0], p[1], p[2], p[3]);
     let size = like.size();
     Ok(match target {
-        TargetModel::KannalaBrandt => Lens::Radial(Fisheye::new(
+        TargetModel::KannalaBrandt => Fisheye::new(
             RadialModel::KannalaBrandt([p[4], p[5], p[6], p[7]]),
             k,
             size,
             2.0 * max_theta,
-        )?),
-        TargetModel::Mei => Lens::Unified(Unified::new(
+        )?
+        .erased(),
+        TargetModel::Mei => Unified::new(
             p[4],
             MeiDistortion {
                 k1: p[5],
@@ -110,11 +112,10 @@ fn build(
             0.0,
             size,
             max_theta,
-        )?),
-        TargetModel::Eucm => Lens::Eucm(Eucm::new(p[4], p[5], k, size, max_theta)?),
-        TargetModel::DoubleSphere => {
-            Lens::DoubleSphere(DoubleSphere::new(p[4], p[5], k, size, max_theta)?)
-        }
+        )?
+        .erased(),
+        TargetModel::Eucm => Eucm::new(p[4], p[5], k, size, max_theta)?.erased(),
+        TargetModel::DoubleSphere => DoubleSphere::new(p[4], p[5], k, size, max_theta)?.erased(),
     })
 }
 
@@ -139,19 +140,15 @@ fn initial(target: TargetModel, source: &Lens) -> Vec<Vec<f64>> {
         TargetModel::DoubleSphere => vec![vec![c.fu, c.fv, c.cu, c.cv, 0.0, 0.5]],
     };
     let k = source.intrinsics();
-    let own = match (target, source) {
-        (TargetModel::KannalaBrandt, Lens::Radial(f)) => match f.model {
-            RadialModel::KannalaBrandt(c) => Some(vec![c[0], c[1], c[2], c[3]]),
-            _ => None,
-        },
-        (TargetModel::Mei, Lens::Unified(m)) if m.skew == 0.0 => {
-            let d = m.distortion;
-            Some(vec![m.xi, d.k1, d.k2, d.p1, d.p2])
-        }
-        (TargetModel::Eucm, Lens::Eucm(m)) => Some(vec![m.alpha, m.beta]),
-        (TargetModel::DoubleSphere, Lens::DoubleSphere(m)) => Some(vec![m.xi, m.alpha]),
-        _ => None,
-    };
+    // The source's own parameters when it is of the target's model (MEI's skew is not
+    // fitted: only a source without one).
+    let own = (source.name() == target.name())
+        .then(|| source.parameters())
+        .and_then(|p| match p.split_last() {
+            Some((("skew", skew), rest)) => (*skew == 0.0).then(|| rest.to_vec()),
+            _ => Some(p),
+        })
+        .map(|p| p.into_iter().map(|(_, v)| v).collect::<Vec<f64>>());
     if let Some(rest) = own {
         starts.push([vec![k.fu, k.fv, k.cu, k.cv], rest].concat());
     }

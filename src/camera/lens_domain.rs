@@ -1,13 +1,82 @@
-//! What every wide-angle model shares about its domain: the field angle of a bearing, whether
-//! a lens of a given half field of view sees it, its front half-space, the check of a field of
-//! view against what a model can represent, and the search for where a radial model stays
-//! one-to-one. A file of its own, below both the models and [`super::Lens`], so that the models
-//! do not import the enum that imports them.
+//! What every wide-angle model shares about its domain: the error of an unusable lens, the
+//! checks of its intrinsics, the field angle of a bearing, whether a lens of a given half field
+//! of view sees it, its front half-space, the check of a field of view against what a model can
+//! represent, and the search for where a radial model stays one-to-one. A file of its own,
+//! below the models, [`super::LensModel`] and [`super::Lens`], so that none of them imports
+//! another for these.
 
-use super::fisheye::FisheyeError;
-use super::ProjectionReject;
+use super::{ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::Vector3;
 use std::f64::consts::PI;
+
+/// Why a lens description is unusable.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FisheyeError {
+    /// Field of view outside (0°, 360°) or beyond what the model can represent.
+    FieldOfView(String),
+    /// R(θ) is not strictly increasing over the field of view.
+    NotMonotonic(String),
+    /// Focal lengths, principal point or size unusable.
+    Intrinsics(String),
+    /// A model parameter (named) outside the range the model is defined for.
+    Parameter(&'static str, String),
+}
+
+impl std::fmt::Display for FisheyeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FisheyeError::FieldOfView(m)
+            | FisheyeError::NotMonotonic(m)
+            | FisheyeError::Intrinsics(m)
+            | FisheyeError::Parameter(_, m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for FisheyeError {}
+
+/// Refuses non-positive or non-finite focal lengths, a non-finite principal point and an empty
+/// image: the checks every lens model shares.
+pub(crate) fn check_intrinsics(k: &Intrinsics, size: ImageSize) -> Result<(), FisheyeError> {
+    if !(k.fu.is_finite() && k.fv.is_finite() && k.fu > 0.0 && k.fv > 0.0) {
+        return Err(FisheyeError::Intrinsics(format!(
+            "focal lengths must be positive (fx {}, fy {})",
+            k.fu, k.fv
+        )));
+    }
+    if !(k.cu.is_finite() && k.cv.is_finite()) {
+        return Err(FisheyeError::Intrinsics(
+            "principal point must be finite".into(),
+        ));
+    }
+    if size.width == 0 || size.height == 0 {
+        return Err(FisheyeError::Intrinsics(
+            "image size must be positive".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// w of Usenko et al. (EUCM and double sphere): the valid region is z > −w·d.
+pub(crate) fn unified_w(alpha: f64) -> f64 {
+    if alpha <= 0.5 {
+        alpha / (1.0 - alpha)
+    } else {
+        (1.0 - alpha) / alpha
+    }
+}
+
+/// Refuses `values` unless it holds the `n` parameters model `name` takes (calib lines).
+pub(crate) fn expect_parameters(name: &str, n: usize, values: &[f64]) -> Result<(), FisheyeError> {
+    if values.len() == n {
+        Ok(())
+    } else {
+        Err(FisheyeError::Parameter(
+            "parameters",
+            format!("model {name} takes {n} parameters, found {}", values.len()),
+        ))
+    }
+}
 
 /// The angle between a bearing and the optical axis (+z).
 pub(crate) fn field_angle(d: &Vector3<f64>) -> f64 {

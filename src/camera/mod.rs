@@ -5,8 +5,10 @@
 //! integer coordinates: pixel (0, 0) covers [-0.5, 0.5)², as KITTI's P matrices assume.
 //!
 //! Each projection is one file implementing [`CameraModel`] (the K-based ones implement only
-//! their (a, b) [`Mapping`]; [`Linear`] adds K once for all of them). The warp, the label
-//! transform and the output-geometry search only talk to the trait, so a new model is one file.
+//! their (a, b) [`Mapping`]; [`Linear`] adds K once for all of them). Each wide-angle model is
+//! one file implementing [`LensModel`] (its parameters and its normalised lens); [`Lens`] holds
+//! the intrinsics, size and field of view once for all of them. The warp, the label transform
+//! and the output-geometry search only talk to [`CameraModel`], so a new model is one file.
 
 mod calib_files;
 mod cylindrical;
@@ -14,11 +16,12 @@ pub mod description;
 mod double_sphere;
 mod equirect;
 mod eucm;
-pub mod fisheye;
+mod fisheye;
 pub mod fit;
 mod intrinsics;
 mod lens;
 mod lens_domain;
+mod lens_model;
 mod linear;
 mod output;
 mod perspective;
@@ -28,20 +31,31 @@ mod unified;
 mod yaml_subset;
 
 pub use cylindrical::Cylindrical;
-pub use double_sphere::DoubleSphere;
+pub use double_sphere::{DoubleSphere, DoubleSphereModel};
 pub use equirect::Equirect;
-pub use eucm::Eucm;
+pub use eucm::{Eucm, EucmModel};
 pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
 pub use lens::Lens;
+pub use lens_domain::FisheyeError;
+pub use lens_model::{BoxedLensModel, LensModel, ReadLensModel};
 pub use linear::{Linear, Mapping};
 pub use output::{FisheyeCamera, OutputCamera};
 pub use perspective::Perspective;
 pub use projection::{OutputProjection, Projection};
 pub use rotated::{rotation_ypr, Rotated};
-pub use unified::{MeiDistortion, Unified};
+pub use unified::{MeiDistortion, MeiModel, Unified};
 
 use nalgebra::{Point2, Vector3};
+
+/// Every lens model that calib lines and [`Lens::from_parameters`] can name, tried in order: a
+/// new model is its file, its `mod` line above and its line here.
+const LENS_MODELS: &[lens_model::ModelReader] = &[
+    lens_model::reader::<RadialModel>,
+    lens_model::reader::<MeiModel>,
+    lens_model::reader::<EucmModel>,
+    lens_model::reader::<DoubleSphereModel>,
+];
 
 /// Why a bearing or a pixel has no counterpart in a camera.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -27,10 +27,12 @@
 //! the very edge, where a fold of the distortion makes the solution ill-conditioned); the lift
 //! back to the sphere is closed-form.
 
-use super::fisheye::{check_intrinsics, FisheyeError};
-use super::lens_domain::{bearing_within, front_halfspace_of};
-use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+use super::lens::Lens;
+use super::lens_domain::{bearing_within, check_fov, expect_parameters, FisheyeError};
+use super::lens_model::{affine_fields, LensModel, ReadLensModel};
+use super::{ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
+use serde_json::{json, Value};
 use std::f64::consts::PI;
 
 /// Bound on the Newton iterations of the undistortion.
@@ -145,26 +147,22 @@ impl MeiDistortion {
     }
 }
 
-/// A unified-model (MEI) camera.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Unified {
+/// The unified model's parameters: ξ, Mei's distortion and OpenCV omnidir's skew.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeiModel {
     /// ξ: the projection centre's offset behind the sphere's centre (≥ 0).
     pub xi: f64,
     /// The distortion applied on the lifted plane.
     pub distortion: MeiDistortion,
-    /// γ1, γ2, u0, v0 (pixel centres at integers, as OpenCV).
-    pub k: Intrinsics,
     /// OpenCV omnidir's skew s (`K[0][1]`); 0 for KITTI-360.
     pub skew: f64,
-    /// Image size in pixels.
-    pub size: ImageSize,
-    /// Half the field of view (radians); bearings beyond it are rejected.
-    pub max_theta: f64,
-    /// Undistorted radius at `max_theta`.
-    r_max: f64,
 }
 
-impl Unified {
+/// A unified-model (MEI) camera: a [`Lens`] of a [`MeiModel`] (γ1, γ2, u0, v0 its intrinsics,
+/// pixel centres at integers as OpenCV).
+pub type Unified = Lens<MeiModel>;
+
+impl MeiModel {
     /// The largest half field of view the model is one-to-one over, and whether the image radius
     /// stays finite there (so that the limit itself may be used).
     pub fn fov_limit(xi: f64, distortion: &MeiDistortion) -> (f64, bool) {
@@ -195,6 +193,13 @@ impl Unified {
         }
         (geometric, finite)
     }
+}
+
+impl Unified {
+    /// [`MeiModel::fov_limit`].
+    pub fn fov_limit(xi: f64, distortion: &MeiDistortion) -> (f64, bool) {
+        MeiModel::fov_limit(xi, distortion)
+    }
 
     /// A camera seeing up to `max_theta` (half field of view, radians), which must lie within
     /// [`Unified::fov_limit`].
@@ -206,60 +211,99 @@ impl Unified {
         size: ImageSize,
         max_theta: f64,
     ) -> Result<Self, FisheyeError> {
-        check_intrinsics(&k, size)?;
+        let model = MeiModel {
+            xi,
+            distortion,
+            skew,
+        };
+        Lens::with_model(model, k, size, max_theta)
+    }
+}
+
+impl LensModel for MeiModel {
+    fn name(&self) -> &'static str {
+        "mei"
+    }
+
+    fn parameters(&self) -> Vec<(&'static str, f64)> {
+        let d = self.distortion;
+        vec![
+            ("xi", self.xi),
+            ("k1", d.k1),
+            ("k2", d.k2),
+            ("p1", d.p1),
+            ("p2", d.p2),
+            ("skew", self.skew),
+        ]
+    }
+
+    fn check(&self) -> Result<(), FisheyeError> {
+        let xi = self.xi;
         if !(xi >= 0.0 && xi.is_finite()) {
             return Err(FisheyeError::Parameter(
                 "xi",
                 format!("xi must be a finite number ≥ 0, not {xi}"),
             ));
         }
-        let d = distortion;
-        if ![d.k1, d.k2, d.p1, d.p2, skew].iter().all(|v| v.is_finite()) {
+        let d = self.distortion;
+        if ![d.k1, d.k2, d.p1, d.p2, self.skew]
+            .iter()
+            .all(|v| v.is_finite())
+        {
             return Err(FisheyeError::Parameter(
                 "k",
                 "distortion coefficients and skew must be finite".into(),
             ));
         }
-        let (limit, finite) = Self::fov_limit(xi, &distortion);
-        super::lens_domain::check_fov("mei", max_theta, limit, finite)?;
-        let r_max = max_theta.sin() / (max_theta.cos() + xi);
-        Ok(Self {
-            xi,
-            distortion,
-            k,
-            skew,
-            size,
-            max_theta,
-            r_max,
-        })
+        Ok(())
     }
-}
 
-impl CameraModel for Unified {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        let s = bearing_within(d, self.max_theta)?;
+    fn usable_max_theta(&self, max_theta: f64) -> Result<f64, FisheyeError> {
+        let (limit, finite) = Self::fov_limit(self.xi, &self.distortion);
+        check_fov("mei", max_theta, limit, finite)?;
+        Ok(max_theta)
+    }
+
+    /// The undistorted radius at `max_theta`.
+    fn edge_radius(&self, max_theta: f64) -> f64 {
+        max_theta.sin() / (max_theta.cos() + self.xi)
+    }
+
+    fn project(
+        &self,
+        k: &Intrinsics,
+        max_theta: f64,
+        d: &Vector3<f64>,
+    ) -> Result<Point2<f64>, ProjectionReject> {
+        let s = bearing_within(d, max_theta)?;
         let den = s.z + self.xi;
         if !(den > 0.0) {
             return Err(ProjectionReject::OutsideDomain);
         }
         let ((xd, yd), _) = self.distortion.apply(s.x / den, s.y / den);
         Ok(Point2::new(
-            self.k.fu * xd + self.skew * yd + self.k.cu,
-            self.k.fv * yd + self.k.cv,
+            k.fu * xd + self.skew * yd + k.cu,
+            k.fv * yd + k.cv,
         ))
     }
 
-    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
-        let yd = (p.y - self.k.cv) / self.k.fv;
-        let xd = (p.x - self.k.cu - self.skew * yd) / self.k.fu;
+    fn unproject(
+        &self,
+        k: &Intrinsics,
+        _max_theta: f64,
+        r_max: f64,
+        p: &Point2<f64>,
+    ) -> Result<Vector3<f64>, ProjectionReject> {
+        let yd = (p.y - k.cv) / k.fv;
+        let xd = (p.x - k.cu - self.skew * yd) / k.fu;
         if !(xd.is_finite() && yd.is_finite()) {
             return Err(ProjectionReject::OutsideDomain);
         }
-        let (x, y, residual) = self.distortion.undo(xd, yd, self.r_max);
+        let (x, y, residual) = self.distortion.undo(xd, yd, r_max);
         let r2 = x * x + y * y;
         // On the edge of the field of view a fold of the distortion (zero slope) leaves the
         // solution ill-conditioned: a looser residual there, still ~1e-6 px.
-        let tolerance = if r2.sqrt() >= self.r_max * (1.0 - 1e-9) {
+        let tolerance = if r2.sqrt() >= r_max * (1.0 - 1e-9) {
             UNDISTORT_EDGE_TOLERANCE
         } else {
             UNDISTORT_TOLERANCE
@@ -274,15 +318,51 @@ impl CameraModel for Unified {
         Ok(Vector3::new(f * x, f * y, f - self.xi).normalize())
     }
 
-    fn distance(&self, p: &Vector3<f64>) -> f64 {
-        p.norm()
+    /// r ≈ θ/(1 + ξ) near the axis (the distortion is 1 + O(r²) there).
+    fn centre_intrinsics(&self, k: &Intrinsics) -> Intrinsics {
+        let s = 1.0 / (1.0 + self.xi);
+        Intrinsics::new(k.fu * s, k.fv * s, k.cu, k.cv)
     }
 
-    fn size(&self) -> ImageSize {
-        self.size
+    /// The skew is in pixels: it scales with fx as a resize scales it.
+    fn rescale(&mut self, from: &Intrinsics, to: &Intrinsics) {
+        self.skew = self.skew * to.fu / from.fu;
     }
 
-    fn front_halfspace(&self) -> Option<Vector3<f64>> {
-        front_halfspace_of(self.max_theta)
+    fn description_fields(&self, k: &Intrinsics, _size: ImageSize) -> Vec<(&'static str, Value)> {
+        let d = self.distortion;
+        let mut out = affine_fields(k);
+        out.push(("xi", json!(self.xi)));
+        out.push(("k", json!([d.k1, d.k2])));
+        out.push(("p", json!([d.p1, d.p2])));
+        if self.skew != 0.0 {
+            out.push(("skew", json!(self.skew)));
+        }
+        out
+    }
+}
+
+impl ReadLensModel for MeiModel {
+    fn from_parameters(name: &str, values: &[f64]) -> Option<Result<Self, FisheyeError>> {
+        (name == "mei").then(|| {
+            expect_parameters(name, 6, values)?;
+            let distortion = MeiDistortion {
+                k1: values[1],
+                k2: values[2],
+                p1: values[3],
+                p2: values[4],
+            };
+            Ok(MeiModel {
+                xi: values[0],
+                distortion,
+                skew: values[5],
+            })
+        })
+    }
+}
+
+impl From<Unified> for Lens {
+    fn from(lens: Unified) -> Self {
+        lens.erased()
     }
 }

@@ -111,10 +111,10 @@ pub fn write(
     if out.exists() {
         let mut entries = std::fs::read_dir(&out).map_err(|e| Error::io(&out, e))?;
         if entries.next().is_some() && !options.overwrite {
-            return Err(Error::Setup(format!(
-                "output {} is not empty (use --overwrite to replace it)",
-                output.display()
-            )));
+            return Err(Error::OutputNotEmpty {
+                output: output.to_path_buf(),
+                advice: "use --overwrite to replace it",
+            });
         }
     }
     let parent = out.parent().unwrap_or(Path::new("/")).to_path_buf();

@@ -7,7 +7,7 @@ mod label;
 pub(crate) mod not_frames;
 pub(crate) mod raw;
 mod reader;
-pub mod rig_output;
+pub(crate) mod rig_output;
 pub mod velodyne;
 
 pub use calib::{Calib, SourceCamera};

@@ -192,15 +192,12 @@ pub fn read_perspective(path: &Path) -> Result<[RectCamera; 2]> {
 /// `image_0k.yaml` (MEI) through `camera/`'s reader, seeing up to `fov_deg` degrees.
 pub fn read_fisheye(path: &Path, fov_deg: f64) -> Result<Lens> {
     let lens = CameraDescription::read(path)?.camera;
-    if !matches!(lens, Lens::Unified(_)) {
+    let Some(mei) = lens.downcast::<crate::camera::MeiModel>() else {
         return Err(Error::file(path, "not a MEI calibration (model_type: MEI)"));
-    }
+    };
     let half = fov_deg.to_radians() / 2.0;
     // The reader narrows the lens to its image's corners; the field of view may be wider.
-    let widest = match &lens {
-        Lens::Unified(m) => crate::camera::Unified::fov_limit(m.xi, &m.distortion).0,
-        _ => lens.max_theta(),
-    };
+    let widest = crate::camera::Unified::fov_limit(mei.model.xi, &mei.model.distortion).0;
     if !(half > 0.0 && half <= widest) {
         return Err(Error::file(
             path,

@@ -3,12 +3,12 @@
 //! [`crate::source::Frame`]s of a sequence in each frame's level reference frame. See
 //! docs/kitti360.md.
 
-pub mod bboxes;
-pub mod calib;
+mod bboxes;
+mod calib;
 pub mod classes;
-pub mod level;
-pub mod poses;
-pub mod sequence;
+mod level;
+mod poses;
+mod sequence;
 mod text;
 pub mod velodyne;
 

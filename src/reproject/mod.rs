@@ -3,5 +3,5 @@
 
 pub mod depth;
 pub mod labels;
-pub mod source_box;
+pub(crate) mod source_box;
 pub mod unproject;

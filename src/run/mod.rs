@@ -10,7 +10,7 @@ pub mod derived;
 pub(crate) mod frames;
 pub mod journal;
 pub mod manifest;
-pub mod names;
+pub(crate) mod names;
 mod once_map;
 pub(crate) mod output;
 mod shard;

@@ -498,10 +498,10 @@ pub(crate) fn require_empty(root: &Path, overwrite: bool) -> Result<()> {
             .next()
             .is_some()
     {
-        return Err(Error::Setup(format!(
-            "output {} is not empty (use --overwrite)",
-            root.display()
-        )));
+        return Err(Error::OutputNotEmpty {
+            output: root.to_path_buf(),
+            advice: "use --overwrite",
+        });
     }
     Ok(())
 }

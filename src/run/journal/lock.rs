@@ -63,11 +63,11 @@ fn refusal(output: &Path, path: &Path, who: Option<(String, u32)>) -> Error {
     let who = who.map_or("another process".into(), |(host, pid)| {
         format!("pid {pid} on host {host}")
     });
-    Error::Setup(format!(
-        "{} is being written by {who} (it holds {}); wait for it to end, or write to another --output (distinct --shard K/N may share a folder)",
-        output.display(),
-        path.display()
-    ))
+    Error::OutputLocked {
+        output: output.to_path_buf(),
+        lock: path.to_path_buf(),
+        holder: who,
+    }
 }
 
 /// Refuses early, naming the holder, when a live process holds the lock of `output`; writes

@@ -131,11 +131,10 @@ fn check_parameters(path: &Path, old: &Value, parameters: &Value) -> Result<()> 
             .collect(),
         _ => vec!["parameters".into()],
     };
-    Err(Error::Setup(format!(
-        "cannot resume: {} was written with other parameters ({}); use the same options, or a new output folder",
-        path.display(),
-        differ.join(", ")
-    )))
+    Err(Error::ResumeMismatch {
+        manifest: path.to_path_buf(),
+        differ,
+    })
 }
 
 /// A previous run's records, for `--resume`: from its manifest, then its journal (newer, when

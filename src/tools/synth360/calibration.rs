@@ -277,7 +277,7 @@ impl Rig {
             self.fisheye_size,
             FISHEYE_FOV_DEG.to_radians() / 2.0,
         )
-        .map(Lens::Unified)
+        .map(Lens::erased)
         .map_err(|e| Error::Setup(format!("synthetic fisheye: {e}")))
     }
 

@@ -22,7 +22,7 @@
 //! the sweep model of `kitti360::velodyne::SweepMotion` assumes, uncompensated as KITTI-360's
 //! raw scans are ([`lidar_sweep_moving`]).
 
-pub mod calibration;
+mod calibration;
 pub mod scene;
 
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
@@ -78,15 +78,13 @@ struct InScene<'a> {
 /// A bound on the distorted radius (normalised units) of a MEI lens's field of view: the
 /// radial image of max_theta plus the largest tangential term there, with a 2 % margin.
 fn mei_circle(model: &crate::camera::Lens) -> Option<(crate::camera::Intrinsics, f64)> {
-    let crate::camera::Lens::Unified(m) = model else {
-        return None;
-    };
+    let m = model.downcast::<crate::camera::MeiModel>()?;
     let t = m.max_theta;
-    let r = t.sin() / (t.cos() + m.xi);
+    let r = t.sin() / (t.cos() + m.model.xi);
     if !(r > 0.0 && r.is_finite()) {
         return None;
     }
-    let d = &m.distortion;
+    let d = &m.model.distortion;
     let r2 = r * r;
     let radial = r * (1.0 + d.k1 * r2 + d.k2 * r2 * r2).abs();
     let tangential = 3.0 * (d.p1.abs() + d.p2.abs()) * r2;
