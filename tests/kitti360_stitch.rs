@@ -5,7 +5,7 @@
 
 use crate::common;
 use nalgebra::{Point2, Vector3};
-use panoconv::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Lens, Rotated};
+use panoconv::camera::{CameraModel, Equirect, ImageSize, Intrinsics, MeiModel, Rotated};
 use panoconv::image::RgbImage;
 use panoconv::kitti360::{Options, Sequence};
 use panoconv::tools::synth360::scene::{scene_at, world_from_scene, world_to_scene};
@@ -59,17 +59,20 @@ fn exact_pixel(seq: &Sequence, cam: usize, q: &Vector3<f64>) -> Point2<f64> {
             (p[4] * q.x + p[5] * q.y + p[6] * q.z) / z,
         );
     }
-    let Lens::Unified(m) = &seq.calibration.fisheye[cam - 2] else {
+    let Some(m) = seq.calibration.fisheye[cam - 2].downcast::<MeiModel>() else {
         panic!("KITTI-360's fisheyes are MEI cameras");
     };
     let s = q.normalize();
-    let (x, y) = (s.x / (s.z + m.xi), s.y / (s.z + m.xi));
-    let d = m.distortion;
+    let (x, y) = (s.x / (s.z + m.model.xi), s.y / (s.z + m.model.xi));
+    let d = m.model.distortion;
     let r2 = x * x + y * y;
     let radial = 1.0 + d.k1 * r2 + d.k2 * r2 * r2;
     let xd = x * radial + 2.0 * d.p1 * x * y + d.p2 * (r2 + 2.0 * x * x);
     let yd = y * radial + d.p1 * (r2 + 2.0 * y * y) + 2.0 * d.p2 * x * y;
-    Point2::new(m.k.fu * xd + m.skew * yd + m.k.cu, m.k.fv * yd + m.k.cv)
+    Point2::new(
+        m.k.fu * xd + m.model.skew * yd + m.k.cu,
+        m.k.fv * yd + m.k.cv,
+    )
 }
 
 /// The geometric misregistration of the stitch, per camera region: where the stitch samples
