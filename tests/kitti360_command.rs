@@ -286,6 +286,32 @@ fn check_labels(w: &Written, frame: u32, what: &str) -> usize {
     truth.len()
 }
 
+/// `labels-to-pixels` of a converted output `out`, then `unproject --box converted` of those
+/// pixels with its calibs: the folder of the boxes it gives back (in `work`).
+pub(crate) fn labels_back_through_unproject(out: &Path, work: &Path) -> PathBuf {
+    let pixels = work.join("pixels");
+    let results = work.join("results");
+    assert_success(&panoconv([
+        "labels-to-pixels",
+        "--input",
+        out.to_str().unwrap(),
+        "--output",
+        pixels.to_str().unwrap(),
+    ]));
+    assert_success(&panoconv([
+        "unproject",
+        "--calib",
+        out.join("training/calib").to_str().unwrap(),
+        "--input",
+        pixels.to_str().unwrap(),
+        "--output",
+        results.to_str().unwrap(),
+        "--box",
+        "converted",
+    ]));
+    results
+}
+
 /// The depth map against the scene seen from C2 through each pixel's centre: (pixels, share
 /// within 5 %, share farther than the truth by more than 5 %).
 pub(crate) fn check_depth(out: &Path, id: &str, w: &Written, frame: u32, what: &str) {
@@ -601,26 +627,7 @@ fn the_offset_rig_has_exact_labels_and_depth_the_same_with_any_jobs_and_the_tool
 
     // labels-to-pixels, then unproject: the boxes come back in the level frame, and through
     // Tr_rect_to_world in the world
-    let pixels = tmp.path().join("pixels");
-    let results = tmp.path().join("results");
-    assert_success(&panoconv([
-        "labels-to-pixels",
-        "--input",
-        one.to_str().unwrap(),
-        "--output",
-        pixels.to_str().unwrap(),
-    ]));
-    assert_success(&panoconv([
-        "unproject",
-        "--calib",
-        one.join("training/calib").to_str().unwrap(),
-        "--input",
-        pixels.to_str().unwrap(),
-        "--output",
-        results.to_str().unwrap(),
-        "--box",
-        "converted",
-    ]));
+    let results = labels_back_through_unproject(&one, tmp.path());
     for (id, frame) in [("000250", 250u32), ("000251", 251)] {
         let w = written(&one, id);
         let back = LabelFile::read(&results.join(format!("{id}.txt"))).unwrap();

@@ -4,8 +4,8 @@
 
 use crate::common::{self, assert_success, iou, ort_lib, panoconv, read_manifest};
 use crate::kitti360_command::{
-    check_depth_share, exact_box, kitti360, sequence, truths, wrap, written, LIDAR_STEP, MIN_IOU,
-    ROUNDING,
+    check_depth_share, exact_box, kitti360, labels_back_through_unproject, sequence, truths, wrap,
+    written, LIDAR_STEP, MIN_IOU, ROUNDING,
 };
 use nalgebra::Vector3;
 use panoconv::kitti::LabelFile;
@@ -298,26 +298,7 @@ fn augmented_views_keep_exact_labels_calib_and_depth() {
 
     // labels-to-pixels, then unproject: the boxes come back in each view's level frame, and
     // through Tr_rect_to_world at the scene's world boxes
-    let pixels = tmp.path().join("pixels");
-    let results = tmp.path().join("results");
-    assert_success(&panoconv([
-        "labels-to-pixels",
-        "--input",
-        one.to_str().unwrap(),
-        "--output",
-        pixels.to_str().unwrap(),
-    ]));
-    assert_success(&panoconv([
-        "unproject",
-        "--calib",
-        one.join("training/calib").to_str().unwrap(),
-        "--input",
-        pixels.to_str().unwrap(),
-        "--output",
-        results.to_str().unwrap(),
-        "--box",
-        "converted",
-    ]));
+    let results = labels_back_through_unproject(&one, tmp.path());
     for id in &ids {
         let w = written(&one, id);
         let back = LabelFile::read(&results.join(format!("{id}.txt"))).unwrap();
