@@ -48,7 +48,19 @@ pub fn to_py(e: panoconv::error::Error) -> PyErr {
             None,
             cause.to_string(),
         ),
-        _ => (None, None, None, text.clone()),
+        Error::OutputNotEmpty { output, .. } | Error::OutputLocked { output, .. } => {
+            (Some(output.display().to_string()), None, None, text.clone())
+        }
+        Error::ResumeMismatch { manifest, .. } => (
+            Some(manifest.display().to_string()),
+            None,
+            None,
+            text.clone(),
+        ),
+        // (no file of their own: the message says what went wrong)
+        Error::Setup(_) | Error::Style(_) | Error::DeviceFull(_) => {
+            (None, None, None, text.clone())
+        }
     };
     let err = match e {
         Error::Parse { .. } => ParseError::new_err(text),
