@@ -6,3 +6,4 @@ pub mod folder;
 pub mod kitti;
 pub mod pano;
 pub mod rig;
+mod style_pass;
