@@ -7,3 +7,4 @@ pub mod kitti;
 pub mod pano;
 pub mod rig;
 mod style_pass;
+mod view_depth;

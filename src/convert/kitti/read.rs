@@ -110,7 +110,7 @@ impl Prepared {
         let mut warped = Vec::with_capacity(cameras * count);
         for i in 0..count {
             for (j, views) in self.views.iter().enumerate() {
-                warped.push(views[i].mapping.table.apply(&self.images[j]));
+                warped.push(views[i].mapping.image().image(&[&self.images[j]]));
             }
         }
         warped

@@ -10,7 +10,7 @@ use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::run::OnceMap;
-use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use crate::warp::{Footprint, ImageMapping, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -21,6 +21,13 @@ use std::sync::Arc;
 pub(super) struct CameraMapping {
     pub(super) output: Arc<dyn OutputCamera>,
     pub(super) table: Arc<RemapTable>,
+}
+
+impl CameraMapping {
+    /// The output camera's pixels from its one source camera.
+    pub(super) fn image(&self) -> ImageMapping<'_> {
+        ImageMapping::Single(&self.table)
+    }
 }
 
 /// A source camera: its intrinsics' bits and image size.

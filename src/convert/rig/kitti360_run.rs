@@ -20,7 +20,7 @@ use crate::fs;
 use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
 use crate::image::RgbImage;
 use crate::kitti360::{Options, Sequence};
-use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
+use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
 use crate::style::{Device, StyleError, StyleModel, StyleOptions};
 use crate::warp::EgoMask;
@@ -297,18 +297,13 @@ impl Ctx<'_> {
                 ),
                 (self.output_path("objects", &id, "json"), objects),
             ]);
-            if let Some((map, occluded)) = &out.depth {
+            if let Some((map, record)) = out.depth {
                 files.push((
                     self.output_path("depth_2", &id, "png"),
                     png::encode_gray16(map.width, map.height, &map.to_u16(), compression),
                 ));
                 // (with --augment, the last view's, as `kitti` records)
-                lidar = Some(LidarRecord {
-                    points: frame.lidar.len(),
-                    dropped_non_finite: 0,
-                    dropped_occluded: *occluded,
-                    depth_pixels: map.valid(),
-                });
+                lidar = Some(record);
             }
             if view.is_some() {
                 view_records.push(ViewRecord { id, view });
