@@ -1,8 +1,9 @@
 //! Running `panoconv kitti360`: the sequences opened and the selection checked before anything
 //! is written, then the output folder's run (`run::OutputFolder`: claim, previous records,
-//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: each frame read,
-//! converted through the rig pass and written (atomically, hashed for the manifest); a failed
-//! frame leaves no file.
+//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: frames in groups
+//! through `convert::style_pass` (each read with its views drawn, the group's camera images
+//! styled together, then each converted through the rig pass and written, atomically and
+//! hashed for the manifest); a failed frame leaves no file.
 
 use super::gray::encode_gray8;
 use super::kitti360::EgoMaskRecord;
@@ -14,10 +15,11 @@ use super::pass::{
 };
 use crate::camera::OutputCamera;
 use crate::codec::png;
+use crate::convert::augment_draw::{draw_view, CountObjects};
 use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
 use crate::error::{Error, Result};
 use crate::fs;
-use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
+use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
 use crate::kitti360::{Options, Sequence};
 use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
@@ -164,26 +166,19 @@ impl Ctx<'_> {
         for i in 0..aug.count {
             let id = view_id(&item.id, aug.count, i)
                 .ok_or_else(|| Error::Setup(format!("frame {}: view {i} has no id", item.id)))?;
-            let mut best: Option<(usize, View, Box<dyn OutputCamera>)> = None;
-            for attempt in 0..MAX_ATTEMPTS.max(1) {
-                let view = aug.view(SPLIT, &item.id, i, attempt, canvas.size());
-                let camera = view_camera(&view)?;
-                if aug.min_objects == 0 {
-                    best = Some((0, view, camera));
-                    break;
-                }
-                let n = count_objects(frame, camera.as_ref(), options, keep)?;
-                if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
-                    best = Some((n, view, camera));
-                }
-                if n >= aug.min_objects as usize {
-                    break;
-                }
-            }
-            let (n, view, camera) = best.expect("at least one draw");
-            if aug.min_objects > 0 && n < aug.min_objects as usize {
+            let count = |camera: &dyn OutputCamera| count_objects(frame, camera, options, keep);
+            let drawn = draw_view(
+                aug,
+                (SPLIT, &item.id),
+                i,
+                canvas.size(),
+                view_camera,
+                (aug.min_objects > 0).then_some(&count as &CountObjects),
+            )?;
+            if drawn.objects.is_some_and(|n| n < aug.min_objects as usize) {
                 self.thin_views.fetch_add(1, Ordering::Relaxed);
             }
+            let (view, camera) = (drawn.view, drawn.camera);
             views.push((id, Some(view), camera));
         }
         Ok(views)
