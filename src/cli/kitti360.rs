@@ -163,6 +163,12 @@ pub(super) struct Kitti360Args {
     /// Where the style model runs.
     #[arg(long, value_enum, default_value_t = DeviceArg::Cpu, requires = "style")]
     device: DeviceArg,
+    /// Equal-size images of up to N consecutive frames go through the model in one run, when
+    /// its batch axis is dynamic [default: 4 with --device cuda, 1 on the CPU, where a batch
+    /// is no faster]. Outputs are the same for every N.
+    #[arg(long, value_name = "N", requires = "style",
+          value_parser = clap::value_parser!(u16).range(1..=panoconv::style::MAX_BATCH as i64))]
+    style_batch: Option<u16>,
     /// Not supported by kitti360 (named here to say so).
     #[arg(long, hide = true)]
     style_after_warp: bool,
@@ -361,6 +367,13 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         shard: args.shard,
         png_compression: args.run.png_compression(),
         ego_masks,
+        style_batch: args.style_batch.map_or(
+            match args.device {
+                DeviceArg::Cpu => 1,
+                DeviceArg::Cuda => 4,
+            },
+            usize::from,
+        ),
         style: args.style.map(|model| StyleOptions {
             model,
             ort_lib: args.ort_lib,

@@ -2,7 +2,10 @@
 //! camera rig's frames (KITTI-360) into one output camera, and folders of panoramas or fisheye
 //! images to views.
 
+mod augment_draw;
 pub mod folder;
 pub mod kitti;
 pub mod pano;
 pub mod rig;
+mod style_pass;
+mod view_depth;

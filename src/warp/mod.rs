@@ -3,6 +3,7 @@
 
 mod footprint;
 mod kernel;
+mod mapping;
 pub mod mask;
 mod reach;
 pub mod stitch;
@@ -12,6 +13,7 @@ mod table;
 pub use footprint::Footprint;
 #[doc(hidden)]
 pub use kernel::Kernel;
+pub use mapping::{ImageMapping, NO_SOURCE};
 pub use mask::EgoMask;
 pub use stitch::{Stitch, StitchCamera, StitchOptions, Stitched};
 pub use stream::{warp_encode, PngSource};

@@ -444,6 +444,16 @@ impl Stitch {
         (tables, weights)
     }
 
+    /// The output image's size.
+    pub fn size(&self) -> ImageSize {
+        self.size
+    }
+
+    /// How many cameras it blends.
+    pub fn cameras(&self) -> usize {
+        self.tables.len()
+    }
+
     /// Camera i's weight at output pixel (u, v).
     pub fn weight(&self, i: usize, u: u32, v: u32) -> f32 {
         self.weights[i][v as usize * self.size.width as usize + u as usize]

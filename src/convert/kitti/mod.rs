@@ -2,7 +2,6 @@
 //! parallel over frames (or groups of frames, when the style pass batches) on one rayon pool
 //! (the only owner of threads).
 
-mod batch;
 mod context;
 mod labels;
 mod options;

@@ -96,6 +96,12 @@ pub(super) struct Prepared {
     pub(super) sources: Vec<PngSource>,
 }
 
+impl crate::convert::style_pass::StyleImages for Prepared {
+    fn style_images(&mut self) -> &mut Vec<RgbImage> {
+        &mut self.images
+    }
+}
+
 impl Prepared {
     /// Each view's warped images, rig camera by rig camera, from the source `images`.
     fn warp_all(&self) -> Vec<RgbImage> {
@@ -104,7 +110,7 @@ impl Prepared {
         let mut warped = Vec::with_capacity(cameras * count);
         for i in 0..count {
             for (j, views) in self.views.iter().enumerate() {
-                warped.push(views[i].mapping.table.apply(&self.images[j]));
+                warped.push(views[i].mapping.image().image(&[&self.images[j]]));
             }
         }
         warped

@@ -2,10 +2,11 @@
 //! groups over the rayon pool (resumed frames kept, failed ones reported and recorded), then
 //! the image sets and the manifest.
 
-use super::batch::{self, StylePass};
 use super::context::Context;
-use super::write::{remove_outputs, write_split_calib};
+use super::read::prepare;
+use super::write::{finish, remove_outputs, write_split_calib};
 use super::{KittiJob, KittiSource, KittiSummary, Parameters};
+use crate::convert::style_pass::{convert_group, StylePass};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
@@ -290,7 +291,14 @@ impl FrameWork for KittiFrames<'_> {
                 (split, f.id.as_str())
             })
             .collect();
-        let results = batch::convert_group(self.ctx, self.style_pass, &items);
+        let ctx = self.ctx;
+        let results = convert_group(
+            self.style_pass,
+            &items,
+            |&(split, id)| split.image_path(Cam::C2, id),
+            |&(split, id)| prepare(ctx, split, id),
+            |&(split, id), p| finish(ctx, split, id, p),
+        );
         results
             .into_iter()
             .zip(&items)

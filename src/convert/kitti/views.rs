@@ -5,12 +5,13 @@
 
 use super::KittiJob;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, Perspective};
+use crate::convert::augment_draw::draw_view;
 use crate::error::{Error, Result};
-use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
+use crate::geometry::augment::{view_id, Augment, View};
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::run::OnceMap;
-use crate::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use crate::warp::{Footprint, ImageMapping, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -21,6 +22,13 @@ use std::sync::Arc;
 pub(super) struct CameraMapping {
     pub(super) output: Arc<dyn OutputCamera>,
     pub(super) table: Arc<RemapTable>,
+}
+
+impl CameraMapping {
+    /// The output camera's pixels from its one source camera.
+    pub(super) fn image(&self) -> ImageMapping<'_> {
+        ImageMapping::Single(&self.table)
+    }
 }
 
 /// A source camera: its intrinsics' bits and image size.
@@ -140,34 +148,36 @@ impl<'a> Views<'a> {
                     )
                 })?;
                 let (view, output) = match draw {
-                    Draw::First => {
-                        let view = aug.view(&split.name, id, i, 0, canvas.size());
-                        (view, view_camera(&view)?)
-                    }
                     Draw::As(attempts) => {
                         let view =
                             aug.view(&split.name, id, i, attempts[i as usize], canvas.size());
                         (view, view_camera(&view)?)
                     }
+                    Draw::First => {
+                        let drawn =
+                            draw_view(aug, (&split.name, id), i, canvas.size(), view_camera, None)?;
+                        (drawn.view, drawn.camera)
+                    }
                     Draw::Fewest(objects) => {
-                        // The first draw holding enough objects, else the one holding most.
-                        let mut best: Option<(u32, View, Box<dyn OutputCamera>)> = None;
-                        for attempt in 0..MAX_ATTEMPTS.max(1) {
-                            let view = aug.view(&split.name, id, i, attempt, canvas.size());
-                            let output = view_camera(&view)?;
-                            let n = objects(output.as_ref());
-                            if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
-                                best = Some((n, view, output));
-                            }
-                            if n >= aug.min_objects {
-                                break;
-                            }
-                        }
-                        let (n, view, output) = best.expect("at least one draw");
-                        if n < aug.min_objects.max(1) {
+                        let count = |output: &dyn OutputCamera| {
+                            Ok(objects(output as &dyn CameraModel) as usize)
+                        };
+                        let drawn = draw_view(
+                            aug,
+                            (&split.name, id),
+                            i,
+                            canvas.size(),
+                            view_camera,
+                            Some(&count),
+                        )?;
+                        // (counted with no minimum asked too: views holding no object)
+                        if drawn
+                            .objects
+                            .is_some_and(|n| n < aug.min_objects.max(1) as usize)
+                        {
                             self.thin_views.fetch_add(1, Ordering::Relaxed);
                         }
-                        (view, output)
+                        (drawn.view, drawn.camera)
                     }
                 };
                 // Every view has its own camera, so its table is not shared.

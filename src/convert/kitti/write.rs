@@ -7,6 +7,7 @@ use super::labels::label_text;
 use super::read::Prepared;
 use crate::camera::{ImageSize, OutputCamera};
 use crate::codec::png::{self as png};
+use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
@@ -14,9 +15,8 @@ use crate::geometry::augment::view_id;
 use crate::kitti::Cam;
 use crate::kitti::OutputKind;
 use crate::kitti::Split;
-use crate::reproject::depth::depth_map;
-use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
-use crate::warp::{warp_encode, RemapTable};
+use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
+use crate::warp::ImageMapping;
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
@@ -118,16 +118,16 @@ pub(super) fn finish(
     let compression = ctx.job.png_compression;
     // The PNG of view i's rig camera j: the styled warped image, or the source warped row
     // by row as the encoder takes the rows.
-    let mut encode_view = |i: usize, j: usize, table: &RemapTable| -> Result<Vec<u8>> {
+    let mut encode_view = |i: usize, j: usize, mapping: ImageMapping| -> Result<Vec<u8>> {
         if after_warp {
             Ok(png::encode_rgb8(
                 &images[i * cameras_per_view + j],
                 compression,
             ))
         } else if let Some(source) = sources.get_mut(j) {
-            source.warp_encode(table, compression)
+            mapping.encode_png_source(source, compression)
         } else {
-            Ok(warp_encode(table, &images[j], compression))
+            Ok(mapping.encode(&[&images[j]], compression))
         }
     };
     let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
@@ -148,12 +148,12 @@ pub(super) fn finish(
         for (j, camera_views) in views.iter().enumerate() {
             let (cam, mapping) = (kitti.cams[j], &camera_views[i].mapping);
             if let Some(path) = out(OutputKind::Image(cam), view_id) {
-                outputs.push((path, encode_view(i, j, &mapping.table)?));
+                outputs.push((path, encode_view(i, j, mapping.image())?));
             }
             if ctx.job.mask {
                 outputs.push((
                     out(OutputKind::Mask(cam), view_id).expect("every layout has masks"),
-                    encode_mask(&mapping.table),
+                    mapping.image().encode_mask(),
                 ));
             }
             cameras.push((cam, mapping.output.clone(), frame.rig[j].centre()));
@@ -168,16 +168,14 @@ pub(super) fn finish(
                 }
             }
             if let Some(depth) = &ctx.job.depth {
-                let non_finite = kitti.dropped_non_finite;
-                let filter = depth.occlusion_filter.as_ref();
-                // Projected straight into the final camera: crops and resizes never resample it.
-                let (map, occluded) = depth_map(&points, &centre, output, source, filter);
-                lidar_record = Some(LidarRecord {
-                    points: points.len() + non_finite,
-                    dropped_non_finite: non_finite,
-                    dropped_occluded: occluded,
-                    depth_pixels: map.valid(),
-                });
+                let lidar = ViewLidar {
+                    points: &points,
+                    non_finite: kitti.dropped_non_finite,
+                    filter: depth.occlusion_filter.as_ref(),
+                };
+                let (map, record) =
+                    view_depth(&lidar, &centre, output, DepthDomain::Source(source));
+                lidar_record = Some(record);
                 outputs.push((
                     out(OutputKind::Depth, view_id).expect("every layout has depth maps"),
                     png::encode_gray16(
@@ -230,10 +228,4 @@ pub(super) fn finish(
             lidar: lidar_record,
         },
     })
-}
-
-/// The mask of a table's output: white where every tap of the pixel lies inside the source.
-fn encode_mask(table: &RemapTable) -> Vec<u8> {
-    let size = table.size();
-    png::encode_mask(size.width, size.height, |u, v| table.is_inside(u, v))
 }

@@ -91,6 +91,9 @@ pub struct Kitti360Job {
     /// The CycleGAN style pass: each used camera's image styled before the stitch (so the
     /// blend and the exposure gains work on styled images).
     pub style: Option<StyleOptions>,
+    /// Equal-size images of up to this many consecutive frames go through the style model in
+    /// one run (1: frame by frame). Outputs do not depend on it (`convert::style_pass`).
+    pub style_batch: usize,
     /// Random scale-and-crop views of each frame's output (ids frame × N + k) instead of the
     /// whole output.
     pub augment: Option<Augment>,

@@ -1,8 +1,9 @@
 //! Running `panoconv kitti360`: the sequences opened and the selection checked before anything
 //! is written, then the output folder's run (`run::OutputFolder`: claim, previous records,
-//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: each frame read,
-//! converted through the rig pass and written (atomically, hashed for the manifest); a failed
-//! frame leaves no file.
+//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: frames in groups
+//! through `convert::style_pass` (each read with its views drawn, the group's camera images
+//! styled together, then each converted through the rig pass and written, atomically and
+//! hashed for the manifest); a failed frame leaves no file.
 
 use super::gray::encode_gray8;
 use super::kitti360::EgoMaskRecord;
@@ -14,13 +15,16 @@ use super::pass::{
 };
 use crate::camera::OutputCamera;
 use crate::codec::png;
+use crate::convert::augment_draw::{draw_view, CountObjects};
+use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
 use crate::error::{Error, Result};
 use crate::fs;
-use crate::geometry::augment::{view_id, Augment, View, MAX_ATTEMPTS};
+use crate::geometry::augment::{view_id, Augment, View};
+use crate::image::RgbImage;
 use crate::kitti360::{Options, Sequence};
-use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
+use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
-use crate::style::{Device, StyleModel, StyleOptions};
+use crate::style::{Device, StyleError, StyleModel, StyleOptions};
 use crate::warp::EgoMask;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -38,6 +42,26 @@ type Masks = Vec<Option<Arc<EgoMask>>>;
 /// its camera.
 type OutputView = (String, Option<View>, Box<dyn OutputCamera>);
 
+/// A frame read, its views drawn, waiting for the style pass and the stitch.
+struct Prepared {
+    frame: crate::source::Frame,
+    views: Vec<OutputView>,
+    /// The chosen cameras' images, in `--cameras` order (styled in place by the style pass).
+    images: Vec<RgbImage>,
+    /// The image a failed style pass names (the first chosen camera's).
+    style_path: PathBuf,
+}
+
+impl StyleImages for Prepared {
+    fn style_images(&mut self) -> &mut Vec<RgbImage> {
+        &mut self.images
+    }
+
+    fn style_error(&self, e: StyleError) -> Error {
+        Error::file(&self.style_path, format!("style pass: {e}"))
+    }
+}
+
 /// One frame to convert.
 struct Item {
     sequence: usize,
@@ -54,7 +78,9 @@ struct Ctx<'a> {
     /// The ego masks by rig index.
     masks: Masks,
     /// The style model, if any.
-    style: Option<Arc<StyleModel>>,
+    style: Option<&'a StyleModel>,
+    /// Its pass over groups of frames.
+    style_pass: Option<StylePass<'a>>,
     /// Augmented views holding fewer objects than asked.
     thin_views: AtomicUsize,
 }
@@ -140,47 +166,73 @@ impl Ctx<'_> {
         for i in 0..aug.count {
             let id = view_id(&item.id, aug.count, i)
                 .ok_or_else(|| Error::Setup(format!("frame {}: view {i} has no id", item.id)))?;
-            let mut best: Option<(usize, View, Box<dyn OutputCamera>)> = None;
-            for attempt in 0..MAX_ATTEMPTS.max(1) {
-                let view = aug.view(SPLIT, &item.id, i, attempt, canvas.size());
-                let camera = view_camera(&view)?;
-                if aug.min_objects == 0 {
-                    best = Some((0, view, camera));
-                    break;
-                }
-                let n = count_objects(frame, camera.as_ref(), options, keep)?;
-                if best.as_ref().is_none_or(|(m, _, _)| n > *m) {
-                    best = Some((n, view, camera));
-                }
-                if n >= aug.min_objects as usize {
-                    break;
-                }
-            }
-            let (n, view, camera) = best.expect("at least one draw");
-            if aug.min_objects > 0 && n < aug.min_objects as usize {
+            let count = |camera: &dyn OutputCamera| count_objects(frame, camera, options, keep);
+            let drawn = draw_view(
+                aug,
+                (SPLIT, &item.id),
+                i,
+                canvas.size(),
+                view_camera,
+                (aug.min_objects > 0).then_some(&count as &CountObjects),
+            )?;
+            if drawn.objects.is_some_and(|n| n < aug.min_objects as usize) {
                 self.thin_views.fetch_add(1, Ordering::Relaxed);
             }
+            let (view, camera) = (drawn.view, drawn.camera);
             views.push((id, Some(view), camera));
         }
         Ok(views)
     }
 
-    fn frame_record(&self, item: &Item) -> Result<FrameRecord> {
+    /// Reads a frame and its chosen cameras' images, and draws its output views: everything
+    /// before the style pass.
+    fn prepare(&self, item: &Item) -> Result<Prepared> {
         let (sequence, info) = &self.sequences[item.sequence];
-        let job = self.job;
         let frame = sequence.frame(item.frame)?;
-        let keep = |b: &crate::source::SourceBox| job.classes.keeps(&b.class, &b.dataset_class);
-        let options = RigOptions {
+        let options = self.rig_options();
+        let views = self.output_views(item, &frame, info, &options, &|b| self.keeps(b))?;
+        let images = read_images(&frame, &options)?;
+        let style_path = frame.rig[self.job.cameras[0]].image.clone();
+        Ok(Prepared {
+            frame,
+            views,
+            images,
+            style_path,
+        })
+    }
+
+    /// How the rig pass converts a frame (the style pass runs beside it, on groups of frames).
+    fn rig_options(&self) -> RigOptions {
+        let job = self.job;
+        RigOptions {
             cameras: job.cameras.clone(),
             stitch: job.stitch,
             centre: job.centre,
             objects: job.objects,
             depth: job.depth,
             ego_masks: self.masks.clone(),
-            style: self.style.clone(),
-        };
-        let views = self.output_views(item, &frame, info, &options, &keep)?;
-        let images = read_images(&frame, &options)?;
+            style: None,
+        }
+    }
+
+    /// Whether a box's class is written.
+    fn keeps(&self, b: &crate::source::SourceBox) -> bool {
+        self.job.classes.keeps(&b.class, &b.dataset_class)
+    }
+
+    /// The rest of a prepared frame's conversion: each output view stitched from its (styled)
+    /// images, with its labels, depth and calib, written and recorded.
+    fn finish(&self, item: &Item, prepared: Prepared) -> Result<FrameRecord> {
+        let (sequence, info) = &self.sequences[item.sequence];
+        let job = self.job;
+        let Prepared {
+            frame,
+            views,
+            images,
+            ..
+        } = prepared;
+        let options = self.rig_options();
+        let keep = |b: &crate::source::SourceBox| self.keeps(b);
         let world_from_level = sequence.world_from_level(item.frame)?;
         let level_from_world = world_from_level.inverse().ok_or_else(|| {
             Error::file(
@@ -240,18 +292,13 @@ impl Ctx<'_> {
                 ),
                 (self.output_path("objects", &id, "json"), objects),
             ]);
-            if let Some((map, occluded)) = &out.depth {
+            if let Some((map, record)) = out.depth {
                 files.push((
                     self.output_path("depth_2", &id, "png"),
                     png::encode_gray16(map.width, map.height, &map.to_u16(), compression),
                 ));
                 // (with --augment, the last view's, as `kitti` records)
-                lidar = Some(LidarRecord {
-                    points: frame.lidar.len(),
-                    dropped_non_finite: 0,
-                    dropped_occluded: *occluded,
-                    depth_pixels: map.valid(),
-                });
+                lidar = Some(record);
             }
             if view.is_some() {
                 view_records.push(ViewRecord { id, view });
@@ -301,10 +348,21 @@ impl FrameWork for Ctx<'_> {
     }
 
     fn convert(&self, group: &[&Item]) -> Vec<Result<FrameRecord>> {
-        group
-            .iter()
-            .map(|item| {
-                self.frame_record(item).inspect_err(|_| {
+        let results = convert_group(
+            self.style_pass.as_ref(),
+            group,
+            |item| {
+                let sequence = &self.sequences[item.sequence].0;
+                sequence.root.join("data_2d_raw").join(&sequence.name)
+            },
+            |item| self.prepare(item),
+            |item, p| self.finish(item, p),
+        );
+        results
+            .into_iter()
+            .zip(group)
+            .map(|(result, item)| {
+                result.inspect_err(|_| {
                     // a failed frame leaves no output, not even one of an earlier run
                     for id in self.output_ids(item) {
                         for p in self.output_paths(&id) {
@@ -503,7 +561,7 @@ pub fn run_kitti360(
     let sequences = open_sequences(job)?;
     let mut items = select(job, &sequences)?;
     check_output_camera(job, &sequences, &items)?;
-    let style = load_style(job)?.map(Arc::new);
+    let style = load_style(job)?;
     let folder = OutputFolder::claim(Claim {
         input: &job.input,
         output: &job.output,
@@ -519,7 +577,7 @@ pub fn run_kitti360(
     let parameters = serde_json::to_value(Parameters::new(
         job,
         &mask_records,
-        style.as_deref().map(StyleModel::info),
+        style.as_ref().map(StyleModel::info),
     ))
     .expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
@@ -537,7 +595,8 @@ pub fn run_kitti360(
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
         masks,
-        style,
+        style: style.as_ref(),
+        style_pass: style.as_ref().map(|m| StylePass::new(m, job.style_batch)),
         thin_views: AtomicUsize::new(0),
     };
     let mut run = folder.start(
@@ -548,13 +607,14 @@ pub fn run_kitti360(
         progress,
         stop,
     )?;
-    run.run(&items, 1, &ctx);
+    let group = ctx.style_pass.as_ref().map_or(1, StylePass::group_len);
+    run.run(&items, group, &ctx);
     let summary = run.finish(0, |_| Ok(()))?;
     let objects = *ctx.objects.lock().unwrap_or_else(|e| e.into_inner());
     Ok(Kitti360Summary {
         run: summary,
         objects,
-        style_runs: ctx.style.as_deref().map(StyleModel::runs),
+        style_runs: ctx.style.map(StyleModel::runs),
         thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
     })
 }

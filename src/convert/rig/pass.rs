@@ -11,16 +11,18 @@
 
 use super::objects::{label_objects, ObjectOutcome, ObjectRule};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, ProjectionReject};
+use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
 use crate::geometry::Target;
 use crate::image::RgbImage;
-use crate::reproject::depth::{depth_map, DepthMap, OcclusionFilter};
+use crate::reproject::depth::{DepthMap, OcclusionFilter};
+use crate::run::manifest::LidarRecord;
 use crate::source::{Frame, RigCamera, SourceBox};
 use crate::style::StyleModel;
 
 /// Which objects' classes are written (the others are dropped for their class).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
-use crate::warp::{EgoMask, Stitch, StitchCamera, StitchOptions};
+use crate::warp::{EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, NO_SOURCE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::sync::Arc;
 
@@ -69,8 +71,8 @@ pub struct RigFrame {
     pub labels: Vec<String>,
     /// Every object's outcome.
     pub objects: Vec<ObjectOutcome>,
-    /// The depth map and the points the occlusion filter dropped.
-    pub depth: Option<(DepthMap, usize)>,
+    /// The depth map (none where no camera gives the pixel) and its manifest record.
+    pub depth: Option<(DepthMap, LidarRecord)>,
 }
 
 /// A rig camera's model with bearings in the reference frame's axes.
@@ -258,13 +260,13 @@ pub fn convert_into(
         .collect();
     let stitch = Stitch::build_masked(camera.as_ref(), &centre, &cameras, &masks, options.stitch)?;
     let refs: Vec<&RgbImage> = images.iter().collect();
-    let stitched = stitch.apply(&refs);
+    let stitched = ImageMapping::Stitch(&stitch).apply(&refs);
     let source: Vec<u8> = stitched
         .source
         .iter()
         .map(|&s| match options.cameras.get(s as usize) {
             Some(&i) => u8::try_from(i).unwrap_or(254),
-            None => 255,
+            None => NO_SOURCE,
         })
         .collect();
     let (labels, objects) = label_objects(
@@ -277,20 +279,17 @@ pub fn convert_into(
     );
     let depth = options.depth.map(|filter| {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
-        // every point inside the output image, then none where no camera gives the pixel
-        let (mut map, occluded) = depth_map(
-            &points,
+        let lidar = ViewLidar {
+            points: &points,
+            non_finite: 0,
+            filter: filter.as_ref(),
+        };
+        view_depth(
+            &lidar,
             &centre,
             camera.as_ref(),
-            camera.as_ref(),
-            filter.as_ref(),
-        );
-        for (d, s) in map.values.iter_mut().zip(&source) {
-            if *s == 255 {
-                *d = 0.0;
-            }
-        }
-        (map, occluded)
+            DepthDomain::Coverage(&source),
+        )
     });
     Ok(RigFrame {
         camera,

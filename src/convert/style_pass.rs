@@ -1,22 +1,19 @@
-//! Groups of frames through one conversion: prepared one by one, styled together (equal-size
-//! images in one model run), finished one by one.
+//! Groups of frames through one conversion, whatever the dataset: prepared one by one, styled
+//! together (equal-size images in one model run), finished one by one.
 //!
 //! A group is a fixed run of consecutive frames of the selection (`--style-batch` of them), so
 //! what goes into a model run depends on the frame order and the options, never on thread
 //! timing. A batch is used for an image size only if the model gives, at that size, the same
 //! bytes batched as run singly (checked once per size on a fixed pattern): `--shard`,
-//! `--resume` and the batch size then cannot change an output.
+//! `--resume` and the batch size then cannot change an output. `kitti/` and `rig/` both run
+//! their frames through [`convert_group`].
 
-use super::context::Context;
-use super::read::{prepare, Prepared};
-use super::write::{finish, FrameOutput};
 use crate::error::{Error, Result};
 use crate::image::RgbImage;
-use crate::kitti::Cam;
-use crate::kitti::Split;
 use crate::run::OnceMap;
 use crate::style::{StyleError, StyleModel};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
 
 /// The style pass of a run.
 pub(super) struct StylePass<'a> {
@@ -66,57 +63,83 @@ impl<'a> StylePass<'a> {
     }
 }
 
-/// Converts consecutive frames of one split group: each result belongs to the frame at the
-/// same index. A frame's failure (an error or a panic) fails that frame only.
-pub(super) fn convert_group(
-    ctx: &Context,
+/// A prepared frame as the style pass sees it: the images it styles, in order.
+pub(super) trait StyleImages {
+    /// The images the style pass takes, replaced by their styled versions (same order).
+    fn style_images(&mut self) -> &mut Vec<RgbImage>;
+
+    /// This frame's error for a failed style pass over its images.
+    fn style_error(&self, e: StyleError) -> Error {
+        e.into()
+    }
+}
+
+/// Converts consecutive frames of one group: `prepare` each (read, decode), the style pass over
+/// all their images, then `finish` each. Each result belongs to the frame at the same index; a
+/// frame's failure (an error or a panic, reported on the path `name` gives) fails that frame
+/// only.
+pub(super) fn convert_group<K, P: StyleImages, O>(
     style: Option<&StylePass>,
-    frames: &[(&Split, &str)],
-) -> Vec<Result<FrameOutput>> {
-    let mut prepared: Vec<Result<Prepared>> = frames
+    frames: &[K],
+    name: impl Fn(&K) -> PathBuf,
+    prepare: impl Fn(&K) -> Result<P>,
+    finish: impl Fn(&K, P) -> Result<O>,
+) -> Vec<Result<O>> {
+    let mut prepared: Vec<Result<P>> = frames
         .iter()
-        .map(|&(split, id)| guarded(split, id, || prepare(ctx, split, id)))
+        .map(|k| guarded(&name(k), || prepare(k)))
         .collect();
     if let Some(pass) = style {
-        style_group(pass, frames, &mut prepared);
+        style_group(pass, frames, &name, &mut prepared);
     }
     prepared
         .into_iter()
         .zip(frames)
-        .map(|(p, &(split, id))| p.and_then(|p| guarded(split, id, || finish(ctx, split, id, p))))
+        .map(|(p, k)| p.and_then(|p| guarded(&name(k), || finish(k, p))))
         .collect()
 }
 
-fn style_group(pass: &StylePass, frames: &[(&Split, &str)], prepared: &mut [Result<Prepared>]) {
+fn style_group<K, P: StyleImages>(
+    pass: &StylePass,
+    frames: &[K],
+    name: &impl Fn(&K) -> PathBuf,
+    prepared: &mut [Result<P>],
+) {
     if prepared.iter().flatten().count() > 1 {
-        let images: Vec<&RgbImage> = prepared.iter().flatten().flat_map(|p| &p.images).collect();
+        let taken: Vec<Vec<RgbImage>> = prepared
+            .iter_mut()
+            .flatten()
+            .map(|p| std::mem::take(p.style_images()))
+            .collect();
+        let images: Vec<&RgbImage> = taken.iter().flatten().collect();
         if let Ok(Ok(styled)) = catch_unwind(AssertUnwindSafe(|| pass.stylize(&images))) {
             let mut styled = styled.into_iter();
-            for frame in prepared.iter_mut().flatten() {
-                for img in &mut frame.images {
-                    *img = styled.next().expect("one styled image per image");
-                }
+            for (frame, own) in prepared.iter_mut().flatten().zip(&taken) {
+                *frame.style_images() = styled.by_ref().take(own.len()).collect();
             }
             return;
         }
         // Frame by frame, so that the error names its frame.
+        for (frame, own) in prepared.iter_mut().flatten().zip(taken) {
+            *frame.style_images() = own;
+        }
     }
-    for (&(split, id), slot) in frames.iter().zip(prepared.iter_mut()) {
+    for (k, slot) in frames.iter().zip(prepared.iter_mut()) {
         let Ok(frame) = slot else { continue };
-        let styled = guarded(split, id, || {
-            let images = std::mem::take(&mut frame.images);
+        let styled = guarded(&name(k), || {
+            let images = std::mem::take(frame.style_images());
             let refs: Vec<&RgbImage> = images.iter().collect();
-            Ok(pass.stylize(&refs)?)
+            pass.stylize(&refs).map_err(|e| frame.style_error(e))
         });
         match styled {
-            Ok(images) => frame.images = images,
+            Ok(images) => *frame.style_images() = images,
             Err(e) => *slot = Err(e),
         }
     }
 }
 
-/// Runs `f`, turning a panic (a bug) into this frame's error.
-fn guarded<T>(split: &Split, id: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+/// Runs `f`, turning a panic (a bug) into this frame's error, on `path`.
+fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
     catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|panic| {
         let what = panic
             .downcast_ref::<&str>()
@@ -124,7 +147,7 @@ fn guarded<T>(split: &Split, id: &str, f: impl FnOnce() -> Result<T>) -> Result<
             .or_else(|| panic.downcast_ref::<String>().cloned())
             .unwrap_or_default();
         Err(Error::file(
-            &split.image_path(Cam::C2, id),
+            path,
             format!("internal error (please report): {what}"),
         ))
     })
