@@ -79,8 +79,10 @@ pub fn encode_rows(
     // header and CRC, IEND: under 64 bytes): no regrowth, and no copy of the stream, while
     // compressing. Camera images compress to about half of it; the rest is never touched.
     let raw_size = (len + 1) * height;
-    let mut out =
-        Vec::with_capacity(fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) + 64);
+    // (and a row's worth of the compressor's slack: see deflate::Compressor)
+    let mut out = Vec::with_capacity(
+        fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) + 2 * (len + 1) + 96,
+    );
     out.extend_from_slice(&SIGNATURE);
     let mut ihdr = [0u8; 13];
     ihdr[..4].copy_from_slice(&header.width.to_be_bytes());
@@ -100,18 +102,17 @@ pub fn encode_rows(
         RowFilter::Sub => 1,
         RowFilter::Paeth => 4,
     };
-    // Writing into a Vec cannot fail.
-    let mut z = fdeflate::Compressor::new(out).expect("write to a Vec");
+    let mut z = super::deflate::Compressor::new(out);
     for v in 0..height {
         raw_row(v, &mut cur);
         match filter {
             RowFilter::Sub => sub(header.bpp, &cur, &mut filtered[1..]),
             RowFilter::Paeth => paeth(header.bpp, &prev, &cur, &mut filtered[1..]),
         }
-        z.write_data(&filtered).expect("write to a Vec");
+        z.write_data(&filtered);
         std::mem::swap(&mut prev, &mut cur);
     }
-    let mut out = z.finish().expect("write to a Vec");
+    let mut out = z.finish();
     if out.len() - stream > fdeflate::StoredOnlyCompressor::<()>::compressed_size(raw_size) {
         // Deflate made it larger: stored blocks of unfiltered rows, as the png crate does.
         out.truncate(stream);
