@@ -107,7 +107,7 @@ pub fn encode_rows(
         raw_row(v, &mut cur);
         match filter {
             RowFilter::Sub => sub(header.bpp, &cur, &mut filtered[1..]),
-            RowFilter::Paeth => paeth(header.bpp, &prev, &cur, &mut filtered[1..]),
+            RowFilter::Paeth => paeth_dispatch(header.bpp, &prev, &cur, &mut filtered[1..]),
         }
         z.write_data(&filtered);
         std::mem::swap(&mut prev, &mut cur);
@@ -182,8 +182,28 @@ fn sub(bpp: usize, cur: &[u8], out: &mut [u8]) {
     }
 }
 
+/// [`paeth`], compiled for AVX2 where the CPU has it (32 bytes a step instead of SSE2's 16;
+/// the same integer operations, so the same bytes).
+fn paeth_dispatch(bpp: usize, prev: &[u8], cur: &[u8], out: &mut [u8]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        unsafe { paeth_avx2(bpp, prev, cur, out) };
+        return;
+    }
+    paeth(bpp, prev, cur, out)
+}
+
+/// SAFETY: the CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn paeth_avx2(bpp: usize, prev: &[u8], cur: &[u8], out: &mut [u8]) {
+    paeth(bpp, prev, cur, out)
+}
+
 /// PNG filter 4: each byte minus the Paeth predictor of its left (a), upper (b) and upper-left
 /// (c) neighbours, with a and c zero in the first pixel.
+#[inline(always)]
 fn paeth(bpp: usize, prev: &[u8], cur: &[u8], out: &mut [u8]) {
     let n = cur.len();
     for i in 0..bpp.min(n) {
@@ -241,6 +261,34 @@ fn predict(a: u8, b: u8, c: u8) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::predict;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The dispatched Paeth filter (AVX2 where the CPU has it) against the portable build,
+        /// for every pixel size PNG has, on rows of any length.
+        #[test]
+        fn the_dispatched_paeth_filter_equals_the_portable_one(
+            bpp in prop::sample::select(vec![1usize, 2, 3, 4, 6, 8]),
+            rows in (0usize..90).prop_flat_map(|n| (
+                prop::collection::vec(any::<u8>(), n),
+                prop::collection::vec(any::<u8>(), n),
+            )),
+        ) {
+            let (prev, cur) = rows;
+            let n = cur.len() / bpp * bpp;
+            let (prev, cur) = (&prev[..n], &cur[..n]);
+            let (mut fast, mut slow) = (vec![1u8; n], vec![2u8; n]);
+            super::paeth_dispatch(bpp, prev, cur, &mut fast);
+            super::paeth(bpp, prev, cur, &mut slow);
+            prop_assert_eq!(&fast, &slow);
+            // and both are the specification's filter
+            for i in 0..n {
+                let a = if i >= bpp { cur[i - bpp] } else { 0 };
+                let c = if i >= bpp { prev[i - bpp] } else { 0 };
+                prop_assert_eq!(fast[i], cur[i].wrapping_sub(reference(a, prev[i], c)));
+            }
+        }
+    }
 
     /// The specification's predictor, in wide arithmetic.
     fn reference(a: u8, b: u8, c: u8) -> u8 {
