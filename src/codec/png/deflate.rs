@@ -317,7 +317,7 @@ mod tests {
     #[test]
     fn the_stream_inflates_to_the_data() {
         let data: Vec<u8> = (0..5000u32).map(|i| (i * i % 251) as u8 & 0x87).collect();
-        let out = our_bytes(&[data.clone()]);
+        let out = our_bytes(std::slice::from_ref(&data));
         let mut d = fdeflate::Decompressor::new();
         let mut back = vec![0u8; data.len()];
         let (used, n) = d.read(&out[3..], &mut back, 0, true).unwrap();
