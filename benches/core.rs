@@ -155,6 +155,11 @@ fn bench(c: &mut Criterion) {
                 |b| b.iter(|| encode_rgb8(black_box(&img), comp)),
             );
         }
+        // The fdeflate crate's own compressor on the same Sub-filtered rows, for
+        // `encode_Fast/real_kitti` (the same zlib stream, from panoconv's compressor).
+        g.bench_function(BenchmarkId::new("fdeflate_crate_sub", "real_kitti"), |b| {
+            b.iter(|| fdeflate_sub(black_box(&img)))
+        });
         // A frame's image as `panoconv kitti --to equirect` makes it: decoded whole, then
         // warped into the encoder; or decoded row by row as the warp reads the rows.
         let calib = paths::real_kitti().join("training/calib/000001.txt");
@@ -210,3 +215,20 @@ fn bench(c: &mut Criterion) {
 
 criterion_group!(benches, bench);
 criterion_main!(benches);
+
+/// The image's rows Sub-filtered and compressed by `fdeflate::Compressor`, one call a row as
+/// panoconv's encoder makes: the zlib stream of `encode_rgb8(img, PngCompression::Fast)`.
+fn fdeflate_sub(img: &panoconv::image::RgbImage) -> Vec<u8> {
+    let len = img.width() as usize * 3;
+    let mut z = fdeflate::Compressor::new(Vec::with_capacity(len * img.height() as usize))
+        .expect("write to a Vec");
+    let mut row = vec![1u8; len + 1];
+    for raw in img.as_raw().chunks_exact(len) {
+        row[1..4].copy_from_slice(&raw[..3]);
+        for i in 3..len {
+            row[1 + i] = raw[i].wrapping_sub(raw[i - 3]);
+        }
+        z.write_data(&row).expect("write to a Vec");
+    }
+    z.finish().expect("write to a Vec")
+}

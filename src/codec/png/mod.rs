@@ -1,6 +1,7 @@
 //! PNG decoding to RGB8 (8/16-bit, grey/grey+alpha/RGB/RGBA/palette) and encoding.
 
 pub mod decode;
+mod deflate;
 mod encode;
 mod header;
 
