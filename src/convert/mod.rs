@@ -9,3 +9,4 @@ pub mod pano;
 pub mod rig;
 mod style_pass;
 mod view_depth;
+mod view_pass;

@@ -8,7 +8,6 @@ use super::views::Views;
 use super::{KittiJob, StyleOrder};
 use crate::kitti::Dataset;
 use crate::style::StyleModel;
-use std::path::Path;
 
 /// What the frames of a run share.
 pub(super) struct Context<'a> {
@@ -23,13 +22,7 @@ pub(super) struct Context<'a> {
     pub(super) split_files: std::sync::Mutex<std::collections::HashMap<String, (String, String)>>,
 }
 
-/// `path` relative to `root`, with `/` separators (the manifest's form).
-pub(super) fn relative(root: &Path, path: &Path) -> String {
-    path.strip_prefix(root)
-        .unwrap_or(path)
-        .to_string_lossy()
-        .replace('\\', "/")
-}
+pub(super) use crate::convert::view_pass::relative;
 
 impl<'a> Context<'a> {
     pub(super) fn new(

@@ -5,18 +5,22 @@
 use super::context::{relative, Context};
 use super::labels::label_text;
 use super::read::Prepared;
+use super::views::OutputView;
 use crate::camera::{ImageSize, OutputCamera};
 use crate::codec::png::{self as png};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
+use crate::convert::view_pass::{write_views, PassView, ViewFiles, ViewImage, ViewSink};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
 use crate::geometry::augment::view_id;
+use crate::image::RgbImage;
 use crate::kitti::Cam;
+use crate::kitti::KittiFrame;
 use crate::kitti::OutputKind;
 use crate::kitti::Split;
-use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
-use crate::warp::ImageMapping;
+use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::warp::PngSource;
 use nalgebra::Vector3;
 use std::path::PathBuf;
 
@@ -98,63 +102,63 @@ pub(super) fn write_split_calib(ctx: &Context, split: &Split) -> Result<()> {
     Ok(())
 }
 
-/// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
-/// whose `images` have been through the style pass, if any.
-pub(super) fn finish(
-    ctx: &Context,
-    split: &Split,
-    id: &str,
-    frame: Prepared,
-) -> Result<FrameOutput> {
-    let after_warp = ctx.style_after_warp();
-    let Prepared {
-        kitti,
-        inputs,
-        views,
-        images,
-        mut sources,
-    } = frame;
-    let cameras_per_view = views.len();
-    let compression = ctx.job.png_compression;
-    // The PNG of view i's rig camera j: the styled warped image, or the source warped row
-    // by row as the encoder takes the rows.
-    let mut encode_view = |i: usize, j: usize, mapping: ImageMapping| -> Result<Vec<u8>> {
-        if after_warp {
-            Ok(png::encode_rgb8(
-                &images[i * cameras_per_view + j],
-                compression,
-            ))
-        } else if let Some(source) = sources.get_mut(j) {
-            mapping.encode_png_source(source, compression)
-        } else {
-            Ok(mapping.encode(&[&images[j]], compression))
-        }
-    };
-    let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-    let out_split = ctx.job.output.join(&split.name);
-    let out = |kind: OutputKind, view_id: &str| {
-        split.output_path(kind, view_id).map(|p| out_split.join(p))
-    };
-    let mut view_records = Vec::new();
-    let mut lidar_record = None;
-    let frame = &kitti.frame;
-    // Labels and depth belong to camera 2, rig camera 0 (centre C2).
-    let (centre, source) = (frame.rig[0].centre(), frame.rig[0].model.as_ref());
-    let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
-    let view_count = views.first().map_or(0, Vec::len);
-    for i in 0..view_count {
+/// A KITTI frame's files for each output view: every rig camera's image and mask, camera 2's
+/// labels and depth, the calib of all.
+struct KittiViewFiles<'a, 'c> {
+    ctx: &'a Context<'c>,
+    split: &'a Split,
+    kitti: &'a KittiFrame,
+    views: &'a [Vec<OutputView>],
+    /// The style pass's images (see `Prepared::images`).
+    images: &'a [RgbImage],
+    /// The rig cameras' source PNGs without a style pass.
+    sources: &'a mut [PngSource],
+    /// The frame's LiDAR points.
+    points: Vec<Vector3<f64>>,
+}
+
+impl KittiViewFiles<'_, '_> {
+    fn out(&self, kind: OutputKind, view_id: &str) -> Option<PathBuf> {
+        let out_split = self.ctx.job.output.join(&self.split.name);
+        self.split
+            .output_path(kind, view_id)
+            .map(|p| out_split.join(p))
+    }
+}
+
+impl ViewFiles for KittiViewFiles<'_, '_> {
+    /// The view's index among each rig camera's views.
+    type View = usize;
+
+    fn view_files(&mut self, i: usize, sink: &mut ViewSink) -> Result<()> {
+        let after_warp = self.ctx.style_after_warp();
+        let cameras_per_view = self.views.len();
+        let (kitti, views) = (self.kitti, self.views);
+        let frame = &kitti.frame;
         let view_id = &views[0][i].id;
+        // Labels and depth belong to camera 2, rig camera 0 (centre C2).
+        let (centre, source) = (frame.rig[0].centre(), frame.rig[0].model.as_ref());
         let mut cameras = Vec::with_capacity(views.len());
         for (j, camera_views) in views.iter().enumerate() {
             let (cam, mapping) = (kitti.cams[j], &camera_views[i].mapping);
-            if let Some(path) = out(OutputKind::Image(cam), view_id) {
-                outputs.push((path, encode_view(i, j, mapping.image())?));
+            if let Some(path) = self.out(OutputKind::Image(cam), view_id) {
+                // the styled warped image, or the source warped row by row as the encoder
+                // takes the rows
+                let image = if after_warp {
+                    ViewImage::Warped(&self.images[i * cameras_per_view + j])
+                } else if let Some(source) = self.sources.get_mut(j) {
+                    ViewImage::Streamed(mapping.image(), source)
+                } else {
+                    ViewImage::Mapped(mapping.image(), vec![&self.images[j]])
+                };
+                sink.image(path, image)?;
             }
-            if ctx.job.mask {
-                outputs.push((
-                    out(OutputKind::Mask(cam), view_id).expect("every layout has masks"),
-                    mapping.image().encode_mask(),
-                ));
+            if self.ctx.job.mask {
+                sink.mask(
+                    self.out(OutputKind::Mask(cam), view_id)
+                        .expect("every layout has masks"),
+                    mapping.image(),
+                );
             }
             cameras.push((cam, mapping.output.clone(), frame.rig[j].centre()));
             if j > 0 {
@@ -163,28 +167,21 @@ pub(super) fn finish(
             let output = mapping.output.as_ref();
             if let Some(labels) = &kitti.labels {
                 let text = label_text(labels, frame, &centre, output);
-                if let Some(path) = out(OutputKind::Label, view_id) {
-                    outputs.push((path, text.into_bytes()));
+                if let Some(path) = self.out(OutputKind::Label, view_id) {
+                    sink.file(path, text.into_bytes());
                 }
             }
-            if let Some(depth) = &ctx.job.depth {
+            if let Some(depth) = &self.ctx.job.depth {
                 let lidar = ViewLidar {
-                    points: &points,
+                    points: &self.points,
                     non_finite: kitti.dropped_non_finite,
                     filter: depth.occlusion_filter.as_ref(),
                 };
-                let (map, record) =
-                    view_depth(&lidar, &centre, output, DepthDomain::Source(source));
-                lidar_record = Some(record);
-                outputs.push((
-                    out(OutputKind::Depth, view_id).expect("every layout has depth maps"),
-                    png::encode_gray16(
-                        map.width,
-                        map.height,
-                        &map.to_u16(),
-                        ctx.job.png_compression,
-                    ),
-                ));
+                sink.depth(
+                    self.out(OutputKind::Depth, view_id)
+                        .expect("every layout has depth maps"),
+                    view_depth(&lidar, &centre, output, DepthDomain::Source(source)),
+                );
             }
         }
         let cameras: Vec<(Cam, &dyn OutputCamera, Vector3<f64>)> = cameras
@@ -192,29 +189,65 @@ pub(super) fn finish(
             .map(|(n, c, v)| (*n, c.as_ref(), *v))
             .collect();
         let calib_text = kitti.calib.render_output(&cameras);
-        if let Some(path) = out(OutputKind::Calib, view_id) {
-            outputs.push((path, calib_text.into_bytes()));
+        if let Some(path) = self.out(OutputKind::Calib, view_id) {
+            sink.file(path, calib_text.into_bytes());
         }
-        if let Some(view) = views[0][i].view {
-            view_records.push(ViewRecord {
-                id: view_id.clone(),
-                view: Some(view),
-            });
-        }
+        Ok(())
     }
+}
 
-    let mut record_outputs = Vec::new();
-    for (path, bytes) in &outputs {
-        fs::write_atomic(path, bytes)?;
-        record_outputs.push((relative(&ctx.job.output, path), fs::hash_hex(bytes)));
-    }
+/// Warps (unless `prepare` did), transforms labels and depth, encodes and writes a frame
+/// whose `images` have been through the style pass, if any.
+pub(super) fn finish(
+    ctx: &Context,
+    split: &Split,
+    id: &str,
+    frame: Prepared,
+) -> Result<FrameOutput> {
+    let Prepared {
+        kitti,
+        inputs,
+        views,
+        images,
+        mut sources,
+    } = frame;
+    let points = kitti.frame.lidar.iter().map(|p| p.position).collect();
+    let pass_views: Vec<PassView<usize>> = views
+        .first()
+        .map(|camera_views| {
+            camera_views
+                .iter()
+                .enumerate()
+                .map(|(i, v)| PassView {
+                    id: v.id.clone(),
+                    view: v.view,
+                    files: i,
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut files = KittiViewFiles {
+        ctx,
+        split,
+        kitti: &kitti,
+        views: &views,
+        images: &images,
+        sources: &mut sources,
+        points,
+    };
+    let mut written = write_views(
+        &ctx.job.output,
+        ctx.job.png_compression,
+        pass_views,
+        &mut files,
+    )?;
     if let Some(file) = ctx
         .split_files
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .get(&split.name)
     {
-        record_outputs.push(file.clone());
+        written.outputs.push(file.clone());
     }
     Ok(FrameOutput {
         record: FrameRecord {
@@ -223,9 +256,9 @@ pub(super) fn finish(
             status: FrameStatus::Ok,
             error: None,
             inputs,
-            outputs: record_outputs,
-            views: view_records,
-            lidar: lidar_record,
+            outputs: written.outputs,
+            views: written.views,
+            lidar: written.lidar,
         },
     })
 }

@@ -14,15 +14,15 @@ use super::pass::{
     convert_into, count_objects, output_camera, read_images, CameraInfo, ClassFilter, RigOptions,
 };
 use crate::camera::OutputCamera;
-use crate::codec::png;
 use crate::convert::augment_draw::{draw_view, CountObjects};
 use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
+use crate::convert::view_pass::{relative, write_views, PassView, ViewFiles, ViewImage, ViewSink};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
 use crate::kitti360::{Options, Sequence};
-use crate::run::manifest::{FrameRecord, FrameStatus, ViewRecord};
+use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
 use crate::style::{Device, StyleError, StyleModel, StyleOptions};
 use crate::warp::EgoMask;
@@ -83,13 +83,6 @@ struct Ctx<'a> {
     style_pass: Option<StylePass<'a>>,
     /// Augmented views holding fewer objects than asked.
     thin_views: AtomicUsize,
-}
-
-fn relative(root: &Path, path: &Path) -> String {
-    path.strip_prefix(root)
-        .unwrap_or(path)
-        .to_string_lossy()
-        .replace('\\', "/")
 }
 
 impl Ctx<'_> {
@@ -231,8 +224,6 @@ impl Ctx<'_> {
             images,
             ..
         } = prepared;
-        let options = self.rig_options();
-        let keep = |b: &crate::source::SourceBox| self.keeps(b);
         let world_from_level = sequence.world_from_level(item.frame)?;
         let level_from_world = world_from_level.inverse().ok_or_else(|| {
             Error::file(
@@ -240,70 +231,25 @@ impl Ctx<'_> {
                 format!("frame {}: singular pose", item.frame),
             )
         })?;
-        let level_from_velo = level_from_world.compose(&sequence.world_from_velo(item.frame)?);
-        let velo_from_imu = sequence.calibration.pose_from_velo().inverse();
-        let compression = job.png_compression;
-        let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-        let mut lidar = None;
-        let mut counts = ObjectCounts::default();
-        let mut view_records = Vec::new();
-        for (id, view, camera) in views {
-            let out = convert_into(&frame, info, camera, &images, &options, &keep)?;
-            let calib = crate::kitti::rig_output::rig_calib_text(
-                out.camera.as_ref(),
-                &out.centre,
-                &level_from_velo,
-                velo_from_imu.as_ref(),
-                frame.world_from_reference.as_ref(),
-            );
-            let mut labels = out.labels.join("\n");
-            if !labels.is_empty() {
-                labels.push('\n');
-            }
-            #[derive(serde::Serialize)]
-            struct ObjectsFile<'a> {
-                sequence: &'a str,
-                frame: u32,
-                gains: &'a [f64],
-                counts: ObjectCounts,
-                objects: &'a [super::objects::ObjectOutcome],
-            }
-            let view_counts = ObjectCounts::of(&out.objects);
-            counts.add(&view_counts);
-            let objects = serde_json::to_vec_pretty(&ObjectsFile {
-                sequence: &sequence.name,
-                frame: item.frame,
-                gains: &out.gains,
-                counts: view_counts,
-                objects: &out.objects,
-            })
-            .expect("the objects record serialises");
-            let size = out.camera.size();
-            files.extend([
-                (
-                    self.output_path("image_2", &id, "png"),
-                    png::encode_rgb8(&out.image, compression),
-                ),
-                (self.output_path("calib", &id, "txt"), calib.into_bytes()),
-                (self.output_path("label_2", &id, "txt"), labels.into_bytes()),
-                (
-                    self.output_path("source_2", &id, "png"),
-                    encode_gray8(size.width, size.height, &out.source),
-                ),
-                (self.output_path("objects", &id, "json"), objects),
-            ]);
-            if let Some((map, record)) = out.depth {
-                files.push((
-                    self.output_path("depth_2", &id, "png"),
-                    png::encode_gray16(map.width, map.height, &map.to_u16(), compression),
-                ));
-                // (with --augment, the last view's, as `kitti` records)
-                lidar = Some(record);
-            }
-            if view.is_some() {
-                view_records.push(ViewRecord { id, view });
-            }
-        }
+        let mut files = RigViewFiles {
+            ctx: self,
+            sequence,
+            frame_number: item.frame,
+            frame: &frame,
+            info,
+            images: &images,
+            options: self.rig_options(),
+            level_from_velo: level_from_world.compose(&sequence.world_from_velo(item.frame)?),
+            velo_from_imu: sequence.calibration.pose_from_velo().inverse(),
+            counts: ObjectCounts::default(),
+        };
+        let views = views.into_iter().map(|(id, view, camera)| PassView {
+            id: id.clone(),
+            view,
+            files: (id, camera),
+        });
+        let written = write_views(&job.output, job.png_compression, views, &mut files)?;
+        let counts = files.counts;
         // the images of the cameras used, and every other input the frame read
         let unused: Vec<&PathBuf> = frame
             .rig
@@ -318,11 +264,6 @@ impl Ctx<'_> {
             let own = per_frame.contains(&path) || path.extension().is_some_and(|e| e == "bin");
             inputs.push((relative(&job.input, path), self.input_hash(path, own)?));
         }
-        let mut outputs = Vec::new();
-        for (path, bytes) in &files {
-            fs::write_atomic(path, bytes)?;
-            outputs.push((relative(&job.output, path), fs::hash_hex(bytes)));
-        }
         self.objects
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -333,10 +274,84 @@ impl Ctx<'_> {
             status: FrameStatus::Ok,
             error: None,
             inputs,
-            outputs,
-            views: view_records,
-            lidar,
+            outputs: written.outputs,
+            views: written.views,
+            lidar: written.lidar,
         })
+    }
+}
+
+/// A KITTI-360 frame's files for each output view: the stitch's image, calib, labels, source
+/// map, objects record and depth.
+struct RigViewFiles<'a> {
+    ctx: &'a Ctx<'a>,
+    sequence: &'a Sequence,
+    frame_number: u32,
+    frame: &'a crate::source::Frame,
+    info: &'a [CameraInfo],
+    /// The chosen cameras' (styled) images.
+    images: &'a [RgbImage],
+    options: RigOptions,
+    level_from_velo: crate::source::Pose,
+    velo_from_imu: Option<crate::source::Pose>,
+    /// The frame's object counts, over its views.
+    counts: ObjectCounts,
+}
+
+impl ViewFiles for RigViewFiles<'_> {
+    /// The view's output frame id and camera.
+    type View = (String, Box<dyn OutputCamera>);
+
+    fn view_files(&mut self, (id, camera): Self::View, sink: &mut ViewSink) -> Result<()> {
+        let ctx = self.ctx;
+        let keep = |b: &crate::source::SourceBox| ctx.keeps(b);
+        let frame = self.frame;
+        let out = convert_into(frame, self.info, camera, self.images, &self.options, &keep)?;
+        let calib = crate::kitti::rig_output::rig_calib_text(
+            out.camera.as_ref(),
+            &out.centre,
+            &self.level_from_velo,
+            self.velo_from_imu.as_ref(),
+            frame.world_from_reference.as_ref(),
+        );
+        let mut labels = out.labels.join("\n");
+        if !labels.is_empty() {
+            labels.push('\n');
+        }
+        #[derive(serde::Serialize)]
+        struct ObjectsFile<'a> {
+            sequence: &'a str,
+            frame: u32,
+            gains: &'a [f64],
+            counts: ObjectCounts,
+            objects: &'a [super::objects::ObjectOutcome],
+        }
+        let view_counts = ObjectCounts::of(&out.objects);
+        self.counts.add(&view_counts);
+        let objects = serde_json::to_vec_pretty(&ObjectsFile {
+            sequence: &self.sequence.name,
+            frame: self.frame_number,
+            gains: &out.gains,
+            counts: view_counts,
+            objects: &out.objects,
+        })
+        .expect("the objects record serialises");
+        let size = out.camera.size();
+        sink.image(
+            ctx.output_path("image_2", &id, "png"),
+            ViewImage::Warped(&out.image),
+        )?;
+        sink.file(ctx.output_path("calib", &id, "txt"), calib.into_bytes());
+        sink.file(ctx.output_path("label_2", &id, "txt"), labels.into_bytes());
+        sink.file(
+            ctx.output_path("source_2", &id, "png"),
+            encode_gray8(size.width, size.height, &out.source),
+        );
+        sink.file(ctx.output_path("objects", &id, "json"), objects);
+        if let Some(depth) = out.depth {
+            sink.depth(ctx.output_path("depth_2", &id, "png"), depth);
+        }
+        Ok(())
     }
 }
 
