@@ -10,7 +10,7 @@ fn shipped_sample_is_regenerated_byte_for_byte() {
     // the dataset `panoconv synth --output DIR` writes, as the other tests share it (made once
     // per binary build; tests/cli.rs checks that a second run writes the same bytes)
     let fresh = common::synth_source();
-    let (a, b) = (common::tree_files(&shipped), common::tree_files(&fresh));
+    let (a, b) = (common::tree_files(&shipped), common::tree_files(fresh));
     assert_eq!(a, b, "file lists differ");
     assert_eq!(
         a.len(),
