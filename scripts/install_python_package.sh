@@ -35,8 +35,9 @@ fi
 
 # The command: the binary of the Rust tests' build (`cargo test` builds it; this is a no-op
 # after scripts/test.sh's own `cargo test`), staged where pyproject.toml's `data` folder has it.
-# Building it any other way (`cargo build --bin`) would resolve other features and rebuild.
-cargo test --locked --tests --no-run --quiet >&2
+# Building it any other way (`cargo build --bin`, or without --workspace) would resolve other
+# features and rebuild.
+cargo test --locked --workspace --tests --no-run --quiet >&2
 mkdir -p target/wheel-data/scripts
 rm -f target/wheel-data/scripts/*
 cp "${CARGO_TARGET_DIR:-target}/debug/panoconv" target/wheel-data/scripts/panoconv

@@ -37,8 +37,9 @@ if ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null \
     say "installing slurmctld slurmd slurm-client munge (apt-get)"
     [ "$(id -u)" = 0 ] || fail "installing Slurm needs root"
     export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq >/dev/null
-    apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge >/dev/null
+    install_slurm() { apt-get install -y -qq --no-install-recommends slurmctld slurmd slurm-client munge; }
+    # the package lists a machine already has first; `apt-get update` (seconds) only without them
+    install_slurm >/dev/null 2>&1 || { apt-get update -qq >/dev/null && install_slurm >/dev/null; }
 fi
 
 if [ -z "${PANOCONV:-}" ]; then

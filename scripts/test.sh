@@ -10,12 +10,17 @@ PANOCONV_TEST_PYTHON="$(scripts/install_test_python.sh | tail -n 1)"
 export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
 # --tests: the library's unit tests and the integration crate (tests/tests.rs); the examples
 # (benches/*.rs measurement tools) are compiled by clippy --all-targets in CI instead.
-cargo test --locked --tests "$@"
+# --workspace: the features of the Python module's dependencies too (pyo3's macros ask syn
+# for more, numpy num-complex's defaults), so that `maturin develop` below finds every shared
+# crate built as it needs it instead of building the library a second time.
+cargo test --locked --workspace --tests "$@"
 # The occlusion figures of docs/depth.md come from a cargo example (benches/occlusion_figure.rs)
 # that tests/first_run.rs, which checks the other pictures, cannot build: check them here.
 figures="$(mktemp -d)"
 trap 'rm -rf "$figures"' EXIT
-cargo run --locked --quiet --profile test --example occlusion_figure -- "$figures" >/dev/null
+# (built with the same features as the tests': `cargo run` cannot take --workspace)
+cargo build --locked --quiet --workspace --profile test --example occlusion_figure
+"${CARGO_TARGET_DIR:-target}/debug/examples/occlusion_figure" "$figures" >/dev/null
 for made in "$figures"/*.png; do
     cmp -s "$made" "docs/images/$(basename "$made")" || {
         echo "docs/images/$(basename "$made") is not what scripts/make_doc_images.sh makes: run it" >&2

@@ -12,6 +12,7 @@ use panoconv::tools::synth::{frames, SynthCalib};
 use panoconv::warp::{RemapTable, Wrap};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 const MIN_IOU: f64 = 0.99;
 const MIN_PSNR_DB: f64 = 50.0;
@@ -39,12 +40,15 @@ fn warp_vs_render(spec: &OutputSpec, s: f64) -> (f64, Box<dyn LinearCamera>) {
     let calib = SynthCalib::standard();
     let scene = &frames()[0].scene;
     let src = Perspective::new(calib.intrinsics(), calib.size);
-    let image = scene.render(&src, &calib.centre());
+    // the source, rendered once for every spec
+    static IMAGE: OnceLock<RgbImage> = OnceLock::new();
+    let image = IMAGE.get_or_init(|| scene.render(&src, &calib.centre()));
     let out = output_camera(spec, calib.intrinsics(), &src).unwrap();
     let table = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None);
-    let warped = table.apply(&image);
-    let exact = scene.render_with(out.as_ref(), &calib.centre(), 0.55 * s, 8);
-    (psnr(&warped, &exact, |u, v| table.is_inside(u, v)), out)
+    let warped = table.apply(image);
+    let inside = |u, v| table.is_inside(u, v);
+    let exact = common::render_where(scene, out.as_ref(), &calib.centre(), 0.55 * s, 8, inside);
+    (psnr(&warped, &exact, inside), out)
 }
 
 /// A smooth analytic source: the value at continuous source pixel (x, y).

@@ -138,19 +138,10 @@ fn bin(args: &[&std::ffi::OsStr]) -> Output {
         .unwrap()
 }
 
-/// A fresh copy of the synthetic dataset (generated once per test binary, then copied).
+/// A fresh copy of the synthetic dataset (the cache the other tests share, then copied).
 fn synth_dataset(root: &Path) -> PathBuf {
-    static ONCE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
-    let master = ONCE.get_or_init(|| {
-        let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-            .join(format!("depth-synth-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        let o = bin(&["synth".as_ref(), "-o".as_ref(), d.as_os_str()]);
-        assert!(o.status.success());
-        d
-    });
     let d = root.join("synth");
-    copy_tree(master, &d);
+    copy_tree(crate::common::synth_source(), &d);
     d
 }
 
@@ -380,21 +371,27 @@ fn right_camera_matches_the_exact_render_from_c3() {
             panoconv::camera::ImageSize::new(img.width(), img.height()),
         )
         .unwrap();
-    let exact = truth.scene.render(cam.as_ref(), &centre);
     let src = Perspective::new(truth.calib.intrinsics(), truth.calib.size);
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 1..img.height() - 1 {
-        for u in 1..img.width() - 1 {
-            // inside the source view, a pixel away from its border
-            let inside = [(-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)]
+    let (w, h) = (img.width(), img.height());
+    // inside the source view, a pixel away from its border
+    let inside = |u: u32, v: u32| {
+        (1..w - 1).contains(&u)
+            && (1..h - 1).contains(&v)
+            && [(-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)]
                 .iter()
                 .all(|(du, dv)| {
                     cam.unproject(&Point2::new(u as f64 + du, v as f64 + dv))
                         .ok()
                         .and_then(|d| src.project(&d).ok())
                         .is_some_and(|p| src.contains(&p))
-                });
-            if inside {
+                })
+    };
+    // `Scene::render` where compared
+    let exact = crate::common::render_where(&truth.scene, cam.as_ref(), &centre, 0.55, 6, inside);
+    let (mut se, mut n) = (0.0, 0usize);
+    for v in 0..h {
+        for u in 0..w {
+            if inside(u, v) {
                 let (p, q) = (img.pixel(u, v), exact.pixel(u, v));
                 se += (0..3)
                     .map(|c| (p[c] as f64 - q[c] as f64).powi(2))

@@ -10,9 +10,9 @@ use panoconv::kitti360::{Options, Sequence};
 use panoconv::source::{Frame, Pose};
 use panoconv::tools::synth::GROUND_Y;
 use panoconv::tools::synth360::scene::{
-    objects, scene_to_world, world_to_scene, world_transform, FIRST_FRAME,
+    objects, scene_to_world, world_from_pose, world_to_scene, world_transform, FIRST_FRAME,
 };
-use panoconv::tools::synth360::{render_camera, RenderCamera, SEQUENCE};
+use panoconv::tools::synth360::{boxes_xml, render_camera, RenderCamera, SEQUENCE};
 use std::path::{Path, PathBuf};
 
 fn fixture() -> PathBuf {
@@ -35,24 +35,52 @@ fn world_from_camera(frame: &Frame, k: usize) -> Pose {
 fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
     let tmp = tempfile::tempdir().unwrap();
     let fresh = tmp.path().join("kitti360");
-    // one thread here, several where the fixture was made: the bytes must not depend on it
+    // One thread here, several where the fixture was made: the bytes must not depend on it.
+    // Two of its three frames: a frame's images depend on nothing else, and a scan on its
+    // neighbour only (the sweep's motion), which the second frame has as the fixture's has.
     let status = std::process::Command::new(common::BIN)
-        .args(["synth", "--kitti360", "--scale", "0.25", "--output"])
+        .args(["synth", "--kitti360", "--scale", "0.25", "--frames", "2"])
+        .arg("--output")
         .arg(&fresh)
         .env("RAYON_NUM_THREADS", "1")
         .status()
         .unwrap();
     assert!(status.success());
     let (a, b) = (common::tree_files(&fixture()), common::tree_files(&fresh));
-    assert_eq!(a, b, "file lists differ");
     // 5 calibration files, poses, boxes; 3 frames of 4 images and a scan
     assert_eq!(a.len(), 7 + 3 * 5, "{a:?}");
-    for f in &a {
+    let third: Vec<&String> = a.iter().filter(|f| f.contains("0000000252.")).collect();
+    assert_eq!(third.len(), 5, "{third:?}");
+    let listed: std::collections::BTreeSet<String> =
+        a.iter().filter(|f| !third.contains(f)).cloned().collect();
+    assert_eq!(listed, b, "file lists differ");
+    let poses = format!("data_poses/{SEQUENCE}/poses.txt");
+    let boxes = format!("data_3d_bboxes/train/{SEQUENCE}.xml");
+    for f in &b {
+        if *f == poses || *f == boxes {
+            continue;
+        }
         assert!(
             std::fs::read(fixture().join(f)).unwrap() == std::fs::read(fresh.join(f)).unwrap(),
             "{f} differs from the generator's output"
         );
     }
+    // the poses: the first two lines as generated, the third the pose the generator gives
+    let shipped = common::read_text(&fixture().join(&poses));
+    let lines: Vec<&str> = shipped.lines().collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(
+        format!("{}\n{}\n", lines[0], lines[1]),
+        common::read_text(&fresh.join(&poses))
+    );
+    let m = world_from_pose(2);
+    let row: Vec<String> = (0..12).map(|i| m[(i / 4, i % 4)].to_string()).collect();
+    assert_eq!(lines[2], format!("{} {}", FIRST_FRAME + 2, row.join(" ")));
+    // the boxes of all three frames, as the generator writes them
+    assert!(
+        common::read_text(&fixture().join(&boxes)) == boxes_xml(FIRST_FRAME, 3),
+        "{boxes} differs from the generator's output"
+    );
 }
 
 #[test]

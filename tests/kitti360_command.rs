@@ -433,15 +433,16 @@ fn the_zero_baseline_panorama_matches_the_direct_render_with_exact_labels_and_de
             0 | 1 => seq.calibration.perspective[cam as usize].model.k.fu,
             _ => lenses[cam as usize - 2].centre_intrinsics().fu,
         };
-        let direct: RgbImage =
-            // the sources' blur (0.55 source px) plus the bilinear tent's own (variance 1/6
-            // px²), on the renderer's fine grid: as tests/kitti360_stitch.rs
-            scene.render_with(
-                &direct_camera,
-                &centre,
-                (0.55f64 * 0.55 + 1.0 / 6.0).sqrt() * k.fu / source_fu,
-                16,
-            );
+        // the sources' blur (0.55 source px) plus the bilinear tent's own (variance 1/6 px²),
+        // on the renderer's fine grid: as tests/kitti360_stitch.rs; over the camera's region only
+        let direct: RgbImage = common::render_where(
+            &scene,
+            &direct_camera,
+            &centre,
+            (0.55f64 * 0.55 + 1.0 / 6.0).sqrt() * k.fu / source_fu,
+            16,
+            |u, v| source.data[(v * size.width + u) as usize] == cam,
+        );
         let (mut se, mut n) = (0.0, 0usize);
         for (i, &s) in source.data.iter().enumerate() {
             if s != cam {

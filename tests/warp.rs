@@ -50,14 +50,17 @@ fn check(spec: OutputSpec, calib: &SynthCalib, frame: usize) -> f64 {
     let out = output_camera(&spec, calib.intrinsics(), &src).unwrap();
     let table = RemapTable::build(out.as_ref(), &src, &Matrix3::identity(), Wrap::None);
     let warped = table.apply(&source_image);
-    let exact = scene.render(out.as_ref(), &calib.centre());
     let view = in_view(out.as_ref(), &src);
+    // `Scene::render` where compared
+    let compared = |u, v| view(u, v) && table.is_inside(u, v);
+    let exact =
+        crate::common::render_where(scene, out.as_ref(), &calib.centre(), 0.55, 6, compared);
     let total = (0..out.size().height)
         .flat_map(|v| (0..out.size().width).map(move |u| (u, v)))
         .filter(|&(u, v)| view(u, v))
         .count();
     // Pixels whose footprint straddles the source border mix in black: leave those out.
-    let (db, n) = psnr(&warped, &exact, |u, v| view(u, v) && table.is_inside(u, v));
+    let (db, n) = psnr(&warped, &exact, compared);
     let coverage = n as f64 / total as f64;
     eprintln!(
         "{:?} {:?} {}x{}: PSNR {db:.2} dB over {:.3} % of the {total} in-view pixels",

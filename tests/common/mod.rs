@@ -13,6 +13,8 @@ pub const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
 mod paths;
 pub use paths::*;
+mod render;
+pub use render::render_where;
 
 /// The outcome of one run of the binary.
 #[derive(Debug)]
