@@ -1,4 +1,4 @@
-//! The PNG codec floor of a conversion (issue 8): for each frame, read and decode its input PNG
+//! The PNG codec floor of a conversion: for each frame, read and decode its input PNG
 //! and encode its already-warped output image, in parallel over frames like `panoconv kitti`,
 //! with no warp, no labels and no writes. `panoconv kitti` cannot be faster than this.
 //!

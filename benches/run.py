@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Side-by-side run of issue 8 (called by benches/run.sh, which builds and sets up the venv).
+"""Side-by-side run (called by benches/run.sh, which builds and sets up the venv).
 
 Builds an N-frame KITTI set from $PANOCONV_KITTI, default ../shared/kitti (the 7 real frames
 copied under N ids, in a temporary folder), then runs, alternately for several rounds:

@@ -40,6 +40,8 @@ compare augment kitti --to cylindrical --augment 3 --seed 5 --scale-range 0.8,1.
 compare crop kitti --to perspective --crop 10,20,600,200 --resize 300x100 --input "$synth"
 compare full kitti --to equirect --full-360 --png-compression best --input "$synth"
 compare pano pano --to perspective --yaw 0,90 --input "$pano"
+# KITTI-360's stitched rig: its fisheyes, world boxes and LiDAR, in augmented views
+compare k360 kitti360 --to cylindrical --pano-width 1024 --cameras 2,3 --depth --augment 2 --crop-size 300x150 --seed 3 --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync
 # Every command of the README's Use block (kitti, kitti-raw, fisheye target, labels-to-pixels,
 # unproject, eval-depth, resume, shards and merge, export, camera convert, fisheye and pano
 # folders, preview, inspect, completions, man, synth, verify), each binary in turn in the same
