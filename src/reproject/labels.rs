@@ -67,8 +67,9 @@ impl<'a> Accumulator<'a> {
     /// Objective `k` (0: −u, 1: −v, 2: u, 3: v) of a point: the coordinate of `pixel` that it
     /// compares, computed alone.
     fn objective(&self, k: usize, p: &Vector3<f64>) -> Option<f64> {
-        let c = self.camera.project_point_coordinate(p, k % 2).ok()?;
-        let c = if k % 2 == 0 { self.unwrap(c) } else { c };
+        let axis = k % 2;
+        let c = self.camera.project_point_coordinate(p, axis).ok()?;
+        let c = if axis == 0 { self.unwrap(c) } else { c };
         Some(if k < 2 { -c } else { c })
     }
 
