@@ -337,11 +337,9 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
         acc.add_segment(&e.0, &e.1);
     }
     // A fisheye's field of view can cut a face inside: that part of its outline is the rim of
-    // the fisheye's circle, which the edges never reach. (Cameras whose domain holds every
-    // point in front of the near plane, the linear projections, find nothing here, and a
-    // camera that says so is not asked.)
-    // A camera that sees its whole front half-space sees every point of a face in front of the
-    // near plane: within 5 km, n·p >= NEAR means n·p >= 1e-5·|p|, ten times its promise.
+    // the fisheye's circle, which the edges never reach. A camera that sees its whole front
+    // half-space has no such rim, and is not probed: within 5 km, a point with n·p >= NEAR has
+    // n·p >= 1e-5·|p|, ten times what the camera promises to see.
     let sees_every_face_point = front.is_some()
         && camera.sees_whole_front()
         && corners.iter().all(|c| c.norm() <= NEAR * 1e5);
