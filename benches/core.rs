@@ -2,7 +2,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use nalgebra::Matrix3;
-use panoconv::camera::{Perspective, Projection};
+use panoconv::camera::{
+    CameraModel, FisheyeCamera, ImageSize, Intrinsics, Lens, Perspective, Projection,
+};
 use panoconv::codec::png::{decode_rgb8, encode_rgb8, PngCompression};
 use panoconv::convert::kitti::transform_label;
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
@@ -116,6 +118,39 @@ fn bench(c: &mut Criterion) {
                         &src,
                         out.as_ref(),
                     ));
+                }
+            })
+        });
+    }
+    g.finish();
+
+    // The 2D box of each 3D box alone (transform_label -> source_box_in_image), DontCare
+    // aside: in the panorama, and in a 190° fisheye, whose faces are also searched for the rim.
+    let objects: Vec<&Label> = labels
+        .iter()
+        .filter(|l| l.to_source_box().is_some())
+        .collect();
+    let equirect = output_camera(&OutputSpec::new(Projection::Equirect), k, &src).unwrap();
+    let fisheye = FisheyeCamera {
+        lens: Lens::from_parameters(
+            "kannala_brandt",
+            Intrinsics::new(330.0, 330.0, 639.5, 482.5),
+            &[0.02, -0.005, 0.001, -0.0002],
+            ImageSize::new(1280, 966),
+            95f64.to_radians(),
+        )
+        .unwrap(),
+        rect_from_camera: Matrix3::identity(),
+    };
+    let mut g = c.benchmark_group("source_box_in_image");
+    g.throughput(Throughput::Elements(objects.len() as u64));
+    let cameras: [(&str, &dyn CameraModel); 2] =
+        [("equirect", equirect.as_ref()), ("fisheye_190", &fisheye)];
+    for (name, camera) in cameras {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                for l in &objects {
+                    black_box(transform_label(l, &frame.calib.centre(), &src, camera));
                 }
             })
         });

@@ -28,6 +28,24 @@ impl Mapping for EquirectMapping {
         Ok((d.x.atan2(d.z), lat))
     }
 
+    #[inline]
+    fn bearing_to_a(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
+        let n = d.norm();
+        if !(n > 0.0) || !n.is_finite() {
+            return Err(ProjectionReject::Singular);
+        }
+        Ok(d.x.atan2(d.z))
+    }
+
+    #[inline]
+    fn bearing_to_b(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
+        let n = d.norm();
+        if !(n > 0.0) || !n.is_finite() {
+            return Err(ProjectionReject::Singular);
+        }
+        Ok((d.y / n).clamp(-1.0, 1.0).asin())
+    }
+
     fn ab_to_bearing(lon: f64, lat: f64) -> Result<Vector3<f64>, ProjectionReject> {
         // A pole pixel computed in floating point may land a rounding error beyond π/2.
         if !(lon.is_finite() && lat.is_finite()) || lat.abs() > FRAC_PI_2 + 1e-12 {

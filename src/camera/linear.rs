@@ -17,8 +17,22 @@ pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
     const PERIODIC: bool;
     /// Only bearings with z > 0 have an image.
     const FRONT_ONLY: bool;
+    /// Every bearing with z >= 1e-6·|d| has an image (see [`CameraModel::sees_whole_front`]);
+    /// only meaningful with `FRONT_ONLY`.
+    const WHOLE_FRONT: bool = false;
     /// Projection coordinates (a, b) of a bearing (any non-zero length); angles in radians.
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject>;
+    /// `a` of [`Mapping::bearing_to_ab`] alone: the same value and rejection, overridden where
+    /// `a` costs less than both.
+    #[inline]
+    fn bearing_to_a(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
+        Self::bearing_to_ab(d).map(|ab| ab.0)
+    }
+    /// `b` of [`Mapping::bearing_to_ab`] alone, as [`Mapping::bearing_to_a`].
+    #[inline]
+    fn bearing_to_b(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
+        Self::bearing_to_ab(d).map(|ab| ab.1)
+    }
     /// Unit bearing of projection coordinates (a, b).
     fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
     /// The distance this projection pairs with, for a point relative to the centre.
@@ -79,6 +93,28 @@ impl<M: Mapping> CameraModel for Linear<M> {
     fn horizontal_period(&self) -> Option<f64> {
         M::PERIODIC.then_some(2.0 * std::f64::consts::PI * self.k.fu)
     }
+
+    fn project_point_coordinate(
+        &self,
+        p: &Vector3<f64>,
+        axis: usize,
+    ) -> Result<f64, ProjectionReject> {
+        // project_point's steps, then to_pixel's line of the one coordinate
+        let n = p.norm();
+        if !(n > 1e-12) {
+            return Err(ProjectionReject::Singular);
+        }
+        let d = p / n;
+        if axis == 0 {
+            M::bearing_to_a(&d).map(|a| self.k.fu * a + self.k.cu)
+        } else {
+            M::bearing_to_b(&d).map(|b| self.k.fv * b + self.k.cv)
+        }
+    }
+
+    fn sees_whole_front(&self) -> bool {
+        M::FRONT_ONLY && M::WHOLE_FRONT
+    }
 }
 
 impl<M: Mapping> OutputCamera for Linear<M> {
@@ -114,5 +150,98 @@ impl<M: Mapping> LinearCamera for Linear<M> {
 
     fn boxed_clone(&self) -> Box<dyn LinearCamera> {
         Box::new(self.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Cylindrical, Equirect, Perspective, Rotated};
+    use super::*;
+
+    fn cameras() -> Vec<Box<dyn CameraModel>> {
+        let k = Intrinsics::new(160.0, 150.0, 503.5, 180.5);
+        let size = ImageSize::new(1008, 362);
+        vec![
+            Box::new(Equirect::new(k, size)),
+            Box::new(Cylindrical::new(k, size)),
+            Box::new(Perspective::new(k, size)),
+            Box::new(Rotated::new(
+                Perspective::new(k, size),
+                super::super::rotation_ypr(0.4, -0.2, 0.1),
+            )),
+        ]
+    }
+
+    /// Points of every kind: ordinary, on the axes, tiny, huge, zero and not finite.
+    fn points() -> Vec<Vector3<f64>> {
+        let mut out = vec![
+            Vector3::zeros(),
+            Vector3::new(1e-13, 0.0, 0.0),
+            Vector3::new(0.0, 1.0, 0.0),
+            Vector3::new(0.0, -3.0, 0.0),
+            Vector3::new(0.0, 0.0, -1.0),
+            Vector3::new(-0.0, 0.0, -1.0),
+            Vector3::new(1e200, 1e200, 1e200),
+            Vector3::new(1e300, 0.0, 1.0),
+            Vector3::new(f64::INFINITY, 0.0, 1.0),
+            Vector3::new(f64::NAN, 0.0, 1.0),
+            Vector3::new(1.0, 1e-12, 1e-9),
+        ];
+        let mut s = 11u64;
+        for _ in 0..3000 {
+            let mut r = || {
+                s ^= s << 13;
+                s ^= s >> 7;
+                s ^= s << 17;
+                (s >> 11) as f64 / (1u64 << 53) as f64 * 80.0 - 40.0
+            };
+            out.push(Vector3::new(r(), r(), r()));
+        }
+        out
+    }
+
+    #[test]
+    fn one_coordinate_is_that_of_the_whole_projection_bit_for_bit() {
+        for camera in cameras() {
+            for p in points() {
+                let whole = camera.project_point(&p);
+                for axis in 0..2 {
+                    let one = camera.project_point_coordinate(&p, axis);
+                    match (whole, one) {
+                        (Ok(px), Ok(c)) => {
+                            assert_eq!(px[axis].to_bits(), c.to_bits(), "{camera:?} {p:?}")
+                        }
+                        (Err(a), Err(b)) => assert_eq!(a, b, "{camera:?} {p:?}"),
+                        _ => panic!("{camera:?} {p:?} axis {axis}: {whole:?} vs {one:?}"),
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_camera_that_sees_its_whole_front_projects_every_bearing_in_front() {
+        let mut checked = 0;
+        for camera in cameras() {
+            let Some(n) = camera
+                .front_halfspace()
+                .filter(|_| camera.sees_whole_front())
+            else {
+                // equirect and cylindrical have no front half-space: they promise nothing
+                assert!(!camera.sees_whole_front(), "{camera:?}");
+                continue;
+            };
+            for p in points() {
+                // the bearings just inside the promise: p pushed to n·d = 1e-6·|d|
+                let along = p - n * n.dot(&p);
+                if !(along.norm() > 0.0 && along.norm().is_finite()) {
+                    continue;
+                }
+                let d = along.normalize() + n * 1.000_001e-6;
+                assert!(camera.project_point(&d).is_ok(), "{camera:?} {d:?}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 5000, "{checked}");
     }
 }

@@ -104,6 +104,27 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
         self.project(&(p / n))
     }
 
+    /// One coordinate (`axis` 0: u, 1: v) of [`CameraModel::project_point`]: the same f64 and
+    /// the same rejection, for searches that compare one coordinate (the 2D box of a 3D box
+    /// probes each edge thousands of times). A model overrides it only where one coordinate
+    /// costs less than both, and only with the very operations `project_point` does.
+    fn project_point_coordinate(
+        &self,
+        p: &Vector3<f64>,
+        axis: usize,
+    ) -> Result<f64, ProjectionReject> {
+        self.project_point(p).map(|px| px[axis])
+    }
+
+    /// Whether every bearing d in front of the camera, n·d >= 1e-6·|d| with n its
+    /// [`CameraModel::front_halfspace`], has a pixel: the model's domain is the whole front
+    /// half-space, so a face in front of the near plane never leaves it (the 2D box of a 3D box
+    /// then need not look for a rim). Conservative: false unless the model guarantees it, and
+    /// always false for a model without a front half-space.
+    fn sees_whole_front(&self) -> bool {
+        false
+    }
+
     /// Whether a continuous pixel position lies on the image ([-0.5, size - 0.5)).
     fn contains(&self, px: &Point2<f64>) -> bool {
         let s = self.size();

@@ -18,6 +18,8 @@ impl Mapping for PinholeMapping {
     const PROJECTION: Projection = Projection::Perspective;
     const PERIODIC: bool = false;
     const FRONT_ONLY: bool = true;
+    // z >= 1e-6·|d| passes the MIN_FORWARD test below.
+    const WHOLE_FRONT: bool = true;
 
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         if !(d.z > MIN_FORWARD * d.norm()) {

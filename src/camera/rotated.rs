@@ -72,4 +72,9 @@ impl<C: CameraModel> CameraModel for Rotated<C> {
             .front_halfspace()
             .map(|n| self.reference_from_camera * n)
     }
+
+    // The inner camera's front half-space turned with it: the same bearings, turned.
+    fn sees_whole_front(&self) -> bool {
+        self.inner.sees_whole_front()
+    }
 }

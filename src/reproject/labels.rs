@@ -28,6 +28,8 @@ pub type Bounds = [f64; 4];
 
 struct Accumulator<'a> {
     camera: &'a dyn CameraModel,
+    /// The camera's horizontal period, asked once.
+    period: Option<f64>,
     /// Horizontal reference for unwrapping a periodic horizontal coordinate.
     reference_u: Option<f64>,
     bounds: Bounds,
@@ -37,6 +39,7 @@ impl<'a> Accumulator<'a> {
     fn new(camera: &'a dyn CameraModel) -> Self {
         Self {
             camera,
+            period: camera.horizontal_period(),
             reference_u: None,
             bounds: [
                 f64::INFINITY,
@@ -50,10 +53,24 @@ impl<'a> Accumulator<'a> {
     /// Pixel of a point, unwrapped next to the reference so a seam-crossing box stays whole.
     fn pixel(&self, p: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
         let mut px = self.camera.project_point(p)?;
-        if let (Some(period), Some(r)) = (self.camera.horizontal_period(), self.reference_u) {
-            px.x = r + (px.x - r + period / 2.0).rem_euclid(period) - period / 2.0;
-        }
+        px.x = self.unwrap(px.x);
         Ok(px)
+    }
+
+    fn unwrap(&self, u: f64) -> f64 {
+        match (self.period, self.reference_u) {
+            (Some(period), Some(r)) => r + rem_euclid(u - r + period / 2.0, period) - period / 2.0,
+            _ => u,
+        }
+    }
+
+    /// Objective `k` (0: −u, 1: −v, 2: u, 3: v) of a point: the coordinate of `pixel` that it
+    /// compares, computed alone.
+    fn objective(&self, k: usize, p: &Vector3<f64>) -> Option<f64> {
+        let axis = k % 2;
+        let c = self.camera.project_point_coordinate(p, axis).ok()?;
+        let c = if axis == 0 { self.unwrap(c) } else { c };
+        Some(if k < 2 { -c } else { c })
     }
 
     fn add(&mut self, px: Point2<f64>) {
@@ -67,9 +84,8 @@ impl<'a> Accumulator<'a> {
     /// Adds the projection of the segment p→q, with each coordinate's extremes refined.
     fn add_segment(&mut self, p: &Vector3<f64>, q: &Vector3<f64>) {
         let at = |t: f64| p + (q - p) * t;
-        let samples: Vec<Option<Point2<f64>>> = (0..=EDGE_SAMPLES)
-            .map(|i| self.pixel(&at(i as f64 / EDGE_SAMPLES as f64)).ok())
-            .collect();
+        let samples: [Option<Point2<f64>>; EDGE_SAMPLES + 1] =
+            std::array::from_fn(|i| self.pixel(&at(i as f64 / EDGE_SAMPLES as f64)).ok());
         for s in samples.iter().flatten() {
             self.add(*s);
         }
@@ -113,7 +129,7 @@ impl<'a> Accumulator<'a> {
             let Some((i, _)) = best else { continue };
             let lo = i.saturating_sub(1) as f64 / EDGE_SAMPLES as f64;
             let hi = (i + 1).min(EDGE_SAMPLES) as f64 / EDGE_SAMPLES as f64;
-            let f = |t: f64| self.pixel(&at(t)).ok().map(|px| value(&px));
+            let f = |t: f64| self.objective(k, &at(t));
             if let Some(t) = golden_max(&f, lo, hi) {
                 if let Ok(px) = self.pixel(&at(t)) {
                     self.add(px);
@@ -180,6 +196,24 @@ impl Accumulator<'_> {
                 self.add(px);
             }
         }
+    }
+}
+
+/// `x.rem_euclid(period)` without `fmod` where its result is known exactly: x itself on
+/// [0, period), x − period on [period, 2·period) (exact there), x + period on (−period, 0)
+/// (`rem_euclid` adds period to fmod's x there).
+#[inline]
+fn rem_euclid(x: f64, period: f64) -> f64 {
+    if !(period > 0.0) {
+        x.rem_euclid(period)
+    } else if (0.0..period).contains(&x) {
+        x
+    } else if x >= period && x < 2.0 * period {
+        x - period
+    } else if x < 0.0 && x > -period {
+        x + period
+    } else {
+        x.rem_euclid(period)
     }
 }
 
@@ -303,9 +337,13 @@ pub fn box_bounds(corners: &[Vector3<f64>; 8], camera: &dyn CameraModel) -> Opti
         acc.add_segment(&e.0, &e.1);
     }
     // A fisheye's field of view can cut a face inside: that part of its outline is the rim of
-    // the fisheye's circle, which the edges never reach. (Cameras whose domain holds every
-    // point in front of the near plane, the linear projections, find nothing here.)
-    if camera.horizontal_period().is_none() {
+    // the fisheye's circle, which the edges never reach. A camera that sees its whole front
+    // half-space has no such rim, and is not probed: within 5 km, a point with n·p >= NEAR has
+    // n·p >= 1e-5·|p|, ten times what the camera promises to see.
+    let sees_every_face_point = front.is_some()
+        && camera.sees_whole_front()
+        && corners.iter().all(|c| c.norm() <= NEAR * 1e5);
+    if camera.horizontal_period().is_none() && !sees_every_face_point {
         for face in FACES {
             acc.add_domain_edge(&face.map(|i| corners[i]), front);
         }
@@ -368,7 +406,7 @@ pub fn rect_bounds(
     for p in pts {
         if let Some(mut q) = map(p) {
             if let (Some(period), Some(c)) = (period, centre) {
-                q.x = c + (q.x - c + period / 2.0).rem_euclid(period) - period / 2.0;
+                q.x = c + rem_euclid(q.x - c + period / 2.0, period) - period / 2.0;
             }
             out[0] = out[0].min(q.x);
             out[1] = out[1].min(q.y);
@@ -398,4 +436,158 @@ pub fn clipped_fraction(unclipped: Bounds, clipped: Bounds) -> f64 {
         return 0.0;
     }
     (1.0 - area(clipped) / full).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{
+        rotation_ypr, Cylindrical, Equirect, FisheyeCamera, ImageSize, Intrinsics, Lens,
+        Perspective, Rotated,
+    };
+    use nalgebra::{Matrix3, Rotation3};
+
+    /// A camera's projection alone: the trait's defaults for everything else, so `box_bounds`
+    /// probes every face and projects both coordinates at each probe, as the search is defined.
+    #[derive(Debug)]
+    struct Plain<'a>(&'a dyn CameraModel);
+
+    impl CameraModel for Plain<'_> {
+        fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+            self.0.project(d)
+        }
+        fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+            self.0.unproject(p)
+        }
+        fn distance(&self, p: &Vector3<f64>) -> f64 {
+            self.0.distance(p)
+        }
+        fn size(&self) -> crate::camera::ImageSize {
+            self.0.size()
+        }
+        fn front_halfspace(&self) -> Option<Vector3<f64>> {
+            self.0.front_halfspace()
+        }
+        fn horizontal_period(&self) -> Option<f64> {
+            self.0.horizontal_period()
+        }
+    }
+
+    /// xorshift64: uniform in [0, 1).
+    fn uniform(state: &mut u64) -> f64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Boxes ahead, anywhere, around the camera, above or below it and behind it, upright or
+    /// turned about every axis.
+    fn random_boxes(n: usize) -> Vec<[Vector3<f64>; 8]> {
+        let mut s = 0x9E37_79B9_7F4A_7C15u64;
+        let mut r = |a: f64, b: f64| a + (b - a) * uniform(&mut s);
+        (0..n)
+            .map(|i| {
+                let centre = match i % 5 {
+                    0 => Vector3::new(r(-10.0, 10.0), r(-1.0, 3.0), r(2.0, 60.0)),
+                    1 => Vector3::new(r(-30.0, 30.0), r(-5.0, 5.0), r(-30.0, 30.0)),
+                    2 => Vector3::new(r(-2.0, 2.0), r(-2.0, 2.0), r(-2.0, 2.0)),
+                    3 => Vector3::new(r(-1.0, 1.0), r(-8.0, 8.0), r(-1.0, 1.0)),
+                    _ => Vector3::new(r(-10.0, 10.0), r(-2.0, 2.0), r(-40.0, -1.0)),
+                };
+                let half = Vector3::new(r(0.15, 2.5), r(0.15, 1.5), r(0.15, 2.5));
+                let rotation = if i % 3 == 0 {
+                    Rotation3::from_euler_angles(r(-3.2, 3.2), r(-3.2, 3.2), r(-3.2, 3.2))
+                } else {
+                    Rotation3::from_axis_angle(&Vector3::y_axis(), r(-3.2, 3.2))
+                };
+                let (xs, zs) = ([1.0, 1.0, -1.0, -1.0], [1.0, -1.0, -1.0, 1.0]);
+                std::array::from_fn(|j| {
+                    let y = if j < 4 { 1.0 } else { -1.0 };
+                    let local = Vector3::new(xs[j % 4], y, zs[j % 4]).component_mul(&half);
+                    centre + rotation * local
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_bounds_are_bit_for_bit_those_of_the_full_search() {
+        let k = Intrinsics::new(160.0, 160.0, 503.5, 180.5);
+        let size = ImageSize::new(1008, 362);
+        let kitti = Intrinsics::new(721.5, 721.5, 609.6, 172.9);
+        let kitti_size = ImageSize::new(1242, 375);
+        let lens = Lens::from_parameters(
+            "kannala_brandt",
+            Intrinsics::new(300.0, 300.0, 639.5, 482.5),
+            &[0.01, -0.002, 0.0005, -0.0001],
+            ImageSize::new(1280, 966),
+            80f64.to_radians(),
+        )
+        .unwrap();
+        let cameras: Vec<Box<dyn CameraModel>> = vec![
+            Box::new(Equirect::new(k, size)),
+            Box::new(Cylindrical::new(k, size)),
+            Box::new(Perspective::new(kitti, kitti_size)),
+            Box::new(Rotated::new(
+                Perspective::new(kitti, kitti_size),
+                rotation_ypr(-0.5, 0.1, 0.2),
+            )),
+            Box::new(FisheyeCamera {
+                lens,
+                rect_from_camera: Matrix3::identity(),
+            }),
+        ];
+        let boxes = random_boxes(600);
+        for camera in &cameras {
+            let mut seen = 0;
+            for corners in &boxes {
+                let got = box_bounds(corners, camera.as_ref());
+                let want = box_bounds(corners, &Plain(camera.as_ref()));
+                let bits = |b: Option<Bounds>| b.map(|b| b.map(f64::to_bits));
+                assert_eq!(bits(got), bits(want), "{camera:?} {corners:?}");
+                seen += usize::from(got.is_some());
+            }
+            // most boxes have an image: the comparison is not of Nones
+            assert!(seen > boxes.len() / 2, "{camera:?}: {seen}");
+        }
+    }
+
+    #[test]
+    fn rem_euclid_is_the_standard_one_bit_for_bit() {
+        let mut s = 7u64;
+        for period in [
+            2.0 * std::f64::consts::PI * 160.0,
+            1.0,
+            1e-3,
+            3e9,
+            -5.0,
+            0.0,
+        ] {
+            let edges = [
+                0.0,
+                -0.0,
+                period,
+                -period,
+                2.0 * period,
+                -2.0 * period,
+                period / 2.0,
+                1e300,
+                -1e300,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NAN,
+                f64::MIN_POSITIVE,
+            ];
+            let near = edges.iter().flat_map(|&x| [x, x.next_up(), x.next_down()]);
+            let random = (0..2000).map(|_| (uniform(&mut s) * 6.0 - 3.0) * period);
+            for x in near.chain(random) {
+                let (got, want) = (rem_euclid(x, period), x.rem_euclid(period));
+                assert!(
+                    got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                    "{x} mod {period}: {got} vs {want}"
+                );
+            }
+        }
+    }
 }
