@@ -545,18 +545,17 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
         // One block (most pixels): each weight rounded, the largest one (first on ties) takes
         // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
         let y = w.map(|x| x * scale);
-        let mut q = y.map(|x| (x + 0.5) as i32);
+        let q = y.map(|x| (x + 0.5) as i32);
         let mut big = 0;
         for k in 1..4 {
             if y[k] > y[big] {
                 big = k;
             }
         }
-        q[big] += total - q.iter().sum::<i32>();
-        out.push(Quad {
-            offset,
-            w: q.map(|x| x as i16),
-        });
+        let fix = total - q.iter().sum::<i32>();
+        // no store to q[big]: an indexed store sends the weights through memory
+        let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
+        out.push(Quad { offset, w });
         return;
     }
     s.ints.clear();
