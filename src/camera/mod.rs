@@ -100,7 +100,7 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
     /// Appends to `out` the pixel of each bearing of `bearings` (None for None and for the
     /// bearings [`CameraModel::project`] rejects): exactly `project`'s pixels, in one call for
     /// many bearings (remap tables). The linear projections override it only to spare the
-    /// dynamic call per bearing.
+    /// dynamic call per bearing; a camera wrapping another with other pixels keeps the default.
     fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
         out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok()));
     }
@@ -108,7 +108,8 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
     /// This camera's unprojection as a column share and a row share, where it separates so:
     /// the batch form of [`CameraModel::unproject`] for grids of pixels (remap tables; see
     /// [`Separable`]). The linear projections have it, each implemented once in its
-    /// [`Mapping`]; the others keep this default, None (each pixel unprojected alone).
+    /// [`Mapping`]; the others keep this default, None (each pixel unprojected alone), and so
+    /// does a camera wrapping another with other bearings (a turned one, [`Rotated`]).
     fn separable(&self) -> Option<&dyn Separable> {
         None
     }
