@@ -47,6 +47,7 @@ mod scale;
 mod style;
 mod style_batch;
 mod style_cli;
+mod table_parts;
 mod trust;
 mod unproject;
 mod verify;

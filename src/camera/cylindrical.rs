@@ -21,6 +21,7 @@ impl Mapping for CylindricalMapping {
     const PERIODIC: bool = true;
     const FRONT_ONLY: bool = false;
 
+    #[inline]
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         let rho = d.x.hypot(d.z);
         if !(rho > MIN_RHO * d.norm()) {
@@ -29,11 +30,24 @@ impl Mapping for CylindricalMapping {
         Ok((d.x.atan2(d.z), d.y / rho))
     }
 
-    fn ab_to_bearing(phi: f64, h: f64) -> Result<Vector3<f64>, ProjectionReject> {
-        if !(phi.is_finite() && h.is_finite()) {
-            return Err(ProjectionReject::OutsideDomain);
+    fn split_a(phi: f64) -> [f64; 2] {
+        if !phi.is_finite() {
+            return [f64::NAN; 2];
         }
         let (s, c) = phi.sin_cos();
+        [s, c]
+    }
+
+    fn split_b(h: f64) -> [f64; 2] {
+        [h, 0.0]
+    }
+
+    #[inline]
+    fn join([s, c]: [f64; 2], [h, _]: [f64; 2]) -> Result<Vector3<f64>, ProjectionReject> {
+        // the sine of a finite angle is never NaN: NaN marks an azimuth outside the domain
+        if s.is_nan() || !h.is_finite() {
+            return Err(ProjectionReject::OutsideDomain);
+        }
         Ok(Vector3::new(s, h, c).normalize())
     }
 

@@ -19,6 +19,7 @@ impl Mapping for EquirectMapping {
     const PERIODIC: bool = true;
     const FRONT_ONLY: bool = false;
 
+    #[inline]
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         let n = d.norm();
         if !(n > 0.0) || !n.is_finite() {
@@ -46,14 +47,29 @@ impl Mapping for EquirectMapping {
         Ok((d.y / n).clamp(-1.0, 1.0).asin())
     }
 
-    fn ab_to_bearing(lon: f64, lat: f64) -> Result<Vector3<f64>, ProjectionReject> {
+    fn split_a(lon: f64) -> [f64; 2] {
+        if !lon.is_finite() {
+            return [f64::NAN; 2];
+        }
+        let (so, co) = lon.sin_cos();
+        [so, co]
+    }
+
+    fn split_b(lat: f64) -> [f64; 2] {
         // A pole pixel computed in floating point may land a rounding error beyond π/2.
-        if !(lon.is_finite() && lat.is_finite()) || lat.abs() > FRAC_PI_2 + 1e-12 {
+        if !lat.is_finite() || lat.abs() > FRAC_PI_2 + 1e-12 {
+            return [f64::NAN; 2];
+        }
+        let (sl, cl) = lat.clamp(-FRAC_PI_2, FRAC_PI_2).sin_cos();
+        [sl, cl]
+    }
+
+    #[inline]
+    fn join([so, co]: [f64; 2], [sl, cl]: [f64; 2]) -> Result<Vector3<f64>, ProjectionReject> {
+        // sines and cosines of finite angles are never NaN: NaN marks a split outside the domain
+        if so.is_nan() || sl.is_nan() {
             return Err(ProjectionReject::OutsideDomain);
         }
-        let lat = lat.clamp(-FRAC_PI_2, FRAC_PI_2);
-        let (sl, cl) = lat.sin_cos();
-        let (so, co) = lon.sin_cos();
         Ok(Vector3::new(cl * so, sl, cl * co))
     }
 

@@ -53,7 +53,19 @@ impl Intrinsics {
     /// Projection coordinates (a, b) of pixel (u, v): the inverse of [`Intrinsics::to_pixel`].
     #[inline]
     pub fn from_pixel(&self, u: f64, v: f64) -> (f64, f64) {
-        ((u - self.cu) / self.fu, (v - self.cv) / self.fv)
+        (self.a_of_column(u), self.b_of_row(v))
+    }
+
+    /// Projection coordinate `a` of pixel column position `u` (K's first row inverted).
+    #[inline]
+    pub fn a_of_column(&self, u: f64) -> f64 {
+        (u - self.cu) / self.fu
+    }
+
+    /// Projection coordinate `b` of pixel row position `v` (K's second row inverted).
+    #[inline]
+    pub fn b_of_row(&self, v: f64) -> f64 {
+        (v - self.cv) / self.fv
     }
 
     /// Row-major 3x3 matrix.

@@ -2,6 +2,7 @@
 //! pixel = K · (a, b, 1). Everything K-related lives here once; each projection file only says
 //! how a bearing becomes (a, b) and back ([`Mapping`]).
 
+use super::separable::{Separable, Share};
 use super::{
     CameraModel, ImageSize, Intrinsics, LinearCamera, OutputCamera, OutputProjection, Projection,
     ProjectionReject,
@@ -33,8 +34,18 @@ pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
     fn bearing_to_b(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
         Self::bearing_to_ab(d).map(|ab| ab.1)
     }
-    /// Unit bearing of projection coordinates (a, b).
-    fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject>;
+    /// Unit bearing of projection coordinates (a, b): made of the shares of `a` and `b`, so
+    /// that a grid of pixels (a [`Separable`] camera) gives each pixel the same bits.
+    #[inline]
+    fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject> {
+        Self::join(Self::split_a(a), Self::split_b(b))
+    }
+    /// What `a` alone contributes to a bearing (NaN where `a` has no bearing).
+    fn split_a(a: f64) -> [f64; 2];
+    /// What `b` alone contributes to a bearing (NaN where `b` has no bearing).
+    fn split_b(b: f64) -> [f64; 2];
+    /// Unit bearing of the shares of `a` and `b`.
+    fn join(a: [f64; 2], b: [f64; 2]) -> Result<Vector3<f64>, ProjectionReject>;
     /// The distance this projection pairs with, for a point relative to the centre.
     fn distance(p: &Vector3<f64>) -> f64;
 }
@@ -67,6 +78,7 @@ impl<M> Linear<M> {
 }
 
 impl<M: Mapping> CameraModel for Linear<M> {
+    #[inline]
     fn project(&self, bearing: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
         let (a, b) = M::bearing_to_ab(bearing)?;
         let (u, v) = self.k.to_pixel(a, b);
@@ -114,6 +126,29 @@ impl<M: Mapping> CameraModel for Linear<M> {
 
     fn sees_whole_front(&self) -> bool {
         M::FRONT_ONLY && M::WHOLE_FRONT
+    }
+
+    fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        // the same `project`, inlined here rather than called through the trait object
+        out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok()));
+    }
+
+    fn separable(&self) -> Option<&dyn Separable> {
+        Some(self)
+    }
+}
+
+impl<M: Mapping> Separable for Linear<M> {
+    fn column(&self, u: f64) -> Share {
+        Share(M::split_a(self.k.a_of_column(u)))
+    }
+
+    fn row(&self, v: f64) -> Share {
+        Share(M::split_b(self.k.b_of_row(v)))
+    }
+
+    fn bearings(&self, columns: &[Share], row: Share, out: &mut Vec<Option<Vector3<f64>>>) {
+        out.extend(columns.iter().map(|c| M::join(c.0, row.0).ok()));
     }
 }
 

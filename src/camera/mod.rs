@@ -27,6 +27,7 @@ mod output;
 mod perspective;
 mod projection;
 pub(crate) mod rotated;
+mod separable;
 mod unified;
 mod yaml_subset;
 
@@ -44,6 +45,7 @@ pub use output::{FisheyeCamera, OutputCamera};
 pub use perspective::Perspective;
 pub use projection::{OutputProjection, Projection};
 pub use rotated::{rotation_ypr, Rotated};
+pub use separable::{Separable, Share};
 pub use unified::{MeiDistortion, MeiModel, Unified};
 
 use nalgebra::{Point2, Vector3};
@@ -92,6 +94,23 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
     /// Pixels per full turn when the horizontal pixel coordinate is an angle about the y axis
     /// (so that u and u ± period are the same direction).
     fn horizontal_period(&self) -> Option<f64> {
+        None
+    }
+
+    /// Appends to `out` the pixel of each bearing of `bearings` (None for None and for the
+    /// bearings [`CameraModel::project`] rejects): exactly `project`'s pixels, in one call for
+    /// many bearings (remap tables). The linear projections override it only to spare the
+    /// dynamic call per bearing; a camera wrapping another with other pixels keeps the default.
+    fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok()));
+    }
+
+    /// This camera's unprojection as a column share and a row share, where it separates so:
+    /// the batch form of [`CameraModel::unproject`] for grids of pixels (remap tables; see
+    /// [`Separable`]). The linear projections have it, each implemented once in its
+    /// [`Mapping`]; the others keep this default, None (each pixel unprojected alone), and so
+    /// does a camera wrapping another with other bearings (a turned one, [`Rotated`]).
+    fn separable(&self) -> Option<&dyn Separable> {
         None
     }
 

@@ -21,6 +21,7 @@ impl Mapping for PinholeMapping {
     // z >= 1e-6·|d| passes the MIN_FORWARD test below.
     const WHOLE_FRONT: bool = true;
 
+    #[inline]
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
         if !(d.z > MIN_FORWARD * d.norm()) {
             return Err(ProjectionReject::BehindCamera);
@@ -28,7 +29,16 @@ impl Mapping for PinholeMapping {
         Ok((d.x / d.z, d.y / d.z))
     }
 
-    fn ab_to_bearing(a: f64, b: f64) -> Result<Vector3<f64>, ProjectionReject> {
+    fn split_a(a: f64) -> [f64; 2] {
+        [a, 0.0]
+    }
+
+    fn split_b(b: f64) -> [f64; 2] {
+        [b, 0.0]
+    }
+
+    #[inline]
+    fn join([a, _]: [f64; 2], [b, _]: [f64; 2]) -> Result<Vector3<f64>, ProjectionReject> {
         if !(a.is_finite() && b.is_finite()) {
             return Err(ProjectionReject::OutsideDomain);
         }

@@ -10,10 +10,11 @@
 
 use super::footprint::Footprint;
 use super::kernel::{self, Kernel, Quad, WEIGHT_ONE};
-use crate::camera::{CameraModel, ImageSize};
+use crate::camera::{CameraModel, ImageSize, Separable, Share};
 use crate::image::RgbImage;
-use nalgebra::{Matrix3, Point2};
+use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
@@ -66,6 +67,14 @@ struct Builder<'a> {
     source_size: ImageSize,
     /// Pixels outside it are not mapped (they take nothing from the source).
     seen: Option<&'a Footprint>,
+    /// The output camera's unprojection by columns and rows, where it has one: then each
+    /// column's and each row's share of the bearings is computed once, not once a pixel.
+    by_parts: Option<&'a dyn Separable>,
+    /// With `by_parts`: the column shares of the pixel centres, columns -1..=width.
+    centre_columns: Vec<Share>,
+    /// With `by_parts`: at index n, the column shares of the n taps of an n-wide supersampled
+    /// pixel, n per column (column-major), made by the first band that needs them.
+    tap_columns: [OnceLock<Vec<Share>>; MAX_SUPERSAMPLE as usize + 1],
 }
 
 /// A band of consecutive output rows, built independently of the others.
@@ -84,6 +93,15 @@ struct Scratch {
     blocks: Vec<(u32, [f64; 4])>,
     ints: Vec<[i32; 4]>,
     order: Vec<(usize, f64)>,
+}
+
+/// Scratch space of a band's unprojections by columns and rows.
+#[derive(Default)]
+struct Parts {
+    bearings: Vec<Option<Vector3<f64>>>,
+    taps: Vec<Option<Point2<f64>>>,
+    /// The row shares of the current row's taps, at index n for an n-tall supersampled pixel.
+    tap_rows: [Vec<Share>; MAX_SUPERSAMPLE as usize + 1],
 }
 
 impl RemapTable {
@@ -139,6 +157,10 @@ impl RemapTable {
     ) -> RemapTable {
         let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
         b.seen = seen;
+        if let Some(sep) = b.by_parts {
+            let w = dst.size().width as i64;
+            b.centre_columns = (-1..=w).map(|u| sep.column(u as f64)).collect();
+        }
         let h = dst.size().height as usize;
         if !parallel {
             return b.finish(vec![b.band(0..h)]);
@@ -271,6 +293,9 @@ impl<'a> Builder<'a> {
             cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
             source_size: src.size(),
             seen: None,
+            by_parts: dst.separable(),
+            centre_columns: Vec::new(),
+            tap_columns: Default::default(),
         }
     }
 
@@ -281,11 +306,42 @@ impl<'a> Builder<'a> {
         self.src.project(&(self.src_from_dst * d)).ok()
     }
 
+    /// Appends the source positions of output bearings `ds` to `out` (`ds` is rotated in place).
+    fn bearings_to_src(&self, ds: &mut [Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        for d in ds.iter_mut().flatten() {
+            *d = self.src_from_dst * *d;
+        }
+        self.src.project_all(ds, out);
+    }
+
+    /// The column shares of the taps of an `n`-wide supersampled pixel, n per column.
+    fn tap_columns(&self, sep: &dyn Separable, n: u32) -> &[Share] {
+        self.tap_columns[n as usize].get_or_init(|| {
+            let w = self.dst.size().width;
+            (0..w)
+                .flat_map(|u| (0..n).map(move |i| sep.column(u as f64 + tap_offset(i, n))))
+                .collect()
+        })
+    }
+
     /// The source positions of the centres of output row `v`, columns -1..=width (one beyond
     /// each side, for the scale estimate of the edge pixels).
-    fn centres(&self, v: isize, out: &mut Vec<Option<Point2<f64>>>) {
+    fn centres(&self, v: isize, parts: &mut Parts, out: &mut Vec<Option<Point2<f64>>>) {
         let w = self.dst.size().width as isize;
         out.clear();
+        if let Some(sep) = self.by_parts {
+            parts.bearings.clear();
+            sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
+            if let Some(seen) = self.seen {
+                for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
+                    if !seen.may_see(u, v) {
+                        *d = None;
+                    }
+                }
+            }
+            self.bearings_to_src(&mut parts.bearings, out);
+            return;
+        }
         match self.seen {
             None => out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64))),
             Some(seen) => out.extend((-1..=w).map(|u| {
@@ -306,7 +362,8 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let n = rows.len() * w;
         let mut band = Band {
-            quads: Vec::with_capacity(n),
+            // room for the second blocks of some supersampled pixels: growing would copy it all
+            quads: Vec::with_capacity(n + n / 4),
             counts: Vec::with_capacity(n),
             row_lens: Vec::with_capacity(rows.len()),
             row_reach: Vec::with_capacity(rows.len()),
@@ -314,13 +371,15 @@ impl<'a> Builder<'a> {
         };
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut scratch = Scratch::default();
+        let mut parts = Parts::default();
         let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
-        self.centres(rows.start as isize - 1, &mut above);
-        self.centres(rows.start as isize, &mut here);
+        self.centres(rows.start as isize - 1, &mut parts, &mut above);
+        self.centres(rows.start as isize, &mut parts, &mut here);
         for v in rows {
             let vf = v as f64;
             let row_start = band.quads.len();
-            self.centres(v as isize + 1, &mut below);
+            self.centres(v as isize + 1, &mut parts, &mut below);
+            parts.tap_rows.iter_mut().for_each(Vec::clear);
             for u in 0..w {
                 let centre = here[u + 1];
                 let (nu, nv) = supersampling(
@@ -333,14 +392,30 @@ impl<'a> Builder<'a> {
                 scratch.blocks.clear();
                 let inside = if (nu, nv) == (1, 1) {
                     self.add_tap(centre, &mut scratch) as u32
+                } else if let Some(sep) = self.by_parts {
+                    let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
+                    let rows = &mut parts.tap_rows[nv as usize];
+                    if rows.is_empty() {
+                        rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
+                    }
+                    // the taps in the order of the per-pixel loop below: rows, then columns
+                    parts.bearings.clear();
+                    for &row in rows.iter() {
+                        sep.bearings(columns, row, &mut parts.bearings);
+                    }
+                    parts.taps.clear();
+                    self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+                    let mut inside = 0;
+                    for &p in &parts.taps {
+                        inside += self.add_tap(p, &mut scratch) as u32;
+                    }
+                    inside
                 } else {
                     let uf = u as f64;
                     let mut inside = 0;
                     for j in 0..nv {
                         for i in 0..nu {
-                            let du = (i as f64 + 0.5) / nu as f64 - 0.5;
-                            let dv = (j as f64 + 0.5) / nv as f64 - 0.5;
-                            let p = self.to_src(uf + du, vf + dv);
+                            let p = self.to_src(uf + tap_offset(i, nu), vf + tap_offset(j, nv));
                             inside += self.add_tap(p, &mut scratch) as u32;
                         }
                     }
@@ -368,6 +443,7 @@ impl<'a> Builder<'a> {
 
     /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
     /// unit scale (the pixel's taps are averaged when quantized). Whether it was inside.
+    #[inline(always)]
     fn add_tap(&self, p: Option<Point2<f64>>, s: &mut Scratch) -> bool {
         let Some(p) = p else { return false };
         let size = self.source_size;
@@ -441,6 +517,12 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// Offset from a pixel's centre of tap `i` of the `n` along one axis of its supersampling grid.
+#[inline]
+fn tap_offset(i: u32, n: u32) -> f64 {
+    (i as f64 + 0.5) / n as f64 - 0.5
+}
+
 /// Adds `w` to the block at `offset`, or appends a new block.
 fn merge(blocks: &mut Vec<(u32, [f64; 4])>, offset: u32, w: [f64; 4]) {
     if let Some((_, acc)) = blocks.iter_mut().rev().find(|(o, _)| *o == offset) {
@@ -463,18 +545,17 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
         // One block (most pixels): each weight rounded, the largest one (first on ties) takes
         // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
         let y = w.map(|x| x * scale);
-        let mut q = y.map(|x| (x + 0.5) as i32);
+        let q = y.map(|x| (x + 0.5) as i32);
         let mut big = 0;
         for k in 1..4 {
             if y[k] > y[big] {
                 big = k;
             }
         }
-        q[big] += total - q.iter().sum::<i32>();
-        out.push(Quad {
-            offset,
-            w: q.map(|x| x as i16),
-        });
+        let fix = total - q.iter().sum::<i32>();
+        // no store to q[big]: an indexed store sends the weights through memory
+        let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
+        out.push(Quad { offset, w });
         return;
     }
     s.ints.clear();

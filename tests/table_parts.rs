@@ -1,0 +1,155 @@
+//! Remap tables built through the cameras' batch paths (a linear output unprojected by columns
+//! and rows, `Separable`; a linear source projecting many bearings in one call, `project_all`)
+//! equal the tables of the per-pixel path, every quad, count, reach and cover value: the
+//! per-pixel path is the same cameras seen through a wrapper that only forwards `project` and
+//! `unproject`, so the builder cannot take the batch paths.
+
+use nalgebra::{Matrix3, Point2, Vector3};
+use panoconv::camera::{
+    rotation_ypr, CameraModel, Fisheye, FisheyeCamera, ImageSize, Intrinsics, Lens, Perspective,
+    Projection, ProjectionReject, RadialModel,
+};
+use panoconv::warp::{Footprint, RemapTable, Wrap};
+use std::f64::consts::{PI, TAU};
+
+/// `inner` with only the per-pixel methods: no `separable`, the default `project_all`.
+#[derive(Debug)]
+struct PerPixel<'a>(&'a dyn CameraModel);
+
+impl CameraModel for PerPixel<'_> {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        self.0.project(d)
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        self.0.unproject(p)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.0.distance(p)
+    }
+
+    fn size(&self) -> ImageSize {
+        self.0.size()
+    }
+}
+
+/// Builds `dst` from `src` both ways, serial and parallel, at full and at no supersampling, and
+/// checks all four equal the per-pixel serial table.
+fn check(name: &str, dst: &dyn CameraModel, src: &dyn CameraModel, rot: &Matrix3<f64>, wrap: Wrap) {
+    let (pdst, psrc) = (PerPixel(dst), PerPixel(src));
+    for ss in [1, 8] {
+        let reference = RemapTable::build_within(&pdst, &psrc, rot, wrap, ss, None, false);
+        for parallel in [false, true] {
+            let table = RemapTable::build_within(dst, src, rot, wrap, ss, None, parallel);
+            assert!(
+                table == reference,
+                "{name}: the batch table differs (supersampling {ss}, parallel {parallel})"
+            );
+        }
+    }
+}
+
+/// KITTI's camera 2 (frame 000000's P2) and image size.
+fn kitti() -> Perspective {
+    Perspective::new(
+        Intrinsics::new(721.5377, 721.5377, 609.5593, 172.854),
+        ImageSize::new(1242, 375),
+    )
+}
+
+#[test]
+fn linear_outputs_of_a_pinhole_source_equal_the_per_pixel_tables() {
+    let src = kitti();
+    let turns = [rotation_ypr(0.0, 0.0, 0.0), rotation_ypr(0.3, -0.15, 0.05)];
+    for projection in [
+        Projection::Equirect,
+        Projection::Cylindrical,
+        Projection::Perspective,
+    ] {
+        // KITTI's scale (up to 2x1 taps at the edges), a coarse one (up to 8x8 taps) and a
+        // view wider than the source, whose edge pixels have no image
+        for (fu, w, h) in [(721.5, 300, 120), (90.0, 160, 60), (150.0, 400, 200)] {
+            let fv = if projection == Projection::Equirect {
+                fu
+            } else {
+                fu * 0.97
+            };
+            let k = Intrinsics::new(fu, fv, w as f64 / 2.0 - 0.3, h as f64 / 2.0 + 0.2);
+            let dst = projection.camera(k, ImageSize::new(w, h));
+            for (i, rot) in turns.iter().enumerate() {
+                let name = format!("{projection} f {fu}, turn {i}");
+                check(&name, dst.as_ref(), &src, rot, Wrap::None);
+            }
+        }
+    }
+}
+
+#[test]
+fn outputs_of_a_panorama_source_equal_the_per_pixel_tables() {
+    let (sw, sh) = (720, 360);
+    let k = Intrinsics::new(
+        sw as f64 / TAU,
+        sh as f64 / PI,
+        sw as f64 / 2.0,
+        sh as f64 / 2.0,
+    );
+    let src = Projection::Equirect.camera(k, ImageSize::new(sw, sh));
+    let rot = rotation_ypr(2.5, 0.4, -0.3);
+    for projection in [
+        Projection::Equirect,
+        Projection::Cylindrical,
+        Projection::Perspective,
+    ] {
+        // a full turn at half the source's scale (2x2 taps), and a narrow view that is not
+        let (w, h, fu) = match projection {
+            Projection::Perspective => (200, 150, 120.0),
+            _ => (360, 180, 360.0 / TAU),
+        };
+        let dst = projection.camera(
+            Intrinsics::new(fu, fu, w as f64 / 2.0, h as f64 / 2.0),
+            ImageSize::new(w, h),
+        );
+        check(
+            &projection.to_string(),
+            dst.as_ref(),
+            src.as_ref(),
+            &rot,
+            Wrap::Horizontal,
+        );
+        // the rows beyond the poles of an equirect output that is taller than the sphere
+        let tall = projection.camera(
+            Intrinsics::new(fu, fu * 1.3, w as f64 / 2.0, h as f64 / 2.0),
+            ImageSize::new(w, h),
+        );
+        let name = format!("{projection}, taller than the sphere");
+        check(&name, tall.as_ref(), src.as_ref(), &rot, Wrap::Horizontal);
+    }
+}
+
+#[test]
+fn a_fisheye_output_equals_the_per_pixel_table_with_and_without_its_footprint() {
+    let src = kitti();
+    let size = ImageSize::new(300, 240);
+    let k = Intrinsics::new(80.0, 80.5, 149.7, 120.2);
+    let model = RadialModel::KannalaBrandt([0.04, -0.012, 0.002, -0.0002]);
+    let lens = Lens::from(Fisheye::new(model, k, size, 190f64.to_radians()).unwrap());
+    let camera = FisheyeCamera {
+        lens,
+        rect_from_camera: rotation_ypr(0.2, -0.17, 0.01),
+    };
+    let id = Matrix3::identity();
+    check("fisheye", &camera, &src, &id, Wrap::None);
+    let blind = camera.rect_from_camera * -Vector3::z();
+    let seen = Footprint::new(&camera, &src, &id, &blind).expect("a footprint");
+    let (pdst, psrc) = (PerPixel(&camera), PerPixel(&src));
+    let reference = RemapTable::build_within(&pdst, &psrc, &id, Wrap::None, 8, None, false);
+    for parallel in [false, true] {
+        let within =
+            RemapTable::build_within(&camera, &src, &id, Wrap::None, 8, Some(&seen), parallel);
+        assert!(
+            within == reference,
+            "fisheye within its footprint (parallel {parallel})"
+        );
+    }
+}
