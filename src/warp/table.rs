@@ -6,7 +6,8 @@
 //! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives.
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
-//! every machine, thread count and code path.
+//! every machine, thread count and code path. The finished table holds them in groups of
+//! pixels ([`Round`]s), the layout the kernels stream.
 
 use super::footprint::Footprint;
 use super::kernel::{self, Kernel, Quad, Round, LANES, WEIGHT_ONE};
