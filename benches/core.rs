@@ -10,7 +10,7 @@ use panoconv::convert::kitti::transform_label;
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
 use panoconv::kitti::Label;
 use panoconv::tools::synth::{frames, label_lines};
-use panoconv::warp::{warp_encode, PngSource, RemapTable, Wrap};
+use panoconv::warp::{warp_encode, Kernel, PngSource, RemapTable, Wrap};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -98,6 +98,19 @@ fn bench(c: &mut Criterion) {
             ),
             |b| b.iter(|| table.apply_into(black_box(&image), &mut buf)),
         );
+        // each kernel on one thread (Auto is AVX-512 where the CPU has it), the same bytes
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        for kernel in [Kernel::Auto, Kernel::Avx2, Kernel::Sse2, Kernel::Scalar] {
+            g.bench_function(
+                BenchmarkId::new(format!("{name}/{kernel:?}"), "1 thread"),
+                |b| {
+                    b.iter(|| one.install(|| table.apply_with(black_box(&image), &mut buf, kernel)))
+                },
+            );
+        }
     }
     g.finish();
 

@@ -6,10 +6,11 @@
 //! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives.
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
-//! every machine, thread count and code path.
+//! every machine, thread count and code path. The finished table holds them in groups of
+//! pixels ([`Round`]s), the layout the kernels stream.
 
 use super::footprint::Footprint;
-use super::kernel::{self, Kernel, Quad, WEIGHT_ONE};
+use super::kernel::{self, Kernel, Quad, Round, LANES, WEIGHT_ONE};
 use crate::camera::{CameraModel, ImageSize, Separable, Share};
 use crate::image::RgbImage;
 use nalgebra::{Matrix3, Point2, Vector3};
@@ -45,11 +46,12 @@ enum Cover {
 pub struct RemapTable {
     size: ImageSize,
     source_size: ImageSize,
-    /// The blocks of every pixel, row by row; a pixel outside the source has one all-zero block.
-    quads: Vec<Quad>,
-    /// Blocks per pixel; empty when every pixel has exactly one (then quad i is pixel i's).
-    counts: Vec<u8>,
-    /// quads[row_starts[v]..row_starts[v + 1]] belong to output row v.
+    /// The blocks of every pixel, in groups of [`LANES`] pixels of a row, each group's
+    /// [`Round`]s in turn (see `kernel.rs`); a pixel outside the source has one all-zero block.
+    rounds: Vec<Round>,
+    /// Rounds of each group, row by row (`width.div_ceil(LANES)` groups a row).
+    depth: Vec<u8>,
+    /// rounds[row_starts[v]..row_starts[v + 1]] belong to output row v.
     row_starts: Vec<u32>,
     /// Largest block offset of each row: bounds the row's source reads once.
     row_reach: Vec<u32>,
@@ -269,11 +271,47 @@ impl RemapTable {
     }
 
     fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel) {
-        let w = self.size.width as usize;
-        let quads = &self.quads[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
-        let counts = (!self.counts.is_empty()).then(|| &self.counts[v * w..(v + 1) * w]);
+        let groups = (self.size.width as usize).div_ceil(LANES);
+        let rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
+        let depth = &self.depth[v * groups..(v + 1) * groups];
         let stride = self.source_size.width as usize;
-        kernel::apply_row(quads, counts, src, stride, self.row_reach[v], row, kernel);
+        kernel::apply_row(rounds, depth, src, stride, self.row_reach[v], row, kernel);
+    }
+
+    /// Appends one output row, from each pixel's blocks (`counts[u]` of `quads` for pixel u;
+    /// `reach` their largest offset), in groups of [`LANES`] pixels (see [`Round`]). The
+    /// padding blocks repeat offsets of the row, so `reach` bounds them too.
+    fn push_row(&mut self, quads: &[Quad], counts: &[u8], reach: u32) {
+        let mut rest = quads;
+        for pixels in counts.chunks(LANES) {
+            let mut blocks = [&[][..]; LANES];
+            for (b, &n) in blocks.iter_mut().zip(pixels) {
+                (*b, rest) = rest.split_at(n as usize);
+            }
+            let k = pixels.iter().copied().max().expect("a pixel");
+            self.depth.push(k);
+            for i in 0..k as usize {
+                let mut round = Round::default();
+                for (lane, b) in blocks.iter().enumerate() {
+                    // a lane past the row's end repeats the group's first pixel, weightless
+                    let b = if lane < pixels.len() { b } else { &blocks[0] };
+                    let q = match b.get(i) {
+                        Some(q) => *q,
+                        None => Quad {
+                            offset: b[0].offset,
+                            w: [0; 4],
+                        },
+                    };
+                    // (a source that large would not fit in memory, nor its offsets in u32)
+                    round.offset[lane] = q.offset.checked_mul(3).expect("source under 4 GB");
+                    round.w[lane] = q.w;
+                }
+                self.rounds.push(round);
+            }
+        }
+        debug_assert!(rest.is_empty(), "every block of the row placed");
+        self.row_reach.push(reach);
+        self.row_starts.push(self.rounds.len() as u32);
     }
 }
 
@@ -484,34 +522,31 @@ impl<'a> Builder<'a> {
         true
     }
 
-    /// Concatenates the bands (in row order) into the table.
+    /// Concatenates the bands (in row order) into the table, its rows in groups of pixels.
     fn finish(&self, bands: Vec<Band>) -> RemapTable {
         let size = self.dst.size();
-        let n = size.width as usize * size.height as usize;
+        let (w, h) = (size.width as usize, size.height as usize);
+        let groups = w.div_ceil(LANES) * h;
+        // about one round a group, a few more at the supersampled sides
         let total: usize = bands.iter().map(|b| b.quads.len()).sum();
         let mut t = RemapTable {
             size,
             source_size: self.source_size,
-            quads: Vec::with_capacity(total),
-            counts: Vec::with_capacity(n),
-            row_starts: Vec::with_capacity(size.height as usize + 1),
-            row_reach: Vec::with_capacity(size.height as usize),
-            cover: Vec::with_capacity(n),
+            rounds: Vec::with_capacity(groups + (total - w * h) / 2),
+            depth: Vec::with_capacity(groups),
+            row_starts: Vec::with_capacity(h + 1),
+            row_reach: Vec::with_capacity(h),
+            cover: Vec::with_capacity(w * h),
         };
         t.row_starts.push(0);
         for b in bands {
-            t.quads.extend_from_slice(&b.quads);
-            t.counts.extend_from_slice(&b.counts);
-            t.cover.extend_from_slice(&b.cover);
-            t.row_reach.extend_from_slice(&b.row_reach);
-            for len in b.row_lens {
-                let last = *t.row_starts.last().expect("starts with 0");
-                t.row_starts.push(last + len);
+            let mut quads = &b.quads[..];
+            for (i, (&len, &reach)) in b.row_lens.iter().zip(&b.row_reach).enumerate() {
+                let (row, rest) = quads.split_at(len as usize);
+                t.push_row(row, &b.counts[i * w..(i + 1) * w], reach);
+                quads = rest;
             }
-        }
-        if t.quads.len() == n {
-            // one block a pixel (each pixel has at least one): the index is implicit
-            t.counts = Vec::new();
+            t.cover.extend_from_slice(&b.cover);
         }
         t
     }
