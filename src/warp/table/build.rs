@@ -1,0 +1,458 @@
+//! Building a [`RemapTable`]: every output pixel centre mapped to the source once (by
+//! column and row shares where the output camera is separable), the supersampling each pixel
+//! needs from its neighbours' mapped centres, and its taps merged into 2×2 blocks with
+//! integer weights ([`Quad`]s), band by band of rows, serially or on rayon's pool.
+
+use super::{Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use crate::camera::{CameraModel, ImageSize, Separable, Share};
+use crate::warp::footprint::Footprint;
+use crate::warp::kernel::{Quad, LANES, WEIGHT_ONE};
+use nalgebra::{Matrix3, Point2, Vector3};
+use rayon::prelude::*;
+use std::sync::OnceLock;
+
+/// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
+/// just above and below it too, so wider bands repeat less of that work.
+const BAND_ROWS: usize = 16;
+
+/// [`RemapTable::build_within`].
+pub(super) fn build_within(
+    dst: &dyn CameraModel,
+    src: &dyn CameraModel,
+    src_from_dst: &Matrix3<f64>,
+    wrap: Wrap,
+    max_supersample: u32,
+    seen: Option<&Footprint>,
+    parallel: bool,
+) -> RemapTable {
+    let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
+    b.seen = seen;
+    if let Some(sep) = b.by_parts {
+        let w = dst.size().width as i64;
+        b.centre_columns = (-1..=w).map(|u| sep.column(u as f64)).collect();
+    }
+    let h = dst.size().height as usize;
+    if !parallel {
+        return b.finish(vec![b.band(0..h)]);
+    }
+    let bands = (0..h.div_ceil(BAND_ROWS))
+        .into_par_iter()
+        .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
+        .collect();
+    b.finish(bands)
+}
+
+/// The camera mapping and tap rules shared by the serial and the parallel build.
+struct Builder<'a> {
+    dst: &'a dyn CameraModel,
+    src: &'a dyn CameraModel,
+    src_from_dst: &'a Matrix3<f64>,
+    wrap: Wrap,
+    cap: u32,
+    source_size: ImageSize,
+    /// Pixels outside it are not mapped (they take nothing from the source).
+    seen: Option<&'a Footprint>,
+    /// The output camera's unprojection by columns and rows, where it has one: then each
+    /// column's and each row's share of the bearings is computed once, not once a pixel.
+    by_parts: Option<&'a dyn Separable>,
+    /// With `by_parts`: the column shares of the pixel centres, columns -1..=width.
+    centre_columns: Vec<Share>,
+    /// With `by_parts`: at index n, the column shares of the n taps of an n-wide supersampled
+    /// pixel, n per column (column-major), made by the first band that needs them.
+    tap_columns: [OnceLock<Vec<Share>>; MAX_SUPERSAMPLE as usize + 1],
+}
+
+/// A band of consecutive output rows, built independently of the others.
+#[derive(Default)]
+struct Band {
+    quads: Vec<Quad>,
+    counts: Vec<u8>,
+    row_lens: Vec<u32>,
+    row_reach: Vec<u32>,
+    cover: Vec<Cover>,
+}
+
+/// Scratch space of one pixel's taps: merged blocks (offset, float weights).
+#[derive(Default)]
+struct Scratch {
+    blocks: Vec<(u32, [f64; 4])>,
+    ints: Vec<[i32; 4]>,
+    order: Vec<(usize, f64)>,
+}
+
+/// Scratch space of a band's unprojections by columns and rows.
+#[derive(Default)]
+struct Parts {
+    bearings: Vec<Option<Vector3<f64>>>,
+    taps: Vec<Option<Point2<f64>>>,
+    /// The row shares of the current row's taps, at index n for an n-tall supersampled pixel.
+    tap_rows: [Vec<Share>; MAX_SUPERSAMPLE as usize + 1],
+}
+
+impl<'a> Builder<'a> {
+    fn new(
+        dst: &'a dyn CameraModel,
+        src: &'a dyn CameraModel,
+        src_from_dst: &'a Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+    ) -> Self {
+        Self {
+            dst,
+            src,
+            src_from_dst,
+            wrap,
+            cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
+            source_size: src.size(),
+            seen: None,
+            by_parts: dst.separable(),
+            centre_columns: Vec::new(),
+            tap_columns: Default::default(),
+        }
+    }
+
+    /// The source position of output position (u, v).
+    #[inline]
+    fn to_src(&self, u: f64, v: f64) -> Option<Point2<f64>> {
+        let d = self.dst.unproject(&Point2::new(u, v)).ok()?;
+        self.src.project(&(self.src_from_dst * d)).ok()
+    }
+
+    /// Appends the source positions of output bearings `ds` to `out` (`ds` is rotated in place).
+    fn bearings_to_src(&self, ds: &mut [Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        for d in ds.iter_mut().flatten() {
+            *d = self.src_from_dst * *d;
+        }
+        self.src.project_all(ds, out);
+    }
+
+    /// The column shares of the taps of an `n`-wide supersampled pixel, n per column.
+    fn tap_columns(&self, sep: &dyn Separable, n: u32) -> &[Share] {
+        self.tap_columns[n as usize].get_or_init(|| {
+            let w = self.dst.size().width;
+            (0..w)
+                .flat_map(|u| (0..n).map(move |i| sep.column(u as f64 + tap_offset(i, n))))
+                .collect()
+        })
+    }
+
+    /// The source positions of the centres of output row `v`, columns -1..=width (one beyond
+    /// each side, for the scale estimate of the edge pixels).
+    fn centres(&self, v: isize, parts: &mut Parts, out: &mut Vec<Option<Point2<f64>>>) {
+        let w = self.dst.size().width as isize;
+        out.clear();
+        if let Some(sep) = self.by_parts {
+            parts.bearings.clear();
+            sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
+            if let Some(seen) = self.seen {
+                for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
+                    if !seen.may_see(u, v) {
+                        *d = None;
+                    }
+                }
+            }
+            self.bearings_to_src(&mut parts.bearings, out);
+            return;
+        }
+        match self.seen {
+            None => out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64))),
+            Some(seen) => out.extend((-1..=w).map(|u| {
+                if seen.may_see(u, v) {
+                    self.to_src(u as f64, v as f64)
+                } else {
+                    None
+                }
+            })),
+        }
+    }
+
+    /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel
+    /// that is not supersampled (most of them), and the centres of its four neighbours give
+    /// the local scale. A band maps the rows above and below it itself, with the same values
+    /// its neighbouring bands compute, so any split into bands gives the same table.
+    fn band(&self, rows: std::ops::Range<usize>) -> Band {
+        let w = self.dst.size().width as usize;
+        let n = rows.len() * w;
+        let mut band = Band {
+            // room for the second blocks of some supersampled pixels: growing would copy it all
+            quads: Vec::with_capacity(n + n / 4),
+            counts: Vec::with_capacity(n),
+            row_lens: Vec::with_capacity(rows.len()),
+            row_reach: Vec::with_capacity(rows.len()),
+            cover: Vec::with_capacity(n),
+        };
+        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
+        let mut scratch = Scratch::default();
+        let mut parts = Parts::default();
+        let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
+        self.centres(rows.start as isize - 1, &mut parts, &mut above);
+        self.centres(rows.start as isize, &mut parts, &mut here);
+        for v in rows {
+            let vf = v as f64;
+            let row_start = band.quads.len();
+            self.centres(v as isize + 1, &mut parts, &mut below);
+            parts.tap_rows.iter_mut().for_each(Vec::clear);
+            for u in 0..w {
+                let centre = here[u + 1];
+                let (nu, nv) = supersampling(
+                    centre,
+                    [here[u], here[u + 2]],
+                    [above[u + 1], below[u + 1]],
+                    period,
+                );
+                let (nu, nv) = (nu.min(self.cap), nv.min(self.cap));
+                scratch.blocks.clear();
+                let inside = if (nu, nv) == (1, 1) {
+                    self.add_tap(centre, &mut scratch) as u32
+                } else if let Some(sep) = self.by_parts {
+                    let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
+                    let rows = &mut parts.tap_rows[nv as usize];
+                    if rows.is_empty() {
+                        rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
+                    }
+                    // the taps in the order of the per-pixel loop below: rows, then columns
+                    parts.bearings.clear();
+                    for &row in rows.iter() {
+                        sep.bearings(columns, row, &mut parts.bearings);
+                    }
+                    parts.taps.clear();
+                    self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+                    let mut inside = 0;
+                    for &p in &parts.taps {
+                        inside += self.add_tap(p, &mut scratch) as u32;
+                    }
+                    inside
+                } else {
+                    let uf = u as f64;
+                    let mut inside = 0;
+                    for j in 0..nv {
+                        for i in 0..nu {
+                            let p = self.to_src(uf + tap_offset(i, nu), vf + tap_offset(j, nv));
+                            inside += self.add_tap(p, &mut scratch) as u32;
+                        }
+                    }
+                    inside
+                };
+                let taps = nu * nv;
+                let before = band.quads.len();
+                quantize(&mut scratch, inside, taps, &mut band.quads);
+                band.counts.push((band.quads.len() - before) as u8);
+                band.cover.push(match inside {
+                    0 => Cover::None,
+                    k if k == taps => Cover::Full,
+                    _ => Cover::Part,
+                });
+            }
+            let row = &band.quads[row_start..];
+            band.row_lens.push(row.len() as u32);
+            band.row_reach
+                .push(row.iter().map(|q| q.offset).max().unwrap_or(0));
+            std::mem::swap(&mut above, &mut here);
+            std::mem::swap(&mut here, &mut below);
+        }
+        band
+    }
+
+    /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
+    /// unit scale (the pixel's taps are averaged when quantized). Whether it was inside.
+    #[inline(always)]
+    fn add_tap(&self, p: Option<Point2<f64>>, s: &mut Scratch) -> bool {
+        let Some(p) = p else { return false };
+        let size = self.source_size;
+        let (sw, sh) = (size.width as f64, size.height as f64);
+        let (mut x, y) = (p.x, p.y);
+        if self.wrap == Wrap::Horizontal {
+            x = x.rem_euclid(sw);
+        } else if !(x >= -0.5 && x < sw - 0.5) {
+            return false;
+        }
+        // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
+        if !(y >= -0.5 && y <= sh - 0.5) {
+            return false;
+        }
+        // Within half a pixel of the border the edge pixel is repeated (it covers that area).
+        let y = y.clamp(0.0, sh - 1.0);
+        // y, x and the weights are >= 0 here, where `as` truncation is floor (and no libm call)
+        let y0 = (y as u32).min(size.height.saturating_sub(2));
+        let fy = if size.height > 1 { y - y0 as f64 } else { 0.0 };
+        let x0 = if self.wrap == Wrap::Horizontal {
+            (x as u32).min(size.width - 1)
+        } else {
+            x = x.clamp(0.0, sw - 1.0);
+            (x as u32).min(size.width.saturating_sub(2))
+        };
+        let fx = x - x0 as f64;
+        let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
+        let (tr, br) = (fx * (1.0 - fy), fx * fy);
+        let offset = y0 * size.width + x0;
+        if x0 + 1 == size.width {
+            // The right neighbour is column 0 (across a 360° source's wrap, or the same column
+            // of a one-pixel-wide source): it is a block of its own, left column only.
+            merge(&mut s.blocks, offset, [tl, bl, 0.0, 0.0]);
+            merge(&mut s.blocks, y0 * size.width, [tr, br, 0.0, 0.0]);
+        } else {
+            merge(&mut s.blocks, offset, [tl, bl, tr, br]);
+        }
+        true
+    }
+
+    /// Concatenates the bands (in row order) into the table, its rows in groups of pixels.
+    fn finish(&self, bands: Vec<Band>) -> RemapTable {
+        let size = self.dst.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let groups = w.div_ceil(LANES) * h;
+        // about one round a group, a few more at the supersampled sides
+        let total: usize = bands.iter().map(|b| b.quads.len()).sum();
+        let mut t = RemapTable {
+            size,
+            source_size: self.source_size,
+            rounds: Vec::with_capacity(groups + (total - w * h) / 2),
+            depth: Vec::with_capacity(groups),
+            row_starts: Vec::with_capacity(h + 1),
+            row_reach: Vec::with_capacity(h),
+            cover: Vec::with_capacity(w * h),
+        };
+        t.row_starts.push(0);
+        for b in bands {
+            let mut quads = &b.quads[..];
+            for (i, (&len, &reach)) in b.row_lens.iter().zip(&b.row_reach).enumerate() {
+                let (row, rest) = quads.split_at(len as usize);
+                t.push_row(row, &b.counts[i * w..(i + 1) * w], reach);
+                quads = rest;
+            }
+            t.cover.extend_from_slice(&b.cover);
+        }
+        t
+    }
+}
+
+/// Offset from a pixel's centre of tap `i` of the `n` along one axis of its supersampling grid.
+#[inline]
+fn tap_offset(i: u32, n: u32) -> f64 {
+    (i as f64 + 0.5) / n as f64 - 0.5
+}
+
+/// Adds `w` to the block at `offset`, or appends a new block.
+fn merge(blocks: &mut Vec<(u32, [f64; 4])>, offset: u32, w: [f64; 4]) {
+    if let Some((_, acc)) = blocks.iter_mut().rev().find(|(o, _)| *o == offset) {
+        for (a, b) in acc.iter_mut().zip(w) {
+            *a += b;
+        }
+    } else {
+        blocks.push((offset, w));
+    }
+}
+
+/// Turns the pixel's blocks (`inside` of its `taps` taps, each weighing 1) into quads whose
+/// integer weights sum to round(WEIGHT_ONE · inside / taps) exactly (largest remainders get
+/// the rounding units, ties to the first), so a flat source stays flat and outside taps count
+/// as black. Appends at least one quad (an all-zero one for a pixel with nothing inside).
+fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
+    let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
+    let scale = WEIGHT_ONE as f64 / taps as f64;
+    if let [(offset, w)] = s.blocks[..] {
+        // One block (most pixels): each weight rounded, the largest one (first on ties) takes
+        // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
+        let y = w.map(|x| x * scale);
+        let q = y.map(|x| (x + 0.5) as i32);
+        let mut big = 0;
+        for k in 1..4 {
+            if y[k] > y[big] {
+                big = k;
+            }
+        }
+        let fix = total - q.iter().sum::<i32>();
+        // no store to q[big]: an indexed store sends the weights through memory
+        let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
+        out.push(Quad { offset, w });
+        return;
+    }
+    s.ints.clear();
+    let mut sum = 0;
+    for (_, w) in &s.blocks {
+        let q = w.map(|x| (x * scale) as i32);
+        sum += q.iter().sum::<i32>();
+        s.ints.push(q);
+    }
+    let missing = total - sum;
+    if missing > 0 {
+        s.order.clear();
+        for (b, (_, w)) in s.blocks.iter().enumerate() {
+            for (k, x) in w.iter().enumerate() {
+                let y = x * scale;
+                s.order.push((4 * b + k, y - (y as i32) as f64));
+            }
+        }
+        if missing <= 4 {
+            // the common case (a few units over a few weights): pick maxima, no sort
+            for _ in 0..missing {
+                let mut best = 0;
+                for (j, o) in s.order.iter().enumerate() {
+                    if o.1 > s.order[best].1 {
+                        best = j;
+                    }
+                }
+                let i = s.order[best].0;
+                s.ints[i / 4][i % 4] += 1;
+                s.order[best].1 = -1.0;
+            }
+        } else {
+            // stable: equal remainders keep their order, as the first maximum above
+            s.order.sort_by(|a, b| b.1.total_cmp(&a.1));
+            for &(i, _) in s.order.iter().take(missing as usize) {
+                s.ints[i / 4][i % 4] += 1;
+            }
+        }
+    }
+    let before = out.len();
+    for ((offset, _), w) in s.blocks.iter().zip(&s.ints) {
+        if w.iter().any(|&x| x != 0) {
+            out.push(Quad {
+                offset: *offset,
+                w: w.map(|x| x as i16),
+            });
+        }
+    }
+    if out.len() == before {
+        out.push(Quad::default());
+    }
+}
+
+/// Supersampling of an output pixel along its u and v axes: the source pixels one output step
+/// spans in each direction, rounded (1 below 1.5), from the table's own mapping of the pixel's
+/// centre and its neighbours' (a central difference; one-sided where a neighbour has no
+/// image). Anisotropic: at a KITTI frame's edges an equirect pixel spans 1.8 source pixels
+/// across but 1.3 down, and needs 2×1 samples, not 2×2. `period`: the source width of a 360°
+/// source, across whose wrap a step is taken the short way.
+fn supersampling(
+    centre: Option<Point2<f64>>,
+    across: [Option<Point2<f64>>; 2],
+    down: [Option<Point2<f64>>; 2],
+    period: Option<f64>,
+) -> (u32, u32) {
+    let Some(c) = centre else {
+        return (1, 1);
+    };
+    // Squared distances: the square root is needed only for the (rare) counts above 1.
+    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
+        let mut d = b - a;
+        if let Some(w) = period {
+            d.x -= w * (d.x / w).round();
+        }
+        d.norm_squared()
+    };
+    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
+        (Some(a), Some(b)) => dist2(a, b) / 4.0,
+        (Some(a), None) => dist2(a, c),
+        (None, Some(b)) => dist2(c, b),
+        (None, None) => 0.0,
+    };
+    let count = |scale2: f64| {
+        if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
+            1
+        } else {
+            (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
+        }
+    };
+    (count(step2(across)), count(step2(down)))
+}
