@@ -14,6 +14,22 @@ pub struct EquirectMapping;
 /// An equirectangular camera: `EquirectMapping` with K (fu, fv in pixels per radian).
 pub type Equirect = Linear<EquirectMapping>;
 
+/// |d|, or the rejection of a bearing without a direction.
+#[inline]
+fn length(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
+    let n = d.norm();
+    if !(n > 0.0) || !n.is_finite() {
+        return Err(ProjectionReject::Singular);
+    }
+    Ok(n)
+}
+
+/// The latitude of `d`, whose length is `n`.
+#[inline]
+fn latitude(d: &Vector3<f64>, n: f64) -> f64 {
+    (d.y / n).clamp(-1.0, 1.0).asin()
+}
+
 impl Mapping for EquirectMapping {
     const PROJECTION: Projection = Projection::Equirect;
     const PERIODIC: bool = true;
@@ -21,30 +37,19 @@ impl Mapping for EquirectMapping {
 
     #[inline]
     fn bearing_to_ab(d: &Vector3<f64>) -> Result<(f64, f64), ProjectionReject> {
-        let n = d.norm();
-        if !(n > 0.0) || !n.is_finite() {
-            return Err(ProjectionReject::Singular);
-        }
-        let lat = (d.y / n).clamp(-1.0, 1.0).asin();
-        Ok((d.x.atan2(d.z), lat))
+        let n = length(d)?;
+        Ok((d.x.atan2(d.z), latitude(d, n)))
     }
 
     #[inline]
     fn bearing_to_a(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
-        let n = d.norm();
-        if !(n > 0.0) || !n.is_finite() {
-            return Err(ProjectionReject::Singular);
-        }
+        length(d)?;
         Ok(d.x.atan2(d.z))
     }
 
     #[inline]
     fn bearing_to_b(d: &Vector3<f64>) -> Result<f64, ProjectionReject> {
-        let n = d.norm();
-        if !(n > 0.0) || !n.is_finite() {
-            return Err(ProjectionReject::Singular);
-        }
-        Ok((d.y / n).clamp(-1.0, 1.0).asin())
+        Ok(latitude(d, length(d)?))
     }
 
     fn split_a(lon: f64) -> [f64; 2] {

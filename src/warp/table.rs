@@ -9,7 +9,6 @@
 //! every machine, thread count and code path. The finished table holds them in groups of
 //! pixels ([`Round`]s), the layout the kernels stream.
 
-use super::footprint::Footprint;
 use super::kernel::{self, Kernel, Quad, Round, LANES};
 use crate::camera::{CameraModel, ImageSize};
 use crate::image::RgbImage;
@@ -94,29 +93,6 @@ impl RemapTable {
         max_supersample: u32,
     ) -> RemapTable {
         Self::build_within(dst, src, src_from_dst, wrap, max_supersample, None, true)
-    }
-
-    /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
-    /// others take nothing from the source: see [`Footprint`]), serially or with bands of rows
-    /// in parallel (see [`RemapTable::build_parallel`] for where that is allowed).
-    pub fn build_within(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        wrap: Wrap,
-        max_supersample: u32,
-        seen: Option<&Footprint>,
-        parallel: bool,
-    ) -> RemapTable {
-        build::build_within(
-            dst,
-            src,
-            src_from_dst,
-            wrap,
-            max_supersample,
-            seen,
-            parallel,
-        )
     }
 
     /// Size of the output image the table fills, in pixels.

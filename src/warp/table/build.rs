@@ -15,31 +15,30 @@ use std::sync::OnceLock;
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
 
-/// [`RemapTable::build_within`].
-pub(super) fn build_within(
-    dst: &dyn CameraModel,
-    src: &dyn CameraModel,
-    src_from_dst: &Matrix3<f64>,
-    wrap: Wrap,
-    max_supersample: u32,
-    seen: Option<&Footprint>,
-    parallel: bool,
-) -> RemapTable {
-    let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample);
-    b.seen = seen;
-    if let Some(sep) = b.by_parts {
-        let w = dst.size().width as i64;
-        b.centre_columns = (-1..=w).map(|u| sep.column(u as f64)).collect();
+impl RemapTable {
+    /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
+    /// others take nothing from the source: see [`Footprint`]), serially or with bands of rows
+    /// in parallel (see [`RemapTable::build_parallel`] for where that is allowed).
+    pub fn build_within(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+        seen: Option<&Footprint>,
+        parallel: bool,
+    ) -> RemapTable {
+        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
+        let h = dst.size().height as usize;
+        if !parallel {
+            return b.finish(vec![b.band(0..h)]);
+        }
+        let bands = (0..h.div_ceil(BAND_ROWS))
+            .into_par_iter()
+            .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
+            .collect();
+        b.finish(bands)
     }
-    let h = dst.size().height as usize;
-    if !parallel {
-        return b.finish(vec![b.band(0..h)]);
-    }
-    let bands = (0..h.div_ceil(BAND_ROWS))
-        .into_par_iter()
-        .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
-        .collect();
-    b.finish(bands)
 }
 
 /// The camera mapping and tap rules shared by the serial and the parallel build.
@@ -96,7 +95,14 @@ impl<'a> Builder<'a> {
         src_from_dst: &'a Matrix3<f64>,
         wrap: Wrap,
         max_supersample: u32,
+        seen: Option<&'a Footprint>,
     ) -> Self {
+        let by_parts = dst.separable();
+        let w = dst.size().width as i64;
+        let centre_columns = match by_parts {
+            Some(sep) => (-1..=w).map(|u| sep.column(u as f64)).collect(),
+            None => Vec::new(),
+        };
         Self {
             dst,
             src,
@@ -104,18 +110,17 @@ impl<'a> Builder<'a> {
             wrap,
             cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
             source_size: src.size(),
-            seen: None,
-            by_parts: dst.separable(),
-            centre_columns: Vec::new(),
+            seen,
+            by_parts,
+            centre_columns,
             tap_columns: Default::default(),
         }
     }
 
-    /// The source position of output position (u, v).
+    /// The output camera's bearing at position (u, v), one position alone.
     #[inline]
-    fn to_src(&self, u: f64, v: f64) -> Option<Point2<f64>> {
-        let d = self.dst.unproject(&Point2::new(u, v)).ok()?;
-        self.src.project(&(self.src_from_dst * d)).ok()
+    fn bearing(&self, u: f64, v: f64) -> Option<Vector3<f64>> {
+        self.dst.unproject(&Point2::new(u, v)).ok()
     }
 
     /// Appends the source positions of output bearings `ds` to `out` (`ds` is rotated in place).
@@ -124,6 +129,16 @@ impl<'a> Builder<'a> {
             *d = self.src_from_dst * *d;
         }
         self.src.project_all(ds, out);
+    }
+
+    /// Appends the bearings of the `nu`×`nv` taps of pixel (u, v), row by row, each alone.
+    #[inline(never)]
+    fn tap_bearings(&self, u: f64, v: f64, nu: u32, nv: u32, out: &mut Vec<Option<Vector3<f64>>>) {
+        for j in 0..nv {
+            for i in 0..nu {
+                out.push(self.bearing(u + tap_offset(i, nu), v + tap_offset(j, nv)));
+            }
+        }
     }
 
     /// The column shares of the taps of an `n`-wide supersampled pixel, n per column.
@@ -140,30 +155,26 @@ impl<'a> Builder<'a> {
     /// each side, for the scale estimate of the edge pixels).
     fn centres(&self, v: isize, parts: &mut Parts, out: &mut Vec<Option<Point2<f64>>>) {
         let w = self.dst.size().width as isize;
-        out.clear();
-        if let Some(sep) = self.by_parts {
-            parts.bearings.clear();
-            sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
-            if let Some(seen) = self.seen {
-                for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
-                    if !seen.may_see(u, v) {
-                        *d = None;
+        let sees = |u: isize| self.seen.is_none_or(|seen| seen.may_see(u, v));
+        parts.bearings.clear();
+        match self.by_parts {
+            Some(sep) => {
+                sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
+                if self.seen.is_some() {
+                    for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
+                        if !sees(u) {
+                            *d = None;
+                        }
                     }
                 }
             }
-            self.bearings_to_src(&mut parts.bearings, out);
-            return;
+            // a lens is unprojected only where the source may be seen (most of it is not)
+            None => parts.bearings.extend(
+                (-1..=w).map(|u| sees(u).then(|| self.bearing(u as f64, v as f64)).flatten()),
+            ),
         }
-        match self.seen {
-            None => out.extend((-1..=w).map(|u| self.to_src(u as f64, v as f64))),
-            Some(seen) => out.extend((-1..=w).map(|u| {
-                if seen.may_see(u, v) {
-                    self.to_src(u as f64, v as f64)
-                } else {
-                    None
-                }
-            })),
-        }
+        out.clear();
+        self.bearings_to_src(&mut parts.bearings, out);
     }
 
     /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel
@@ -204,32 +215,28 @@ impl<'a> Builder<'a> {
                 scratch.blocks.clear();
                 let inside = if (nu, nv) == (1, 1) {
                     self.add_tap(centre, &mut scratch) as u32
-                } else if let Some(sep) = self.by_parts {
-                    let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
-                    let rows = &mut parts.tap_rows[nv as usize];
-                    if rows.is_empty() {
-                        rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
-                    }
-                    // the taps in the order of the per-pixel loop below: rows, then columns
+                } else {
+                    // the taps row by row, each row's columns left to right
                     parts.bearings.clear();
-                    for &row in rows.iter() {
-                        sep.bearings(columns, row, &mut parts.bearings);
+                    match self.by_parts {
+                        Some(sep) => {
+                            let columns =
+                                &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
+                            let rows = &mut parts.tap_rows[nv as usize];
+                            if rows.is_empty() {
+                                rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
+                            }
+                            for &row in rows.iter() {
+                                sep.bearings(columns, row, &mut parts.bearings);
+                            }
+                        }
+                        None => self.tap_bearings(u as f64, vf, nu, nv, &mut parts.bearings),
                     }
                     parts.taps.clear();
                     self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
                     let mut inside = 0;
                     for &p in &parts.taps {
                         inside += self.add_tap(p, &mut scratch) as u32;
-                    }
-                    inside
-                } else {
-                    let uf = u as f64;
-                    let mut inside = 0;
-                    for j in 0..nv {
-                        for i in 0..nu {
-                            let p = self.to_src(uf + tap_offset(i, nu), vf + tap_offset(j, nv));
-                            inside += self.add_tap(p, &mut scratch) as u32;
-                        }
                     }
                     inside
                 };
