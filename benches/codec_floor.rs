@@ -2,7 +2,10 @@
 //! and encode its already-warped output image, in parallel over frames like `panoconv kitti`,
 //! with no warp, no labels and no writes. `panoconv kitti` cannot be faster than this.
 //!
-//!     codec_floor --pairs FILE [--compression fast|default|best] [--jobs N]
+//!     codec_floor --pairs FILE [--compression fast|default|best] [--jobs N] [--io DIR]
+//!                 (--io DIR: also the I/O every converted frame must do, which the floor
+//!                 alone leaves out: the BLAKE3 hashes the manifest records of the input and
+//!                 the output PNG, and the output's atomic write under DIR)
 //!     codec_floor --sweep FILE...   (single thread: decode and encoder settings per image)
 //!     codec_floor --remap IMAGE CALIB   (the equirect table of CALIB's P2: build, serial and
 //!                                        parallel, and apply on one thread, minimum of N runs)
@@ -30,7 +33,7 @@ fn load(path: &Path) -> RgbImage {
     decode_rgb8(&bytes, path).unwrap_or_else(|e| die(&e.to_string()))
 }
 
-fn floor(pairs_file: &Path, compression: PngCompression, jobs: usize) {
+fn floor(pairs_file: &Path, compression: PngCompression, jobs: usize, io: Option<&Path>) {
     let text = std::fs::read_to_string(pairs_file).unwrap_or_else(|e| die(&e.to_string()));
     let pairs: Vec<(PathBuf, PathBuf)> = text
         .lines()
@@ -57,12 +60,17 @@ fn floor(pairs_file: &Path, compression: PngCompression, jobs: usize) {
     let bytes: usize = pool.install(|| {
         pairs
             .par_iter()
-            .map(|(input, w)| {
+            .enumerate()
+            .map(|(n, (input, w))| {
                 let data = std::fs::read(input)
                     .unwrap_or_else(|e| die(&format!("{}: {e}", input.display())));
                 let img = decode_rgb8(&data, input).unwrap_or_else(|e| die(&e.to_string()));
                 std::hint::black_box(&img);
-                encode_rgb8(&warped[w], compression).len()
+                let png = encode_rgb8(&warped[w], compression);
+                if let Some(dir) = io {
+                    frame_io(input, &data, &png, dir, n);
+                }
+                png.len()
             })
             .sum()
     });
@@ -72,6 +80,28 @@ fn floor(pairs_file: &Path, compression: PngCompression, jobs: usize) {
         pairs.len(),
         pairs.len() as f64 / s
     );
+}
+
+/// The I/O of a converted frame beyond its codec work: the manifest's hashes of the input and
+/// output PNG, and of the calib and label (KITTI layout beside `image_2/`) read, hashed and
+/// written back as they are; every output written atomically under `dir`.
+fn frame_io(input: &Path, data: &[u8], png: &[u8], dir: &Path, n: usize) {
+    let write = |name: String, bytes: &[u8]| {
+        std::hint::black_box(panoconv::fs::hash_hex(bytes));
+        panoconv::fs::write_atomic(&dir.join(name), bytes).unwrap_or_else(|e| die(&e.to_string()));
+    };
+    std::hint::black_box(panoconv::fs::hash_hex(data));
+    write(format!("{n}.png"), png);
+    let (Some(split), Some(id)) = (input.parent().and_then(Path::parent), input.file_stem()) else {
+        return;
+    };
+    for folder in ["calib", "label_2"] {
+        let text = split.join(folder).join(id).with_extension("txt");
+        if let Ok(bytes) = std::fs::read(&text) {
+            std::hint::black_box(panoconv::fs::hash_hex(&bytes));
+            write(format!("{n}.{folder}.txt"), &bytes);
+        }
+    }
 }
 
 /// Median milliseconds of `f` over `n` runs.
@@ -334,6 +364,7 @@ fn main() {
     let mut pairs = None;
     let mut compression = PngCompression::Default;
     let mut jobs = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut io = None;
     let mut i = 0;
     while i < args.len() {
         let val = || {
@@ -357,6 +388,7 @@ fn main() {
                 _ => die("--remap IMAGE CALIB"),
             },
             "--pairs" => pairs = Some(PathBuf::from(val())),
+            "--io" => io = Some(PathBuf::from(val())),
             "--jobs" => jobs = val().parse().unwrap_or_else(|_| die("bad --jobs")),
             "--compression" => {
                 compression = match val().as_str() {
@@ -374,5 +406,6 @@ fn main() {
         &pairs.unwrap_or_else(|| die("--pairs FILE is required")),
         compression,
         jobs,
+        io.as_deref(),
     );
 }

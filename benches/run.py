@@ -6,6 +6,8 @@ copied under N ids, in a temporary folder), then runs, alternately for several r
   panoconv     `panoconv kitti --to equirect --quiet` (release build)
   opencv       benches/opencv_convert.py (cv2.imread / remap CV_16SC2 / imwrite, Pool of J)
   floor        benches/codec_floor.rs: read + decode every input, encode its warped image, no warp
+  io_floor     the floor plus the I/O every converted frame does: the manifest's BLAKE3 of the
+               input and the output PNG, and the output PNG's atomic write (codec_floor --io)
 and prints medians of wall time, frames/s, CPU seconds (user+sys of the process tree, from
 wait4) and peak RSS (largest single process), plus output bytes and the ratios.
 """
@@ -79,7 +81,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=os.cpu_count())
     ap.add_argument("--compression", default="default")
     ap.add_argument("--tmp", default=None, help="where the frame sets go (default: $TMPDIR)")
-    ap.add_argument("--only", default="panoconv,opencv,floor")
+    ap.add_argument("--only", default="panoconv,opencv,floor,io_floor")
     ap.add_argument("--json", default=None, help="also write the medians here")
     ap.add_argument("--old", default=None,
                     help="an earlier panoconv binary, run as 'old' in the same rounds")
@@ -117,7 +119,16 @@ def main():
             j = json.loads(out)
             return j["seconds"], cpu, rss, j["bytes"]
 
-        runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor,
+        def io_floor():
+            out = os.path.join(tmp, "out-io-floor")
+            shutil.rmtree(out, ignore_errors=True)
+            os.mkdir(out)
+            wall, cpu, rss, stdout = run([a.floor, "--pairs", pairs_file, "--jobs", str(a.jobs),
+                                          "--compression", a.compression, "--io", out])
+            j = json.loads(stdout)
+            return j["seconds"], cpu, rss, j["bytes"]
+
+        runners = {"panoconv": panoconv, "opencv": opencv, "floor": floor, "io_floor": io_floor,
                    "old": lambda: panoconv(a.old)}
         names = [n for n in a.only.split(",") if n] + (["old"] if a.old else [])
         results = {n: [] for n in names}
@@ -181,6 +192,17 @@ def main():
                   f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
                   f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU [per round {statistics.median(inv_cpu):.2f}x"
                   f" ({min(inv_cpu):.2f}-{max(inv_cpu):.2f})] ({load_note})")
+        if "panoconv" in med and "io_floor" in med:
+            p, f = med["panoconv"], med["io_floor"]
+            inv = [p_[0] / f_[0] for p_, f_ in zip(results["panoconv"], results["io_floor"])]
+            print(f"panoconv/io_floor: {p['wall_s'] / f['wall_s']:.2f}x wall"
+                  f" [per round {statistics.median(inv):.2f}x ({min(inv):.2f}-{max(inv):.2f})],"
+                  f" {p['cpu_s'] / f['cpu_s']:.2f}x CPU ({load_note})")
+        if "floor" in med and "io_floor" in med:
+            f, i = med["floor"], med["io_floor"]
+            print(f"io_floor/floor: {i['wall_s'] / f['wall_s']:.2f}x wall,"
+                  f" {i['cpu_s'] / f['cpu_s']:.2f}x CPU: what the frame's writes and manifest"
+                  f" hashes add to the floor ({load_note})")
         if "panoconv" in med and "old" in med:
             p, o = med["panoconv"], med["old"]
             print(f"panoconv/old: {p['fps'] / o['fps']:.2f}x frames/s [{paired('old')}],"

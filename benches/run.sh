@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# End-to-end benchmark: panoconv vs the OpenCV-Python converter vs the codec floor.
+# End-to-end benchmark: panoconv vs the OpenCV-Python converter vs the codec floor (alone and
+# with the I/O every converted frame does).
 #   benches/run.sh [--frames N] [--rounds R] [--jobs J] [--tmp DIR] [--compression default] [--old BIN]
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, builds the release binary and
 # the codec_floor example, and runs benches/run.py. Nothing is written into the repository except
