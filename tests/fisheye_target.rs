@@ -133,23 +133,6 @@ fn read_image(path: &Path) -> RgbImage {
     RgbImage::from_raw(p.width, p.height, p.data).unwrap()
 }
 
-/// PSNR over the pixels `keep` selects, and how many there were.
-fn psnr(a: &RgbImage, b: &RgbImage, keep: impl Fn(u32, u32) -> bool) -> (f64, usize) {
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 0..a.height() {
-        for u in 0..a.width() {
-            if keep(u, v) {
-                let (p, q) = (a.pixel(u, v), b.pixel(u, v));
-                se += (0..3)
-                    .map(|c| (p[c] as f64 - q[c] as f64).powi(2))
-                    .sum::<f64>();
-                n += 1;
-            }
-        }
-    }
-    (10.0 * (255.0f64.powi(2) / (se / (3 * n) as f64)).log10(), n)
-}
-
 /// The test-1 Kannala-Brandt camera (1360×560, 721.5 px/rad at the centre, 10° nose down).
 fn kb_camera(dir: &Path) -> PathBuf {
     let json = camera_json("kannala_brandt", 190.0, -10.0, (1360, 560), (679.5, 379.5));

@@ -1,29 +1,9 @@
 //! The new models as sources of `panoconv fisheye`'s warp, against the exact render.
 
 use super::*;
+use crate::common::psnr;
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::CameraModel;
-
-/// PSNR over the pixels `mask` keeps.
-fn psnr(
-    a: &panoconv::image::RgbImage,
-    b: &panoconv::image::RgbImage,
-    mask: impl Fn(u32, u32) -> bool,
-) -> (f64, usize) {
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 0..a.height() {
-        for u in 0..a.width() {
-            if mask(u, v) {
-                let (p, q) = (a.pixel(u, v), b.pixel(u, v));
-                se += (0..3)
-                    .map(|c| (p[c] as f64 - q[c] as f64).powi(2))
-                    .sum::<f64>();
-                n += 1;
-            }
-        }
-    }
-    (10.0 * (255.0f64.powi(2) / (se / (3 * n) as f64)).log10(), n)
-}
 
 #[test]
 fn fisheye_to_cylindrical_matches_the_exact_render_for_the_new_models() {
