@@ -44,39 +44,54 @@ fn docs_python() -> String {
     code.to_owned()
 }
 
-/// Runs the docs' function on the box centres (location − half the height) of `labels` with
-/// `calib`: one line per label, "u v" or "None".
-fn python_box_centres(calib: &Path, labels: &[String]) -> Vec<Option<(f64, f64)>> {
+/// Runs the docs' function on the box centres (location − half the height) of each frame's
+/// `labels` with its `calib`, in one interpreter (its start, numpy's import, costs more than
+/// the projections): per frame, one entry per label, (u, v) or None.
+fn python_box_centres(frames: &[(PathBuf, Vec<String>)]) -> Vec<Vec<Option<(f64, f64)>>> {
     let driver = r#"
 import sys, json
-calib = read_calib(sys.argv[1])
-for x, y, z, h in json.load(open(sys.argv[2])):
-    p = project_fisheye(calib, [x, y - h / 2, z])
-    print("None" if p is None else "%r %r" % (float(p[0]), float(p[1])))
+for path, centres in json.load(open(sys.argv[1])):
+    calib = read_calib(path)
+    for x, y, z, h in centres:
+        p = project_fisheye(calib, [x, y - h / 2, z])
+        print("None" if p is None else "%r %r" % (float(p[0]), float(p[1])))
+    print("end of frame")
 "#;
-    let centres: Vec<[f64; 4]> = labels
+    let request: Vec<(&str, Vec<[f64; 4]>)> = frames
         .iter()
-        .map(|l| {
-            let t: Vec<f64> = tokens(l)[8..14]
+        .map(|(calib, labels)| {
+            let centres = labels
                 .iter()
-                .map(|v| v.parse().unwrap())
+                .map(|l| {
+                    let t: Vec<f64> = tokens(l)[8..14]
+                        .iter()
+                        .map(|v| v.parse().unwrap())
+                        .collect();
+                    [t[3], t[4], t[5], t[0]]
+                })
                 .collect();
-            [t[3], t[4], t[5], t[0]]
+            (calib.to_str().unwrap(), centres)
         })
         .collect();
     let dir = tempfile::tempdir().unwrap();
     let req = dir.path().join("centres.json");
-    std::fs::write(&req, serde_json::to_string(&centres).unwrap()).unwrap();
+    std::fs::write(&req, serde_json::to_string(&request).unwrap()).unwrap();
     let script = format!("{}\n{driver}", docs_python());
-    opencv_ref::run_python(&script, &[calib.to_str().unwrap(), req.to_str().unwrap()])
-        .lines()
-        .map(|l| {
-            (l != "None").then(|| {
-                let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
-                (v[0], v[1])
-            })
-        })
-        .collect()
+    let stdout = opencv_ref::run_python(&script, &[req.to_str().unwrap()]);
+    let mut out = vec![Vec::new()];
+    for l in stdout.lines() {
+        if l == "end of frame" {
+            out.push(Vec::new());
+            continue;
+        }
+        out.last_mut().unwrap().push((l != "None").then(|| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1])
+        }));
+    }
+    out.pop();
+    assert_eq!(out.len(), frames.len(), "python: {stdout}");
+    out
 }
 
 #[test]
@@ -104,8 +119,27 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
         let writer = fisheye_camera(&cam_path);
         let (mut worst_calib, mut worst_py_lib, mut worst_py_file) = (0.0f64, 0.0f64, 0.0f64);
         let mut objects = 0;
-        for (_, id) in SYNTH_FRAMES.iter().filter(|(s, _)| *s == "training") {
-            let calib_path = out.join(format!("training/calib/{id}.txt"));
+        // (b)'s objects: every label but DontCare, each frame's through the Python at once.
+        let training: Vec<&str> = SYNTH_FRAMES
+            .iter()
+            .filter(|(s, _)| *s == "training")
+            .map(|(_, id)| *id)
+            .collect();
+        let calib_of = |id: &str| out.join(format!("training/calib/{id}.txt"));
+        let labels_of = |id: &str| -> Vec<String> {
+            label_lines(&read_text(&out.join(format!("training/label_2/{id}.txt"))))
+                .into_iter()
+                .filter(|l| !l.starts_with("DontCare"))
+                .map(str::to_owned)
+                .collect()
+        };
+        let python: Vec<(PathBuf, Vec<String>)> = training
+            .iter()
+            .map(|id| (calib_of(id), labels_of(id)))
+            .collect();
+        let python = python_box_centres(&python);
+        for (id, py) in training.iter().zip(&python) {
+            let calib_path = calib_of(id);
             let calib = panoconv::kitti::Calib::read(&calib_path).unwrap();
             let (read, centre) = calib.output_camera(Cam::C2, writer.size()).unwrap();
             let truth = frames()
@@ -127,20 +161,14 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
                 }
             }
             // (b) The docs' Python function against panoconv's projection and its file.
-            let labels: Vec<String> =
-                label_lines(&read_text(&out.join(format!("training/label_2/{id}.txt"))))
-                    .into_iter()
-                    .filter(|l| !l.starts_with("DontCare"))
-                    .map(str::to_owned)
-                    .collect();
-            let py = python_box_centres(&calib_path, &labels);
+            let labels = labels_of(id);
             let file: Vec<Vec<f64>> = read_text(&pixels.join(format!("{id}.txt")))
                 .lines()
                 .filter(|l| !l.starts_with('#'))
                 .map(|l| tokens(l)[1..3].iter().map(|v| v.parse().unwrap()).collect())
                 .collect();
             let mut in_file = file.iter();
-            for (line, p) in labels.iter().zip(&py) {
+            for (line, p) in labels.iter().zip(py) {
                 let label = parse_label(line);
                 let lib =
                     panoconv::reproject::unproject::label_to_pixel(&label, read.as_ref(), &centre);
