@@ -80,7 +80,8 @@ fn the_zero_baseline_panorama_matches_the_direct_render_with_exact_labels_and_de
             _ => lenses[cam as usize - 2].centre_intrinsics().fu,
         };
         // the sources' blur (0.55 source px) plus the bilinear tent's own (variance 1/6 px²),
-        // on the renderer's fine grid: as tests/kitti360_stitch.rs; over the camera's region only
+        // on the renderer's fine grid: as tests/kitti360_stitch/direct_render.rs; over the
+        // camera's region only
         let direct: RgbImage = common::render_where(
             &scene,
             &direct_camera,
