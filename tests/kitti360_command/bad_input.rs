@@ -1,7 +1,7 @@
 //! Bad input: a failed frame is named with its file and counted, a malformed poses file or an
 //! impossible output camera is a set-up error that writes nothing.
 
-use super::*;
+use super::{kitti360, sequence};
 use crate::common::{self, assert_success, panoconv, read_manifest, read_text};
 use panoconv::tools::synth360::SEQUENCE;
 

@@ -1,7 +1,7 @@
 //! Per-camera options: one camera converted alone is a plain conversion of it, and an ego mask
 //! keeps its camera out of the masked pixels.
 
-use super::*;
+use super::{exact_box, kitti360, sequence, truths, written, MIN_IOU, WIDTH};
 use crate::common::{self, assert_success, iou, panoconv, read_manifest, read_text};
 use nalgebra::Point2;
 use panoconv::kitti360::{Options, Sequence};

@@ -2,7 +2,10 @@
 //! exact labels and depth, and the offset rig's labels and depth, the same with any thread
 //! count, read by the tools (verify, inspect, preview, export, labels-to-pixels, unproject).
 
-use super::*;
+use super::{
+    check_depth, check_labels, kitti360, labels_back_through_unproject, sequence, truths, wrap,
+    written, Truth, LIDAR_STEP, MIN_PSNR_DB, WIDTH,
+};
 use crate::common::{self, assert_success, panoconv, read_manifest, read_text};
 use nalgebra::Vector3;
 use panoconv::camera::{Equirect, ImageSize, Rotated};

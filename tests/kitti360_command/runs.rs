@@ -1,6 +1,6 @@
 //! A run's machinery as for `kitti`: resume, shards and merge, export, several sequences.
 
-use super::*;
+use super::{kitti360, sequence};
 use crate::common::{self, assert_success, panoconv, read_manifest};
 use panoconv::tools::synth360::SEQUENCE;
 use std::path::Path;
