@@ -17,22 +17,6 @@ use std::sync::OnceLock;
 const MIN_IOU: f64 = 0.99;
 const MIN_PSNR_DB: f64 = 50.0;
 
-fn psnr(a: &RgbImage, b: &RgbImage, mask: impl Fn(u32, u32) -> bool) -> f64 {
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 0..a.height() {
-        for u in 0..a.width() {
-            if mask(u, v) {
-                let (p, q) = (a.pixel(u, v), b.pixel(u, v));
-                se += (0..3)
-                    .map(|c| (p[c] as f64 - q[c] as f64).powi(2))
-                    .sum::<f64>();
-                n += 3;
-            }
-        }
-    }
-    10.0 * (255.0f64 * 255.0 / (se / n as f64)).log10()
-}
-
 /// Warps frame 0 of the synthetic scene with `spec` and compares it with the scene rendered
 /// exactly at the output camera, blurred like the source (σ scaled by the resize factor `s`:
 /// resampling cannot invent detail the source never had). PSNR inside the source's view.
@@ -48,7 +32,7 @@ fn warp_vs_render(spec: &OutputSpec, s: f64) -> (f64, Box<dyn LinearCamera>) {
     let warped = table.apply(image);
     let inside = |u, v| table.is_inside(u, v);
     let exact = common::render_where(scene, out.as_ref(), &calib.centre(), 0.55 * s, 8, inside);
-    (psnr(&warped, &exact, inside), out)
+    (common::psnr(&warped, &exact, inside).0, out)
 }
 
 /// A smooth analytic source: the value at continuous source pixel (x, y).

@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use crate::common::{panoconv, read_text};
+use crate::common::{panoconv, psnr, read_text};
 use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::FisheyeError;
@@ -199,23 +199,6 @@ fn non_monotonic_polynomials_are_refused() {
 
 // ---------------------------------------------------------------------------------------------
 // Warp against exact renders
-
-fn psnr(a: &RgbImage, b: &RgbImage, mask: impl Fn(u32, u32) -> bool) -> (f64, usize) {
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 0..a.height() {
-        for u in 0..a.width() {
-            if !mask(u, v) {
-                continue;
-            }
-            let (p, q) = (a.pixel(u, v), b.pixel(u, v));
-            for c in 0..3 {
-                se += (p[c] as f64 - q[c] as f64).powi(2);
-            }
-            n += 1;
-        }
-    }
-    (10.0 * (255.0f64.powi(2) / (se / (3 * n) as f64)).log10(), n)
-}
 
 /// Camera 1.2 m above the ground, pitched 8° down and rolled 2°, levelled by its rotation.
 fn mounted(cam: Fisheye) -> CameraDescription {

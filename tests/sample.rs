@@ -8,7 +8,7 @@ use std::path::Path;
 fn shipped_sample_is_regenerated_byte_for_byte() {
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti");
     // the dataset `panoconv synth --output DIR` writes, as the other tests share it (made once
-    // per binary build; tests/cli.rs checks that a second run writes the same bytes)
+    // per binary build; tests/cli/conversion.rs checks that a second run writes the same bytes)
     let fresh = common::synth_source();
     let (a, b) = (common::tree_files(&shipped), common::tree_files(fresh));
     assert_eq!(a, b, "file lists differ");

@@ -1,6 +1,7 @@
 //! The warp against exact renders: the synthetic scene rendered by the source pinhole camera,
 //! warped, and compared with the same scene rendered directly in the target projection.
 
+use crate::common::psnr;
 use nalgebra::{Matrix3, Point2};
 use panoconv::camera::{rotation_ypr, CameraModel, ImageSize, Intrinsics, Perspective, Projection};
 use panoconv::geometry::{output_camera, Canvas, OutputSpec, Scale};
@@ -12,24 +13,6 @@ use panoconv::warp::{Kernel, RemapTable, Wrap};
 const MIN_PSNR_DB: f64 = 50.0;
 /// Share of the in-view output pixels the PSNR must cover.
 const MIN_COVERAGE: f64 = 0.995;
-
-fn psnr(a: &RgbImage, b: &RgbImage, mask: impl Fn(u32, u32) -> bool) -> (f64, usize) {
-    let (mut se, mut n) = (0.0, 0usize);
-    for v in 0..a.height() {
-        for u in 0..a.width() {
-            if !mask(u, v) {
-                continue;
-            }
-            let (p, q) = (a.pixel(u, v), b.pixel(u, v));
-            for c in 0..3 {
-                se += (p[c] as f64 - q[c] as f64).powi(2);
-            }
-            n += 1;
-        }
-    }
-    let mse = se / (3 * n) as f64;
-    (10.0 * (255.0f64 * 255.0 / mse).log10(), n)
-}
 
 /// Output pixels whose centre sees the source image.
 fn in_view<'a>(

@@ -1,7 +1,7 @@
 //! The exact reference rendered only where a test compares it: `Scene::render_with` through a
 //! camera that refuses the footprint samples no compared pixel needs, so that they are never
 //! traced. The compared pixels come out exactly as a whole render gives them
-//! (`render_where_equals_render_with_at_the_kept_pixels` checks it).
+//! (`render_where_equals_render_with_at_the_kept_pixels` checks it); `psnr` compares them.
 
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::{CameraModel, ImageSize, ProjectionReject};
@@ -87,6 +87,24 @@ pub fn render_where(
         near,
     };
     scene.render_with(&masked, centre, sigma, n)
+}
+
+/// PSNR (dB) of `a` against `b` over the pixels where `keep(u, v)`, and how many there were:
+/// the comparison the tests make between a warp and the exact render.
+pub fn psnr(a: &RgbImage, b: &RgbImage, keep: impl Fn(u32, u32) -> bool) -> (f64, usize) {
+    let (mut se, mut n) = (0.0, 0usize);
+    for v in 0..a.height() {
+        for u in 0..a.width() {
+            if keep(u, v) {
+                let (p, q) = (a.pixel(u, v), b.pixel(u, v));
+                se += (0..3)
+                    .map(|c| (p[c] as f64 - q[c] as f64).powi(2))
+                    .sum::<f64>();
+                n += 1;
+            }
+        }
+    }
+    (10.0 * (255.0f64.powi(2) / (se / (3 * n) as f64)).log10(), n)
 }
 
 #[test]
