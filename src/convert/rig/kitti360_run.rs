@@ -75,11 +75,10 @@ struct Ctx<'a> {
     /// blake3 of the input files shared by frames (calibration, poses, boxes), by path.
     hashes: OnceMap<PathBuf, std::result::Result<String, String>>,
     objects: Mutex<ObjectCounts>,
-    /// The ego masks by rig index.
-    masks: Masks,
-    /// The style model, if any.
-    style: Option<&'a StyleModel>,
-    /// Its pass over groups of frames.
+    /// How the rig pass converts a frame, the same for every frame (the style pass runs
+    /// beside it, on groups of frames).
+    options: RigOptions,
+    /// The style pass over groups of frames (it holds the model), if any.
     style_pass: Option<StylePass<'a>>,
     /// Augmented views holding fewer objects than asked.
     thin_views: AtomicUsize,
@@ -182,9 +181,9 @@ impl Ctx<'_> {
     fn prepare(&self, item: &Item) -> Result<Prepared> {
         let (sequence, info) = &self.sequences[item.sequence];
         let frame = sequence.frame(item.frame)?;
-        let options = self.rig_options();
-        let views = self.output_views(item, &frame, info, &options, &|b| self.keeps(b))?;
-        let images = read_images(&frame, &options)?;
+        let options = &self.options;
+        let views = self.output_views(item, &frame, info, options, &|b| self.keeps(b))?;
+        let images = read_images(&frame, options)?;
         let style_path = frame.rig[self.job.cameras[0]].image.clone();
         Ok(Prepared {
             frame,
@@ -192,20 +191,6 @@ impl Ctx<'_> {
             images,
             style_path,
         })
-    }
-
-    /// How the rig pass converts a frame (the style pass runs beside it, on groups of frames).
-    fn rig_options(&self) -> RigOptions {
-        let job = self.job;
-        RigOptions {
-            cameras: job.cameras.clone(),
-            stitch: job.stitch,
-            centre: job.centre,
-            objects: job.objects,
-            depth: job.depth,
-            ego_masks: self.masks.clone(),
-            style: None,
-        }
     }
 
     /// Whether a box's class is written.
@@ -238,7 +223,7 @@ impl Ctx<'_> {
             frame: &frame,
             info,
             images: &images,
-            options: self.rig_options(),
+            options: &self.options,
             level_from_velo: level_from_world.compose(&sequence.world_from_velo(item.frame)?),
             velo_from_imu: sequence.calibration.pose_from_velo().inverse(),
             counts: ObjectCounts::default(),
@@ -291,7 +276,7 @@ struct RigViewFiles<'a> {
     info: &'a [CameraInfo],
     /// The chosen cameras' (styled) images.
     images: &'a [RgbImage],
-    options: RigOptions,
+    options: &'a RigOptions,
     level_from_velo: crate::source::Pose,
     velo_from_imu: Option<crate::source::Pose>,
     /// The frame's object counts, over its views.
@@ -306,7 +291,7 @@ impl ViewFiles for RigViewFiles<'_> {
         let ctx = self.ctx;
         let keep = |b: &crate::source::SourceBox| ctx.keeps(b);
         let frame = self.frame;
-        let out = convert_into(frame, self.info, camera, self.images, &self.options, &keep)?;
+        let out = convert_into(frame, self.info, camera, self.images, self.options, &keep)?;
         let calib = crate::kitti::rig_output::rig_calib_text(
             out.camera.as_ref(),
             &out.centre,
@@ -609,8 +594,16 @@ pub fn run_kitti360(
         sequences,
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
-        masks,
-        style: style.as_ref(),
+        options: RigOptions {
+            cameras: job.cameras.clone(),
+            stitch: job.stitch,
+            centre: job.centre,
+            objects: job.objects,
+            depth: job.depth,
+            ego_masks: masks,
+            // the style pass styles the images between `prepare` and `finish`
+            style: None,
+        },
         style_pass: style.as_ref().map(|m| StylePass::new(m, job.style_batch)),
         thin_views: AtomicUsize::new(0),
     };
@@ -629,7 +622,7 @@ pub fn run_kitti360(
     Ok(Kitti360Summary {
         run: summary,
         objects,
-        style_runs: ctx.style.map(StyleModel::runs),
+        style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
     })
 }
