@@ -48,8 +48,9 @@ struct Prepared {
     views: Vec<OutputView>,
     /// The chosen cameras' images, in `--cameras` order (styled in place by the style pass).
     images: Vec<RgbImage>,
-    /// The image a failed style pass names (the first chosen camera's).
-    style_path: PathBuf,
+    /// The chosen cameras' image files, in `images`' order: a failed style pass names the
+    /// image that failed.
+    image_paths: Vec<PathBuf>,
 }
 
 impl StyleImages for Prepared {
@@ -57,8 +58,11 @@ impl StyleImages for Prepared {
         &mut self.images
     }
 
-    fn style_error(&self, e: StyleError) -> Error {
-        Error::file(&self.style_path, format!("style pass: {e}"))
+    fn style_error(&self, index: usize, e: StyleError) -> Error {
+        match self.image_paths.get(index) {
+            Some(path) => Error::file(path, format!("style pass: {e}")),
+            None => e.into(),
+        }
     }
 }
 
@@ -184,12 +188,16 @@ impl Ctx<'_> {
         let options = &self.options;
         let views = self.output_views(item, &frame, info, options, &|b| self.keeps(b))?;
         let images = read_images(&frame, options)?;
-        let style_path = frame.rig[self.job.cameras[0]].image.clone();
+        let image_paths = options
+            .cameras
+            .iter()
+            .filter_map(|&k| frame.rig.get(k).map(|c| c.image.clone()))
+            .collect();
         Ok(Prepared {
             frame,
             views,
             images,
-            style_path,
+            image_paths,
         })
     }
 
