@@ -67,7 +67,15 @@ pub(super) struct KittiArgs {
     image_set: Option<String>,
     #[command(flatten)]
     common: ConvertArgs,
-    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
+    #[command(flatten)]
+    augment: AugmentArgs,
+}
+
+/// `--augment` and its options, for `kitti` and `kitti360`.
+#[derive(Args)]
+pub(super) struct AugmentArgs {
+    /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
+    /// the frame.
     #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
     augment: Option<u32>,
     /// Seed of --augment (same seed, same views, whatever --jobs).
@@ -83,6 +91,21 @@ pub(super) struct KittiArgs {
     /// regions do not count); the summary says how many views still hold fewer.
     #[arg(long, value_name = "N", requires = "augment")]
     min_objects: Option<u32>,
+}
+
+impl AugmentArgs {
+    /// The views `--augment` asks for, if given.
+    pub(super) fn views(self) -> Option<Augment> {
+        self.augment.map(|count| Augment {
+            count,
+            seed: self.seed,
+            scale_range: self.scale_range,
+            crop_size: self
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+            min_objects: self.min_objects.unwrap_or(0),
+        })
+    }
 }
 
 /// `panoconv kitti-raw`: a KITTI raw date folder.
@@ -280,18 +303,7 @@ pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
         }
         None => None,
     };
-    let augment = match args.augment {
-        Some(count) => Some(Augment {
-            count,
-            seed: args.seed,
-            scale_range: args.scale_range,
-            crop_size: args
-                .crop_size
-                .expect("clap requires --crop-size with --augment"),
-            min_objects: args.min_objects.unwrap_or(0),
-        }),
-        None => None,
-    };
+    let augment = args.augment.views();
     convert(
         args.common,
         args.input,
