@@ -7,7 +7,8 @@
 //! 352x94) and refuses one of 352 rows (its fisheye cameras, 350x350: the shapes do not
 //! broadcast).
 
-use crate::common::{ort_lib, panoconv, read_manifest, Run};
+use crate::common::{ort_lib, read_manifest, Run};
+use crate::kitti360_command::kitti360;
 use std::path::{Path, PathBuf};
 
 /// Protobuf's base-128 varint.
@@ -93,18 +94,9 @@ fn fixture() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/kitti360")
 }
 
-const SEQUENCE: &str = "2013_05_28_drive_0000_sync";
-
 fn kitti360_styled(output: &Path, model: &Path, cameras: &str) -> Run {
-    let (root, lib) = (fixture(), ort_lib());
-    panoconv([
-        "kitti360",
-        "--input",
-        root.to_str().unwrap(),
-        "--sequence",
-        SEQUENCE,
-        "--output",
-        output.to_str().unwrap(),
+    let lib = ort_lib();
+    let args = [
         "--frames",
         "250",
         "--cameras",
@@ -119,7 +111,8 @@ fn kitti360_styled(output: &Path, model: &Path, cameras: &str) -> Run {
         lib.to_str().unwrap(),
         "--jobs",
         "1",
-    ])
+    ];
+    kitti360(&fixture(), output, &args)
 }
 
 #[test]
