@@ -55,6 +55,14 @@ rect), documented in docs/formats.md.";
 
 /// `panoconv kitti`: a KITTI object root.
 #[derive(Args)]
+// KITTI's own words on two of the --augment options
+#[command(mut_arg("augment", |a| a.help(
+    "Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame"
+)))]
+#[command(mut_arg("min_objects", |a| a.help(
+    "Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare \
+     regions do not count); the summary says how many views still hold fewer"
+)))]
 pub(super) struct KittiArgs {
     /// KITTI object root holding training/ and/or testing/ (each with image_2/, calib/, ...).
     #[arg(long, short = 'i')]
@@ -71,7 +79,8 @@ pub(super) struct KittiArgs {
     augment: AugmentArgs,
 }
 
-/// `--augment` and its options, for `kitti` and `kitti360`.
+/// `--augment` and its options, for `kitti` and `kitti360` (`kitti` words two of them its own
+/// way).
 #[derive(Args)]
 pub(super) struct AugmentArgs {
     /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
@@ -87,8 +96,8 @@ pub(super) struct AugmentArgs {
     /// Size of every --augment view.
     #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
     crop_size: Option<ImageSize>,
-    /// Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare
-    /// regions do not count); the summary says how many views still hold fewer.
+    /// Redraw an --augment view (up to 16 times) until it holds at least N objects; the
+    /// summary says how many views still hold fewer.
     #[arg(long, value_name = "N", requires = "augment")]
     min_objects: Option<u32>,
 }
