@@ -93,24 +93,10 @@ impl<C: CameraModel> CameraModel for Rotated<C> {
         self.inner.project_all(&turned, out);
     }
 
-    // A turn keeps lengths: the point turned is the inner camera's point. `project_point` and
-    // `project_point_coordinate` both go to the inner camera's, so that they keep giving the
-    // same f64 (the inner camera's may normalise otherwise than the default does).
-    fn project_point(&self, p: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
-        self.inner
-            .project_point(&(self.reference_from_camera.transpose() * p))
-    }
-
-    fn project_point_coordinate(
-        &self,
-        p: &Vector3<f64>,
-        axis: usize,
-    ) -> Result<f64, ProjectionReject> {
-        self.inner
-            .project_point_coordinate(&(self.reference_from_camera.transpose() * p), axis)
-    }
-
-    // `separable` keeps the default (None): a turn mixes the columns' and rows' bearings.
+    // The defaults stay: `separable` (None: a turn mixes the columns' and rows' bearings), and
+    // `project_point` and `project_point_coordinate`, the point's bearing through `project`:
+    // the inner camera's would turn the point before normalising it, other bits than the label
+    // search defines (`reproject::labels`).
 }
 
 #[cfg(test)]
@@ -186,23 +172,24 @@ mod tests {
             let (mut projected, mut rejected) = (0, 0);
             for p in &points {
                 let got = camera.project_point(p);
-                // one coordinate is the very f64 of both
+                // the very f64 of the point's bearing through `project`, one coordinate too
+                let want = (p.norm() > 1e-12).then(|| camera.project(&(p / p.norm())));
+                let bits = |r: Result<Point2<f64>, ProjectionReject>| {
+                    r.ok().map(|px| [px.x.to_bits(), px.y.to_bits()])
+                };
+                assert_eq!(bits(got), want.and_then(bits), "{p}");
                 for axis in 0..2 {
                     let one = camera.project_point_coordinate(p, axis);
                     assert_eq!(
-                        one.map(f64::to_bits),
-                        got.map(|px| px[axis].to_bits()),
+                        one.ok().map(f64::to_bits),
+                        bits(got).map(|b| b[axis]),
                         "{p} axis {axis}"
                     );
                 }
-                // and the pixel of the point's bearing
-                match (got, camera.project(&p.normalize())) {
-                    (Ok(a), Ok(b)) => {
-                        assert!((a - b).norm() < 1e-9, "{p}: {a} vs {b}");
-                        projected += 1;
-                    }
-                    (Err(_), _) => rejected += 1,
-                    (Ok(a), Err(e)) => panic!("{p}: {a}, but its bearing: {e:?}"),
+                if got.is_ok() {
+                    projected += 1;
+                } else {
+                    rejected += 1;
                 }
             }
             assert!(projected > 100 && rejected > 0, "{projected} {rejected}");
