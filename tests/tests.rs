@@ -48,6 +48,7 @@ mod style;
 mod style_batch;
 mod style_cli;
 mod table_parts;
+mod tidy;
 mod trust;
 mod unproject;
 mod verify;

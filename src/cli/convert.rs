@@ -67,8 +67,33 @@ pub(super) struct KittiArgs {
     image_set: Option<String>,
     #[command(flatten)]
     common: ConvertArgs,
-    /// Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame.
-    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+    #[command(flatten)]
+    augment: AugmentArgs<KittiWords>,
+}
+
+/// How a command words two of the `--augment` options for its dataset.
+pub(super) trait AugmentWords: Send + Sync + 'static {
+    /// The help of `--augment`.
+    const AUGMENT: &'static str;
+    /// The help of `--min-objects`.
+    const MIN_OBJECTS: &'static str;
+}
+
+/// `kitti`'s words.
+struct KittiWords;
+
+impl AugmentWords for KittiWords {
+    const AUGMENT: &'static str =
+        "Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame";
+    const MIN_OBJECTS: &'static str =
+        "Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare \
+         regions do not count); the summary says how many views still hold fewer";
+}
+
+/// `--augment` and its options, for `kitti` and `kitti360` (`W`: the command's words).
+#[derive(Args)]
+pub(super) struct AugmentArgs<W: AugmentWords> {
+    #[arg(long, help = W::AUGMENT, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
     augment: Option<u32>,
     /// Seed of --augment (same seed, same views, whatever --jobs).
     #[arg(long, default_value_t = 0, requires = "augment")]
@@ -79,10 +104,25 @@ pub(super) struct KittiArgs {
     /// Size of every --augment view.
     #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
     crop_size: Option<ImageSize>,
-    /// Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare
-    /// regions do not count); the summary says how many views still hold fewer.
-    #[arg(long, value_name = "N", requires = "augment")]
+    #[arg(long, help = W::MIN_OBJECTS, value_name = "N", requires = "augment")]
     min_objects: Option<u32>,
+    #[arg(skip)]
+    words: std::marker::PhantomData<W>,
+}
+
+impl<W: AugmentWords> AugmentArgs<W> {
+    /// The views `--augment` asks for, if given.
+    pub(super) fn views(self) -> Option<Augment> {
+        self.augment.map(|count| Augment {
+            count,
+            seed: self.seed,
+            scale_range: self.scale_range,
+            crop_size: self
+                .crop_size
+                .expect("clap requires --crop-size with --augment"),
+            min_objects: self.min_objects.unwrap_or(0),
+        })
+    }
 }
 
 /// `panoconv kitti-raw`: a KITTI raw date folder.
@@ -280,18 +320,7 @@ pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
         }
         None => None,
     };
-    let augment = match args.augment {
-        Some(count) => Some(Augment {
-            count,
-            seed: args.seed,
-            scale_range: args.scale_range,
-            crop_size: args
-                .crop_size
-                .expect("clap requires --crop-size with --augment"),
-            min_objects: args.min_objects.unwrap_or(0),
-        }),
-        None => None,
-    };
+    let augment = args.augment.views();
     convert(
         args.common,
         args.input,

@@ -1,7 +1,9 @@
 //! `panoconv kitti360`: a KITTI-360 sequence's rig into panoramas (or one camera converted),
 //! with labels, calib, depth and the source map, as a KITTI dataset.
 
-use super::convert::{install_stop_handler, parse_crop, parse_range, parse_shard, DeviceArg, STOP};
+use super::convert::{
+    install_stop_handler, parse_crop, parse_shard, AugmentArgs, AugmentWords, DeviceArg, STOP,
+};
 use super::export::{export_after_kitti, FormatArg};
 use super::EXIT_INTERRUPTED;
 use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED};
@@ -11,7 +13,6 @@ use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
 use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule};
 use panoconv::error::Error;
-use panoconv::geometry::augment::Augment;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
 use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
 use panoconv::reproject::depth::OcclusionFilter;
@@ -36,6 +37,16 @@ drive number comes first (0003000250). The rect of every file is the frame's lev
 R0_rect = I, Tr_velo_to_cam into it, projection:/K2:/C2: and Tr_rect_to_world: (to the
 KITTI-360 world). source_2 names the camera of each pixel (0-3, 255 none). docs/kitti360.md
 has the stitch model, the class table and the rule for the objects written.";
+
+/// `kitti360`'s words on two of the `--augment` options.
+struct Kitti360Words;
+
+impl AugmentWords for Kitti360Words {
+    const AUGMENT: &'static str = "Write N random scale-and-crop views of each frame's output \
+         (ids frame×N+k) instead of the frame";
+    const MIN_OBJECTS: &'static str = "Redraw an --augment view (up to 16 times) until it holds \
+         at least N objects; the summary says how many views still hold fewer";
+}
 
 /// `panoconv kitti360`.
 #[derive(Args)]
@@ -136,23 +147,8 @@ pub(super) struct Kitti360Args {
     export: Vec<FormatArg>,
     #[command(flatten)]
     run: RunArgs,
-    /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
-    /// the frame.
-    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
-    augment: Option<u32>,
-    /// Seed of --augment (same seed, same views, whatever --jobs).
-    #[arg(long, default_value_t = 0, requires = "augment")]
-    seed: u64,
-    /// Range of the --augment scale factor, drawn uniformly.
-    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
-    scale_range: (f64, f64),
-    /// Size of every --augment view.
-    #[arg(long, value_name = "WxH", value_parser = super::parse_size, requires = "augment")]
-    crop_size: Option<ImageSize>,
-    /// Redraw an --augment view (up to 16 times) until it holds at least N objects; the
-    /// summary says how many views still hold fewer.
-    #[arg(long, value_name = "N", requires = "augment")]
-    min_objects: Option<u32>,
+    #[command(flatten)]
+    augment: AugmentArgs<Kitti360Words>,
     /// CycleGAN generator (ONNX) giving each camera's image the target domain's look, before
     /// the stitch.
     #[arg(long, value_name = "MODEL.onnx")]
@@ -383,15 +379,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             },
             intra_threads: 1,
         }),
-        augment: args.augment.map(|count| Augment {
-            count,
-            seed: args.seed,
-            scale_range: args.scale_range,
-            crop_size: args
-                .crop_size
-                .expect("clap requires --crop-size with --augment"),
-            min_objects: args.min_objects.unwrap_or(0),
-        }),
+        augment: args.augment.views(),
     };
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);

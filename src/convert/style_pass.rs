@@ -53,6 +53,28 @@ impl<'a> StylePass<'a> {
         })
     }
 
+    /// Styles one frame's `images` as [`StylePass::stylize`] does; where that fails, image by
+    /// image (the same bytes: a batch is used only where it gives the single runs'), so that
+    /// the error is that of the first image that fails, with its index.
+    fn stylize_frame(
+        &self,
+        images: &[&RgbImage],
+    ) -> std::result::Result<Vec<RgbImage>, (usize, StyleError)> {
+        match self.stylize(images) {
+            Ok(styled) => Ok(styled),
+            Err(e) if images.len() < 2 => Err((0, e)),
+            Err(_) => images
+                .iter()
+                .enumerate()
+                .map(|(i, image)| {
+                    self.stylize(&[*image])
+                        .map(|mut one| one.swap_remove(0))
+                        .map_err(|e| (i, e))
+                })
+                .collect(),
+        }
+    }
+
     fn is_exact(&self, (width, height): (u32, u32)) -> bool {
         self.exact.get_or_build(&(width, height), || {
             // A failed probe (e.g. no memory for a batch) means single runs.
@@ -68,8 +90,9 @@ pub(super) trait StyleImages {
     /// The images the style pass takes, replaced by their styled versions (same order).
     fn style_images(&mut self) -> &mut Vec<RgbImage>;
 
-    /// This frame's error for a failed style pass over its images.
-    fn style_error(&self, e: StyleError) -> Error {
+    /// This frame's error for a failed style pass over its image at `_index` (in
+    /// [`StyleImages::style_images`]' order).
+    fn style_error(&self, _index: usize, e: StyleError) -> Error {
         e.into()
     }
 }
@@ -129,7 +152,8 @@ fn style_group<K, P: StyleImages>(
         let styled = guarded(&name(k), || {
             let images = std::mem::take(frame.style_images());
             let refs: Vec<&RgbImage> = images.iter().collect();
-            pass.stylize(&refs).map_err(|e| frame.style_error(e))
+            pass.stylize_frame(&refs)
+                .map_err(|(i, e)| frame.style_error(i, e))
         });
         match styled {
             Ok(images) => *frame.style_images() = images,

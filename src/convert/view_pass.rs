@@ -11,15 +11,16 @@ use crate::geometry::augment::View;
 use crate::image::RgbImage;
 use crate::reproject::depth::DepthMap;
 use crate::run::manifest::{LidarRecord, ViewRecord};
-use crate::warp::{ImageMapping, PngSource};
+use crate::warp::{ImageMapping, PngSource, RemapTable};
 use std::path::{Path, PathBuf};
 
 /// Where a view's image comes from.
 pub(super) enum ViewImage<'a> {
     /// Already in the output camera (stitched, or styled after the warp).
     Warped(&'a RgbImage),
-    /// A single table's source PNG, warped row by row as the encoder takes the rows.
-    Streamed(ImageMapping<'a>, &'a mut PngSource),
+    /// A single table's source PNG, warped row by row as the encoder takes the rows (a
+    /// stitch takes its cameras' decoded images: `Mapped`).
+    Streamed(&'a RemapTable, &'a mut PngSource),
     /// The mapping applied to its decoded sources.
     Mapped(ImageMapping<'a>, Vec<&'a RgbImage>),
 }
@@ -36,9 +37,7 @@ impl ViewSink {
     pub(super) fn image(&mut self, path: PathBuf, image: ViewImage) -> Result<()> {
         let bytes = match image {
             ViewImage::Warped(image) => png::encode_rgb8(image, self.compression),
-            ViewImage::Streamed(mapping, source) => {
-                mapping.encode_png_source(source, self.compression)?
-            }
+            ViewImage::Streamed(table, source) => source.warp_encode(table, self.compression)?,
             ViewImage::Mapped(mapping, images) => mapping.encode(&images, self.compression),
         };
         self.files.push((path, bytes));

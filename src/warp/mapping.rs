@@ -1,16 +1,16 @@
 //! [`ImageMapping`]: one output camera's pixels from the N source cameras that give them, the
 //! one type through which every conversion produces its images. N = 1 is a [`RemapTable`]
-//! (built once per source camera and output camera, shared by every frame that has them, its
-//! source streamed from the PNG file as the encoder takes rows); N > 1 is a frame's
-//! [`Stitch`]. Both give the image, the `--mask` image (where a source gives the pixel) and the
-//! per-pixel source index.
+//! (built once per source camera and output camera, shared by every frame that has them); N > 1
+//! is a frame's [`Stitch`]. Both give the image, the `--mask` image (where a source gives the
+//! pixel) and the per-pixel source index. A source streamed from its PNG file as the encoder
+//! takes rows is a table's alone ([`PngSource::warp_encode`](super::PngSource::warp_encode)
+//! takes a [`RemapTable`]): a stitch cannot be handed one PNG file.
 
 use super::stitch::{Stitch, Stitched};
-use super::stream::{warp_encode, PngSource};
+use super::stream::warp_encode;
 use super::table::RemapTable;
 use crate::camera::ImageSize;
 use crate::codec::png::{self, PngCompression};
-use crate::error::{Error, Result};
 use crate::image::RgbImage;
 
 /// The source index of an output pixel that no source gives.
@@ -68,19 +68,6 @@ impl ImageMapping<'_> {
                 }
             }
             ImageMapping::Stitch(stitch) => stitch.apply(images),
-        }
-    }
-
-    /// The PNG file of the output image of one source's PNG file, warped row by row as the
-    /// encoder takes the rows and decoded only as far as they reach. A stitch takes its
-    /// cameras' decoded images ([`ImageMapping::encode`]): given one PNG file, it refuses.
-    pub fn encode_png_source(&self, source: &mut PngSource, c: PngCompression) -> Result<Vec<u8>> {
-        match self {
-            ImageMapping::Single(table) => source.warp_encode(table, c),
-            ImageMapping::Stitch(stitch) => Err(Error::Setup(format!(
-                "a stitch of {} cameras takes their decoded images, not one PNG file",
-                stitch.cameras()
-            ))),
         }
     }
 
@@ -234,8 +221,5 @@ mod tests {
             mapping.encode(&[&a, &b], c),
             png::encode_rgb8(&direct.image, c)
         );
-        let mut one =
-            PngSource::new(png::encode_rgb8(&a, c), std::path::Path::new("a.png")).unwrap();
-        assert!(mapping.encode_png_source(&mut one, c).is_err());
     }
 }

@@ -147,7 +147,7 @@ impl ViewFiles for KittiViewFiles<'_, '_> {
                 let image = if after_warp {
                     ViewImage::Warped(&self.images[i * cameras_per_view + j])
                 } else if let Some(source) = self.sources.get_mut(j) {
-                    ViewImage::Streamed(mapping.image(), source)
+                    ViewImage::Streamed(&mapping.table, source)
                 } else {
                     ViewImage::Mapped(mapping.image(), vec![&self.images[j]])
                 };

@@ -1,14 +1,14 @@
 //! Running `panoconv kitti360`: the sequences opened and the selection checked before anything
-//! is written, then the output folder's run (`run::OutputFolder`: claim, previous records,
-//! journal, the frame loop, the manifest) over this command's [`FrameWork`]: frames in groups
-//! through `convert::style_pass` (each read with its views drawn, the group's camera images
-//! styled together, then each converted through the rig pass and written, atomically and
-//! hashed for the manifest); a failed frame leaves no file.
+//! is written (`kitti360_setup.rs`), then the output folder's run (`run::OutputFolder`: claim,
+//! previous records, journal, the frame loop, the manifest) over this command's
+//! [`FrameWork`]: frames in groups through `convert::style_pass` (each read with its views
+//! drawn, the group's camera images styled together, then each converted through the rig pass
+//! and written, atomically and hashed for the manifest); a failed frame leaves no file.
 
 use super::gray::encode_gray8;
-use super::kitti360::EgoMaskRecord;
-use super::kitti360::{
-    drive_number, frame_id, Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT,
+use super::kitti360::{Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT};
+use super::kitti360_setup::{
+    check_output_camera, load_style, open_sequences, read_ego_masks, select, Item,
 };
 use super::pass::{
     convert_into, count_objects, output_camera, read_images, CameraInfo, ClassFilter, RigOptions,
@@ -21,22 +21,18 @@ use crate::error::{Error, Result};
 use crate::fs;
 use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
-use crate::kitti360::{Options, Sequence};
+use crate::kitti360::Sequence;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
-use crate::style::{Device, StyleError, StyleModel, StyleOptions};
-use crate::warp::EgoMask;
+use crate::style::{StyleError, StyleModel};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 /// The per-frame output folders under `OUT/training/`.
 const FOLDERS: [&str; 6] = [
     "image_2", "calib", "label_2", "source_2", "objects", "depth_2",
 ];
-
-/// Ego masks by rig index (None: the camera has none).
-type Masks = Vec<Option<Arc<EgoMask>>>;
 
 /// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
 /// its camera.
@@ -48,8 +44,9 @@ struct Prepared {
     views: Vec<OutputView>,
     /// The chosen cameras' images, in `--cameras` order (styled in place by the style pass).
     images: Vec<RgbImage>,
-    /// The image a failed style pass names (the first chosen camera's).
-    style_path: PathBuf,
+    /// The chosen cameras' image files, in `images`' order: a failed style pass names the
+    /// image that failed.
+    image_paths: Vec<PathBuf>,
 }
 
 impl StyleImages for Prepared {
@@ -57,16 +54,12 @@ impl StyleImages for Prepared {
         &mut self.images
     }
 
-    fn style_error(&self, e: StyleError) -> Error {
-        Error::file(&self.style_path, format!("style pass: {e}"))
+    fn style_error(&self, index: usize, e: StyleError) -> Error {
+        match self.image_paths.get(index) {
+            Some(path) => Error::file(path, format!("style pass: {e}")),
+            None => e.into(),
+        }
     }
-}
-
-/// One frame to convert.
-struct Item {
-    sequence: usize,
-    frame: u32,
-    id: String,
 }
 
 struct Ctx<'a> {
@@ -75,11 +68,10 @@ struct Ctx<'a> {
     /// blake3 of the input files shared by frames (calibration, poses, boxes), by path.
     hashes: OnceMap<PathBuf, std::result::Result<String, String>>,
     objects: Mutex<ObjectCounts>,
-    /// The ego masks by rig index.
-    masks: Masks,
-    /// The style model, if any.
-    style: Option<&'a StyleModel>,
-    /// Its pass over groups of frames.
+    /// How the rig pass converts a frame, the same for every frame (the style pass runs
+    /// beside it, on groups of frames).
+    options: RigOptions,
+    /// The style pass over groups of frames (it holds the model), if any.
     style_pass: Option<StylePass<'a>>,
     /// Augmented views holding fewer objects than asked.
     thin_views: AtomicUsize,
@@ -182,30 +174,20 @@ impl Ctx<'_> {
     fn prepare(&self, item: &Item) -> Result<Prepared> {
         let (sequence, info) = &self.sequences[item.sequence];
         let frame = sequence.frame(item.frame)?;
-        let options = self.rig_options();
-        let views = self.output_views(item, &frame, info, &options, &|b| self.keeps(b))?;
-        let images = read_images(&frame, &options)?;
-        let style_path = frame.rig[self.job.cameras[0]].image.clone();
+        let options = &self.options;
+        let views = self.output_views(item, &frame, info, options, &|b| self.keeps(b))?;
+        let images = read_images(&frame, options)?;
+        let image_paths = options
+            .cameras
+            .iter()
+            .filter_map(|&k| frame.rig.get(k).map(|c| c.image.clone()))
+            .collect();
         Ok(Prepared {
             frame,
             views,
             images,
-            style_path,
+            image_paths,
         })
-    }
-
-    /// How the rig pass converts a frame (the style pass runs beside it, on groups of frames).
-    fn rig_options(&self) -> RigOptions {
-        let job = self.job;
-        RigOptions {
-            cameras: job.cameras.clone(),
-            stitch: job.stitch,
-            centre: job.centre,
-            objects: job.objects,
-            depth: job.depth,
-            ego_masks: self.masks.clone(),
-            style: None,
-        }
     }
 
     /// Whether a box's class is written.
@@ -238,7 +220,7 @@ impl Ctx<'_> {
             frame: &frame,
             info,
             images: &images,
-            options: self.rig_options(),
+            options: &self.options,
             level_from_velo: level_from_world.compose(&sequence.world_from_velo(item.frame)?),
             velo_from_imu: sequence.calibration.pose_from_velo().inverse(),
             counts: ObjectCounts::default(),
@@ -291,7 +273,7 @@ struct RigViewFiles<'a> {
     info: &'a [CameraInfo],
     /// The chosen cameras' (styled) images.
     images: &'a [RgbImage],
-    options: RigOptions,
+    options: &'a RigOptions,
     level_from_velo: crate::source::Pose,
     velo_from_imu: Option<crate::source::Pose>,
     /// The frame's object counts, over its views.
@@ -306,7 +288,7 @@ impl ViewFiles for RigViewFiles<'_> {
         let ctx = self.ctx;
         let keep = |b: &crate::source::SourceBox| ctx.keeps(b);
         let frame = self.frame;
-        let out = convert_into(frame, self.info, camera, self.images, &self.options, &keep)?;
+        let out = convert_into(frame, self.info, camera, self.images, self.options, &keep)?;
         let calib = crate::kitti::rig_output::rig_calib_text(
             out.camera.as_ref(),
             &out.centre,
@@ -390,180 +372,6 @@ impl FrameWork for Ctx<'_> {
     }
 }
 
-/// The sequences, each with what the rig pass needs of its cameras.
-fn open_sequences(job: &Kitti360Job) -> Result<Vec<(Sequence, Vec<CameraInfo>)>> {
-    if job.sequences.is_empty() {
-        return Err(Error::Setup("no sequence given".into()));
-    }
-    if job.cameras.is_empty() || job.cameras.iter().any(|&k| k > 3) {
-        return Err(Error::Setup(
-            "cameras are 00, 01, 02 and 03 (image_00 to image_03)".into(),
-        ));
-    }
-    if !job.input.is_dir() {
-        return Err(Error::Setup(format!(
-            "input {} is not a directory",
-            job.input.display()
-        )));
-    }
-    let options = Options {
-        fisheye_fov_deg: job.fisheye_fov_deg,
-        lidar: job.needs_lidar(),
-        all_classes: job.classes != super::Kitti360Classes::Kitti,
-        // the reader's default (motion-compensated sweeps) until the command has an option
-        ..Options::default()
-    };
-    let mut out = Vec::new();
-    for name in &job.sequences {
-        let seq = Sequence::open(&job.input, name, options)?;
-        let c = &seq.calibration;
-        let info = vec![
-            CameraInfo {
-                focal: c.perspective[0].model.k,
-                max_theta: None,
-            },
-            CameraInfo {
-                focal: c.perspective[1].model.k,
-                max_theta: None,
-            },
-            CameraInfo {
-                focal: c.fisheye[0].centre_intrinsics(),
-                max_theta: Some(c.fisheye[0].max_theta()),
-            },
-            CameraInfo {
-                focal: c.fisheye[1].centre_intrinsics(),
-                max_theta: Some(c.fisheye[1].max_theta()),
-            },
-        ];
-        out.push((seq, info));
-    }
-    Ok(out)
-}
-
-/// The frames to convert, with their ids; several sequences need distinct drive numbers.
-fn select(job: &Kitti360Job, sequences: &[(Sequence, Vec<CameraInfo>)]) -> Result<Vec<Item>> {
-    let several = sequences.len() > 1;
-    let mut drives = Vec::new();
-    let mut items = Vec::new();
-    for (i, (seq, _)) in sequences.iter().enumerate() {
-        let drive = if several {
-            let d = drive_number(&seq.name).ok_or_else(|| {
-                Error::Setup(format!(
-                    "sequence {:?} has no drive number (_drive_NNNN_): several sequences are \
-                     told apart by it in the frame ids",
-                    seq.name
-                ))
-            })?;
-            if drives.contains(&d) {
-                return Err(Error::Setup(format!(
-                    "two sequences have drive number {d}: their frame ids would collide"
-                )));
-            }
-            drives.push(d);
-            Some(d)
-        } else {
-            None
-        };
-        let frames = match &job.frames {
-            Some(list) => list.clone(),
-            None => seq.frames(),
-        };
-        for frame in frames {
-            if several && frame >= 1_000_000 {
-                return Err(Error::Setup(format!(
-                    "frame {frame} of {} has more than six digits: it has no id when several \
-                     sequences share an output",
-                    seq.name
-                )));
-            }
-            items.push(Item {
-                sequence: i,
-                frame,
-                id: frame_id(drive, frame),
-            });
-        }
-    }
-    if items.is_empty() {
-        return Err(Error::Setup("the selection holds no frame".into()));
-    }
-    items.sort_by(|a, b| a.id.cmp(&b.id));
-    if let Some(w) = items.windows(2).find(|w| w[0].id == w[1].id) {
-        return Err(Error::Setup(format!(
-            "frame {} is asked for twice",
-            w[0].id
-        )));
-    }
-    Ok(items)
-}
-
-/// The ego masks of `job` by rig index, and their manifest records: each mask must belong to a
-/// chosen camera, once, and have its image size in every sequence (an error names the file).
-fn read_ego_masks(
-    job: &Kitti360Job,
-    sequences: &[(Sequence, Vec<CameraInfo>)],
-) -> Result<(Masks, Vec<EgoMaskRecord>)> {
-    let mut masks: Masks = vec![None; 4];
-    let mut records = Vec::new();
-    for (k, path) in &job.ego_masks {
-        let name = crate::kitti360::CAMERAS.get(*k).ok_or_else(|| {
-            Error::file(path, format!("an ego mask for camera {k}: no such camera"))
-        })?;
-        if !job.cameras.contains(k) {
-            return Err(Error::file(
-                path,
-                format!("an ego mask for {name}, which --cameras does not use"),
-            ));
-        }
-        if masks[*k].is_some() {
-            return Err(Error::file(path, format!("a second ego mask for {name}")));
-        }
-        let mut mask = None;
-        for (seq, _) in sequences {
-            let c = &seq.calibration;
-            let size = match k {
-                0 | 1 => crate::camera::CameraModel::size(&c.perspective[*k].model),
-                _ => crate::camera::CameraModel::size(&c.fisheye[*k - 2]),
-            };
-            let m = EgoMask::read(path, size)?;
-            if mask.as_ref().is_some_and(|old| *old != m) {
-                return Err(Error::file(
-                    path,
-                    "the sequences' images differ in size".to_owned(),
-                ));
-            }
-            mask = Some(m);
-        }
-        let bytes = fs::read_file(path)?;
-        records.push(EgoMaskRecord {
-            camera: name,
-            path: path.clone(),
-            hash: fs::hash_hex(&bytes),
-        });
-        masks[*k] = mask.map(Arc::new);
-    }
-    Ok((masks, records))
-}
-
-/// An output camera that cannot be made (a scale too large, a crop of no pixel) is a set-up
-/// error, not one error per frame: checked on the first frame that reads.
-fn check_output_camera(
-    job: &Kitti360Job,
-    sequences: &[(Sequence, Vec<CameraInfo>)],
-    items: &[Item],
-) -> Result<()> {
-    let Some(item) = items.first() else {
-        return Ok(());
-    };
-    let (sequence, info) = &sequences[item.sequence];
-    // (a frame that does not read fails on its own, counted)
-    let Ok(frame) = sequence.frame(item.frame) else {
-        return Ok(());
-    };
-    super::pass::output_camera(&frame, info, &job.target, job.cameras[0])
-        .map(|_| ())
-        .map_err(|e| Error::Setup(format!("the output camera of frame {}: {e}", item.id)))
-}
-
 /// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
 /// is reported through `progress`, recorded in the manifest and counted in the summary.
 /// `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside the caller's rayon pool.
@@ -609,8 +417,16 @@ pub fn run_kitti360(
         sequences,
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
-        masks,
-        style: style.as_ref(),
+        options: RigOptions {
+            cameras: job.cameras.clone(),
+            stitch: job.stitch,
+            centre: job.centre,
+            objects: job.objects,
+            depth: job.depth,
+            ego_masks: masks,
+            // the style pass styles the images between `prepare` and `finish`
+            style: None,
+        },
         style_pass: style.as_ref().map(|m| StylePass::new(m, job.style_batch)),
         thin_views: AtomicUsize::new(0),
     };
@@ -629,34 +445,7 @@ pub fn run_kitti360(
     Ok(Kitti360Summary {
         run: summary,
         objects,
-        style_runs: ctx.style.map(StyleModel::runs),
+        style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
     })
-}
-
-/// The style model's sessions, loaded before anything is written (a missing model or ONNX
-/// Runtime library is a set-up error): on the CPU one session per worker with one thread each,
-/// so --jobs alone sets the core count; on a GPU two (one runs while the other's input is
-/// prepared), as `kitti` loads them.
-fn load_style(job: &Kitti360Job) -> Result<Option<StyleModel>> {
-    let Some(s) = &job.style else {
-        return Ok(None);
-    };
-    // The model is the user's own file: name it missing before asking for the runtime.
-    if !s.model.is_file() {
-        return Err(Error::Setup(format!(
-            "--style {}: no such model file",
-            s.model.display()
-        )));
-    }
-    let options = StyleOptions {
-        intra_threads: 1,
-        ..s.clone()
-    };
-    let workers = rayon::current_num_threads();
-    let sessions = match options.device {
-        Device::Cpu => workers,
-        Device::Cuda => workers.min(2),
-    };
-    Ok(Some(StyleModel::load_pool(&options, sessions)?))
 }

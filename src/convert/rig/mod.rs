@@ -8,12 +8,13 @@
 //! - `objects.rs`: which objects a frame's labels hold (range, LiDAR support, image) and why
 //!   the others were dropped;
 //! - `gray.rs`: the 8-bit PNG of the source map;
-//! - `kitti360.rs` and `kitti360_run.rs`: `panoconv kitti360`'s job, its frames, files and
-//!   manifest.
+//! - `kitti360.rs`, `kitti360_setup.rs` and `kitti360_run.rs`: `panoconv kitti360`'s job, what
+//!   it opens and checks before anything is written, its frames, files and manifest.
 
 mod gray;
 mod kitti360;
 mod kitti360_run;
+mod kitti360_setup;
 mod objects;
 mod pass;
 

@@ -1,0 +1,58 @@
+//! A frame's stitch: each camera's image remapped, then blended by the weights and the exposure
+//! gains (step 4 of the stitch's model).
+
+use super::{Stitch, Stitched};
+use crate::image::RgbImage;
+use rayon::prelude::*;
+
+impl Stitch {
+    /// The stitch of one frame's `images` (in the cameras' order, each of its camera's size).
+    pub fn apply(&self, images: &[&RgbImage]) -> Stitched {
+        assert_eq!(images.len(), self.tables.len(), "one image per camera");
+        let remapped: Vec<RgbImage> = self
+            .tables
+            .iter()
+            .zip(images)
+            .map(|(t, img)| t.apply(img))
+            .collect();
+        let gains = self.gains(&remapped);
+        let (w, h) = (self.size.width as usize, self.size.height as usize);
+        let mut out = RgbImage::new(self.size.width, self.size.height);
+        let mut source = vec![255u8; w * h];
+        out.as_raw_mut()
+            .par_chunks_mut((w * 3).max(1))
+            .zip(source.par_chunks_mut(w.max(1)))
+            .enumerate()
+            .for_each(|(v, (row, src_row))| {
+                for u in 0..w {
+                    let i = v * w + u;
+                    let (mut acc, mut total, mut best) = ([0f64; 3], 0f64, (0f32, 255u8));
+                    for (k, img) in remapped.iter().enumerate() {
+                        let wk = self.weights[k][i];
+                        if !(wk > 0.0) {
+                            continue;
+                        }
+                        let px = &img.as_raw()[i * 3..i * 3 + 3];
+                        for c in 0..3 {
+                            acc[c] += wk as f64 * gains[k] * px[c] as f64;
+                        }
+                        total += wk as f64;
+                        if wk > best.0 {
+                            best = (wk, k as u8);
+                        }
+                    }
+                    if total > 0.0 {
+                        for c in 0..3 {
+                            row[u * 3 + c] = (acc[c] / total).round().clamp(0.0, 255.0) as u8;
+                        }
+                    }
+                    src_row[u] = best.1;
+                }
+            });
+        Stitched {
+            image: out,
+            source,
+            gains,
+        }
+    }
+}

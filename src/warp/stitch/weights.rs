@@ -1,0 +1,359 @@
+//! A stitch's remap tables and blend weights (steps 2, 3 and 6 of the stitch's model): each
+//! camera's angular margin, smoothed over the blend width, zero where its ego mask is touched.
+
+use super::proxy::{Proxy, FOV_SLACK};
+use super::{Stitch, StitchCamera, StitchOptions};
+use crate::camera::CameraModel;
+use crate::warp::mask::EgoMask;
+use crate::warp::reach::{border_cone, Cone, Gated, Reach};
+use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+use nalgebra::{Matrix3, Point2, Vector3};
+use rayon::prelude::*;
+
+/// Angle of the small turns that measure a camera's local scale, radians.
+const SCALE_PROBE: f64 = 1e-4;
+
+/// S(t) = t²(3 − 2t) on [0, 1].
+fn smoothstep(t: f64) -> f64 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Two unit vectors perpendicular to `q` and to each other.
+fn perpendiculars(q: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let n = q.normalize();
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let a = n.cross(&helper).normalize();
+    (a, n.cross(&a))
+}
+
+/// Camera i's angular margin m_i at camera point `q` (step 3 of the model), None without an
+/// image.
+#[cfg(test)]
+fn margin(camera: &StitchCamera, q: &Vector3<f64>) -> Option<f64> {
+    margin_capped(camera, q, None)
+}
+
+/// [`margin`], or any value ≥ `cap` where the margin is at least `cap`: with `inner_cos` =
+/// cos(θ_max − cap − [`FOV_SLACK`]), a point at a cosine above it has a field-of-view margin
+/// beyond the cap, and its angle is not computed (the weight saturates there).
+fn margin_capped(
+    camera: &StitchCamera,
+    q: &Vector3<f64>,
+    inner_cos: Option<(f64, f64)>,
+) -> Option<f64> {
+    let deep = inner_cos.is_some_and(|(c, cap)| {
+        let n = q.norm();
+        cap.is_finite() && n.is_finite() && n > 0.0 && q.z >= c * n
+    });
+    let fov = match (camera.max_theta, inner_cos) {
+        (Some(_), Some((_, cap))) if deep => cap,
+        (Some(t), _) => t - q.x.hypot(q.y).atan2(q.z),
+        (None, _) => f64::INFINITY,
+    };
+    let p = camera.model.project_point(q).ok()?;
+    let size = camera.model.size();
+    let border = (p.x + 0.5)
+        .min(size.width as f64 - 0.5 - p.x)
+        .min(p.y + 0.5)
+        .min(size.height as f64 - 0.5 - p.y);
+    let (a, b) = perpendiculars(q);
+    let n = q.normalize();
+    let mut scale: f64 = 0.0;
+    for axis in [a, b] {
+        let turned =
+            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), SCALE_PROBE)
+                * n;
+        if let Ok(t) = camera.model.project_point(&turned) {
+            scale = scale.max((t - p).norm() / SCALE_PROBE);
+        }
+    }
+    if !(scale > 0.0) {
+        return None;
+    }
+    Some(fov.min(border / scale))
+}
+
+/// Step 6 of the model: whether camera `proxy`'s sample for output pixel (u, v), seeing camera
+/// point `q`, touches `mask`.
+fn touches_mask(
+    output: &dyn CameraModel,
+    proxy: &Proxy,
+    mask: &EgoMask,
+    u: usize,
+    v: usize,
+    q: &Vector3<f64>,
+) -> bool {
+    let Ok(p) = proxy.camera.model.project_point(q) else {
+        return false;
+    };
+    let sample = |u: usize, v: usize| {
+        let d = output.unproject(&Point2::new(u as f64, v as f64)).ok()?;
+        proxy.camera.model.project_point(&proxy.local(&d)).ok()
+    };
+    let rho = [sample(u + 1, v), sample(u, v + 1)]
+        .into_iter()
+        .flatten()
+        .map(|n| (n - p).norm())
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    mask.touches(&p, 1.0 + rho / 2.0)
+}
+
+impl Stitch {
+    pub(super) fn tables_and_weights(
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        cameras: &[StitchCamera],
+        masks: &[Option<&EgoMask>],
+        options: StitchOptions,
+        bounded: bool,
+    ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
+        let size = output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let proxies: Vec<Proxy> = cameras
+            .iter()
+            .map(|camera| Proxy::new(*camera, *centre, options.distance))
+            .collect();
+        let locals: Vec<_> = proxies
+            .iter()
+            .map(|proxy| move |d: &Vector3<f64>| proxy.local(d))
+            .collect();
+        let cones: Vec<Cone> = proxies
+            .iter()
+            .zip(&locals)
+            .map(|(proxy, local)| {
+                let camera = &proxy.camera;
+                let inverse = camera.rotation.try_inverse();
+                let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
+                Cone {
+                    local,
+                    // unbounded: every pixel mapped (the tests' reference)
+                    half_angle: camera
+                        .max_theta
+                        .or_else(|| border_cone(camera.model))
+                        .filter(|_| bounded),
+                    parallax: baseline
+                        .filter(|b| b.is_finite() && *b < options.distance)
+                        .map(|b| options.distance / (options.distance - b)),
+                }
+            })
+            .collect();
+        let reach = Reach::new(output, &cones);
+        let mut tables = Vec::with_capacity(cameras.len());
+        let mut weights = Vec::with_capacity(cameras.len());
+        for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
+            let mask = masks.get(i).copied().flatten();
+            let gated = Gated {
+                output,
+                reach: &reach,
+                camera: i,
+            };
+            tables.push(RemapTable::build_parallel(
+                &gated,
+                proxy,
+                &Matrix3::identity(),
+                Wrap::None,
+                MAX_SUPERSAMPLE,
+            ));
+            // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
+            // the pixels beyond the bound keep w_i = 0
+            // where the field of view's margin exceeds the blend width the weight is set by
+            // the border's margin alone (or saturates): its angle is not needed there
+            let b = options.blend_width;
+            let deep = camera
+                .max_theta
+                .map(|t| t - b - FOV_SLACK)
+                .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
+                .map(|a| (a.cos(), b));
+            let mut wi = vec![0f32; w * h];
+            wi.par_chunks_mut(w.max(1))
+                .enumerate()
+                .for_each(|(v, row)| {
+                    for (u, out) in row.iter_mut().enumerate() {
+                        if !reach.may_reach_pixel(i, u, v) {
+                            continue;
+                        }
+                        let Some(d) = reach.bearing(u, v) else {
+                            continue;
+                        };
+                        let q = proxy.local(&d);
+                        if let Some(m) = margin_capped(camera, &q, deep) {
+                            *out = smoothstep(m / options.blend_width) as f32;
+                        }
+                        if let Some(mask) = mask.filter(|_| *out > 0.0) {
+                            if touches_mask(output, proxy, mask, u, v, &q) {
+                                *out = 0.0;
+                            }
+                        }
+                    }
+                });
+            weights.push(wi);
+        }
+        (tables, weights)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Equirect, ImageSize, Intrinsics, Perspective};
+
+    #[test]
+    fn the_reach_bound_changes_no_table_entry_and_no_weight() {
+        let wide = Perspective::new(
+            Intrinsics::new(60.0, 60.0, 99.5, 49.5),
+            ImageSize::new(200, 100),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(300.0, 300.0, 70.0, 40.0),
+            ImageSize::new(150, 90),
+        );
+        let turn =
+            |deg: f64| *nalgebra::Rotation3::from_euler_angles(0.1, deg.to_radians(), 0.0).matrix();
+        let cameras = [
+            StitchCamera {
+                model: &wide,
+                rotation: turn(80.0),
+                translation: Vector3::new(0.3, 0.0, -0.2),
+                max_theta: Some(1.0),
+            },
+            StitchCamera {
+                model: &narrow,
+                rotation: Matrix3::identity(),
+                translation: Vector3::new(-0.5, 0.1, 0.0),
+                max_theta: None,
+            },
+            StitchCamera {
+                model: &wide,
+                rotation: turn(-100.0),
+                translation: Vector3::new(0.0, 0.0, 0.4),
+                max_theta: None,
+            },
+        ];
+        let output = Equirect::new(
+            Intrinsics::new(
+                320.0 / (2.0 * std::f64::consts::PI),
+                320.0 / (2.0 * std::f64::consts::PI),
+                160.0,
+                80.0,
+            ),
+            ImageSize::new(320, 160),
+        );
+        let centre = Vector3::new(0.05, -0.02, 0.1);
+        let options = StitchOptions::default();
+        let build =
+            |bounded| Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded);
+        let (bounded, every) = (build(true), build(false));
+        for i in 0..cameras.len() {
+            assert!(bounded.0[i] == every.0[i], "camera {i}: tables differ");
+            let bits = |w: &[f32]| w.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                bits(&bounded.1[i]),
+                bits(&every.1[i]),
+                "camera {i}: weights"
+            );
+            // the camera is seen somewhere, and not everywhere
+            let seen = every.1[i].iter().filter(|w| **w > 0.0).count();
+            assert!(
+                seen > 100 && seen < every.1[i].len() / 2,
+                "camera {i}: {seen}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_cosine_shortcuts_decide_as_the_angle_does() {
+        let model = crate::camera::Unified::new(
+            2.0,
+            crate::camera::MeiDistortion {
+                k1: 0.01,
+                k2: 0.3,
+                p1: 4e-4,
+                p2: 4e-4,
+            },
+            Intrinsics::new(300.0, 300.0, 349.5, 349.5),
+            0.0,
+            ImageSize::new(700, 700),
+            92.5f64.to_radians(),
+        )
+        .unwrap();
+        let t = 92.5f64.to_radians();
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            max_theta: Some(t),
+        };
+        let proxy = Proxy::new(camera, Vector3::zeros(), 10.0);
+        let b = 5f64.to_radians();
+        let deep = Some(((t - b - FOV_SLACK).cos(), b));
+        let (mut inside, mut outside, mut saturated) = (0, 0, 0);
+        // angles on both sides of the field of view's edge and of the blend band's, down to
+        // 1e-9 rad away, at several azimuths
+        for k in 0..4000 {
+            let offset = (k as f64 / 4000.0 - 0.5) * 2e-3 * (1e-6f64).powf((k % 7) as f64 / 6.0);
+            let edge = if k % 2 == 0 { t } else { t - b };
+            let theta = edge + offset;
+            let phi = k as f64 * 0.37;
+            let q = Vector3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            ) * (0.5 + (k % 5) as f64);
+            let exact = !(q.x.hypot(q.y).atan2(q.z) > t);
+            assert_eq!(proxy.within(&q), exact, "θ = {theta}");
+            if exact {
+                inside += 1;
+            } else {
+                outside += 1;
+            }
+            let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
+            let full = margin(&camera, &q);
+            assert_eq!(w(margin_capped(&camera, &q, deep)), w(full), "θ = {theta}");
+            saturated += usize::from(full.is_some_and(|m| m >= b));
+        }
+        assert!(
+            inside > 1000 && outside > 500 && saturated > 100,
+            "{inside} {outside} {saturated}"
+        );
+    }
+
+    #[test]
+    fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
+        let model = Perspective::new(
+            Intrinsics::new(100.0, 100.0, 99.5, 49.5),
+            ImageSize::new(200, 100),
+        );
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::new(-0.5, 0.0, 0.0),
+            max_theta: None,
+        };
+        // at the image centre: 50 px to the top and bottom edges at 100 px/rad
+        let m = margin(&camera, &Vector3::z()).unwrap();
+        assert!((m - 0.5).abs() < 1e-6, "{m}");
+        // near the right edge the margin shrinks to the pixel distance over the local scale
+        let q = Vector3::new(0.95, 0.0, 1.0);
+        let m = margin(&camera, &q).unwrap();
+        let p = model.project_point(&q).unwrap();
+        let want = (199.5 - p.x) / (100.0 * (1.0 + 0.95f64.powi(2)));
+        assert!((m - want).abs() < 1e-3 * want, "{m} vs {want}");
+        assert_eq!(smoothstep(-1.0), 0.0);
+        assert_eq!(smoothstep(0.5), 0.5);
+        assert_eq!(smoothstep(2.0), 1.0);
+        let defaults = StitchOptions::default();
+        assert!(defaults.even_exposure && defaults.distance == 10.0);
+        // the proxy's unproject is its project's inverse, with a baseline
+        let proxy = Proxy::new(camera, Vector3::new(0.1, 0.2, 0.0), 7.0);
+        let d = Vector3::new(0.2, -0.1, 1.0).normalize();
+        let px = proxy.project(&d).unwrap();
+        let back = proxy.unproject(&px).unwrap();
+        assert!((back - d).norm() < 1e-12, "{back} vs {d}");
+    }
+}
