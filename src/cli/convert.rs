@@ -68,32 +68,15 @@ pub(super) struct KittiArgs {
     #[command(flatten)]
     common: ConvertArgs,
     #[command(flatten)]
-    augment: AugmentArgs<KittiWords>,
+    augment: AugmentArgs,
 }
 
-/// How a command words two of the `--augment` options for its dataset.
-pub(super) trait AugmentWords: Send + Sync + 'static {
-    /// The help of `--augment`.
-    const AUGMENT: &'static str;
-    /// The help of `--min-objects`.
-    const MIN_OBJECTS: &'static str;
-}
-
-/// `kitti`'s words.
-struct KittiWords;
-
-impl AugmentWords for KittiWords {
-    const AUGMENT: &'static str =
-        "Write N random scale-and-crop views of each frame (ids frame×N+k) instead of the frame";
-    const MIN_OBJECTS: &'static str =
-        "Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare \
-         regions do not count); the summary says how many views still hold fewer";
-}
-
-/// `--augment` and its options, for `kitti` and `kitti360` (`W`: the command's words).
+/// `--augment` and its options, for `kitti` and `kitti360`.
 #[derive(Args)]
-pub(super) struct AugmentArgs<W: AugmentWords> {
-    #[arg(long, help = W::AUGMENT, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
+pub(super) struct AugmentArgs {
+    /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
+    /// the frame.
+    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
     augment: Option<u32>,
     /// Seed of --augment (same seed, same views, whatever --jobs).
     #[arg(long, default_value_t = 0, requires = "augment")]
@@ -104,13 +87,13 @@ pub(super) struct AugmentArgs<W: AugmentWords> {
     /// Size of every --augment view.
     #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
     crop_size: Option<ImageSize>,
-    #[arg(long, help = W::MIN_OBJECTS, value_name = "N", requires = "augment")]
+    /// Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare
+    /// regions do not count); the summary says how many views still hold fewer.
+    #[arg(long, value_name = "N", requires = "augment")]
     min_objects: Option<u32>,
-    #[arg(skip)]
-    words: std::marker::PhantomData<W>,
 }
 
-impl<W: AugmentWords> AugmentArgs<W> {
+impl AugmentArgs {
     /// The views `--augment` asks for, if given.
     pub(super) fn views(self) -> Option<Augment> {
         self.augment.map(|count| Augment {

@@ -1,9 +1,7 @@
 //! `panoconv kitti360`: a KITTI-360 sequence's rig into panoramas (or one camera converted),
 //! with labels, calib, depth and the source map, as a KITTI dataset.
 
-use super::convert::{
-    install_stop_handler, parse_crop, parse_shard, AugmentArgs, AugmentWords, DeviceArg, STOP,
-};
+use super::convert::{install_stop_handler, parse_crop, parse_shard, AugmentArgs, DeviceArg, STOP};
 use super::export::{export_after_kitti, FormatArg};
 use super::EXIT_INTERRUPTED;
 use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED};
@@ -37,16 +35,6 @@ drive number comes first (0003000250). The rect of every file is the frame's lev
 R0_rect = I, Tr_velo_to_cam into it, projection:/K2:/C2: and Tr_rect_to_world: (to the
 KITTI-360 world). source_2 names the camera of each pixel (0-3, 255 none). docs/kitti360.md
 has the stitch model, the class table and the rule for the objects written.";
-
-/// `kitti360`'s words on two of the `--augment` options.
-struct Kitti360Words;
-
-impl AugmentWords for Kitti360Words {
-    const AUGMENT: &'static str = "Write N random scale-and-crop views of each frame's output \
-         (ids frame×N+k) instead of the frame";
-    const MIN_OBJECTS: &'static str = "Redraw an --augment view (up to 16 times) until it holds \
-         at least N objects; the summary says how many views still hold fewer";
-}
 
 /// `panoconv kitti360`.
 #[derive(Args)]
@@ -148,7 +136,7 @@ pub(super) struct Kitti360Args {
     #[command(flatten)]
     run: RunArgs,
     #[command(flatten)]
-    augment: AugmentArgs<Kitti360Words>,
+    augment: AugmentArgs,
     /// CycleGAN generator (ONNX) giving each camera's image the target domain's look, before
     /// the stitch.
     #[arg(long, value_name = "MODEL.onnx")]
