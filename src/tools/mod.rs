@@ -7,4 +7,5 @@ pub mod predictions;
 pub mod preview;
 pub mod synth;
 pub mod synth360;
+pub mod unproject;
 pub mod verify;
