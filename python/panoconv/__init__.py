@@ -26,11 +26,17 @@ from ._native import (
     read_image,
     read_labels,
     read_manifest,
+    read_velodyne,
     verify,
 )
+from .random_cameras import CameraSampler, RandomCameraDataset, SplitMix64, sample_seed
 
 __all__ = [
     "Calib",
+    "CameraSampler",
+    "RandomCameraDataset",
+    "SplitMix64",
+    "sample_seed",
     "Camera",
     "Dataset",
     "Frame",
@@ -49,5 +55,6 @@ __all__ = [
     "read_image",
     "read_labels",
     "read_manifest",
+    "read_velodyne",
     "verify",
 ]

@@ -6,6 +6,7 @@ use ndarray::{Array2, Array3};
 use numpy::{PyArray2, PyArray3};
 use panoconv::codec::{self, png};
 use panoconv::fs::read_file;
+use panoconv::kitti::velodyne;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -29,5 +30,29 @@ pub fn read_depth(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray2<
         .py()?;
     let metres: Vec<f64> = values.iter().map(|&d| d as f64 / 256.0).collect();
     let array = Array2::from_shape_vec((h as usize, w as usize), metres).expect("HxW");
+    Ok(PyArray2::from_owned_array(py, array))
+}
+
+/// The points of a Velodyne scan (`velodyne/<id>.bin`) in rect, `(N, 3)` metres, as the
+/// command's `--depth` takes them: R0_rect · Tr_velo_to_cam · p in its order of operations,
+/// points with a non-finite coordinate dropped.
+#[pyfunction]
+pub fn read_velodyne<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    calib: &crate::calib::Calib,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let c = &calib.calib;
+    let (Some(r0), Some(tr)) = (c.r0_rect, c.tr_velo_to_cam) else {
+        return Err(crate::errors::to_py(panoconv::error::Error::file(
+            &c.path,
+            "no R0_rect or Tr_velo_to_cam line (needed for LiDAR points)",
+        )));
+    };
+    let points = py
+        .detach(|| velodyne::read(&path).map(|scan| velodyne::rect_from_velo(&scan.points, &r0, &tr)))
+        .py()?;
+    let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    let array = Array2::from_shape_vec((points.len(), 3), flat).expect("Nx3");
     Ok(PyArray2::from_owned_array(py, array))
 }

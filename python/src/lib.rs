@@ -38,5 +38,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::read_camera, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
+    m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;
     Ok(())
 }

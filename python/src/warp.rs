@@ -59,13 +59,14 @@ impl Warp {
         let pinhole = (self.source.turn.is_none()
             && src.projection() == OutputProjection::Linear(Projection::Perspective))
         .then(|| Perspective::new(src.intrinsics(), size));
-        let seen = match (&pinhole, dst.as_fisheye()) {
-            (Some(pinhole), Some(f)) => {
-                let blind = f.rect_from_camera * -Vector3::z();
-                Footprint::new(dst, pinhole, &identity, &blind)
-            }
-            _ => None,
-        };
+        // Only the part of the target a pinhole source can reach is mapped (the table is the
+        // same: the others take nothing). The command does so for a lens; a drawn camera
+        // gains as much (most of a wide view lies beyond a KITTI camera's field of view). The
+        // rays a target cannot project lie around its backward axis (none for a panorama).
+        let seen = pinhole.as_ref().and_then(|pinhole| {
+            let blind = crate::models::axes(&self.target) * -Vector3::z();
+            Footprint::new(dst, pinhole, &identity, &blind)
+        });
         let src: &dyn CameraModel = match &pinhole {
             Some(p) => p,
             None => src,
