@@ -84,9 +84,7 @@ fn map_rows(
 ) -> Vec<f64> {
     let n = a.nrows();
     let mut out = vec![0.0; n * out_cols];
-    out.par_chunks_mut(ROWS_PER_TASK * out_cols)
-        .enumerate()
-        .for_each(|(chunk, rows)| {
+    let task = |(chunk, rows): (usize, &mut [f64])| {
             let mut row = vec![0.0; a.ncols()];
             for (i, o) in rows.chunks_mut(out_cols).enumerate() {
                 for (dst, src) in row.iter_mut().zip(a.row(chunk * ROWS_PER_TASK + i)) {
@@ -94,8 +92,26 @@ fn map_rows(
                 }
                 f(&row, o);
             }
-        });
+        };
+    if pool_is_ours() {
+        out.par_chunks_mut(ROWS_PER_TASK * out_cols)
+            .enumerate()
+            .for_each(task);
+    } else {
+        out.chunks_mut(ROWS_PER_TASK * out_cols)
+            .enumerate()
+            .for_each(task);
+    }
     out
+}
+
+/// Whether rayon's pool belongs to this process: a process forked after its parent started the
+/// pool (a data loader's worker) has none of the pool's threads, and a parallel call there
+/// would wait for ever; it works serially instead.
+fn pool_is_ours() -> bool {
+    static STARTED_BY: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    let pid = std::process::id();
+    *STARTED_BY.get_or_init(|| pid) == pid
 }
 
 fn matrix<'py>(

@@ -50,7 +50,9 @@ pub fn read_velodyne<'py>(
         )));
     };
     let points = py
-        .detach(|| velodyne::read(&path).map(|scan| velodyne::rect_from_velo(&scan.points, &r0, &tr)))
+        .detach(|| {
+            velodyne::read(&path).map(|scan| velodyne::rect_from_velo(&scan.points, &r0, &tr))
+        })
         .py()?;
     let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
     let array = Array2::from_shape_vec((points.len(), 3), flat).expect("Nx3");

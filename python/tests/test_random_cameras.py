@@ -197,3 +197,18 @@ def test_workers_give_the_samples_of_one_process(method):
     there = load(ds, method, indices)
     for a, b in zip(here, there):
         same(a, b)
+
+
+def project_many(seed):
+    cam = CameraSampler(model="kannala_brandt", fov_deg=190).sample(seed)
+    pts = np.random.default_rng(seed).normal(size=(50_000, 3))
+    return cam.project(pts)[0]
+
+
+def test_batch_calls_work_in_a_worker_forked_after_the_parent_used_them():
+    # rayon's threads do not survive a fork: the worker computes serially, the same values
+    here = [project_many(s) for s in range(3)]
+    with mp.get_context("fork").Pool(2) as pool:
+        there = pool.map_async(project_many, range(3)).get(timeout=120)
+    for a, b in zip(here, there):
+        assert np.array_equal(a, b, equal_nan=True)
