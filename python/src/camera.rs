@@ -85,14 +85,14 @@ fn map_rows(
     let n = a.nrows();
     let mut out = vec![0.0; n * out_cols];
     let task = |(chunk, rows): (usize, &mut [f64])| {
-            let mut row = vec![0.0; a.ncols()];
-            for (i, o) in rows.chunks_mut(out_cols).enumerate() {
-                for (dst, src) in row.iter_mut().zip(a.row(chunk * ROWS_PER_TASK + i)) {
-                    *dst = *src;
-                }
-                f(&row, o);
+        let mut row = vec![0.0; a.ncols()];
+        for (i, o) in rows.chunks_mut(out_cols).enumerate() {
+            for (dst, src) in row.iter_mut().zip(a.row(chunk * ROWS_PER_TASK + i)) {
+                *dst = *src;
             }
-        };
+            f(&row, o);
+        }
+    };
     if pool_is_ours() {
         out.par_chunks_mut(ROWS_PER_TASK * out_cols)
             .enumerate()
