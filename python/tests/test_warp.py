@@ -181,3 +181,38 @@ def test_the_depth_reader_reads_the_command_s_16_bit_values(tmp_path):
     assert 0.01 < valid.mean() < 0.5 and 1.0 < depth[valid].min() and depth.max() < 256
     with pytest.raises(panoconv.PanoconvError, match="16-bit"):
         panoconv.read_depth(out / "image_2" / f"{FRAME}.png")
+
+
+def test_a_panorama_or_a_lens_as_the_source():
+    # A full 360° panorama wraps: a view straight back (across its seam) is wholly covered,
+    # and each of its pixels is the panorama's at the same bearing.
+    w, h = 720, 360
+    f = w / (2 * np.pi)
+    pano = panoconv.Camera.equirect(w, h, f, f, (w - 1) / 2, (h - 1) / 2)
+    lon = (np.arange(w) - pano.K[0, 2]) / f
+    image = np.broadcast_to(np.stack([np.cos(lon), np.sin(lon)], axis=-1), (h, w, 2))
+    back = panoconv.Camera.perspective(200, 120, 150.0, 150.0, 99.5, 59.5, yaw_deg=180)
+    warp = panoconv.Warp(pano, back)
+    assert warp.mask.all()
+    out = warp.image(np.dstack([image, image[:, :, :1]]).astype(np.float32))
+    # the middle pixels look along -z, within 0.005 rad: the panorama's seam, longitude ±π
+    middle = out[59:61, 99:101]
+    seen = np.arctan2(middle[..., 1], middle[..., 0])
+    assert np.all(np.abs(seen) > np.pi - 0.01), seen
+    # A lens as the source: the pixels it gives are where its own bearings land.
+    lens = panoconv.Camera.kannala_brandt(400, 300, 120.0, 120.0, 199.5, 149.5, [0.01],
+                                         max_fov_deg=190)
+    flat = panoconv.Camera.cylindrical(300, 150, 80.0, 80.0, 149.5, 74.5)
+    lw, lh = lens.size
+    lu, lv = np.meshgrid(np.arange(lw, dtype=np.float32), np.arange(lh, dtype=np.float32))
+    warp = panoconv.Warp(lens, flat, supersample=1)
+    got = warp.image(np.dstack([lu, lv]).astype(np.float32)[:, :, :1])  # HxWx1: the lens's u
+    m = warp.mask
+    assert 0.2 < m.mean() < 1
+    fu, fv = np.meshgrid(np.arange(300.0), np.arange(150.0))
+    rays = flat.unproject(np.stack([fu[m], fv[m]], axis=1))
+    want, _ = lens.project(rays)
+    # (within half a pixel of the lens image's border the edge pixel is repeated)
+    inner = (want[:, 0] >= 0) & (want[:, 0] <= lw - 1) & (want[:, 1] >= 0) & (want[:, 1] <= lh - 1)
+    assert inner.mean() > 0.95
+    assert np.abs(got[m][inner, 0] - want[inner, 0]).max() < 0.01
