@@ -37,7 +37,8 @@ class Camera:
         """Optical centre in rect, metres, shape (3,)."""
     @property
     def R(self) -> npt.NDArray[np.float64]:
-        """The camera's axes in rect (identity for the linear projections; R2 of a fisheye)."""
+        """The camera's axes in rect: R2 of a fisheye, the yaw/pitch/roll turn a constructor was
+        given, identity for the command's linear projections."""
     @property
     def projection(self) -> str:
         """`perspective`, `equirect`, `cylindrical` or `fisheye`."""
@@ -62,6 +63,73 @@ class Camera:
         """The distance the projection pairs with (z, range or rho) of rect points (N, 3)."""
     def contains(self, uv: ArrayLike) -> npt.NDArray[np.bool_]:
         """Whether pixels (N, 2) lie on the image ([-0.5, width - 0.5) × [-0.5, height - 0.5))."""
+    @property
+    def parameters(self) -> list[Tuple[str, float]]:
+        """A lens's parameters besides fx, fy, cx, cy (`k1`.., `xi`, ...); empty otherwise."""
+    @property
+    def max_fov_deg(self) -> Optional[float]:
+        """A lens's full field of view, degrees; None for the linear projections."""
+    @staticmethod
+    def perspective(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+                    yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
+                    centre: Optional[Sequence[float]] = None) -> Camera: ...
+    @staticmethod
+    def equirect(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+                 yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
+                 centre: Optional[Sequence[float]] = None) -> Camera: ...
+    @staticmethod
+    def cylindrical(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+                    yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
+                    centre: Optional[Sequence[float]] = None) -> Camera: ...
+    @staticmethod
+    def kannala_brandt(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+                       k: Sequence[float], yaw_deg: float = 0.0, pitch_deg: float = 0.0,
+                       roll_deg: float = 0.0, centre: Optional[Sequence[float]] = None,
+                       max_fov_deg: float = 180.0) -> Camera: ...
+    @staticmethod
+    def radial(model: str, width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+               yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
+               centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera:
+        """`equidistant`, `equisolid`, `stereographic` or `orthographic`."""
+    @staticmethod
+    def mei(width: int, height: int, fx: float, fy: float, cx: float, cy: float, xi: float,
+            k: Sequence[float] = (), p: Sequence[float] = (), yaw_deg: float = 0.0,
+            pitch_deg: float = 0.0, roll_deg: float = 0.0,
+            centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera: ...
+    @staticmethod
+    def eucm(width: int, height: int, fx: float, fy: float, cx: float, cy: float, alpha: float,
+             beta: float, yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
+             centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera: ...
+    @staticmethod
+    def double_sphere(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
+                      xi: float, alpha: float, yaw_deg: float = 0.0, pitch_deg: float = 0.0,
+                      roll_deg: float = 0.0, centre: Optional[Sequence[float]] = None,
+                      max_fov_deg: float = 180.0) -> Camera: ...
+
+class Warp:
+    """A source camera's image, labels and LiDAR in a target camera placed at the source's
+    optical centre, as `panoconv kitti` writes them; the table is built once and kept."""
+
+    def __init__(self, src: Camera, dst: Camera, supersample: int = 8) -> None: ...
+    def build(self) -> Warp: ...
+    @property
+    def src(self) -> Camera: ...
+    @property
+    def dst(self) -> Camera:
+        """The target camera, at the source's optical centre."""
+    @property
+    def built(self) -> bool: ...
+    @property
+    def mask(self) -> npt.NDArray[np.bool_]:
+        """HxW: where the source gives the pixel (the command's --mask)."""
+    @property
+    def coverage(self) -> float: ...
+    def image(self, array: npt.NDArray) -> npt.NDArray:
+        """HxW, HxWx3 or HxWx4 uint8/uint16/float32 in the target; HxWx3 uint8: the command's bytes."""
+    def labels(self, labels: Sequence[Label]) -> list[Label]:
+        """The label lines the command writes, for the labels with an image in the target."""
+    def depth(self, points_rect: ArrayLike, occlusion: bool = True) -> npt.NDArray[np.float64]:
+        """HxW metres (0: none) of rect points (N, 3): the command's depth_2 is round(d·256)."""
 
 class Calib:
     """A calib file (plain KITTI or written by panoconv): its matrices and cameras."""
@@ -210,3 +278,11 @@ def read_manifest(path: PathLike) -> dict:
 def verify(path: PathLike) -> VerifyReport:
     """`panoconv verify PATH` as a report."""
 
+def read_camera(path: PathLike, centre: Optional[Sequence[float]] = None) -> Camera:
+    """A camera file (description or native calibration) in rect axes, at `centre` or the origin."""
+def read_image(path: PathLike) -> npt.NDArray[np.uint8]:
+    """An image file as HxWx3 uint8 RGB."""
+def read_depth(path: PathLike) -> npt.NDArray[np.float64]:
+    """A 16-bit depth PNG as HxW metres (value / 256), 0 where none."""
+def read_velodyne(path: PathLike, calib: Calib) -> npt.NDArray[np.float64]:
+    """A Velodyne scan's finite points in rect (N, 3), as the command's --depth takes them."""

@@ -3,14 +3,18 @@
 //! `crop_resize`, the camera of a cropped and resized image (half-pixel rule).
 
 use crate::errors::usage;
+use crate::models;
+use nalgebra::Matrix3;
 use nalgebra::{Point2, Vector3};
 use ndarray::{Array1, Array2, ArrayView2};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use panoconv::camera::Projection;
 use panoconv::camera::{ImageSize, OutputCamera};
 use panoconv::geometry::{crop_intrinsics, resize_intrinsics, Crop};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
+use serde_json::{json, Map};
 
 /// Rows per rayon task: small arrays stay on the calling thread's task.
 const ROWS_PER_TASK: usize = 4096;
@@ -20,12 +24,42 @@ const ROWS_PER_TASK: usize = 4096;
 pub struct Camera {
     pub camera: Box<dyn OutputCamera>,
     pub centre: Vector3<f64>,
+    /// The axes of a turned linear camera in rect (`models::linear`); None: rect's own, or a
+    /// fisheye's (which its lens carries).
+    pub turn: Option<Matrix3<f64>>,
 }
 
 impl Camera {
     pub fn new(camera: Box<dyn OutputCamera>, centre: Vector3<f64>) -> Self {
-        Self { camera, centre }
+        Self {
+            camera,
+            centre,
+            turn: None,
+        }
     }
+
+    /// A turned linear camera (a `Turned`) whose axes in rect are `turn`.
+    pub fn turned(camera: Box<dyn OutputCamera>, centre: Vector3<f64>, turn: Matrix3<f64>) -> Self {
+        Self {
+            camera,
+            centre,
+            turn: Some(turn),
+        }
+    }
+
+    /// A copy of this camera at another optical centre.
+    pub fn at(&self, centre: Vector3<f64>) -> Self {
+        Self {
+            camera: self.camera.boxed_output(),
+            centre,
+            turn: self.turn,
+        }
+    }
+}
+
+/// Yaw, pitch and roll of a constructor's arguments.
+fn ypr(yaw_deg: f64, pitch_deg: f64, roll_deg: f64) -> models::Angles {
+    (yaw_deg, pitch_deg, roll_deg)
 }
 
 /// `project`'s pixels (N, 2) and their validity (N,).
@@ -50,18 +84,34 @@ fn map_rows(
 ) -> Vec<f64> {
     let n = a.nrows();
     let mut out = vec![0.0; n * out_cols];
-    out.par_chunks_mut(ROWS_PER_TASK * out_cols)
-        .enumerate()
-        .for_each(|(chunk, rows)| {
-            let mut row = vec![0.0; a.ncols()];
-            for (i, o) in rows.chunks_mut(out_cols).enumerate() {
-                for (dst, src) in row.iter_mut().zip(a.row(chunk * ROWS_PER_TASK + i)) {
-                    *dst = *src;
-                }
-                f(&row, o);
+    let task = |(chunk, rows): (usize, &mut [f64])| {
+        let mut row = vec![0.0; a.ncols()];
+        for (i, o) in rows.chunks_mut(out_cols).enumerate() {
+            for (dst, src) in row.iter_mut().zip(a.row(chunk * ROWS_PER_TASK + i)) {
+                *dst = *src;
             }
-        });
+            f(&row, o);
+        }
+    };
+    if pool_is_ours() {
+        out.par_chunks_mut(ROWS_PER_TASK * out_cols)
+            .enumerate()
+            .for_each(task);
+    } else {
+        out.chunks_mut(ROWS_PER_TASK * out_cols)
+            .enumerate()
+            .for_each(task);
+    }
     out
+}
+
+/// Whether rayon's pool belongs to this process: a process forked after its parent started the
+/// pool (a data loader's worker) has none of the pool's threads, and a parallel call there
+/// would wait for ever; it works serially instead.
+fn pool_is_ours() -> bool {
+    static STARTED_BY: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    let pid = std::process::id();
+    *STARTED_BY.get_or_init(|| pid) == pid
 }
 
 fn matrix<'py>(
@@ -168,15 +218,285 @@ impl Camera {
         PyArray1::from_vec(py, self.centre.as_slice().to_vec())
     }
 
-    /// The camera's axes in rect (3×3, a rotation): identity for the linear projections, the
-    /// calib's `R2:` for a fisheye.
+    /// The camera's axes in rect (3×3, a rotation: a camera bearing d is R·d in rect):
+    /// identity for the command's linear projections, the calib's `R2:` for a fisheye, the
+    /// turn of a camera built with yaw/pitch/roll.
     #[getter(R)]
     fn r<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let m = self
-            .camera
-            .as_fisheye()
-            .map_or_else(nalgebra::Matrix3::identity, |f| f.rect_from_camera);
+        let m = models::axes(self);
         matrix(py, 3, 3, m.transpose().as_slice().to_vec())
+    }
+
+    /// A perspective camera: pixel = (fx·x/z + cx, fy·y/z + cy) in its axes, which are rect's
+    /// turned by yaw, pitch and roll (degrees, docs/fisheye.md's convention); its optical
+    /// centre `centre` in rect (metres) or the origin.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn perspective(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+    ) -> PyResult<Camera> {
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::linear(
+            Projection::Perspective,
+            (width, height),
+            (fx, fy, cx, cy),
+            angles,
+            centre,
+        )
+    }
+
+    /// An equirectangular camera: u = fx·longitude + cx, v = fy·latitude + cy (radians), turned
+    /// as `perspective`.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn equirect(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+    ) -> PyResult<Camera> {
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::linear(
+            Projection::Equirect,
+            (width, height),
+            (fx, fy, cx, cy),
+            angles,
+            centre,
+        )
+    }
+
+    /// A cylindrical camera: u = fx·longitude + cx, v = fy·y/ρ + cy, turned as `perspective`.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn cylindrical(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+    ) -> PyResult<Camera> {
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::linear(
+            Projection::Cylindrical,
+            (width, height),
+            (fx, fy, cx, cy),
+            angles,
+            centre,
+        )
+    }
+
+    /// A Kannala-Brandt (OpenCV fisheye) lens with coefficients `k` (up to 4), seeing
+    /// `max_fov_deg` (full angle): the camera a description file with these values gives.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, k, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn kannala_brandt(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        k: Vec<f64>,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+        max_fov_deg: f64,
+    ) -> PyResult<Camera> {
+        let mut fields = Map::new();
+        fields.insert("k".into(), models::numbers(&k, "k")?);
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::lens(
+            "kannala_brandt",
+            (width, height),
+            (fx, fy, cx, cy),
+            fields,
+            max_fov_deg,
+            angles,
+            centre,
+        )
+    }
+
+    /// An ideal radial lens: `model` is `equidistant` (r = f·θ), `equisolid`
+    /// (r = 2f·sin(θ/2)), `stereographic` (r = 2f·tan(θ/2)) or `orthographic` (r = f·sin θ).
+    #[staticmethod]
+    #[pyo3(signature = (model, width, height, fx, fy, cx, cy, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn radial(
+        model: &str,
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+        max_fov_deg: f64,
+    ) -> PyResult<Camera> {
+        if !["equidistant", "equisolid", "stereographic", "orthographic"].contains(&model) {
+            return Err(usage(format!(
+                "unknown radial model {model:?} (equidistant, equisolid, stereographic, orthographic)"
+            )));
+        }
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::lens(
+            model,
+            (width, height),
+            (fx, fy, cx, cy),
+            Map::new(),
+            max_fov_deg,
+            angles,
+            centre,
+        )
+    }
+
+    /// A MEI (unified) lens: mirror parameter `xi`, radial `k = (k1, k2)`, tangential
+    /// `p = (p1, p2)`.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, xi, k=vec![], p=vec![], yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn mei(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        xi: f64,
+        k: Vec<f64>,
+        p: Vec<f64>,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+        max_fov_deg: f64,
+    ) -> PyResult<Camera> {
+        let mut fields = Map::new();
+        fields.insert("xi".into(), models::number(xi, "xi")?);
+        fields.insert("k".into(), models::numbers(&k, "k")?);
+        fields.insert("p".into(), models::numbers(&p, "p")?);
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::lens(
+            "mei",
+            (width, height),
+            (fx, fy, cx, cy),
+            fields,
+            max_fov_deg,
+            angles,
+            centre,
+        )
+    }
+
+    /// An enhanced unified camera model (EUCM) lens with `alpha` and `beta`.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, alpha, beta, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn eucm(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        alpha: f64,
+        beta: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+        max_fov_deg: f64,
+    ) -> PyResult<Camera> {
+        let fields = json!({"alpha": models::number(alpha, "alpha")?, "beta": models::number(beta, "beta")?});
+        let fields = fields.as_object().cloned().unwrap_or_default();
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::lens(
+            "eucm",
+            (width, height),
+            (fx, fy, cx, cy),
+            fields,
+            max_fov_deg,
+            angles,
+            centre,
+        )
+    }
+
+    /// A double sphere lens with `xi` and `alpha`.
+    #[staticmethod]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, xi, alpha, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn double_sphere(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        xi: f64,
+        alpha: f64,
+        yaw_deg: f64,
+        pitch_deg: f64,
+        roll_deg: f64,
+        centre: Option<(f64, f64, f64)>,
+        max_fov_deg: f64,
+    ) -> PyResult<Camera> {
+        let fields =
+            json!({"xi": models::number(xi, "xi")?, "alpha": models::number(alpha, "alpha")?});
+        let fields = fields.as_object().cloned().unwrap_or_default();
+        let angles = ypr(yaw_deg, pitch_deg, roll_deg);
+        models::lens(
+            "double_sphere",
+            (width, height),
+            (fx, fy, cx, cy),
+            fields,
+            max_fov_deg,
+            angles,
+            centre,
+        )
+    }
+
+    /// The lens parameters besides fx, fy, cx, cy (`k1`..`k4`, `xi`, `alpha`, ...), as the
+    /// calib's `D2:` line names them; empty for the linear projections.
+    #[getter]
+    fn parameters(&self) -> Vec<(&'static str, f64)> {
+        self.camera
+            .as_fisheye()
+            .map(|f| f.lens.parameters())
+            .unwrap_or_default()
+    }
+
+    /// A fisheye's full field of view, degrees; None for the linear projections.
+    #[getter]
+    fn max_fov_deg(&self) -> Option<f64> {
+        self.camera
+            .as_fisheye()
+            .map(|f| (2.0 * f.lens.max_theta()).to_degrees())
     }
 
     /// `perspective`, `equirect`, `cylindrical` or `fisheye`.
@@ -263,5 +583,9 @@ pub fn crop_resize(
         image = to;
     }
     let moved = camera.camera.with_intrinsics(k, image).map_err(usage)?;
-    Ok(Camera::new(moved, camera.centre))
+    Ok(Camera {
+        camera: moved,
+        centre: camera.centre,
+        turn: camera.turn,
+    })
 }

@@ -19,7 +19,7 @@ pub struct Label {
     pub label: KittiLabel,
     /// 1-based line in the file.
     #[pyo3(get)]
-    line: usize,
+    pub line: usize,
 }
 
 impl Label {

@@ -7,8 +7,12 @@ mod calib;
 mod camera;
 mod dataset;
 mod errors;
+mod io;
 mod labels;
 mod manifest;
+mod models;
+mod turned;
+mod warp;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -23,6 +27,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<dataset::Frame>()?;
     m.add_class::<dataset::FrameIter>()?;
     m.add_class::<manifest::VerifyReport>()?;
+    m.add_class::<warp::Warp>()?;
     m.add_function(wrap_pyfunction!(calib::read_calib, m)?)?;
     m.add_function(wrap_pyfunction!(camera::crop_resize, m)?)?;
     m.add_function(wrap_pyfunction!(labels::read_labels, m)?)?;
@@ -30,5 +35,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(labels::box_corners, m)?)?;
     m.add_function(wrap_pyfunction!(manifest::read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(manifest::verify, m)?)?;
+    m.add_function(wrap_pyfunction!(models::read_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
+    m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;
     Ok(())
 }

@@ -15,6 +15,7 @@ use crate::image::RgbImage;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
+mod blocks;
 mod build;
 
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).

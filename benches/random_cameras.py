@@ -1,0 +1,300 @@
+#!/usr/bin/env python3
+"""Random cameras at training time: samples/s per core of a freshly drawn camera per sample,
+panoconv's Python package against what a user writes without it.
+
+Real KITTI frames (image_2, label_2) to a drawn 190° Kannala-Brandt fisheye, an equirect crop
+and a cylindrical view at 640x480 (yaw, pitch, roll, principal point and lens drawn per sample):
+
+- panoconv: `Warp(src, drawn)`: the table built for the drawn camera, the image, the mask and
+  the exact labels (supersample 1: bilinear as cv2.remap; 8: the command's antialiasing);
+- numpy + cv2: every pixel unprojected with numpy (Newton on the fisheye's polynomial),
+  projected into the source, `cv2.remap` (bilinear, float maps), boxes from the 8 corners;
+- cached: one table applied again and again (panoconv's `Warp.image`, `cv2.remap` with the
+  precomputed float maps, and with the fixed-point maps of `cv2.convertMaps`).
+
+Per core: one process, OpenCV single-threaded, CPU seconds (`time.process_time`), so other
+load on the machine changes the figures less than wall time would (the load average is
+printed). Then a 4-worker loader of `RandomCameraDataset` against 1 worker: the same arrays.
+
+    PYTHONPATH=python python benches/random_cameras.py [--kitti DIR] [--samples N]
+
+(numpy and opencv-python beside the built module: scripts/install_python_package.sh builds
+it, a venv with opencv runs this.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import os
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+import panoconv
+from panoconv.random_cameras import CameraSampler, RandomCameraDataset, sample_seed
+
+REPO = Path(__file__).resolve().parents[1]
+SIZE = (640, 480)
+
+SAMPLERS = {
+    "fisheye 190°": CameraSampler(
+        model="kannala_brandt",
+        fov_deg=190.0,
+        circle=(1.0, 1.3),
+        pitch_deg=(-10, 10),
+        roll_deg=(-5, 5),
+        yaw_deg=(-10, 10),
+        principal_px=(-8, 8),
+        params={"k": [(-0.03, 0.03), (-0.01, 0.01)]},
+    ),
+    "equirect crop": CameraSampler(
+        model="equirect",
+        fov_deg=(100, 140),
+        pitch_deg=(-5, 5),
+        roll_deg=(-5, 5),
+        yaw_deg=(-10, 10),
+        principal_px=(-8, 8),
+    ),
+    "cylindrical": CameraSampler(
+        model="cylindrical",
+        fov_deg=(90, 120),
+        pitch_deg=(-5, 5),
+        roll_deg=(-5, 5),
+        yaw_deg=(-10, 10),
+        principal_px=(-8, 8),
+    ),
+}
+
+
+def load_frames(kitti: Path):
+    split = kitti / "training"
+    frames = []
+    for frame in panoconv.Dataset(kitti, "training"):
+        objs = [o for o in frame.labels if o.has_box_3d]
+        frames.append(
+            (frame.camera, panoconv.read_image(frame.image), frame.labels, objs, frame.id)
+        )
+    assert frames, f"no frames in {split}"
+    return frames
+
+
+# ---- the numpy + cv2 way ----------------------------------------------------------------
+
+
+def bearings_numpy(cam, drawn):
+    """Unit bearings (H, W, 3) in rect of every pixel of the drawn camera, NaN where none."""
+    w, h = cam.size
+    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    fx, fy, cx, cy = drawn["fx"], drawn["fy"], drawn["cx"], drawn["cy"]
+    a, b = (u - cx) / fx, (v - cy) / fy
+    model = drawn["model"]
+    if model == "kannala_brandt":
+        k = (list(drawn["k"]) + [0.0] * 4)[:4]
+        r = np.hypot(a, b)
+        theta = r.copy()
+        for _ in range(10):
+            t2 = theta * theta
+            f = theta * (1 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3])))) - r
+            df = 1 + t2 * (3 * k[0] + t2 * (5 * k[1] + t2 * (7 * k[2] + t2 * 9 * k[3])))
+            theta -= f / df
+        s = np.sin(theta) / np.where(r > 0, r, 1)
+        d = np.stack([a * s, b * s, np.cos(theta)], axis=-1)
+        d[theta > np.radians(drawn["max_fov_deg"]) / 2] = np.nan
+    elif model == "equirect":
+        d = np.stack([np.cos(b) * np.sin(a), np.sin(b), np.cos(b) * np.cos(a)], axis=-1)
+    else:  # cylindrical
+        d = np.stack([np.sin(a), b, np.cos(a)], axis=-1)
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return d @ cam.R.T
+
+
+def maps_numpy(src, cam, drawn):
+    d = bearings_numpy(cam, drawn)
+    K = src.K
+    z = d[..., 2]
+    ok = z > 1e-9
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mx = np.where(ok, K[0, 0] * d[..., 0] / z + K[0, 2], -1e5)
+        my = np.where(ok, K[1, 1] * d[..., 1] / z + K[1, 2], -1e5)
+    mx[~np.isfinite(mx)] = -1e5
+    my[~np.isfinite(my)] = -1e5
+    return mx.astype(np.float32), my.astype(np.float32)
+
+
+def project_numpy(cam, drawn, points):
+    """Pixels (N, 2) of rect points in the drawn camera (NaN where none)."""
+    p = (points - cam.C) @ cam.R
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    fx, fy, cx, cy = drawn["fx"], drawn["fy"], drawn["cx"], drawn["cy"]
+    model = drawn["model"]
+    if model == "kannala_brandt":
+        k = (list(drawn["k"]) + [0.0] * 4)[:4]
+        rho = np.hypot(x, y)
+        theta = np.arctan2(rho, z)
+        t2 = theta * theta
+        r = theta * (1 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))))
+        s = np.where(rho > 0, r / np.where(rho > 0, rho, 1), 0)
+        uv = np.stack([fx * x * s + cx, fy * y * s + cy], axis=1)
+        uv[theta > np.radians(drawn["max_fov_deg"]) / 2] = np.nan
+    elif model == "equirect":
+        lon = np.arctan2(x, z)
+        lat = np.arctan2(y, np.hypot(x, z))
+        uv = np.stack([fx * lon + cx, fy * lat + cy], axis=1)
+    else:
+        lon = np.arctan2(x, z)
+        uv = np.stack([fx * lon + cx, fy * y / np.hypot(x, z) + cy], axis=1)
+    return uv
+
+
+def boxes_numpy(cam, drawn, objs):
+    w, h = cam.size
+    boxes = []
+    for o in objs:
+        uv = project_numpy(cam, drawn, panoconv.box_corners(o))
+        uv = uv[np.isfinite(uv).all(axis=1)]
+        if len(uv) == 0:
+            continue
+        l, t = uv.min(axis=0)
+        r, b = uv.max(axis=0)
+        l, r = np.clip([l, r], 0, w - 1)
+        t, b = np.clip([t, b], 0, h - 1)
+        if r > l and b > t:
+            boxes.append((l, t, r, b))
+    return boxes
+
+
+def numpy_sample(src, cam, drawn, image, objs):
+    mx, my = maps_numpy(src, cam, drawn)
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    mask = (mx >= 0) & (mx <= src.width - 1) & (my >= 0) & (my <= src.height - 1)
+    return out, mask, boxes_numpy(cam, drawn, objs)
+
+
+# ---- measurements -----------------------------------------------------------------------
+
+
+def per_core(fn, n):
+    """Samples per CPU-second of `fn(i)` over i < n (one process, one thread)."""
+    t = time.process_time()
+    for i in range(n):
+        fn(i)
+    return n / (time.process_time() - t)
+
+
+def bench_family(name, sampler, frames, n):
+    draws = [sampler.draw(sample_seed(7, 0, i)) for i in range(n)]
+    cams = [panoconv.random_cameras.camera_of(d) for d in draws]
+
+    def ours(ss):
+        def run(i):
+            src, image, labels, _, _ = frames[i % len(frames)]
+            w = panoconv.Warp(src, cams[i], supersample=ss)
+            w.image(image), w.mask, w.labels(labels)
+
+        return run
+
+    def theirs(i):
+        src, image, _, objs, _ = frames[i % len(frames)]
+        numpy_sample(src, cams[i], draws[i], image, objs)
+
+    rates = {
+        "panoconv, supersample 1": per_core(ours(1), n),
+        "panoconv, supersample 8": per_core(ours(8), n),
+        "numpy + cv2.remap": per_core(theirs, n),
+    }
+    # one table kept: apply only
+    src, image, _, _, _ = frames[0]
+    warp = panoconv.Warp(src, cams[0], supersample=1).build()
+    mx, my = maps_numpy(src, cams[0], draws[0])
+    m1, m2 = cv2.convertMaps(mx, my, cv2.CV_16SC2)
+    reps = 10 * n
+    rates["cached: Warp.image"] = per_core(lambda i: warp.image(image), reps)
+    rates["cached: cv2.remap float maps"] = per_core(
+        lambda i: cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT),
+        reps,
+    )
+    rates["cached: cv2.remap fixed-point maps"] = per_core(
+        lambda i: cv2.remap(image, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT),
+        reps,
+    )
+    # the two ways see the same geometry: compare one sample's pixels where both have them
+    ours_img = warp.image(image).astype(int)
+    theirs_img, mask, _ = numpy_sample(src, cams[0], draws[0], image, [])
+    both = mask & warp.mask
+    diff = np.abs(ours_img - theirs_img.astype(int))[both].mean() if both.any() else float("nan")
+    print(f"\n{name} ({n} drawn cameras, {warp.coverage:.0%} of the first one covered;"
+          f" mean |panoconv - numpy way| {diff:.2f} grey levels where both sample)")
+    base = rates["numpy + cv2.remap"]
+    for k, v in rates.items():
+        rel = ""
+        if not k.startswith("cached"):
+            rel = f"  {v / base:5.2f}x the numpy way"
+        print(f"  {k:38s} {v:9.1f} samples/s per core{rel}")
+    cached = rates["cached: Warp.image"]
+    for k in ("cached: cv2.remap float maps", "cached: cv2.remap fixed-point maps"):
+        print(f"  Warp.image / {k[8:]}: {cached / rates[k]:.2f}x")
+    return rates
+
+
+def load(ds, indices, workers):
+    if workers == 1:
+        return [ds[i] for i in indices]
+    with mp.get_context("fork").Pool(workers) as pool:
+        return pool.map(ds.__getitem__, indices, chunksize=1)
+
+
+def same(a, b):
+    for x, y in zip(a, b):
+        for k in x:
+            if isinstance(x[k], np.ndarray):
+                if x[k].shape != y[k].shape or not np.array_equal(x[k], y[k]):
+                    return False
+            elif x[k] != y[k]:
+                return False
+    return len(a) == len(b)
+
+
+def loader(kitti, n, workers):
+    sampler = CameraSampler(
+        model=["kannala_brandt", "equirect", "cylindrical"],
+        fov_deg=(100, 140),
+        yaw_deg=(-10, 10),
+        pitch_deg=(-5, 5),
+        params={"kannala_brandt": {"k": [(-0.03, 0.03)]}},
+    )
+    ds = RandomCameraDataset(kitti, sampler, seed=1, supersample=1)
+    indices = [i % len(ds) for i in range(n)]
+    t = time.perf_counter()
+    one = load(ds, indices, 1)
+    t1 = time.perf_counter() - t
+    t = time.perf_counter()
+    many = load(ds, indices, workers)
+    t2 = time.perf_counter() - t
+    print(f"\nRandomCameraDataset over {len(ds)} real frames, {n} samples (image, mask, depth,"
+          f" labels):")
+    print(f"  1 worker: {n / t1:.1f} samples/s wall; {workers} workers: {n / t2:.1f} samples/s"
+          f" wall; same arrays: {same(one, many)}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--kitti", type=Path, default=REPO.parent / "shared" / "kitti")
+    ap.add_argument("--samples", type=int, default=20, help="drawn cameras per family")
+    ap.add_argument("--workers", type=int, default=4)
+    args = ap.parse_args()
+    cv2.setNumThreads(1)
+    print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}"
+          f" {os.getloadavg()[2]:.2f} on {os.cpu_count()} CPUs; numpy {np.__version__},"
+          f" OpenCV {cv2.__version__}, panoconv {panoconv.__version__}")
+    frames = load_frames(args.kitti)
+    print(f"{len(frames)} real KITTI frames, drawn cameras at {SIZE[0]}x{SIZE[1]}")
+    for name, sampler in SAMPLERS.items():
+        bench_family(name, sampler, frames, args.samples)
+    loader(args.kitti, 2 * args.samples, args.workers)
+
+
+if __name__ == "__main__":
+    main()

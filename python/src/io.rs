@@ -1,0 +1,60 @@
+//! Reading the images and depth maps of a dataset into numpy arrays (the package depends on
+//! numpy alone: no image library needed to feed `Warp`).
+
+use crate::errors::IntoPy;
+use ndarray::{Array2, Array3};
+use numpy::{PyArray2, PyArray3};
+use panoconv::codec::{self, png};
+use panoconv::fs::read_file;
+use panoconv::kitti::velodyne;
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// An image file (PNG, JPEG, TIFF, WebP) as `HxWx3` uint8 RGB.
+#[pyfunction]
+pub fn read_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<u8>>> {
+    let image = py
+        .detach(|| read_file(&path).and_then(|bytes| codec::decode_rgb8(&bytes, &path)))
+        .py()?;
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let array = Array3::from_shape_vec((h, w, 3), image.into_raw()).expect("HxWx3");
+    Ok(PyArray3::from_owned_array(py, array))
+}
+
+/// A 16-bit depth map PNG (`depth_2/`, KITTI's encoding round(d·256)) as `HxW` float64
+/// metres, 0 where there is no depth.
+#[pyfunction]
+pub fn read_depth(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray2<f64>>> {
+    let (w, h, values) = py
+        .detach(|| read_file(&path).and_then(|bytes| png::decode_gray16(&bytes, &path)))
+        .py()?;
+    let metres: Vec<f64> = values.iter().map(|&d| d as f64 / 256.0).collect();
+    let array = Array2::from_shape_vec((h as usize, w as usize), metres).expect("HxW");
+    Ok(PyArray2::from_owned_array(py, array))
+}
+
+/// The points of a Velodyne scan (`velodyne/<id>.bin`) in rect, `(N, 3)` metres, as the
+/// command's `--depth` takes them: R0_rect · Tr_velo_to_cam · p in its order of operations,
+/// points with a non-finite coordinate dropped.
+#[pyfunction]
+pub fn read_velodyne<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    calib: &crate::calib::Calib,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let c = &calib.calib;
+    let (Some(r0), Some(tr)) = (c.r0_rect, c.tr_velo_to_cam) else {
+        return Err(crate::errors::to_py(panoconv::error::Error::file(
+            &c.path,
+            "no R0_rect or Tr_velo_to_cam line (needed for LiDAR points)",
+        )));
+    };
+    let points = py
+        .detach(|| {
+            velodyne::read(&path).map(|scan| velodyne::rect_from_velo(&scan.points, &r0, &tr))
+        })
+        .py()?;
+    let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+    let array = Array2::from_shape_vec((points.len(), 3), flat).expect("Nx3");
+    Ok(PyArray2::from_owned_array(py, array))
+}

@@ -1,0 +1,367 @@
+//! `panoconv.Warp`: one source camera's image, labels and LiDAR in a target camera, in memory,
+//! by the command's own machinery: the remap table (built once, kept by the object), the label
+//! placement of `panoconv kitti` and the depth map with its occlusion filter. The image, the
+//! mask, the label lines and the depth values are those the command writes for the same
+//! cameras.
+
+use crate::camera::Camera;
+use crate::labels::Label;
+use nalgebra::{Matrix3, Vector3};
+use ndarray::{Array2, ArrayD, ArrayViewD, IxDyn};
+use numpy::{
+    AllowTypeChange, Element, PyArray2, PyArrayDyn, PyArrayLike2, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
+};
+use panoconv::camera::{CameraModel, OutputProjection, Perspective, Projection};
+use panoconv::convert::kitti::transform_label;
+use panoconv::kitti::Label as KittiLabel;
+use panoconv::reproject::depth::{depth_map, OcclusionFilter};
+use panoconv::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// A source camera's pixels, labels and LiDAR in a target camera placed at the source's
+/// optical centre (a pure reprojection). Everything runs on the calling thread with the GIL
+/// released: a data loader spreads samples over its worker processes.
+#[pyclass(module = "panoconv", frozen)]
+pub struct Warp {
+    source: Camera,
+    target: Camera,
+    supersample: u32,
+    table: OnceLock<RemapTable>,
+}
+
+impl Warp {
+    /// The table, built on first use.
+    fn table(&self, py: Python<'_>) -> &RemapTable {
+        if let Some(t) = self.table.get() {
+            return t;
+        }
+        let built = py.detach(|| self.build_table());
+        // (two threads may build it at once: the same table, the first one kept)
+        let _ = self.table.set(built);
+        self.table.get().expect("set above")
+    }
+
+    /// The command's table for these cameras (`convert::kitti`'s `table`): a fisheye target
+    /// maps only the part of its image a perspective source can reach.
+    fn build_table(&self) -> RemapTable {
+        let identity = Matrix3::identity();
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        let size = src.size();
+        // a full 360° panorama as the source: its columns wrap
+        let wrap = match src.horizontal_period() {
+            Some(p) if (p - size.width as f64).abs() < 1e-6 => Wrap::Horizontal,
+            _ => Wrap::None,
+        };
+        let pinhole = (self.source.turn.is_none()
+            && src.projection() == OutputProjection::Linear(Projection::Perspective))
+        .then(|| Perspective::new(src.intrinsics(), size));
+        // Only the part of the target a pinhole source can reach is mapped (the table is the
+        // same: the others take nothing). The command does so for a lens; a drawn camera
+        // gains as much (most of a wide view lies beyond a KITTI camera's field of view). The
+        // rays a target cannot project lie around its backward axis (none for a panorama).
+        let seen = pinhole.as_ref().and_then(|pinhole| {
+            let blind = crate::models::axes(&self.target) * -Vector3::z();
+            Footprint::new(dst, pinhole, &identity, &blind)
+        });
+        let src: &dyn CameraModel = match &pinhole {
+            Some(p) => p,
+            None => src,
+        };
+        RemapTable::build_within(
+            dst,
+            src,
+            &identity,
+            wrap,
+            self.supersample,
+            seen.as_ref(),
+            false,
+        )
+    }
+}
+
+/// The pixel formats `image` takes.
+trait Pixel: Element + Copy + Send + Sync + 'static {
+    /// The weighted sum of a pixel's taps, in this format's arithmetic.
+    type Sum: Copy + Default + Send;
+    fn add(sum: &mut Self::Sum, value: Self, weight: i16);
+    fn finish(sum: Self::Sum) -> Self;
+    /// The image through the 8-bit RGB kernels, where they take this format.
+    fn kernel(_table: &RemapTable, _src: &[Self], _channels: usize) -> Option<Vec<Self>> {
+        None
+    }
+}
+
+impl Pixel for u8 {
+    type Sum = i64;
+    fn add(sum: &mut i64, value: u8, weight: i16) {
+        *sum += value as i64 * weight as i64;
+    }
+    // the kernels' rounding (weights sum to at most WEIGHT_ONE: no overflow of 255)
+    fn finish(sum: i64) -> u8 {
+        ((sum + (RemapTable::WEIGHT_ONE as i64 >> 1)) >> RemapTable::WEIGHT_BITS) as u8
+    }
+    fn kernel(table: &RemapTable, src: &[u8], channels: usize) -> Option<Vec<u8>> {
+        if channels != 3 {
+            return None;
+        }
+        let w3 = table.size().width as usize * 3;
+        let mut out = vec![0u8; w3 * table.size().height as usize];
+        for (v, row) in out.chunks_mut(w3.max(1)).enumerate() {
+            table.apply_row_data(src, v, row);
+        }
+        Some(out)
+    }
+}
+
+impl Pixel for u16 {
+    type Sum = i64;
+    fn add(sum: &mut i64, value: u16, weight: i16) {
+        *sum += value as i64 * weight as i64;
+    }
+    fn finish(sum: i64) -> u16 {
+        ((sum + (RemapTable::WEIGHT_ONE as i64 >> 1)) >> RemapTable::WEIGHT_BITS) as u16
+    }
+}
+
+impl Pixel for f32 {
+    type Sum = f64;
+    fn add(sum: &mut f64, value: f32, weight: i16) {
+        *sum += value as f64 * weight as f64;
+    }
+    fn finish(sum: f64) -> f32 {
+        (sum / RemapTable::WEIGHT_ONE as f64) as f32
+    }
+}
+
+/// Resamples `src` (H×W×C, standard layout) through the table's blocks.
+fn resample<T: Pixel>(table: &RemapTable, src: &[T], channels: usize) -> Vec<T> {
+    let (sw, sh) = (
+        table.source_size().width as usize,
+        table.source_size().height as usize,
+    );
+    let (w, h) = (table.size().width as usize, table.size().height as usize);
+    let mut out = Vec::with_capacity(w * h * channels);
+    let mut sums = vec![T::Sum::default(); w * channels];
+    for v in 0..h {
+        sums.iter_mut().for_each(|s| *s = T::Sum::default());
+        table.row_blocks(v, |u, pixel, weights| {
+            // top-left, bottom-left, top-right, bottom-right; a zero weight may lie outside
+            let taps = [pixel, pixel + sw, pixel + 1, pixel + sw + 1];
+            for (&p, &wt) in taps.iter().zip(&weights) {
+                if wt != 0 && p < sw * sh {
+                    for c in 0..channels {
+                        T::add(&mut sums[u * channels + c], src[p * channels + c], wt);
+                    }
+                }
+            }
+        });
+        out.extend(sums.iter().map(|&s| T::finish(s)));
+    }
+    out
+}
+
+/// The image through the table: the 8-bit RGB kernels for `HxWx3` uint8 (the command's bytes),
+/// the same blocks in each format's arithmetic otherwise.
+fn warp_array<T: Pixel>(table: &RemapTable, src: ArrayViewD<'_, T>) -> ArrayD<T> {
+    let channels = if src.ndim() == 3 { src.shape()[2] } else { 1 };
+    let data = src.as_standard_layout();
+    let data = data.as_slice().expect("standard layout");
+    let (w, h) = (table.size().width as usize, table.size().height as usize);
+    let out = T::kernel(table, data, channels).unwrap_or_else(|| resample(table, data, channels));
+    let shape: Vec<usize> = match src.ndim() {
+        3 => vec![h, w, channels],
+        _ => vec![h, w],
+    };
+    ArrayD::from_shape_vec(IxDyn(&shape), out).expect("shape")
+}
+
+/// `image` for one pixel format.
+fn image_of<'py, T: Pixel>(
+    py: Python<'py>,
+    table: &RemapTable,
+    array: PyReadonlyArrayDyn<'py, T>,
+) -> Bound<'py, PyArrayDyn<T>> {
+    let view = array.as_array();
+    let out = py.detach(|| warp_array(table, view));
+    PyArrayDyn::from_owned_array(py, out)
+}
+
+#[pymethods]
+impl Warp {
+    /// The warp from camera `src` to camera `dst`, with `dst` placed at `src`'s optical
+    /// centre. `supersample`: the largest n of the n×n antialiasing grid (the command's 8;
+    /// 1 turns it off). The table is built on first use (`image`, `mask`, `build`) and kept.
+    #[new]
+    #[pyo3(signature = (src, dst, supersample=MAX_SUPERSAMPLE))]
+    fn new(src: &Camera, dst: &Camera, supersample: u32) -> PyResult<Self> {
+        if !(1..=MAX_SUPERSAMPLE).contains(&supersample) {
+            return Err(PyValueError::new_err(format!(
+                "supersample must be 1 to {MAX_SUPERSAMPLE}, not {supersample}"
+            )));
+        }
+        Ok(Warp {
+            source: src.at(src.centre),
+            target: dst.at(src.centre),
+            supersample,
+            table: OnceLock::new(),
+        })
+    }
+
+    /// Builds the table now (else on first use). Returns self.
+    fn build(slf: Bound<'_, Self>) -> Bound<'_, Self> {
+        slf.get().table(slf.py());
+        slf
+    }
+
+    /// The source camera.
+    #[getter]
+    fn src(&self) -> Camera {
+        self.source.at(self.source.centre)
+    }
+
+    /// The target camera, at the source's optical centre.
+    #[getter]
+    fn dst(&self) -> Camera {
+        self.target.at(self.target.centre)
+    }
+
+    /// Whether the table has been built.
+    #[getter]
+    fn built(&self) -> bool {
+        self.table.get().is_some()
+    }
+
+    /// The source image (`HxW`, `HxWx3` or `HxWx4`; uint8, uint16 or float32, any layout) in
+    /// the target camera: same dtype and channels, the target's size, black where the source
+    /// does not reach. `HxWx3` uint8 gives the bytes the command writes.
+    fn image<'py>(
+        &self,
+        py: Python<'py>,
+        array: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let s = self.source.camera.size();
+        let untyped = array.cast::<numpy::PyUntypedArray>().map_err(|_| {
+            PyTypeError::new_err("image: expected a numpy array (HxW, HxWx3 or HxWx4)")
+        })?;
+        let shape = untyped.shape().to_vec();
+        let ok = match shape[..] {
+            [h, w] | [h, w, 1 | 3 | 4] => (w, h) == (s.width as usize, s.height as usize),
+            _ => false,
+        };
+        if !ok {
+            return Err(PyValueError::new_err(format!(
+                "image: expected the source camera's {}x{} pixels as HxW, HxWx3 or HxWx4, got shape {shape:?}",
+                s.width, s.height
+            )));
+        }
+        let table = self.table(py);
+        if let Ok(a) = array.extract::<PyReadonlyArrayDyn<'py, u8>>() {
+            return Ok(image_of(py, table, a).into_any());
+        }
+        if let Ok(a) = array.extract::<PyReadonlyArrayDyn<'py, u16>>() {
+            return Ok(image_of(py, table, a).into_any());
+        }
+        if let Ok(a) = array.extract::<PyReadonlyArrayDyn<'py, f32>>() {
+            return Ok(image_of(py, table, a).into_any());
+        }
+        Err(PyTypeError::new_err(format!(
+            "image: expected uint8, uint16 or float32 pixels, got {}",
+            untyped.dtype()
+        )))
+    }
+
+    /// Where the source gives the target's pixels (every tap of the pixel inside the source
+    /// image): `HxW` bool, the command's `--mask`.
+    #[getter]
+    fn mask<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<bool>> {
+        let table = self.table(py);
+        let s = table.size();
+        let m = Array2::from_shape_fn((s.height as usize, s.width as usize), |(v, u)| {
+            table.is_inside(u as u32, v as u32)
+        });
+        PyArray2::from_owned_array(py, m)
+    }
+
+    /// Fraction of the target's pixels with at least one tap inside the source.
+    #[getter]
+    fn coverage(&self, py: Python<'_>) -> f64 {
+        self.table(py).coverage()
+    }
+
+    /// The labels (`read_labels`) in the target camera, as `panoconv kitti` writes them: each
+    /// object's exact 2D box (curved edges, the ±180° seam rule) and truncation, each DontCare
+    /// region's box through the source camera; the labels with no image in the target are
+    /// left out. 3D boxes keep their rect values (the target's axes are `dst.R`).
+    fn labels(&self, py: Python<'_>, labels: Vec<PyRef<'_, Label>>) -> PyResult<Vec<Label>> {
+        let items: Vec<(KittiLabel, usize)> =
+            labels.iter().map(|l| (l.label.clone(), l.line)).collect();
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        let centre = self.source.centre;
+        let lines = py.detach(|| {
+            items
+                .iter()
+                .filter_map(|(label, line)| {
+                    transform_label(label, &centre, src, dst).map(|text| (text, *line))
+                })
+                .collect::<Vec<_>>()
+        });
+        lines
+            .into_iter()
+            .map(|(text, line)| {
+                let parsed = KittiLabel::parse(Path::new("<Warp.labels>"), line, &text)
+                    .map_err(crate::errors::to_py)?;
+                Ok(Label::new(parsed, line))
+            })
+            .collect()
+    }
+
+    /// The LiDAR depth map of rect points `(N, 3)` in the target camera, `HxW` float64
+    /// metres (0: no point): each pixel's nearest point by the target's own distance (z,
+    /// range or ρ), only points inside the source image, with the occlusion filter unless
+    /// `occlusion=False` (the command's `--depth` and `--no-occlusion-filter`). Non-finite
+    /// rows are dropped. `round(d·256)` is the command's 16-bit `depth_2` value.
+    #[pyo3(signature = (points_rect, occlusion=true))]
+    fn depth<'py>(
+        &self,
+        py: Python<'py>,
+        points_rect: PyArrayLike2<'py, f64, AllowTypeChange>,
+        occlusion: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let points = points_rect.as_array();
+        if points.ncols() != 3 {
+            return Err(PyValueError::new_err(format!(
+                "points_rect: expected an (N, 3) array, got shape {:?}",
+                points.shape()
+            )));
+        }
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        let centre = self.source.centre;
+        let map = py.detach(|| {
+            let finite: Vec<Vector3<f64>> = points
+                .rows()
+                .into_iter()
+                .map(|r| Vector3::new(r[0], r[1], r[2]))
+                .filter(|p| p.iter().all(|v| v.is_finite()))
+                .collect();
+            let filter = occlusion.then(OcclusionFilter::default);
+            depth_map(&finite, &centre, dst, src, filter.as_ref()).0
+        });
+        let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
+            .expect("shape");
+        Ok(PyArray2::from_owned_array(py, values))
+    }
+
+    fn __repr__(&self) -> String {
+        let (s, d) = (self.source.camera.size(), self.target.camera.size());
+        format!(
+            "Warp({} {s} -> {} {d}, built={})",
+            self.source.camera.projection().name(),
+            self.target.camera.projection().name(),
+            self.built()
+        )
+    }
+}
