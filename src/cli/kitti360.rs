@@ -337,6 +337,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         objects: ObjectRule {
             max_distance: args.max_distance,
             min_points: args.min_points,
+            visibility: args.augment.visibility(),
         },
         classes,
         depth: args.depth.then(|| {
@@ -394,6 +395,32 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             job.objects.min_points,
             o.outside
         );
+        if o.barely_visible > 0 {
+            eprintln!(
+                "panoconv: {} written as DontCare regions: less of them visible than --min-visible {},{}",
+                count(o.barely_visible, "object"),
+                job.objects.visibility.min_side_px,
+                job.objects.visibility.min_share
+            );
+        }
+        if !summary.without_images.is_empty() {
+            let first: Vec<&str> = summary
+                .without_images
+                .iter()
+                .take(5)
+                .map(String::as_str)
+                .collect();
+            eprintln!(
+                "panoconv: {} without the images of --cameras not converted (not frames): {}{}",
+                count(summary.without_images.len(), "pose"),
+                first.join(", "),
+                if summary.without_images.len() > 5 {
+                    ", ..."
+                } else {
+                    ""
+                }
+            );
+        }
         if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
             eprintln!(
                 "panoconv: {} with fewer than {} objects after {} draws",

@@ -91,7 +91,7 @@ enum Command {
     /// Check a converted dataset against its manifest: re-hash every listed output (blake3),
     /// report missing, changed and unlisted files.
     #[command(
-        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, ...), then a summary.\nExit codes: 0 everything matches; 1 problems found; 2 the manifest is missing or unreadable."
+        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n  panoconv verify --allow-failed /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, failed:, ...), then a summary.\nExit codes: 0 everything matches and no frame failed (or --allow-failed); 1 problems found, failed frames, or an unfinished run; 2 the manifest is missing or unreadable."
     )]
     Verify(VerifyArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
@@ -128,7 +128,7 @@ enum To {
     Equirect,
     Cylindrical,
     Perspective,
-    /// A real fisheye camera, described by --camera FILE (kitti and kitti-raw).
+    /// A real fisheye camera, described by --camera FILE.
     Fisheye,
 }
 
@@ -153,6 +153,17 @@ fn count(n: usize, noun: &str) -> String {
         format!("1 {noun}")
     } else {
         format!("{n} {noun}s")
+    }
+}
+
+/// The speed of a run: `12.3 frames/s`, or `4.2 s/frame` when under one frame a second (where
+/// a rate would round to `0.0`).
+fn rate(frames: usize, seconds: f64) -> String {
+    let per_second = frames as f64 / seconds.max(1e-9);
+    if frames == 0 || per_second >= 1.0 {
+        format!("{per_second:.1} frames/s")
+    } else {
+        format!("{:.1} s/frame", seconds / frames as f64)
     }
 }
 
@@ -323,5 +334,19 @@ pub fn main() -> ExitCode {
                 _ => ExitCode::from(EXIT_SETUP),
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rate;
+
+    #[test]
+    fn a_slow_run_reports_seconds_per_frame_not_a_zero_rate() {
+        assert_eq!(rate(6, 0.5), "12.0 frames/s");
+        assert_eq!(rate(1, 1.0), "1.0 frames/s");
+        assert_eq!(rate(2, 50.0), "25.0 s/frame");
+        assert_eq!(rate(3, 1000.0), "333.3 s/frame");
+        assert_eq!(rate(0, 3.0), "0.0 frames/s");
     }
 }

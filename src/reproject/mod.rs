@@ -5,3 +5,4 @@ pub mod depth;
 pub mod labels;
 pub(crate) mod source_box;
 pub mod unproject;
+pub mod visibility;

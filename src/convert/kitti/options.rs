@@ -10,6 +10,7 @@ use crate::error::{Error, Result};
 use crate::geometry::augment::Augment;
 use crate::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Scale, Target};
 use crate::kitti::Cam;
+use crate::reproject::visibility::Visibility;
 use crate::run::{OutputMode, Shard};
 use std::path::PathBuf;
 
@@ -54,6 +55,8 @@ pub struct KittiOptions {
     pub augment: Option<Augment>,
     /// `--shard K/N`.
     pub shard: Option<Shard>,
+    /// `--min-visible`: which placed objects are written as objects.
+    pub visibility: Visibility,
     /// `--style` and its options.
     pub style: Option<StyleJob>,
     /// Whether `--export` asks for an export after the conversion.
@@ -100,6 +103,7 @@ impl KittiOptions {
             cameras,
             depth: self.depth,
             shard: self.shard,
+            visibility: self.visibility,
         })
     }
 
@@ -176,6 +180,7 @@ mod tests {
             depth: None,
             augment: None,
             shard: None,
+            visibility: Visibility::default(),
             style: None,
             export: false,
         }

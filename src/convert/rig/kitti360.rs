@@ -140,6 +140,13 @@ pub struct ObjectCounts {
     pub unseen: usize,
     /// Dropped: outside the output image.
     pub outside: usize,
+    /// Written as DontCare regions: too little of them visible (`--min-visible`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub barely_visible: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl ObjectCounts {
@@ -156,6 +163,7 @@ impl ObjectCounts {
                 Some(DropReason::Distance) => c.distance += 1,
                 Some(DropReason::Unseen) => c.unseen += 1,
                 Some(DropReason::Outside) => c.outside += 1,
+                Some(DropReason::BarelyVisible) => c.barely_visible += 1,
             }
         }
         c
@@ -169,6 +177,7 @@ impl ObjectCounts {
         self.distance += o.distance;
         self.unseen += o.unseen;
         self.outside += o.outside;
+        self.barely_visible += o.barely_visible;
     }
 }
 
@@ -184,6 +193,9 @@ pub struct Kitti360Summary {
     pub style_runs: Option<(usize, usize)>,
     /// With `--augment`: the views holding fewer objects than asked (at least one).
     pub thin_views: Option<usize>,
+    /// Poses left out for lacking an image of a chosen camera (`sequence/frame`, ascending):
+    /// not frames, so not failures.
+    pub without_images: Vec<String>,
 }
 
 /// The manifest's `parameters`: what decides the outputs.

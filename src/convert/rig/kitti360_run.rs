@@ -382,7 +382,7 @@ pub fn run_kitti360(
 ) -> Result<Kitti360Summary> {
     let started = std::time::Instant::now();
     let sequences = open_sequences(job)?;
-    let mut items = select(job, &sequences)?;
+    let (mut items, without_images) = select(job, &sequences)?;
     check_output_camera(job, &sequences, &items)?;
     let style = load_style(job)?;
     let folder = OutputFolder::claim(Claim {
@@ -447,5 +447,6 @@ pub fn run_kitti360(
         objects,
         style_runs: style.as_ref().map(StyleModel::runs),
         thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
+        without_images,
     })
 }

@@ -71,11 +71,14 @@ pub(super) fn open_sequences(job: &Kitti360Job) -> Result<Vec<(Sequence, Vec<Cam
     Ok(out)
 }
 
-/// The frames to convert, with their ids; several sequences need distinct drive numbers.
+/// The frames to convert, with their ids; several sequences need distinct drive numbers. The
+/// second list: the poses left out for lacking an image of a chosen camera (`sequence/frame`),
+/// when no `--frames` list names the frames (naming one without images is a set-up error).
 pub(super) fn select(
     job: &Kitti360Job,
     sequences: &[(Sequence, Vec<CameraInfo>)],
-) -> Result<Vec<Item>> {
+) -> Result<(Vec<Item>, Vec<String>)> {
+    let mut without_images = Vec::new();
     let several = sequences.len() > 1;
     let mut drives = Vec::new();
     let mut items = Vec::new();
@@ -99,8 +102,23 @@ pub(super) fn select(
             None
         };
         let frames = match &job.frames {
-            Some(list) => list.clone(),
-            None => seq.frames(),
+            Some(list) => {
+                for &f in list.iter().filter(|f| seq.poses.contains_key(f)) {
+                    if let Some(image) = seq.missing_image(f, &job.cameras) {
+                        return Err(Error::Setup(format!(
+                            "--frames {f}: {} does not exist (a frame needs the images of \
+                             every camera of --cameras)",
+                            image.display()
+                        )));
+                    }
+                }
+                list.clone()
+            }
+            None => {
+                let (with, without) = seq.frames_with_images(&job.cameras);
+                without_images.extend(without.iter().map(|f| format!("{}/{f:010}", seq.name)));
+                with
+            }
         };
         for frame in frames {
             if several && frame >= 1_000_000 {
@@ -117,6 +135,13 @@ pub(super) fn select(
             });
         }
     }
+    if items.is_empty() && !without_images.is_empty() {
+        return Err(Error::Setup(format!(
+            "no frame to convert: none of the {} poses has the images of --cameras (first: {})",
+            without_images.len(),
+            without_images[0]
+        )));
+    }
     if items.is_empty() {
         return Err(Error::Setup("the selection holds no frame".into()));
     }
@@ -127,7 +152,7 @@ pub(super) fn select(
             w[0].id
         )));
     }
-    Ok(items)
+    Ok((items, without_images))
 }
 
 /// The ego masks of `job` by rig index, and their manifest records: each mask must belong to a

@@ -5,7 +5,9 @@
 //! 2. at least `min_points` LiDAR points of the frame lie inside its box, not counting the
 //!    lowest [`GROUND_MARGIN`] of it, where the ground under the object is hit (else `unseen`;
 //!    `min_points` 0 turns this off);
-//! 3. its exact 2D box meets the output image (else `outside`).
+//! 3. its exact 2D box meets the output image (else `outside`);
+//! 4. the visibility rule accepts that box ([`Visibility`]; else `barely_visible`, and the
+//!    box is written as a DontCare region).
 //!
 //! Each object's outcome (its class, instance, distance, LiDAR points, tilt, and the reason it
 //! was dropped) is kept for the frame's `objects/` record.
@@ -13,6 +15,7 @@
 use crate::camera::CameraModel;
 use crate::kitti::rig_output::label_line;
 use crate::reproject::source_box::source_box_in_image;
+use crate::reproject::visibility::{dont_care_line, Visibility};
 use crate::source::{LidarPoint, SourceBox};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -31,6 +34,9 @@ pub struct ObjectRule {
     pub max_distance: f64,
     /// LiDAR points an object's box must hold (0: no LiDAR check).
     pub min_points: usize,
+    /// Which boxes in the image are objects (the others are written as DontCare regions).
+    #[serde(skip_serializing_if = "Visibility::is_default")]
+    pub visibility: Visibility,
 }
 
 /// Why an object is not in the labels.
@@ -45,6 +51,8 @@ pub enum DropReason {
     Unseen,
     /// Its 2D box misses the output image.
     Outside,
+    /// Its 2D box fails the visibility rule: written as a DontCare region.
+    BarelyVisible,
 }
 
 /// What became of one object of a frame.
@@ -142,6 +150,10 @@ pub(super) fn label_objects(
             }
             if outcome.dropped.is_none() {
                 match source_box_in_image(b, centre, camera) {
+                    Some(image) if !rule.visibility.sees(&image) => {
+                        lines.push(dont_care_line(image.bounds));
+                        outcome.dropped = Some(DropReason::BarelyVisible);
+                    }
                     Some(image) => lines.push(label_line(
                         b,
                         image.bounds,
@@ -192,6 +204,7 @@ mod tests {
         let rule = ObjectRule {
             max_distance: 80.0,
             min_points: 2,
+            visibility: Visibility::OFF,
         };
         let (lines, outcomes) = label_objects(
             &[seen, far, unseen, behind.clone()],
@@ -245,6 +258,7 @@ mod tests {
         let rule = ObjectRule {
             max_distance: 80.0,
             min_points: 0,
+            visibility: Visibility::OFF,
         };
         let (lines, outcomes) = label_objects(
             &[upright, tilted.clone()],
