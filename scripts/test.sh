@@ -13,11 +13,23 @@ export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
 # --workspace: the features of the Python module's dependencies too (pyo3's macros ask syn
 # for more, numpy num-complex's defaults), so that `maturin develop` below finds every shared
 # crate built as it needs it instead of building the library a second time.
-cargo test --locked --workspace --tests "$@"
+# The tests that read ../shared (tests/needs_shared.txt) are skipped when it is absent, and
+# named and counted again at the end; with CI=true or PANOCONV_REQUIRE_SHARED=1 they must run.
+skips_log="$(mktemp)" skips_args="$(mktemp)"
+trap 'rm -f "$skips_log" "$skips_args"' EXIT
+if ! scripts/shared_skips.sh >"$skips_args" 2>"$skips_log"; then
+    cat "$skips_log" >&2
+    exit 1
+fi
+cat "$skips_log" >&2
+mapfile -t skips <"$skips_args"
+separator=(--)
+for a in "$@"; do [[ "$a" == -- ]] && separator=(); done
+cargo test --locked --workspace --tests "$@" "${separator[@]}" "${skips[@]}"
 # The occlusion figures of docs/depth.md come from a cargo example (benches/occlusion_figure.rs)
 # that tests/first_run.rs, which checks the other pictures, cannot build: check them here.
 figures="$(mktemp -d)"
-trap 'rm -rf "$figures"' EXIT
+trap 'rm -rf "$figures" "$skips_log" "$skips_args"' EXIT
 # (built with the same features as the tests': `cargo run` cannot take --workspace)
 cargo build --locked --quiet --workspace --profile test --example occlusion_figure
 "${CARGO_TARGET_DIR:-target}/debug/examples/occlusion_figure" "$figures" >/dev/null
@@ -31,3 +43,5 @@ done
 # test build made; pytest runs against both.
 PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
 "$PANOCONV_PYTHON" -m pytest -q -p no:cacheprovider python/tests
+# the skipped tests last, where they are seen
+cat "$skips_log" >&2

@@ -22,6 +22,7 @@ mod dataset_truth;
 mod depth;
 mod eval_depth;
 mod export;
+mod first_contact;
 mod first_run;
 mod fisheye;
 mod fisheye_target;

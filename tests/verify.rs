@@ -292,7 +292,7 @@ fn a_manifest_path_outside_the_folder_is_not_opened() {
 }
 
 #[test]
-fn a_failed_frame_leaves_a_folder_that_verifies() {
+fn a_failed_frame_leaves_a_folder_whose_files_verify_and_whose_failure_is_reported() {
     let tmp = tempfile::tempdir().unwrap();
     let input = tmp.path().join("in");
     copy_tree(
@@ -313,6 +313,11 @@ fn a_failed_frame_leaves_a_folder_that_verifies() {
     ]);
     assert_eq!(run.code, 1, "{}", run.stderr);
     let report = verify(&out).unwrap();
-    assert!(report.is_ok(), "{:?}", report.problems);
+    // The files agree with the manifest; the failed frame is reported, not hidden.
+    assert!(report.problems.is_empty(), "{:?}", report.problems);
+    assert!(report.is_ok_allowing_failed(true));
+    assert!(!report.is_ok());
+    assert_eq!(report.failed.len(), 1);
+    assert_eq!(report.failed[0].frame, "training/000001");
     assert_eq!(report.listed, 8);
 }

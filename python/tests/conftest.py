@@ -45,8 +45,14 @@ def run(*args) -> subprocess.CompletedProcess:
 
 def kitti_dir() -> Path:
     """The real KITTI frames: $PANOCONV_KITTI (relative to the repository), else ../shared/kitti."""
-    d = REPO / os.environ.get("PANOCONV_KITTI", "../shared/kitti")
-    assert (d / "training" / "image_2").is_dir(), f"no real KITTI frames at {d}"
+    shared = os.environ.get("PANOCONV_SHARED", "../shared")
+    d = REPO / os.environ.get("PANOCONV_KITTI", f"{shared}/kitti")
+    if not (d / "training" / "image_2").is_dir():
+        # Skipped (and counted by pytest) without the shared data, unless it is required.
+        required = os.environ.get("CI") == "true" or os.environ.get("PANOCONV_REQUIRE_SHARED") == "1"
+        message = f"no real KITTI frames at {d}"
+        assert not required, message
+        pytest.skip(message)
     return d
 
 

@@ -15,6 +15,7 @@ use panoconv::geometry::Crop;
 use panoconv::kitti::dataset::read_id_list;
 use panoconv::kitti::Cam;
 use panoconv::reproject::depth::OcclusionFilter;
+use panoconv::reproject::visibility::Visibility;
 use panoconv::run::{OutputMode, Shard};
 use panoconv::style::{Device, StyleOptions};
 use std::path::PathBuf;
@@ -69,7 +70,7 @@ pub(super) struct KittiArgs {
     augment: AugmentArgs,
 }
 
-/// `--augment` and its options, for `kitti` and `kitti360`.
+/// `--augment` and its options, and the labels' visibility rule, for `kitti` and `kitti360`.
 #[derive(Args)]
 pub(super) struct AugmentArgs {
     /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
@@ -89,9 +90,19 @@ pub(super) struct AugmentArgs {
     /// regions do not count); the summary says how many views still hold fewer.
     #[arg(long, value_name = "N", requires = "augment")]
     min_objects: Option<u32>,
+    /// Write an object as an object only when its 2D box is at least PX pixels on each side
+    /// and at least SHARE of its full projected box is in the image; the others become DontCare
+    /// regions (every output, views or not; 0,0 writes every object).
+    #[arg(long, value_name = "PX,SHARE", default_value = "2,0.1", value_parser = Visibility::parse)]
+    min_visible: Visibility,
 }
 
 impl AugmentArgs {
+    /// The visibility rule of `--min-visible`.
+    pub(super) fn visibility(&self) -> Visibility {
+        self.min_visible
+    }
+
     /// The views `--augment` asks for, if given.
     pub(super) fn views(&self) -> Option<Augment> {
         self.augment.map(|count| Augment {
@@ -301,13 +312,14 @@ pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
         }
         None => None,
     };
+    let visibility = args.augment.visibility();
     let augment = args.augment.views();
     convert(
         args.common,
         args.input,
         KittiSource::Object { split: args.split },
         image_set,
-        augment,
+        (augment, visibility),
     )
 }
 
@@ -317,7 +329,7 @@ pub(super) fn kitti_raw(args: RawArgs) -> Result<ExitCode> {
         args.input,
         KittiSource::Raw { drive: args.drive },
         None,
-        None,
+        (None, Visibility::default()),
     )
 }
 
@@ -339,7 +351,7 @@ fn convert(
     input: PathBuf,
     source: KittiSource,
     image_set: Option<Vec<String>>,
-    augment: Option<Augment>,
+    (augment, visibility): (Option<Augment>, Visibility),
 ) -> Result<ExitCode> {
     let frames = match (args.frames, &args.frames_from) {
         // `--frames "1, 4"`: the spaces are not part of the ids.
@@ -382,6 +394,7 @@ fn convert(
         mask: args.mask,
         frames,
         cameras: args.cameras.clone(),
+        visibility,
     }
     .validate()?;
     install_stop_handler();

@@ -5,7 +5,8 @@ use super::tools::record_derived;
 use super::{count, EXIT_FRAMES_FAILED};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use panoconv::export::{ClassMap, ExportOptions, ExportReport, Format, SplitRule};
+use panoconv::export::{ClassMap, ExportOptions, ExportReport, ExportSplit, Format, SplitRule};
+use panoconv::reproject::visibility::Visibility;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -68,6 +69,10 @@ pub(super) struct ExportArgs {
     /// the dataset root otherwise), e.g. kitti_equi/ for Cube R-CNN's datasets/ image root.
     #[arg(long, value_name = "PREFIX", default_value = "")]
     path_prefix: String,
+    /// Export an object as an object only when its 2D box is at least PX pixels on each side
+    /// and its truncation at most 1 - SHARE; the others become ignore regions (0,0: all).
+    #[arg(long, value_name = "PX,SHARE", default_value = "2,0.1", value_parser = Visibility::parse)]
+    min_visible: Visibility,
     /// Replace export files that exist.
     #[arg(long)]
     overwrite: bool,
@@ -94,6 +99,7 @@ pub(super) fn export(args: ExportArgs) -> Result<ExitCode> {
         split_rule,
         overwrite: args.overwrite,
         path_prefix: args.path_prefix,
+        visibility: args.min_visible,
     };
     run_export(
         &args.dataset,
@@ -131,6 +137,12 @@ fn run_export(
     }
     if !quiet {
         eprintln!("{}", summary(format, &report, output));
+        let has_val = report.images.iter().any(|(s, _)| *s == ExportSplit::Val);
+        if format == Format::Yolo && !has_val {
+            eprintln!(
+                "panoconv: no val split: data.yaml says val: images/train, so validation scores are on training images (hold frames out with --val-fraction or --image-sets)"
+            );
+        }
     }
     Ok(if report.failed.is_empty() {
         ExitCode::SUCCESS
@@ -188,6 +200,8 @@ pub(super) fn export_after_kitti(
         split_rule,
         overwrite,
         path_prefix: String::new(),
+        // The conversion has just applied its --min-visible to the labels it wrote.
+        visibility: Visibility::OFF,
     };
     let mut code = ExitCode::SUCCESS;
     for &f in formats {

@@ -410,6 +410,7 @@ fn jobs(args: &Kitti360Args) -> Result<(RigJob, Kitti360Selection)> {
         objects: ObjectRule {
             max_distance: args.max_distance,
             min_points: args.min_points,
+            visibility: args.augment.visibility(),
         },
         ego_masks,
     };
@@ -434,6 +435,24 @@ fn report(summary: &RigSummary, job: &RigJob) {
         job.objects.min_points,
         o.outside
     );
+    if o.barely_visible > 0 {
+        eprintln!(
+            "panoconv: {} written as DontCare regions: less of them visible than \
+             --min-visible {},{}",
+            count(o.barely_visible, "object"),
+            job.objects.visibility.min_side_px,
+            job.objects.visibility.min_share
+        );
+    }
+    if !summary.not_frames.is_empty() {
+        let first: Vec<&str> = summary.not_frames.iter().take(5).map(String::as_str).collect();
+        eprintln!(
+            "panoconv: {} without the images of --cameras not converted (not frames): {}{}",
+            count(summary.not_frames.len(), "pose"),
+            first.join(", "),
+            if summary.not_frames.len() > 5 { ", ..." } else { "" }
+        );
+    }
     if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
         eprintln!(
             "panoconv: {} with fewer than {} objects after {} draws",

@@ -92,7 +92,7 @@ enum Command {
     /// Check a converted dataset against its manifest: re-hash every listed output (blake3),
     /// report missing, changed and unlisted files.
     #[command(
-        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, ...), then a summary.\nExit codes: 0 everything matches; 1 problems found; 2 the manifest is missing or unreadable."
+        after_help = "Examples:\n  panoconv verify /data/kitti_equi\n  panoconv verify --allow-failed /data/kitti_equi\n\nOne line per problem on stdout (missing:, changed:, extra:, failed:, ...), then a summary.\nExit codes: 0 everything matches and no frame failed (or --allow-failed); 1 problems found, failed frames, or an unfinished run; 2 the manifest is missing or unreadable."
     )]
     Verify(VerifyArgs),
     /// Write a small synthetic KITTI dataset with exact labels (for tests and demos).
@@ -129,7 +129,7 @@ enum To {
     Equirect,
     Cylindrical,
     Perspective,
-    /// A real fisheye camera, described by --camera FILE (kitti and kitti-raw).
+    /// A real fisheye camera, described by --camera FILE.
     Fisheye,
 }
 

@@ -14,13 +14,24 @@ pub(super) fn report(run: &Summary, noun: &str, output: &Path) {
         String::new()
     };
     eprintln!(
-        "panoconv: {} converted{resumed}, {} failed in {:.2} s ({:.1} {noun}s/s) -> {}",
+        "panoconv: {} converted{resumed}, {} failed in {:.2} s ({}) -> {}",
         count(run.converted, noun),
         run.failed,
         run.seconds,
-        (run.converted - run.resumed) as f64 / run.seconds.max(1e-9),
+        rate(run.converted - run.resumed, run.seconds, noun),
         output.display()
     );
+}
+
+/// The speed of a run: `12.3 frames/s`, or `4.2 s/frame` when under one item a second (where
+/// a rate would round to `0.0`).
+fn rate(items: usize, seconds: f64, noun: &str) -> String {
+    let per_second = items as f64 / seconds.max(1e-9);
+    if items == 0 || per_second >= 1.0 {
+        format!("{per_second:.1} {noun}s/s")
+    } else {
+        format!("{:.1} s/{noun}", seconds / items as f64)
+    }
 }
 
 /// The exit code of a run that stopped short or failed items (1: a full device or failed
@@ -39,4 +50,18 @@ pub(super) fn exit_code(run: &Summary) -> Option<ExitCode> {
         return Some(ExitCode::from(EXIT_INTERRUPTED));
     }
     (run.failed > 0).then(|| ExitCode::from(EXIT_FRAMES_FAILED))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rate;
+
+    #[test]
+    fn a_slow_run_reports_seconds_per_frame_not_a_zero_rate() {
+        assert_eq!(rate(6, 0.5, "frame"), "12.0 frames/s");
+        assert_eq!(rate(1, 1.0, "frame"), "1.0 frames/s");
+        assert_eq!(rate(2, 50.0, "frame"), "25.0 s/frame");
+        assert_eq!(rate(3, 1000.0, "image"), "333.3 s/image");
+        assert_eq!(rate(0, 3.0, "frame"), "0.0 frames/s");
+    }
 }

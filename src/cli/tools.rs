@@ -147,7 +147,8 @@ pub(super) enum BoxArg {
 
 #[derive(Args)]
 pub(super) struct EvalDepthArgs {
-    /// Predicted depth maps.
+    /// Predicted depth maps: 16-bit PNGs (metres x 256) named as the ground truth, or float
+    /// metres in .npy / .npz files of the same stem.
     #[arg(long)]
     pred: PathBuf,
     /// Ground-truth depth maps (e.g. OUT/training/depth_2).
@@ -171,6 +172,9 @@ pub(super) struct VerifyArgs {
     /// Print only the problems, no summary line.
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// Accept a run that recorded failed frames (without it, failed frames fail `verify`).
+    #[arg(long)]
+    allow_failed: bool,
 }
 
 #[derive(Args)]
@@ -457,19 +461,28 @@ pub(super) fn verify(a: VerifyArgs) -> Result<ExitCode> {
     if let Some(incomplete) = &report.incomplete {
         println!("{incomplete}");
     }
+    let ok = report.is_ok_allowing_failed(a.allow_failed);
+    if let Some(failed) = report.failed_line().filter(|_| !a.allow_failed) {
+        println!("{failed}");
+    }
     if !a.quiet {
-        let verdict = match (&report.incomplete, report.is_ok()) {
+        let verdict = match (&report.incomplete, ok) {
             (_, true) => "OK",
             (Some(_), _) if report.problems.is_empty() => "INCOMPLETE",
             _ => "FAILED",
         };
+        let failed = match report.failed.len() {
+            0 => String::new(),
+            n if a.allow_failed => format!(", {n} failed frames (allowed)"),
+            n => format!(", {n} failed frames"),
+        };
         println!(
-            "panoconv verify: {verdict}: {} ({})",
+            "panoconv verify: {verdict}: {}{failed} ({})",
             report.summary(),
             a.output.display()
         );
     }
-    Ok(if report.is_ok() {
+    Ok(if ok {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(EXIT_FRAMES_FAILED)

@@ -25,6 +25,7 @@ use crate::fs::read_lines;
 use crate::fs::{hash_hex, write_atomic};
 use crate::kitti::Cam;
 use crate::kitti::{Calib, Dataset, FrameRef, Label};
+use crate::reproject::visibility::Visibility;
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 
@@ -63,6 +64,9 @@ pub struct ExportOptions {
     /// otherwise relative to the dataset root), e.g. `kitti_equi/` for Cube R-CNN's
     /// `datasets/` image root.
     pub path_prefix: String,
+    /// Which labelled objects are exported as objects; the others become ignore regions
+    /// (`--min-visible`; the label's truncation stands for the hidden share of its box).
+    pub visibility: Visibility,
 }
 
 /// One file an export wrote.
@@ -202,7 +206,7 @@ pub fn read_dataset(root: &Path, options: &ExportOptions) -> Result<ExportData> 
         };
         for (id, export_split) in assigned {
             let image_rel = format!("{}/image_2/{id}.png", s.name);
-            let read = read_frame(s, &id, &options.classes);
+            let read = read_frame(s, &id, options);
             match read {
                 Ok((size, camera, centre, objects, ignore_regions)) => data.frames.push(Frame {
                     split: export_split,
@@ -272,7 +276,12 @@ type FrameParts = (
     Vec<[f64; 4]>,
 );
 
-fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Result<FrameParts> {
+fn read_frame(
+    split: &crate::kitti::Split,
+    id: &str,
+    options: &ExportOptions,
+) -> Result<FrameParts> {
+    let classes = &options.classes;
     let image = split.image_path(Cam::C2, id);
     let (w, h) = png::read_file_size(&image)?;
     let size = ImageSize::new(w, h);
@@ -302,7 +311,8 @@ fn read_frame(split: &crate::kitti::Split, id: &str, classes: &ClassMap) -> Resu
             }
             let exact = exact.as_mut().and_then(Iterator::next);
             let label = Label::parse(&path, i + 1, line)?;
-            if label.is_dont_care() {
+            let hidden = label.truncated.clamp(0.0, 1.0);
+            if label.is_dont_care() || !options.visibility.accepts(label.bbox, hidden) {
                 ignore_regions.push(label.bbox);
                 continue;
             }

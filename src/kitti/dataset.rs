@@ -340,11 +340,15 @@ impl Dataset {
     }
 
     /// Checks, before anything is written, that every split with frames has the folders the
-    /// options read: `image_3/` for the right camera, `velodyne/` for depth.
+    /// run reads: `calib/` (object layout), `image_3/` for the right camera, `velodyne/` for
+    /// depth. A missing folder is one set-up error, not a failure of every frame.
     pub fn check_folders(&self, cameras: &[Cam], depth: bool) -> Result<()> {
         for split in self.splits.iter().filter(|s| !s.frames.is_empty()) {
             let first = &split.frames[0];
             let mut needed = Vec::new();
+            if matches!(split.layout, Layout::Object) {
+                needed.push((split.calib_path(first), "the conversion"));
+            }
             if cameras.contains(&Cam::C3) {
                 needed.push((split.image_path(Cam::C3, first), "--cameras 2,3"));
             }

@@ -59,6 +59,15 @@ pub fn label_line(b: &SourceBox, bbox: [f64; 4], truncation: f64, occlusion: u8)
     )
 }
 
+/// A KITTI DontCare line for a 2D box: what an object that fails the visibility rule is
+/// written as (KITTI's placeholders in every 3D column).
+pub fn dont_care_line(bounds: [f64; 4]) -> String {
+    format!(
+        "DontCare -1 -1 -10 {:.2} {:.2} {:.2} {:.2} -1 -1 -1 -1000 -1000 -1000 -10",
+        bounds[0], bounds[1], bounds[2], bounds[3]
+    )
+}
+
 fn row_major(p: &Pose) -> String {
     p.to_row_major_3x4()
         .iter()
@@ -114,6 +123,14 @@ mod tests {
     use super::*;
     use crate::camera::{ImageSize, Intrinsics, Projection};
     use crate::kitti::Label;
+
+    #[test]
+    fn a_dont_care_line_has_kittis_placeholders() {
+        assert_eq!(
+            dont_care_line([1.0, 2.5, 30.25, 40.0]),
+            "DontCare -1 -1 -10 1.00 2.50 30.25 40.00 -1 -1 -1 -1000 -1000 -1000 -10"
+        );
+    }
 
     #[test]
     fn a_label_line_parses_back_to_the_box() {

@@ -166,6 +166,23 @@ impl Sequence {
         self.poses.keys().copied().collect()
     }
 
+    /// The image of camera `k` that `frame` lacks among `cameras`, if any.
+    pub fn missing_image(&self, frame: u32, cameras: &[usize]) -> Option<PathBuf> {
+        cameras
+            .iter()
+            .map(|&k| image_path(&self.root, &self.name, k, frame))
+            .find(|p| !p.is_file())
+    }
+
+    /// The frames of [`Sequence::frames`] split into those whose images of `cameras` all exist
+    /// (the frames) and those that lack one: a pose alone (a partial download, a sample) is
+    /// not a frame.
+    pub fn frames_with_images(&self, cameras: &[usize]) -> (Vec<u32>, Vec<u32>) {
+        self.frames()
+            .into_iter()
+            .partition(|&f| self.missing_image(f, cameras).is_none())
+    }
+
     fn pose(&self, frame: u32) -> Result<&Pose> {
         self.poses.get(&frame).ok_or_else(|| {
             Error::file(

@@ -10,7 +10,7 @@ use super::calib::{CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
 use super::sequence::{Options, Sequence};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
-use crate::source::{CameraInfo, Frame, RigItem, RigSource, SourceBox, SourceCamera};
+use crate::source::{CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera};
 use serde::Serialize;
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
@@ -231,14 +231,30 @@ impl RigSource for Kitti360Source {
         &self.sequences[part].1
     }
 
-    fn items(&self) -> Result<Vec<RigItem>> {
+    fn items(&self, cameras: &[usize]) -> Result<RigItems> {
         let drives = self.drives()?;
         let several = self.sequences.len() > 1;
         let mut items = Vec::new();
+        let mut not_frames = Vec::new();
         for (part, ((seq, _), drive)) in self.sequences.iter().zip(drives).enumerate() {
             let frames = match &self.selection.frames {
-                Some(list) => list.clone(),
-                None => seq.frames(),
+                Some(list) => {
+                    for &f in list.iter().filter(|f| seq.poses.contains_key(f)) {
+                        if let Some(image) = seq.missing_image(f, cameras) {
+                            return Err(Error::Setup(format!(
+                                "--frames {f}: {} does not exist (a frame needs the images of \
+                                 every camera of --cameras)",
+                                image.display()
+                            )));
+                        }
+                    }
+                    list.clone()
+                }
+                None => {
+                    let (with, without) = seq.frames_with_images(cameras);
+                    not_frames.extend(without.iter().map(|f| format!("{}/{f:010}", seq.name)));
+                    with
+                }
             };
             for frame in frames {
                 if several && frame >= 1_000_000 {
@@ -255,6 +271,13 @@ impl RigSource for Kitti360Source {
                 });
             }
         }
+        if items.is_empty() && !not_frames.is_empty() {
+            return Err(Error::Setup(format!(
+                "no frame to convert: none of the {} poses has the images of --cameras (first: {})",
+                not_frames.len(),
+                not_frames[0]
+            )));
+        }
         if items.is_empty() {
             return Err(Error::Setup("the selection holds no frame".into()));
         }
@@ -265,7 +288,7 @@ impl RigSource for Kitti360Source {
                 w[0].id
             )));
         }
-        Ok(items)
+        Ok(RigItems { items, not_frames })
     }
 
     fn read(&self, item: &RigItem) -> Result<Frame> {

@@ -4,3 +4,4 @@
 pub mod depth;
 pub mod labels;
 pub(crate) mod source_box;
+pub mod visibility;

@@ -51,6 +51,16 @@ pub struct RigItem {
     pub index: u64,
 }
 
+/// The frames of a selection, and what the dataset lists that is not a frame.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RigItems {
+    /// The frames, each id once, sorted by id.
+    pub items: Vec<RigItem>,
+    /// What the dataset lists without the files of a frame (a KITTI-360 pose without an image
+    /// of a chosen camera: `sequence/frame`), ascending: named in the summary, not failures.
+    pub not_frames: Vec<String>,
+}
+
 /// A rig dataset opened with its selection. `Sync`: frames are read on rayon's workers.
 pub trait RigSource: Sync {
     /// The command's name, as the manifest records it (`kitti360`).
@@ -65,9 +75,11 @@ pub trait RigSource: Sync {
     /// The camera set of a part: index k is `rig[k]` of each of its frames.
     fn cameras(&self, part: usize) -> &[SourceCamera];
 
-    /// The frames under the selection, each id once, sorted by id. An empty or contradictory
-    /// selection is a set-up error (`Error::Setup`).
-    fn items(&self) -> Result<Vec<RigItem>>;
+    /// The frames under the selection that have the images of the chosen `cameras` (indices
+    /// into [`RigSource::cameras`]), each id once, sorted by id, and the listed frames that
+    /// lack one. An empty or contradictory selection, or one that names a frame without its
+    /// images, is a set-up error (`Error::Setup`).
+    fn items(&self, cameras: &[usize]) -> Result<RigItems>;
 
     /// Reads one frame: its rig (image paths, not pixels: the run decodes the chosen cameras'
     /// images and hashes those bytes), its boxes in the reference frame, its LiDAR points

@@ -3,13 +3,15 @@
 //!
 //! Ground-truth pixels count when min < gt < max; predictions are clamped to [min, max]. The
 //! metrics are computed per image and then averaged over images (the monodepth convention).
-//! Depth maps are KITTI 16-bit PNGs, value = round(d·256), 0 = no depth.
+//! Ground-truth depth maps are KITTI 16-bit PNGs, value = round(d·256), 0 = no depth; a
+//! prediction is such a PNG, or float metres in a `.npy` or `.npz` of the same stem
+//! ([`crate::tools::depth_array`]).
 
 use crate::codec::png::decode_gray16;
 use crate::error::{Error, Result};
 use crate::fs::read_file;
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Depth-estimation metrics of one image, or their mean over images (see [`mean`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
@@ -88,6 +90,26 @@ fn read_depth(path: &Path) -> Result<(u32, u32, Vec<f64>)> {
     Ok((w, h, v.into_iter().map(|x| x as f64 / 256.0).collect()))
 }
 
+/// The prediction for ground truth `name`: `pred/name` (a 16-bit PNG), else the `.npy` or
+/// `.npz` of the same stem (float metres); with none of them, the PNG's read error.
+/// A depth map: width, height, metres row by row.
+type DepthValues = (u32, u32, Vec<f64>);
+
+fn read_prediction(pred: &Path, name: &str) -> Result<(PathBuf, DepthValues)> {
+    let png = pred.join(name);
+    if !png.exists() {
+        for ext in ["npy", "npz"] {
+            let array = png.with_extension(ext);
+            if array.is_file() {
+                let depth = crate::tools::depth_array::read_depth_array(&array)?;
+                return Ok((array, depth));
+            }
+        }
+    }
+    let depth = read_depth(&png)?;
+    Ok((png, depth))
+}
+
 /// The outcome of [`evaluate`] (the JSON of `eval-depth --json`, `failed` aside).
 #[derive(Debug, Serialize)]
 pub struct Evaluation {
@@ -126,8 +148,7 @@ pub fn evaluate(pred: &Path, gt: &Path, min: f64, max: f64) -> Result<Evaluation
     for name in names {
         let run = || -> Result<DepthMetrics> {
             let (gw, gh, g) = read_depth(&gt.join(&name))?;
-            let pred_path = pred.join(&name);
-            let (pw, ph, p) = read_depth(&pred_path)?;
+            let (pred_path, (pw, ph, p)) = read_prediction(pred, &name)?;
             if (pw, ph) != (gw, gh) {
                 return Err(Error::file(
                     &pred_path,

@@ -431,6 +431,23 @@ impl Report {
             .map(|(p, n)| format!("{p} {n}"))
             .collect();
         let _ = writeln!(s, "projections: {}", projections.join(", "));
+        // A loader that projects with P2 lands far from the written boxes (about 100 px on
+        // the real frames in equirect): say so where a user looks first.
+        let not_p2: Vec<String> = self
+            .projections
+            .iter()
+            .filter(|(p, _)| !matches!(p.as_str(), "kitti" | "perspective"))
+            .map(|(p, n)| format!("{p} {n}"))
+            .collect();
+        if !not_p2.is_empty() {
+            let _ = writeln!(
+                s,
+                "P2: not the camera of these images ({}): it is a pinhole kept for LiDAR \
+                 field-of-view filters; project with the projection:, K2: and C2: lines \
+                 (docs/formats.md), or take u, v, distance from `panoconv labels-to-pixels`",
+                not_p2.join(", ")
+            );
+        }
         let by_class: Vec<String> = self
             .small_objects
             .classes

@@ -1,6 +1,7 @@
 //! The commands around a conversion: preview, inspect, verify, depth evaluation, predictions
 //! back to KITTI, and the synthetic samples (KITTI and KITTI-360).
 
+pub mod depth_array;
 pub mod eval_depth;
 pub mod inspect;
 pub mod predictions;

@@ -10,7 +10,9 @@
 //!
 //! A run that did not finish is not a dataset to train on, however well its files match: an
 //! interrupted run (`"complete": false`) and a killed one (a journal, no manifest yet) are
-//! reported as incomplete, with how many frames of how many it holds.
+//! reported as incomplete, with how many frames of how many it holds. Nor is a run whose
+//! manifest records failed frames: it did not convert what it was asked, and the report lists
+//! them ([`Report::failed`]) unless the caller allows them.
 
 use crate::error::{Error, Result};
 use crate::run::manifest::MANIFEST;
@@ -55,7 +57,28 @@ struct ParametersView {
 struct FrameView {
     #[serde(default)]
     outputs: Vec<(String, String)>,
+    #[serde(default)]
+    split: String,
+    #[serde(default)]
+    id: String,
+    /// `"failed"` for a frame the run could not convert (absent in `derived` entries).
+    #[serde(default)]
+    status: Option<String>,
+    #[serde(default)]
+    error: Option<String>,
 }
+
+/// A frame the run that wrote the folder recorded as failed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FailedFrame {
+    /// `split/id`, or the id alone for an item without a split (a folder image).
+    pub frame: String,
+    /// The error the run recorded.
+    pub error: String,
+}
+
+/// How many failed frames the `failed:` line names before it only counts.
+const FAILED_NAMED: usize = 3;
 
 /// One disagreement between the manifest and the files.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -177,13 +200,48 @@ pub struct Report {
     pub problems: Vec<Problem>,
     /// Set when the run that wrote the folder did not finish.
     pub incomplete: Option<Incomplete>,
+    /// The frames the manifest records as failed, in its order.
+    pub failed: Vec<FailedFrame>,
 }
 
 impl Report {
     /// Whether the folder is a finished dataset that agrees with its manifest: no problem of
     /// any kind.
     pub fn is_ok(&self) -> bool {
-        self.problems.is_empty() && self.incomplete.is_none()
+        self.is_ok_allowing_failed(false)
+    }
+
+    /// [`Report::is_ok`], with failed frames accepted when `allow_failed` (a run that was
+    /// expected to leave some frames out).
+    pub fn is_ok_allowing_failed(&self, allow_failed: bool) -> bool {
+        self.problems.is_empty()
+            && self.incomplete.is_none()
+            && (allow_failed || self.failed.is_empty())
+    }
+
+    /// `failed: N frames failed in the run that wrote the folder (first: ...)`, or `None`
+    /// when none did.
+    pub fn failed_line(&self) -> Option<String> {
+        let n = self.failed.len();
+        if n == 0 {
+            return None;
+        }
+        let named: Vec<String> = self
+            .failed
+            .iter()
+            .take(FAILED_NAMED)
+            .map(|f| format!("{}: {}", f.frame, f.error))
+            .collect();
+        let more = if n > FAILED_NAMED {
+            format!("; and {} more", n - FAILED_NAMED)
+        } else {
+            String::new()
+        };
+        let frames = if n == 1 { "frame" } else { "frames" };
+        Some(format!(
+            "failed: {n} {frames} failed in the run that wrote the folder ({}{more}); see the manifest's \"failed\" records, or pass --allow-failed if that is intended",
+            named.join("; ")
+        ))
     }
 
     fn count(&self, pred: impl Fn(&Problem) -> bool) -> usize {
@@ -334,6 +392,19 @@ pub fn verify(root: &Path) -> Result<Report> {
             killed,
         });
     }
+    report.failed = manifest
+        .frames
+        .iter()
+        .filter(|f| f.status.as_deref() == Some("failed"))
+        .map(|f| FailedFrame {
+            frame: if f.split.is_empty() {
+                f.id.clone()
+            } else {
+                format!("{}/{}", f.split, f.id)
+            },
+            error: f.error.clone().unwrap_or_default(),
+        })
+        .collect();
     let mut listed: BTreeMap<String, String> = BTreeMap::new();
     let listed_files = manifest
         .frames

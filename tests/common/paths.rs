@@ -18,7 +18,7 @@ pub fn repo() -> &'static Path {
 pub fn real_kitti() -> PathBuf {
     let dir = std::env::var_os("PANOCONV_KITTI")
         .filter(|v| !v.is_empty())
-        .map_or_else(|| PathBuf::from("../shared/kitti"), PathBuf::from);
+        .map_or_else(|| shared().join("kitti"), PathBuf::from);
     require_dir(
         repo().join(dir),
         "the real KITTI frames",
@@ -30,7 +30,7 @@ pub fn real_kitti() -> PathBuf {
 #[track_caller]
 pub fn real_panos() -> PathBuf {
     require_dir(
-        repo().join("../shared/pano"),
+        repo().join(shared()).join("pano"),
         "the real panoramas",
         "put the project's shared/ folder beside the repository",
     )
@@ -52,8 +52,19 @@ pub fn ort_lib() -> PathBuf {
     lib
 }
 
+/// The shared data beside the repository: `$PANOCONV_SHARED`, else `../shared`.
+fn shared() -> PathBuf {
+    std::env::var_os("PANOCONV_SHARED")
+        .filter(|v| !v.is_empty())
+        .map_or_else(|| PathBuf::from("../shared"), PathBuf::from)
+}
+
 #[track_caller]
 fn require_dir(dir: PathBuf, what: &str, fix: &str) -> PathBuf {
-    assert!(dir.is_dir(), "{what} are not at {}: {fix}", dir.display());
+    assert!(
+        dir.is_dir(),
+        "{what} are not at {}: {fix} (a test that reads them is listed in tests/needs_shared.txt, so that scripts/test.sh skips it without them)",
+        dir.display()
+    );
     dir
 }

@@ -6,6 +6,8 @@
 use crate::camera::CameraModel;
 use crate::kitti::{FrameLabels, Label, LabelItem};
 use crate::reproject::source_box::{region_in_image, source_box_in_image, BoxInImage};
+use crate::kitti::rig_output::dont_care_line;
+use crate::reproject::visibility::Visibility;
 use crate::source::Frame;
 use nalgebra::Vector3;
 
@@ -27,29 +29,37 @@ fn place(
 }
 
 /// The label file of `output`: the line of each label that has an image there, in the
-/// file's order.
+/// file's order; an object that fails `visibility` is written as a DontCare region.
 pub(super) fn label_text(
     labels: &FrameLabels,
     frame: &Frame,
     centre: &Vector3<f64>,
     output: &dyn CameraModel,
+    visibility: &Visibility,
 ) -> String {
     let mut text = String::new();
     for (label, &item) in labels.file.labels.iter().zip(&labels.items) {
         if let Some(placed) = place(frame, item, centre, output) {
-            text.push_str(&label.moved_line(placed.bounds, placed.truncation));
+            let object = matches!(item, LabelItem::Object(_));
+            if object && !visibility.sees(&placed) {
+                text.push_str(&dont_care_line(placed.bounds));
+            } else {
+                text.push_str(&label.moved_line(placed.bounds, placed.truncation));
+            }
             text.push('\n');
         }
     }
     text
 }
 
-/// How many objects (ignore regions aside) have an image in `output`.
+/// How many objects (ignore regions aside) have an image in `output` that `visibility`
+/// accepts (a region counts wherever it has an image).
 pub(super) fn objects_in(
     labels: &FrameLabels,
     frame: &Frame,
     centre: &Vector3<f64>,
     output: &dyn CameraModel,
+    visibility: &Visibility,
 ) -> u32 {
     labels
         .items
@@ -58,7 +68,10 @@ pub(super) fn objects_in(
             LabelItem::Object(_) => true,
             LabelItem::Region(i) => !frame.regions[*i].is_ignore(),
         })
-        .filter(|&&item| place(frame, item, centre, output).is_some())
+        .filter(|&&item| match place(frame, item, centre, output) {
+            Some(placed) => !matches!(item, LabelItem::Object(_)) || visibility.sees(&placed),
+            None => false,
+        })
         .count() as u32
 }
 

@@ -21,6 +21,7 @@ use crate::error::Result;
 use crate::geometry::augment::Augment;
 use crate::geometry::{FisheyeTarget, Target, TargetRecord};
 use crate::kitti::{raw, Cam, Dataset};
+use crate::reproject::visibility::Visibility;
 use crate::run::journal::Shard;
 use crate::run::{OutputMode, Summary};
 use crate::style::{StyleInfo, StyleModel};
@@ -59,6 +60,8 @@ pub struct KittiJob {
     pub depth: Option<DepthJob>,
     /// This process converts one shard of the frames.
     pub shard: Option<Shard>,
+    /// Which placed objects are written as objects (the others as DontCare regions).
+    pub visibility: Visibility,
 }
 
 /// The input of a KITTI conversion.
@@ -112,6 +115,8 @@ struct Parameters<'a> {
     cameras: &'a [Cam],
     depth: Option<&'a DepthJob>,
     shard: Option<Shard>,
+    #[serde(skip_serializing_if = "Visibility::is_default")]
+    visibility: Visibility,
     raw: bool,
     style: Option<StyleRecord<'a>>,
 }
@@ -134,6 +139,7 @@ impl<'a> Parameters<'a> {
             cameras: &job.cameras,
             depth: job.depth.as_ref(),
             shard: job.shard,
+            visibility: job.visibility,
             raw,
             style: style.map(|m| StyleRecord {
                 model: m.info(),

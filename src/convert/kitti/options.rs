@@ -9,6 +9,7 @@ use crate::convert::run_options::RunOptions;
 use crate::error::{Error, Result};
 use crate::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Scale, Target};
 use crate::kitti::Cam;
+use crate::reproject::visibility::Visibility;
 use std::path::PathBuf;
 
 /// A KITTI conversion's options as given, before their rules are checked.
@@ -42,6 +43,8 @@ pub struct KittiOptions {
     pub frames: Option<Vec<String>>,
     /// `--cameras`, in any order, repeats allowed.
     pub cameras: Vec<Cam>,
+    /// `--min-visible`: which placed objects are written as objects.
+    pub visibility: Visibility,
 }
 
 impl KittiOptions {
@@ -86,6 +89,7 @@ impl KittiOptions {
             cameras,
             depth: run.depth,
             shard: run.shard,
+            visibility: self.visibility,
         })
     }
 
@@ -169,6 +173,7 @@ mod tests {
             mask: false,
             frames: None,
             cameras: vec![Cam::C3, Cam::C2, Cam::C3],
+            visibility: Visibility::default(),
         }
     }
 

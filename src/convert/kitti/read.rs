@@ -34,10 +34,9 @@ pub(super) fn prepare(ctx: &Context, split: &Split, id: &str) -> Result<Prepared
     let frame = &kitti.frame;
     let centre = frame.rig[0].centre();
     let objects = |camera: &dyn CameraModel| -> u32 {
-        kitti
-            .labels
-            .as_ref()
-            .map_or(0, |l| objects_in(l, frame, &centre, camera))
+        kitti.labels.as_ref().map_or(0, |l| {
+            objects_in(l, frame, &centre, camera, &ctx.job.visibility)
+        })
     };
     let mut views: Vec<Vec<OutputView>> = Vec::with_capacity(frame.rig.len());
     let mut attempts: Vec<u32> = Vec::new();

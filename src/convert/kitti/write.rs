@@ -166,7 +166,7 @@ impl ViewFiles for KittiViewFiles<'_, '_> {
             }
             let output = mapping.output.as_ref();
             if let Some(labels) = &kitti.labels {
-                let text = label_text(labels, frame, &centre, output);
+                let text = label_text(labels, frame, &centre, output, &self.ctx.job.visibility);
                 if let Some(path) = self.out(OutputKind::Label, view_id) {
                     sink.file(path, text.into_bytes());
                 }

@@ -115,6 +115,13 @@ pub struct ObjectCounts {
     pub unseen: usize,
     /// Dropped: outside the output image.
     pub outside: usize,
+    /// Written as DontCare regions: too little of them visible (`--min-visible`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub barely_visible: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl ObjectCounts {
@@ -131,6 +138,7 @@ impl ObjectCounts {
                 Some(DropReason::Distance) => c.distance += 1,
                 Some(DropReason::Unseen) => c.unseen += 1,
                 Some(DropReason::Outside) => c.outside += 1,
+                Some(DropReason::BarelyVisible) => c.barely_visible += 1,
             }
         }
         c
@@ -144,6 +152,7 @@ impl ObjectCounts {
         self.distance += o.distance;
         self.unseen += o.unseen;
         self.outside += o.outside;
+        self.barely_visible += o.barely_visible;
     }
 }
 
@@ -159,6 +168,8 @@ pub struct RigSummary {
     pub style_runs: Option<(usize, usize)>,
     /// With `--augment`: the views holding fewer objects than asked (at least one).
     pub thin_views: Option<usize>,
+    /// What the dataset lists that is not a frame ([`crate::source::RigItems::not_frames`]).
+    pub not_frames: Vec<String>,
 }
 
 /// The run's part of the manifest's `parameters` (the source gives its own): what decides
@@ -276,6 +287,7 @@ mod tests {
             objects: ObjectRule {
                 max_distance: 80.0,
                 min_points: 0,
+                visibility: crate::reproject::visibility::Visibility::default(),
             },
             ego_masks: Vec::new(),
         }

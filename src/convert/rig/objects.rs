@@ -5,13 +5,16 @@
 //! 2. at least `min_points` LiDAR points of the frame lie inside its box, not counting the
 //!    lowest [`GROUND_MARGIN`] of it, where the ground under the object is hit (else `unseen`;
 //!    `min_points` 0 turns this off);
-//! 3. its exact 2D box meets the output image (else `outside`).
+//! 3. its exact 2D box meets the output image (else `outside`);
+//! 4. the visibility rule accepts that box ([`Visibility`]; else `barely_visible`, and the
+//!    box is written as a DontCare region).
 //!
 //! Each object's outcome (its class, instance, distance, LiDAR points, tilt, and the reason it
 //! was dropped) is kept for the frame's `objects/` record.
 
 use crate::camera::CameraModel;
 use crate::reproject::source_box::source_box_in_image;
+use crate::reproject::visibility::Visibility;
 use crate::source::{LidarPoint, SourceBox};
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -30,6 +33,9 @@ pub struct ObjectRule {
     pub max_distance: f64,
     /// LiDAR points an object's box must hold (0: no LiDAR check).
     pub min_points: usize,
+    /// Which boxes in the image are objects (the others are written as DontCare regions).
+    #[serde(skip_serializing_if = "Visibility::is_default")]
+    pub visibility: Visibility,
 }
 
 /// Why an object is not in the labels.
@@ -44,6 +50,8 @@ pub enum DropReason {
     Unseen,
     /// Its 2D box misses the output image.
     Outside,
+    /// Its 2D box fails the visibility rule: written as a DontCare region.
+    BarelyVisible,
 }
 
 /// What became of one object of a frame.
@@ -124,6 +132,8 @@ pub struct PlacedObject {
     pub truncation: f64,
     /// The dataset's occlusion level (0 when it has none).
     pub occlusion: u8,
+    /// It failed the visibility rule: written as a DontCare region, not as an object.
+    pub dont_care: bool,
 }
 
 /// The written objects of `objects` placed in `camera` (centre `centre`, the reference
@@ -155,12 +165,19 @@ pub(super) fn label_objects(
             }
             if outcome.dropped.is_none() {
                 match source_box_in_image(b, centre, camera) {
-                    Some(image) => placed.push(PlacedObject {
-                        index,
-                        bounds: image.bounds,
-                        truncation: image.truncation,
-                        occlusion: b.occlusion.unwrap_or(0),
-                    }),
+                    Some(image) => {
+                        let dont_care = !rule.visibility.sees(&image);
+                        if dont_care {
+                            outcome.dropped = Some(DropReason::BarelyVisible);
+                        }
+                        placed.push(PlacedObject {
+                            index,
+                            bounds: image.bounds,
+                            truncation: image.truncation,
+                            occlusion: b.occlusion.unwrap_or(0),
+                            dont_care,
+                        })
+                    }
                     None => outcome.dropped = Some(DropReason::Outside),
                 }
             }
@@ -187,12 +204,11 @@ mod tests {
         placed
             .iter()
             .map(|p| {
-                crate::kitti::rig_output::label_line(
-                    &objects[p.index],
-                    p.bounds,
-                    p.truncation,
-                    p.occlusion,
-                )
+                if p.dont_care {
+                    return crate::kitti::rig_output::dont_care_line(p.bounds);
+                }
+                let b = &objects[p.index];
+                crate::kitti::rig_output::label_line(b, p.bounds, p.truncation, p.occlusion)
             })
             .collect()
     }
@@ -220,6 +236,7 @@ mod tests {
         let rule = ObjectRule {
             max_distance: 80.0,
             min_points: 2,
+            visibility: Visibility::OFF,
         };
         let objects = [seen, far, unseen, behind.clone()];
         let (placed, outcomes) =
@@ -271,6 +288,7 @@ mod tests {
         let rule = ObjectRule {
             max_distance: 80.0,
             min_points: 0,
+            visibility: Visibility::OFF,
         };
         let objects = [upright, tilted.clone()];
         let (placed, outcomes) =

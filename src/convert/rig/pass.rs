@@ -146,7 +146,7 @@ pub fn count_objects(
 ) -> Result<usize> {
     let chosen = chosen_cameras(frame, options)?;
     let centre = output_centre(&chosen, options);
-    let (labels, _) = label_objects(
+    let (_, outcomes) = label_objects(
         &frame.objects,
         &frame.lidar,
         &centre,
@@ -154,7 +154,8 @@ pub fn count_objects(
         &options.objects,
         keep_class,
     );
-    Ok(labels.len())
+    // Objects only: the DontCare regions of barely visible ones do not count.
+    Ok(outcomes.iter().filter(|o| o.dropped.is_none()).count())
 }
 
 /// The chosen cameras of the frame's rig, in the options' order.

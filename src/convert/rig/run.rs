@@ -24,7 +24,7 @@ use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
 use crate::run::manifest::FrameRecord;
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, Progress};
-use crate::source::{Frame, RigItem, RigSource, SourceBox};
+use crate::source::{Frame, RigItem, RigItems, RigSource, SourceBox};
 use crate::style::{StyleError, StyleModel};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -307,13 +307,13 @@ impl ViewFiles for RigViewFiles<'_> {
         );
         let mut labels = String::new();
         for p in &out.labels {
-            let b = &frame.objects[p.index];
-            labels.push_str(&crate::kitti::rig_output::label_line(
-                b,
-                p.bounds,
-                p.truncation,
-                p.occlusion,
-            ));
+            let line = if p.dont_care {
+                crate::kitti::rig_output::dont_care_line(p.bounds)
+            } else {
+                let b = &frame.objects[p.index];
+                crate::kitti::rig_output::label_line(b, p.bounds, p.truncation, p.occlusion)
+            };
+            labels.push_str(&line);
             labels.push('\n');
         }
         let view_counts = ObjectCounts::of(&out.objects);
@@ -389,7 +389,10 @@ pub fn run_rig(
     let started = std::time::Instant::now();
     job.validate()?;
     check_cameras(job, source)?;
-    let mut items = source.items()?;
+    let RigItems {
+        mut items,
+        not_frames,
+    } = source.items(&job.cameras)?;
     check_output_camera(job, source, &items)?;
     let style = crate::convert::run_options::load_style(job.run.style.as_ref())?;
     let folder = OutputFolder::claim(Claim {
@@ -462,5 +465,6 @@ pub fn run_rig(
             .run
             .augment
             .map(|_| ctx.thin_views.load(Ordering::Relaxed)),
+        not_frames,
     })
 }
