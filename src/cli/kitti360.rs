@@ -9,7 +9,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule};
+use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule, StitchMode};
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
 use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
@@ -19,6 +19,15 @@ use panoconv::style::{Device, StyleOptions};
 use panoconv::warp::StitchOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// `--stitch-mode`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum StitchModeArg {
+    /// Each pixel at its own distance (the frame's scan and 3D boxes).
+    Depth,
+    /// Every pixel at --stitch-distance.
+    Fixed,
+}
 
 pub(super) const KITTI360_EXAMPLES: &str = "Examples:
   panoconv kitti360 --to equirect --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync --output /tmp/k360_equi --pano-width 1024
@@ -78,10 +87,18 @@ pub(super) struct Kitti360Args {
     /// synthetic sequences: 0.2 / scale).
     #[arg(long, value_name = "DEG", default_value_t = 0.09, requires = "depth")]
     lidar_azimuth_step: f64,
-    /// Proxy distance of the stitch, metres: objects at this distance are stitched without
-    /// parallax.
+    /// Proxy distance of the stitch, metres: with `--stitch-mode fixed`, or for a frame
+    /// without a scan, every pixel is stitched at this distance.
     #[arg(long, value_name = "M", default_value_t = 10.0)]
     stitch_distance: f64,
+    /// `depth`: each pixel stitched at its own distance, from the frame's scan and 3D boxes;
+    /// `fixed`: every pixel at --stitch-distance.
+    #[arg(long, value_enum, value_name = "MODE", default_value = "depth")]
+    stitch_mode: StitchModeArg,
+    /// Also write the distance each pixel was stitched at (stitch_depth_2/: metres from C2
+    /// along the ray, 16-bit round(d·256), 0 for the sky).
+    #[arg(long)]
+    stitch_depth: bool,
     /// Blend width, degrees: a camera's weight rises from 0 at its field of view's edge to 1
     /// this far inside.
     #[arg(long, value_name = "DEG", default_value_t = 5.0)]
@@ -333,6 +350,11 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             blend_width: args.blend_width.to_radians(),
             even_exposure: !args.no_exposure_gains,
         },
+        stitch_mode: match args.stitch_mode {
+            StitchModeArg::Depth => StitchMode::Depth,
+            StitchModeArg::Fixed => StitchMode::Fixed,
+        },
+        stitch_depth: args.stitch_depth,
         centre: args.centre,
         objects: ObjectRule {
             max_distance: args.max_distance,

@@ -2,13 +2,14 @@
 //! records of it, and how its frames are named.
 //!
 //! The output is a KITTI object dataset: `OUT/training/{image_2, label_2, calib, source_2,
-//! objects, depth_2}/ID.*` (docs/kitti360.md). A frame's id is its KITTI-360 frame number in
+//! objects, depth_2, stitch_depth_2}/ID.*` (docs/kitti360.md). A frame's id is its KITTI-360 frame number in
 //! six digits (frame 250 → `000250`) when one sequence is converted; with several, the
 //! sequence's drive number (`_drive_NNNN_` in its name) in four digits comes first
 //! (drive 3, frame 250 → `0003000250`), so that ids never collide. The manifest's parameters
 //! record the rule (`frame_ids`).
 
 use super::objects::{DropReason, ObjectOutcome, ObjectRule};
+use super::scene_depth::StitchMode;
 use crate::codec::png::PngCompression;
 use crate::geometry::augment::Augment;
 use crate::geometry::Target;
@@ -67,6 +68,11 @@ pub struct Kitti360Job {
     pub frames: Option<Vec<u32>>,
     /// Proxy distance, blend width, exposure gains.
     pub stitch: StitchOptions,
+    /// Depth-guided stitching (the default: each pixel at its distance from the frame's scan
+    /// and boxes) or every pixel at the proxy distance.
+    pub stitch_mode: StitchMode,
+    /// Write the distance each pixel was stitched at (`stitch_depth_2/`).
+    pub stitch_depth: bool,
     /// The output centre C2 in the level frame (default: the mean of the cameras' centres).
     pub centre: Option<Vector3<f64>>,
     /// Which objects are written.
@@ -100,10 +106,23 @@ pub struct Kitti360Job {
 }
 
 impl Kitti360Job {
-    /// Whether LiDAR scans are read (depth maps, or the objects' LiDAR check).
+    /// Whether LiDAR scans are read (depth maps, the objects' LiDAR check, or a depth-guided
+    /// stitch).
     pub fn needs_lidar(&self) -> bool {
-        self.depth.is_some() || self.objects.min_points > 0
+        self.depth.is_some() || self.objects.min_points > 0 || self.depth_guided()
     }
+
+    /// Whether the frames are stitched by depth (two cameras or more, depth mode).
+    pub fn depth_guided(&self) -> bool {
+        self.stitch_mode == StitchMode::Depth && self.cameras.len() > 1
+    }
+}
+
+/// Whether a box read from KITTI-360 has a KITTI type (the boxes written by default).
+pub(super) fn has_kitti_type(b: &crate::source::SourceBox) -> bool {
+    crate::kitti360::classes::CLASSES
+        .iter()
+        .any(|(_, name, kitti)| *name == b.dataset_class && kitti.is_some())
 }
 
 /// The drive number of a KITTI-360 sequence name (`2013_05_28_drive_0003_sync` → 3).
@@ -199,6 +218,11 @@ pub(super) struct Parameters<'a> {
     pub(super) cameras: Vec<&'static str>,
     pub(super) frames: Option<&'a [u32]>,
     pub(super) stitch_distance: f64,
+    /// `depth` (each pixel at its distance; frames without a scan at the proxy distance) or
+    /// `fixed`.
+    pub(super) stitch_mode: StitchMode,
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub(super) stitch_depth: bool,
     pub(super) blend_width_deg: f64,
     pub(super) exposure_gains: bool,
     pub(super) centre: Option<[f64; 3]>,
@@ -251,6 +275,12 @@ impl<'a> Parameters<'a> {
                 .collect(),
             frames: job.frames.as_deref(),
             stitch_distance: job.stitch.distance,
+            stitch_mode: if job.depth_guided() {
+                StitchMode::Depth
+            } else {
+                StitchMode::Fixed
+            },
+            stitch_depth: job.stitch_depth,
             blend_width_deg: job.stitch.blend_width.to_degrees(),
             exposure_gains: job.stitch.even_exposure,
             centre: job.centre.map(|c| [c.x, c.y, c.z]),

@@ -6,7 +6,9 @@
 //! and written, atomically and hashed for the manifest); a failed frame leaves no file.
 
 use super::gray::encode_gray8;
-use super::kitti360::{Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT};
+use super::kitti360::{
+    Kitti360Classes, Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT,
+};
 use super::kitti360_setup::{
     check_output_camera, load_style, open_sequences, read_ego_masks, select, Item,
 };
@@ -30,8 +32,14 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// The per-frame output folders under `OUT/training/`.
-const FOLDERS: [&str; 6] = [
-    "image_2", "calib", "label_2", "source_2", "objects", "depth_2",
+const FOLDERS: [&str; 7] = [
+    "image_2",
+    "calib",
+    "label_2",
+    "source_2",
+    "objects",
+    "depth_2",
+    "stitch_depth_2",
 ];
 
 /// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
@@ -304,6 +312,7 @@ impl ViewFiles for RigViewFiles<'_> {
         struct ObjectsFile<'a> {
             sequence: &'a str,
             frame: u32,
+            stitch: super::scene_depth::StitchMode,
             gains: &'a [f64],
             counts: ObjectCounts,
             objects: &'a [super::objects::ObjectOutcome],
@@ -313,6 +322,7 @@ impl ViewFiles for RigViewFiles<'_> {
         let objects = serde_json::to_vec_pretty(&ObjectsFile {
             sequence: &self.sequence.name,
             frame: self.frame_number,
+            stitch: out.stitch_mode,
             gains: &out.gains,
             counts: view_counts,
             objects: &out.objects,
@@ -332,6 +342,15 @@ impl ViewFiles for RigViewFiles<'_> {
         sink.file(ctx.output_path("objects", &id, "json"), objects);
         if let Some(depth) = out.depth {
             sink.depth(ctx.output_path("depth_2", &id, "png"), depth);
+        }
+        if let Some(map) = out.distances {
+            let png = crate::codec::png::encode_gray16(
+                map.width,
+                map.height,
+                &map.to_u16(),
+                ctx.job.png_compression,
+            );
+            sink.file(ctx.output_path("stitch_depth_2", &id, "png"), png);
         }
         Ok(())
     }
@@ -406,7 +425,9 @@ pub fn run_kitti360(
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
     for name in FOLDERS {
-        if name == "depth_2" && job.depth.is_none() {
+        if (name == "depth_2" && job.depth.is_none())
+            || (name == "stitch_depth_2" && !(job.stitch_depth && job.depth_guided()))
+        {
             continue;
         }
         let dir = folder.root().join(SPLIT).join(name);
@@ -420,6 +441,12 @@ pub fn run_kitti360(
         options: RigOptions {
             cameras: job.cameras.clone(),
             stitch: job.stitch,
+            stitch_mode: job.stitch_mode,
+            stitch_depth: job.stitch_depth,
+            // the other classes' boxes were read as scenery for the depth-guided stitch
+            listed: (job.classes == Kitti360Classes::Kitti && job.depth_guided()).then_some(
+                super::kitti360::has_kitti_type as fn(&crate::source::SourceBox) -> bool,
+            ),
             centre: job.centre,
             objects: job.objects,
             depth: job.depth,

@@ -40,7 +40,8 @@ pub(super) fn open_sequences(job: &Kitti360Job) -> Result<Vec<(Sequence, Vec<Cam
     let options = Options {
         fisheye_fov_deg: job.fisheye_fov_deg,
         lidar: job.needs_lidar(),
-        all_classes: job.classes != super::Kitti360Classes::Kitti,
+        // every class's box is scenery for the depth-guided stitch
+        all_classes: job.classes != super::Kitti360Classes::Kitti || job.depth_guided(),
         // the reader's default (motion-compensated sweeps) until the command has an option
         ..Options::default()
     };
