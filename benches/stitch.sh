@@ -7,7 +7,10 @@
 # --frames N` on first use, minutes at scale 1; default /tmp/panoconv-stitch-bench). Each round
 # runs panoconv (--jobs J) then Python (J worker processes) over every frame of the sequence;
 # the figures are frames/s over all rounds, with the 1-minute load average before each run.
-# Checks that every Python panorama agrees with panoconv's (PSNR >= 40 dB), else exit 1.
+# panoconv runs twice a round: at the fixed proxy distance (`--stitch-mode fixed`, the model the
+# Python implements) and depth-guided (the default: each pixel at its distance from the scan and
+# boxes). Checks that every Python panorama agrees with panoconv's fixed one (PSNR >= 40 dB),
+# else exit 1.
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, as benches/run.sh does.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -51,16 +54,24 @@ trap 'rm -rf "$work"' EXIT
 load() { cut -d' ' -f1 /proc/loadavg; }
 now() { date +%s.%N; }
 rust_s=0
+depth_s=0
 py_s=0
 echo "frames $n a round, $rounds rounds, ${width}x$((width / 2)), 4 cameras, --jobs $jobs"
 for r in $(seq 1 "$rounds"); do
     l=$(load); t0=$(now)
     "$bin" kitti360 --to equirect --pano-width "$width" --input "$data" --sequence "$seq" \
-        --output "$work/rust" --overwrite --quiet --jobs "$jobs"
+        --output "$work/rust" --overwrite --quiet --jobs "$jobs" --stitch-mode fixed
     t1=$(now)
     dt=$(echo "$t1 - $t0" | bc -l)
     rust_s=$(echo "$rust_s + $dt" | bc -l)
-    printf 'round %d panoconv %6.2f s  %5.2f frames/s  load %s\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
+    printf 'round %d panoconv %6.2f s  %5.2f frames/s  load %s (fixed)\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
+    l=$(load); t0=$(now)
+    "$bin" kitti360 --to equirect --pano-width "$width" --input "$data" --sequence "$seq" \
+        --output "$work/depth" --overwrite --quiet --jobs "$jobs"
+    t1=$(now)
+    dt=$(echo "$t1 - $t0" | bc -l)
+    depth_s=$(echo "$depth_s + $dt" | bc -l)
+    printf 'round %d panoconv %6.2f s  %5.2f frames/s  load %s (depth-guided)\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
     l=$(load); t0=$(now)
     "$venv/bin/python" "$here/opencv_stitch.py" --input "$data" --sequence "$seq" \
         --output "$work/python" --width "$width" --jobs "$jobs" 2>/dev/null
@@ -71,9 +82,12 @@ for r in $(seq 1 "$rounds"); do
 done
 total=$((n * rounds))
 rf=$(echo "$total / $rust_s" | bc -l)
+df=$(echo "$total / $depth_s" | bc -l)
 pf=$(echo "$total / $py_s" | bc -l)
 printf 'panoconv %.3f frames/s, python+opencv %.3f frames/s, ratio %.2f (load now %s)\n' \
     "$rf" "$pf" "$(echo "$rf / $pf" | bc -l)" "$(load)"
+printf 'panoconv depth-guided %.3f frames/s: %.2fx the fixed distance time, %.2f times python+opencv\n' \
+    "$df" "$(echo "$rf / $df" | bc -l)" "$(echo "$df / $pf" | bc -l)"
 worst=999
 for f in "$work"/python/image_2/*.png; do
     name=$(basename "$f")

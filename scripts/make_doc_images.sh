@@ -53,6 +53,13 @@ pv "$work/f" --frame 000000 --no-depth --output "$out/fisheye_target.png"
 p kitti360 --to equirect --pano-width 1024 --depth --lidar-azimuth-step 0.8 --frames 250 \
     --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync --output "$work/k360"
 pv "$work/k360" --frame 000250 --output "$out/kitti360_equirect.png"
+# docs/kitti360.md: a seam with a near car, stitched at the fixed 10 m and by depth
+for mode in fixed depth; do
+    p kitti360 --to equirect --pano-width 1024 --crop 250,220,256,128 --stitch-mode "$mode" \
+        --frames 250 --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync \
+        --output "$work/k360_$mode"
+    pv "$work/k360_$mode" --frame 000250 --output "$out/kitti360_seam_$mode.png"
+done
 # docs/depth.md
 if [[ $previews_only -eq 0 ]]; then
     # the test profile: the build scripts/test.sh already made, and the one it checks the figures with

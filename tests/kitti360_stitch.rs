@@ -4,6 +4,7 @@
 //! the resampling limit (`tests/kitti360_stitch/direct_render.rs`); and with an ego mask
 //! (`tests/kitti360_stitch/ego_mask.rs`). This file holds the rig and the panorama they share.
 
+mod depth_guided;
 mod direct_render;
 mod ego_mask;
 

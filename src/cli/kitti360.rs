@@ -11,7 +11,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSummary};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSummary, StitchMode};
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
@@ -24,6 +24,15 @@ use panoconv::run::OutputMode;
 use panoconv::warp::StitchOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// `--stitch-mode`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum StitchModeArg {
+    /// Each pixel at its own distance (the frame's scan and 3D boxes).
+    Depth,
+    /// Every pixel at --stitch-distance.
+    Fixed,
+}
 
 pub(super) const KITTI360_EXAMPLES: &str = "Examples:
   panoconv kitti360 --to equirect --input fixtures/kitti360 --sequence 2013_05_28_drive_0000_sync --output /tmp/k360_equi --pano-width 1024
@@ -83,10 +92,18 @@ pub(super) struct Kitti360Args {
     /// synthetic sequences: 0.2 / scale).
     #[arg(long, value_name = "DEG", default_value_t = 0.09, requires = "depth")]
     lidar_azimuth_step: f64,
-    /// Proxy distance of the stitch, metres: objects at this distance are stitched without
-    /// parallax.
+    /// Proxy distance of the stitch, metres: with `--stitch-mode fixed`, or for a frame
+    /// without a scan, every pixel is stitched at this distance.
     #[arg(long, value_name = "M", default_value_t = 10.0)]
     stitch_distance: f64,
+    /// `depth`: each pixel stitched at its own distance, from the frame's scan and 3D boxes;
+    /// `fixed`: every pixel at --stitch-distance.
+    #[arg(long, value_enum, value_name = "MODE", default_value = "depth")]
+    stitch_mode: StitchModeArg,
+    /// Also write the distance each pixel was stitched at (stitch_depth_2/: metres from C2
+    /// along the ray, 16-bit round(d·256), 0 for the sky).
+    #[arg(long)]
+    stitch_depth: bool,
     /// Blend width, degrees: a camera's weight rises from 0 at its field of view's edge to 1
     /// this far inside.
     #[arg(long, value_name = "DEG", default_value_t = 5.0)]
@@ -319,7 +336,7 @@ fn target(args: &Kitti360Args, cameras: usize) -> Result<Target> {
 
 /// What of the KITTI-360 root is read: `--sequence`, `--frames`, `--classes`,
 /// `--fisheye-fov`.
-fn selection(args: &Kitti360Args, lidar: bool) -> Result<Kitti360Selection> {
+fn selection(args: &Kitti360Args, lidar: bool, scenery: bool) -> Result<Kitti360Selection> {
     let frames = match &args.frames {
         Some(list) => {
             let mut out = Vec::new();
@@ -364,6 +381,7 @@ fn selection(args: &Kitti360Args, lidar: bool) -> Result<Kitti360Selection> {
         classes,
         fisheye_fov_deg,
         lidar,
+        scenery,
     })
 }
 
@@ -406,6 +424,11 @@ fn jobs(args: &Kitti360Args) -> Result<(RigJob, Kitti360Selection)> {
             blend_width: args.blend_width.to_radians(),
             even_exposure: !args.no_exposure_gains,
         },
+        stitch_mode: match args.stitch_mode {
+            StitchModeArg::Depth => StitchMode::Depth,
+            StitchModeArg::Fixed => StitchMode::Fixed,
+        },
+        stitch_depth: args.stitch_depth,
         centre: args.centre,
         objects: ObjectRule {
             max_distance: args.max_distance,
@@ -415,7 +438,7 @@ fn jobs(args: &Kitti360Args) -> Result<(RigJob, Kitti360Selection)> {
         ego_masks,
     };
     job.validate()?;
-    let selection = selection(args, job.needs_lidar())?;
+    let selection = selection(args, job.needs_lidar(), job.depth_guided())?;
     Ok((job, selection))
 }
 

@@ -54,8 +54,12 @@ pub struct Kitti360Selection {
     pub classes: Kitti360Classes,
     /// Field of view of image_02 and image_03, degrees.
     pub fisheye_fov_deg: [f64; 2],
-    /// Read each frame's Velodyne scan (depth maps, or the objects' LiDAR check).
+    /// Read each frame's Velodyne scan (depth maps, the objects' LiDAR check, or a
+    /// depth-guided stitch).
     pub lidar: bool,
+    /// Read the boxes of every class: those of classes not asked for are scenery for a
+    /// depth-guided stitch, neither labelled nor listed ([`RigSource::listed`]).
+    pub scenery: bool,
 }
 
 impl Kitti360Selection {
@@ -69,6 +73,7 @@ impl Kitti360Selection {
             classes: Kitti360Classes::Kitti,
             fisheye_fov_deg: [DEFAULT_FISHEYE_FOV_DEG; 2],
             lidar: true,
+            scenery: false,
         }
     }
 }
@@ -140,7 +145,7 @@ impl Kitti360Source {
         let options = Options {
             fisheye_fov_deg: selection.fisheye_fov_deg,
             lidar: selection.lidar,
-            all_classes: selection.classes != Kitti360Classes::Kitti,
+            all_classes: selection.classes != Kitti360Classes::Kitti || selection.scenery,
             // the reader's default (motion-compensated sweeps) until the command has an option
             ..Options::default()
         };
@@ -188,6 +193,13 @@ impl Kitti360Source {
 }
 
 /// What the rig pass needs of a sequence's four cameras.
+/// Whether a box read from KITTI-360 has a KITTI type (the boxes written by default).
+fn has_kitti_type(b: &SourceBox) -> bool {
+    super::classes::CLASSES
+        .iter()
+        .any(|(_, name, kitti)| *name == b.dataset_class && kitti.is_some())
+}
+
 fn camera_set(seq: &Sequence) -> Vec<SourceCamera> {
     let c = &seq.calibration;
     let pinhole = |k: usize| SourceCamera {
@@ -296,6 +308,11 @@ impl RigSource for Kitti360Source {
         let frame = u32::try_from(item.index)
             .map_err(|_| Error::Setup(format!("frame {}: not a frame number", item.index)))?;
         seq.frame(frame)
+    }
+
+    fn listed(&self) -> Option<fn(&SourceBox) -> bool> {
+        (self.selection.classes == Kitti360Classes::Kitti && self.selection.scenery)
+            .then_some(has_kitti_type as fn(&SourceBox) -> bool)
     }
 
     fn keeps(&self, b: &SourceBox) -> bool {

@@ -87,6 +87,13 @@ pub trait RigSource: Sync {
     /// per-frame files it read (`Frame::input_hashes`).
     fn read(&self, item: &RigItem) -> Result<Frame>;
 
+    /// Which of a frame's boxes are the dataset's objects (labelled or dropped, and listed in
+    /// `objects/ID.json`) when it also reads others as scenery for a depth-guided stitch; None:
+    /// every box is.
+    fn listed(&self) -> Option<fn(&SourceBox) -> bool> {
+        None
+    }
+
     /// Whether a box of this class is written (the dataset's class table and the selection's
     /// classes); the others are dropped for their class.
     fn keeps(&self, object: &SourceBox) -> bool;

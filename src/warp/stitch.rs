@@ -42,8 +42,11 @@
 
 mod apply;
 mod gains;
+mod guided;
 mod proxy;
 mod weights;
+
+pub use guided::StitchDepth;
 
 use super::mask::EgoMask;
 use super::table::RemapTable;
@@ -96,6 +99,8 @@ pub struct Stitch {
     /// Per camera, per output pixel (row-major): w_i.
     weights: Vec<Vec<f32>>,
     even_exposure: bool,
+    /// A depth-guided stitch's distance at each output pixel centre.
+    distances: Option<Vec<f64>>,
 }
 
 /// One frame's stitch.
@@ -118,13 +123,21 @@ impl Stitch {
         cameras: &[StitchCamera],
         options: StitchOptions,
     ) -> Stitch {
-        let (tables, weights) =
-            Self::tables_and_weights(output, centre, cameras, &[], options, true);
+        let built = Self::tables_and_weights(output, centre, cameras, &[], options, true, None);
+        Stitch::from_parts(output.size(), built, options)
+    }
+
+    fn from_parts(
+        size: ImageSize,
+        built: weights::TablesAndWeights,
+        options: StitchOptions,
+    ) -> Self {
         Stitch {
-            size: output.size(),
-            tables,
-            weights,
+            size,
+            tables: built.tables,
+            weights: built.weights,
             even_exposure: options.even_exposure,
+            distances: built.distances,
         }
     }
 
@@ -138,6 +151,14 @@ impl Stitch {
         masks: &[Option<&EgoMask>],
         options: StitchOptions,
     ) -> Result<Stitch> {
+        Self::check_masks(cameras, masks)?;
+        let built = Self::tables_and_weights(output, centre, cameras, masks, options, true, None);
+        Ok(Stitch::from_parts(output.size(), built, options))
+    }
+
+    /// A mask list that fits the cameras: no more masks than cameras, each of its camera's
+    /// image size.
+    fn check_masks(cameras: &[StitchCamera], masks: &[Option<&EgoMask>]) -> Result<()> {
         if masks.len() > cameras.len() {
             return Err(Error::Setup(format!(
                 "{} ego masks for {} cameras",
@@ -156,14 +177,7 @@ impl Stitch {
                 }
             }
         }
-        let (tables, weights) =
-            Self::tables_and_weights(output, centre, cameras, masks, options, true);
-        Ok(Stitch {
-            size: output.size(),
-            tables,
-            weights,
-            even_exposure: options.even_exposure,
-        })
+        Ok(())
     }
 
     /// The output image's size.

@@ -5,6 +5,7 @@
 //! objects, depth_2}/ID.*` (docs/kitti360.md), ID the source's item id.
 
 use super::objects::{DropReason, ObjectOutcome, ObjectRule};
+use super::scene_depth::StitchMode;
 use crate::codec::png::PngCompression;
 use crate::convert::run_options::{RunOptions, StyleOrder};
 use crate::error::{Error, Result};
@@ -36,6 +37,11 @@ pub struct RigJob {
     pub cameras: Vec<usize>,
     /// Proxy distance, blend width, exposure gains.
     pub stitch: StitchOptions,
+    /// Depth-guided stitching (the default: each pixel at its distance from the frame's scan
+    /// and boxes) or every pixel at the proxy distance.
+    pub stitch_mode: StitchMode,
+    /// Write the distance each pixel was stitched at (`stitch_depth_2/`).
+    pub stitch_depth: bool,
     /// The output centre C2 in the reference frame (default: the mean of the cameras'
     /// centres).
     pub centre: Option<Vector3<f64>>,
@@ -50,7 +56,12 @@ impl RigJob {
     /// Whether LiDAR scans are read (depth maps, or the objects' LiDAR check): what a
     /// source is opened with.
     pub fn needs_lidar(&self) -> bool {
-        self.run.depth.is_some() || self.objects.min_points > 0
+        self.run.depth.is_some() || self.objects.min_points > 0 || self.depth_guided()
+    }
+
+    /// Whether the frames are stitched by depth (two cameras or more, depth mode).
+    pub fn depth_guided(&self) -> bool {
+        self.stitch_mode == StitchMode::Depth && self.cameras.len() > 1
     }
 
     /// The rules of a rig job that need no file, checked before the output folder is locked
@@ -181,6 +192,11 @@ pub(super) struct Parameters<'a> {
     pub(super) fisheye: Option<&'a crate::geometry::FisheyeTarget>,
     pub(super) cameras: Vec<&'a str>,
     pub(super) stitch_distance: f64,
+    /// `depth` (each pixel at its distance; frames without a scan at the proxy distance) or
+    /// `fixed`.
+    pub(super) stitch_mode: StitchMode,
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub(super) stitch_depth: bool,
     pub(super) blend_width_deg: f64,
     pub(super) exposure_gains: bool,
     pub(super) centre: Option<[f64; 3]>,
@@ -226,6 +242,12 @@ pub(super) fn parameters(
             .filter_map(|&k| cameras.get(k).map(|c| c.name.as_str()))
             .collect(),
         stitch_distance: job.stitch.distance,
+        stitch_mode: if job.depth_guided() {
+            StitchMode::Depth
+        } else {
+            StitchMode::Fixed
+        },
+        stitch_depth: job.stitch_depth,
         blend_width_deg: job.stitch.blend_width.to_degrees(),
         exposure_gains: job.stitch.even_exposure,
         centre: job.centre.map(|c| [c.x, c.y, c.z]),
@@ -283,6 +305,8 @@ mod tests {
                 blend_width: 0.1,
                 even_exposure: true,
             },
+            stitch_mode: StitchMode::Depth,
+            stitch_depth: false,
             centre: None,
             objects: ObjectRule {
                 max_distance: 80.0,

@@ -8,6 +8,7 @@
 //! - `pass.rs`: the output camera, the stitch, the source map and the depth map of a frame;
 //! - `objects.rs`: which objects a frame's labels hold (range, LiDAR support, image) and why
 //!   the others were dropped;
+//! - `scene_depth.rs`: a frame's scene (boxes, ground, scan) as a depth-guided stitch sees it;
 //! - `gray.rs`: the 8-bit PNG of the source map;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
 //!   written, its frames, files and manifest, for any dataset.
@@ -17,6 +18,7 @@ mod job;
 mod objects;
 mod pass;
 mod run;
+mod scene_depth;
 mod setup;
 
 pub use job::{ObjectCounts, RigJob, RigSummary, SPLIT};
@@ -27,3 +29,4 @@ pub use pass::{
     convert_frame, convert_into, count_objects, read_images, CameraInfo, RigFrame, RigOptions,
 };
 pub use run::run_rig;
+pub use scene_depth::{frame_stitch, Ground, SceneDepth, StitchMode, FAR};

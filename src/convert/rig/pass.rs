@@ -10,6 +10,7 @@
 //! tables are built per frame.
 
 use super::objects::{label_objects, ObjectOutcome, ObjectRule, PlacedObject};
+use super::scene_depth::{distance_map, frame_stitch, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -22,7 +23,7 @@ use crate::style::StyleModel;
 
 /// Which objects' classes are written (the others are dropped for their class).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
-use crate::warp::{EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, NO_SOURCE};
+use crate::warp::{EgoMask, ImageMapping, StitchCamera, StitchOptions, NO_SOURCE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::sync::Arc;
 
@@ -35,6 +36,13 @@ pub struct RigOptions {
     pub cameras: Vec<usize>,
     /// Proxy distance, blend width, exposure gains.
     pub stitch: StitchOptions,
+    /// Depth-guided (when the frame has a scan) or at the proxy distance.
+    pub stitch_mode: StitchMode,
+    /// Keep the depth-guided stitch's distance map ([`RigFrame::distances`]).
+    pub stitch_depth: bool,
+    /// The frame's boxes that are labelled (and listed with their outcome); the others are
+    /// only scenery for the depth-guided stitch. None: every box.
+    pub listed: Option<fn(&SourceBox) -> bool>,
     /// The output centre C2 in the reference frame (default: the mean of the cameras').
     pub centre: Option<Vector3<f64>>,
     /// Which objects are written.
@@ -65,6 +73,10 @@ pub struct RigFrame {
     pub objects: Vec<ObjectOutcome>,
     /// The depth map (none where no camera gives the pixel) and its manifest record.
     pub depth: Option<(DepthMap, LidarRecord)>,
+    /// How the frame was stitched.
+    pub stitch_mode: StitchMode,
+    /// With `stitch_depth`, the distance each pixel was stitched at (depth-guided only).
+    pub distances: Option<DepthMap>,
 }
 
 /// A rig camera's model with bearings in the reference frame's axes.
@@ -147,7 +159,7 @@ pub fn count_objects(
     let chosen = chosen_cameras(frame, options)?;
     let centre = output_centre(&chosen, options);
     let (_, outcomes) = label_objects(
-        &frame.objects,
+        &listed_objects(frame, options),
         &frame.lidar,
         &centre,
         camera,
@@ -156,6 +168,19 @@ pub fn count_objects(
     );
     // Objects only: the DontCare regions of barely visible ones do not count.
     Ok(outcomes.iter().filter(|o| o.dropped.is_none()).count())
+}
+
+/// The frame's boxes that are labelled ([`RigOptions::listed`]).
+fn listed_objects(frame: &Frame, options: &RigOptions) -> Vec<SourceBox> {
+    match options.listed {
+        None => frame.objects.clone(),
+        Some(listed) => frame
+            .objects
+            .iter()
+            .filter(|b| listed(b))
+            .cloned()
+            .collect(),
+    }
 }
 
 /// The chosen cameras of the frame's rig, in the options' order.
@@ -261,7 +286,20 @@ pub fn convert_into(
         .iter()
         .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
         .collect();
-    let stitch = Stitch::build_masked(camera.as_ref(), &centre, &cameras, &masks, options.stitch)?;
+    let eyes = chosen.iter().map(|c| c.centre()).collect();
+    let (stitch, stitch_mode) = frame_stitch(
+        frame,
+        camera.as_ref(),
+        &centre,
+        (&cameras, eyes),
+        &masks,
+        options.stitch,
+        options.stitch_mode,
+    )?;
+    let distances = options
+        .stitch_depth
+        .then(|| distance_map(&stitch))
+        .flatten();
     let refs: Vec<&RgbImage> = images.iter().collect();
     let stitched = ImageMapping::Stitch(&stitch).apply(&refs);
     let source: Vec<u8> = stitched
@@ -273,7 +311,7 @@ pub fn convert_into(
         })
         .collect();
     let (labels, objects) = label_objects(
-        &frame.objects,
+        &listed_objects(frame, options),
         &frame.lidar,
         &centre,
         camera.as_ref(),
@@ -303,5 +341,7 @@ pub fn convert_into(
         labels,
         objects,
         depth,
+        stitch_mode,
+        distances,
     })
 }

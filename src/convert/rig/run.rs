@@ -9,6 +9,7 @@
 use super::gray::encode_gray8;
 use super::job::{parameters, ObjectCounts, RigJob, RigSummary, SPLIT};
 use super::objects::ObjectOutcome;
+use super::scene_depth::StitchMode;
 use super::pass::{
     convert_into, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
     RigOptions,
@@ -31,8 +32,14 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// The per-frame output folders under `OUT/training/`.
-const FOLDERS: [&str; 6] = [
-    "image_2", "calib", "label_2", "source_2", "objects", "depth_2",
+const FOLDERS: [&str; 7] = [
+    "image_2",
+    "calib",
+    "label_2",
+    "source_2",
+    "objects",
+    "depth_2",
+    "stitch_depth_2",
 ];
 
 /// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
@@ -284,6 +291,7 @@ struct RigViewFiles<'a> {
 struct ObjectsFile<'a> {
     #[serde(flatten)]
     frame: serde_json::Map<String, serde_json::Value>,
+    stitch: StitchMode,
     gains: &'a [f64],
     counts: ObjectCounts,
     objects: &'a [ObjectOutcome],
@@ -320,6 +328,7 @@ impl ViewFiles for RigViewFiles<'_> {
         self.counts.add(&view_counts);
         let objects = serde_json::to_vec_pretty(&ObjectsFile {
             frame: ctx.source.record(self.item),
+            stitch: out.stitch_mode,
             gains: &out.gains,
             counts: view_counts,
             objects: &out.objects,
@@ -339,6 +348,15 @@ impl ViewFiles for RigViewFiles<'_> {
         sink.file(ctx.output_path("objects", &id, "json"), objects);
         if let Some(depth) = out.depth {
             sink.depth(ctx.output_path("depth_2", &id, "png"), depth);
+        }
+        if let Some(map) = out.distances {
+            let png = crate::codec::png::encode_gray16(
+                map.width,
+                map.height,
+                &map.to_u16(),
+                ctx.job.run.png_compression,
+            );
+            sink.file(ctx.output_path("stitch_depth_2", &id, "png"), png);
         }
         Ok(())
     }
@@ -416,7 +434,9 @@ pub fn run_rig(
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
     for name in FOLDERS {
-        if name == "depth_2" && job.run.depth.is_none() {
+        if (name == "depth_2" && job.run.depth.is_none())
+            || (name == "stitch_depth_2" && !(job.stitch_depth && job.depth_guided()))
+        {
             continue;
         }
         let dir = folder.root().join(SPLIT).join(name);
@@ -435,6 +455,9 @@ pub fn run_rig(
         options: RigOptions {
             cameras: job.cameras.clone(),
             stitch: job.stitch,
+            stitch_mode: job.stitch_mode,
+            stitch_depth: job.stitch_depth,
+            listed: source.listed(),
             centre: job.centre,
             objects: job.objects,
             depth: job.depth(),

@@ -1,7 +1,7 @@
 //! The proxy: an output bearing's point at the proxy distance, seen by one source camera
 //! (steps 1 and 2 of the stitch's model), as a camera model a remap table is built through.
 
-use super::StitchCamera;
+use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 
@@ -12,6 +12,9 @@ pub(super) struct Proxy<'a> {
     pub(super) camera: StitchCamera<'a>,
     centre: Vector3<f64>,
     distance: f64,
+    /// The scene's distance per output bearing, in place of the proxy distance (a
+    /// depth-guided stitch).
+    depth: Option<&'a dyn StitchDepth>,
     /// cos of the field of view's half-angle less and plus [`FOV_SLACK`]: a point whose
     /// cosine from the axis lies outside that interval is decided without `atan2` (None:
     /// no lens bound, or one too near 0 or π for the shortcut).
@@ -23,7 +26,19 @@ pub(super) struct Proxy<'a> {
 pub(super) const FOV_SLACK: f64 = 1e-6;
 
 impl<'a> Proxy<'a> {
+    #[cfg(test)]
     pub(super) fn new(camera: StitchCamera<'a>, centre: Vector3<f64>, distance: f64) -> Self {
+        Self::guided(camera, centre, distance, None)
+    }
+
+    /// [`Proxy::new`] whose point lies at the scene's distance along each bearing (`depth`),
+    /// or at the proxy distance without one.
+    pub(super) fn guided(
+        camera: StitchCamera<'a>,
+        centre: Vector3<f64>,
+        distance: f64,
+        depth: Option<&'a dyn StitchDepth>,
+    ) -> Self {
         let fov_cos = camera
             .max_theta
             .filter(|t| *t > 1e-3 && *t < 3.0)
@@ -32,13 +47,34 @@ impl<'a> Proxy<'a> {
             camera,
             centre,
             distance,
+            depth,
             fov_cos,
         }
     }
 
+    /// The camera point of output bearing `d`: its proxy point, or with a depth the scene's
+    /// point along it.
     pub(super) fn local(&self, d: &Vector3<f64>) -> Vector3<f64> {
-        let x = self.centre + d.normalize() * self.distance;
-        self.camera.rotation * x + self.camera.translation
+        match self.depth {
+            None => {
+                let x = self.centre + d.normalize() * self.distance;
+                self.camera.rotation * x + self.camera.translation
+            }
+            Some(depth) => {
+                let n = d.normalize();
+                self.local_at(&n, depth.distance(&n))
+            }
+        }
+    }
+
+    /// The reference point at `distance` along unit bearing `n` from the output centre.
+    pub(super) fn point_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
+        self.centre + n * distance
+    }
+
+    /// The camera point of the reference point at `distance` along unit bearing `n`.
+    pub(super) fn local_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
+        self.camera.rotation * self.point_at(n, distance) + self.camera.translation
     }
 
     /// Whether camera point `q` lies within the lens's field of view: θ(q) ≤ θ_max, θ the

@@ -2,7 +2,7 @@
 //! camera's angular margin, smoothed over the blend width, zero where its ego mask is touched.
 
 use super::proxy::{Proxy, FOV_SLACK};
-use super::{Stitch, StitchCamera, StitchOptions};
+use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::CameraModel;
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Gated, Reach};
@@ -112,16 +112,23 @@ impl Stitch {
         masks: &[Option<&EgoMask>],
         options: StitchOptions,
         bounded: bool,
-    ) -> (Vec<RemapTable>, Vec<Vec<f32>>) {
+        depth: Option<&dyn StitchDepth>,
+    ) -> TablesAndWeights {
         let size = output.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let proxies: Vec<Proxy> = cameras
             .iter()
-            .map(|camera| Proxy::new(*camera, *centre, options.distance))
+            .map(|camera| Proxy::guided(*camera, *centre, options.distance, depth))
             .collect();
+        // with a depth, the bound works on the bearings' directions (see `guided_cone`)
         let locals: Vec<_> = proxies
             .iter()
-            .map(|proxy| move |d: &Vector3<f64>| proxy.local(d))
+            .map(|proxy| {
+                move |d: &Vector3<f64>| match depth {
+                    None => proxy.local(d),
+                    Some(_) => proxy.camera.rotation * d,
+                }
+            })
             .collect();
         let cones: Vec<Cone> = proxies
             .iter()
@@ -130,6 +137,15 @@ impl Stitch {
                 let camera = &proxy.camera;
                 let inverse = camera.rotation.try_inverse();
                 let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
+                if let Some(depth) = depth {
+                    return super::guided::guided_cone(
+                        camera,
+                        local,
+                        baseline,
+                        depth.nearest(),
+                        bounded,
+                    );
+                }
                 Cone {
                     local,
                     // unbounded: every pixel mapped (the tests' reference)
@@ -144,6 +160,7 @@ impl Stitch {
             })
             .collect();
         let reach = Reach::new(output, &cones);
+        let distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
         for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
@@ -181,7 +198,19 @@ impl Stitch {
                         let Some(d) = reach.bearing(u, v) else {
                             continue;
                         };
-                        let q = proxy.local(&d);
+                        let q = match (&distances, depth) {
+                            (Some(t), Some(depth)) => {
+                                let n = d.normalize();
+                                let t = t[v * w + u];
+                                // step 2 of the guided model: a camera that does not see
+                                // the scene's point gives nothing there
+                                if !depth.sees(i, &proxy.point_at(&n, t)) {
+                                    continue;
+                                }
+                                proxy.local_at(&n, t)
+                            }
+                            _ => proxy.local(&d),
+                        };
                         if let Some(m) = margin_capped(camera, &q, deep) {
                             *out = smoothstep(m / options.blend_width) as f32;
                         }
@@ -194,8 +223,20 @@ impl Stitch {
                 });
             weights.push(wi);
         }
-        (tables, weights)
+        TablesAndWeights {
+            tables,
+            weights,
+            distances,
+        }
     }
+}
+
+/// What a stitch's build gives: per camera its table and weights, and with a depth the
+/// distance of every output pixel's centre (0 without a bearing).
+pub(super) struct TablesAndWeights {
+    pub(super) tables: Vec<RemapTable>,
+    pub(super) weights: Vec<Vec<f32>>,
+    pub(super) distances: Option<Vec<f64>>,
 }
 
 #[cfg(test)]
@@ -246,8 +287,11 @@ mod tests {
         );
         let centre = Vector3::new(0.05, -0.02, 0.1);
         let options = StitchOptions::default();
-        let build =
-            |bounded| Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded);
+        let build = |bounded| {
+            let t =
+                Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded, None);
+            (t.tables, t.weights)
+        };
         let (bounded, every) = (build(true), build(false));
         for i in 0..cameras.len() {
             assert!(bounded.0[i] == every.0[i], "camera {i}: tables differ");

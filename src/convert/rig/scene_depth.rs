@@ -1,0 +1,518 @@
+//! A frame's scene as a depth-guided stitch sees it ([`crate::warp::StitchDepth`]): the surfaces
+//! a driving scene is made of, each from the frame's own data, in the reference frame.
+//!
+//! - the 3D boxes (every class, not only those written): exact ray–box intersections, so a
+//!   labelled object's pixels are stitched at its faces' distance;
+//! - the ground: a plane fitted to the scan's lowest dense layer (least squares, twice, over
+//!   the points within [`GROUND_BAND`] then [`GROUND_FIT`] of it), which also holds near the
+//!   vehicle where the scan has no returns;
+//! - the rest of the scan (points neither on the ground nor in a box, [`BOX_MARGIN`]): each
+//!   point splatted as a disc of [`SPLAT_DEG`] into a spherical depth buffer per viewpoint
+//!   (the output centre and each camera), the nearest point per cell; the disc closes the
+//!   gaps between a sweep's beams and azimuth steps;
+//! - beyond all of them (the sky), [`FAR`].
+//!
+//! The distance along a ray is the nearest of these; a camera sees a point when none of them
+//! lies nearer on its own ray (within [`SURFACE_TOLERANCE`] for the exact surfaces, the
+//! LiDAR's [`SCAN_TOLERANCE`] for the splats).
+//!
+//! Time: the scan is the reader's, motion-compensated to the frame's time (docs/kitti360.md,
+//! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
+//! need no further move; a reader with per-camera times would move them here.
+
+use crate::camera::CameraModel;
+use crate::error::Result;
+use crate::reproject::depth::DepthMap;
+use crate::source::{Frame, SourceBox};
+use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+use std::f64::consts::{PI, TAU};
+
+/// The distance of a ray that meets nothing (the sky), metres: 1 m of baseline is 0.1 mrad of
+/// parallax there.
+pub const FAR: f64 = 10_000.0;
+/// Points within this of a box (metres, in every axis) belong to the box.
+pub const BOX_MARGIN: f64 = 0.1;
+/// Half-height of the band around the first fit whose cells the ground's second fit uses, m.
+pub const GROUND_BAND: f64 = 0.15;
+/// Points within this of the first fit make the second, and are the ground, metres.
+pub const GROUND_FIT: f64 = 0.05;
+/// Angular radius of a residual point's splat, degrees.
+pub const SPLAT_DEG: f64 = 0.5;
+/// Cells per degree of the residual points' spherical depth buffers.
+const CELLS_PER_DEG: f64 = 4.0;
+/// An exact surface (box, ground) nearer than the point by more than this hides it, metres.
+pub const SURFACE_TOLERANCE: f64 = 1e-3;
+/// A residual splat nearer than the point by more than this (metres, plus 5 % of the
+/// distance) hides it.
+pub const SCAN_TOLERANCE: f64 = 0.1;
+/// The ground is fitted to points this far from the output centre, horizontally, metres.
+const GROUND_RANGE: (f64, f64) = (2.0, 40.0);
+/// Fewest points a ground fit takes.
+const GROUND_MIN_POINTS: usize = 50;
+
+/// How a rig frame's cameras are stitched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StitchMode {
+    /// Each output pixel at its own distance ([`SceneDepth`]) when the frame has a scan, else
+    /// at the proxy distance.
+    #[default]
+    Depth,
+    /// Every output pixel at the proxy distance.
+    Fixed,
+}
+
+/// A frame's stitch of `cameras` (the chosen rig cameras, centres `eyes`) into `output` from
+/// `centre`: depth-guided by the frame's scene when `mode` asks for it, the frame has a scan
+/// and there are two cameras or more, else through the proxy sphere. Returns the stitch and
+/// the mode it was built with.
+pub fn frame_stitch(
+    frame: &Frame,
+    output: &dyn CameraModel,
+    centre: &Vector3<f64>,
+    (cameras, eyes): (&[StitchCamera], Vec<Vector3<f64>>),
+    masks: &[Option<&EgoMask>],
+    options: StitchOptions,
+    mode: StitchMode,
+) -> Result<(Stitch, StitchMode)> {
+    if mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras.len() < 2 {
+        let stitch = Stitch::build_masked(output, centre, cameras, masks, options)?;
+        return Ok((stitch, StitchMode::Fixed));
+    }
+    let scene = SceneDepth::new(frame, *centre, eyes);
+    let stitch = Stitch::build_guided(output, centre, cameras, masks, options, &scene)?;
+    Ok((stitch, StitchMode::Depth))
+}
+
+/// A depth-guided stitch's distances as a depth map (`--stitch-depth`): metres from C2 along
+/// each pixel's ray, 0 where the output has no bearing and for the sky ([`FAR`]).
+pub fn distance_map(stitch: &Stitch) -> Option<DepthMap> {
+    let size = stitch.size();
+    let values = stitch
+        .distances()?
+        .iter()
+        .map(|&d| if d >= FAR { 0.0 } else { d })
+        .collect();
+    Some(DepthMap {
+        width: size.width,
+        height: size.height,
+        values,
+    })
+}
+
+/// A box as rays meet it.
+#[derive(Debug, Clone)]
+struct Solid {
+    centre: Vector3<f64>,
+    /// box_from_reference.
+    box_from_reference: Matrix3<f64>,
+    half: Vector3<f64>,
+    /// Radius of the bounding sphere.
+    radius: f64,
+}
+
+impl Solid {
+    fn new(b: &SourceBox) -> Self {
+        let half = b.size / 2.0;
+        Self {
+            centre: b.centre,
+            box_from_reference: b.rotation.transpose(),
+            half,
+            radius: half.norm(),
+        }
+    }
+
+    /// Distance along unit ray (o, d) to where it enters the box (None: it misses, or starts
+    /// inside).
+    fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
+        let oc = self.centre - o;
+        let along = oc.dot(d);
+        if along < -self.radius || oc.norm_squared() - along * along > self.radius * self.radius {
+            return None;
+        }
+        let lo = self.box_from_reference * (o - self.centre);
+        let ld = self.box_from_reference * d;
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if ld[a].abs() < 1e-15 {
+                if lo[a].abs() > self.half[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (ta, tb) = (
+                (-self.half[a] - lo[a]) / ld[a],
+                (self.half[a] - lo[a]) / ld[a],
+            );
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        (t0 <= t1 && t0 > 0.0).then_some(t0)
+    }
+
+    fn contains(&self, p: &Vector3<f64>, margin: f64) -> bool {
+        if (p - self.centre).norm() > self.radius + margin {
+            return false;
+        }
+        let l = self.box_from_reference * (p - self.centre);
+        (0..3).all(|a| l[a].abs() <= self.half[a] + margin)
+    }
+}
+
+/// The ground plane: normal · x = offset, normal a unit vector.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ground {
+    /// Unit normal (towards the side the output centre is on).
+    pub normal: Vector3<f64>,
+    /// normal · x on the plane.
+    pub offset: f64,
+}
+
+impl Ground {
+    /// The signed height of `p` above the plane (the normal's side positive).
+    pub fn height(&self, p: &Vector3<f64>) -> f64 {
+        self.normal.dot(p) - self.offset
+    }
+
+    fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
+        let along = self.normal.dot(d);
+        let h = self.height(o);
+        // a ray from above the plane meets it going down, one from below going up
+        let t = -h / along;
+        (t > 0.0 && t.is_finite()).then_some(t)
+    }
+
+    /// The plane fitted to `points` (y down, the reference frame's): the lowest point of each
+    /// 1 m cell (horizontally, within [`GROUND_RANGE`] of `centre`: a wall's or a car's
+    /// lowest return is the ground beside or under it, or near it), fitted as y = a·x + b·z + c
+    /// by least squares, refitted over the cells within [`GROUND_BAND`] of the fit, then over
+    /// every point within [`GROUND_FIT`] of that. None with too few points.
+    pub fn fit(points: &[Vector3<f64>], centre: &Vector3<f64>) -> Option<Ground> {
+        let mut lowest = std::collections::BTreeMap::<(i64, i64), Vector3<f64>>::new();
+        for p in points {
+            let r = (p.x - centre.x).hypot(p.z - centre.z);
+            if !(r >= GROUND_RANGE.0 && r <= GROUND_RANGE.1 && p.y > centre.y) {
+                continue;
+            }
+            let cell = (p.x.floor() as i64, p.z.floor() as i64);
+            let low = lowest.entry(cell).or_insert(*p);
+            if p.y > low.y {
+                *low = *p;
+            }
+        }
+        let cells: Vec<&Vector3<f64>> = lowest.values().collect();
+        let mut fit = Self::least_squares(cells.iter().copied())?;
+        for band in [4.0 * GROUND_BAND, GROUND_BAND] {
+            fit = Self::least_squares(
+                cells
+                    .iter()
+                    .copied()
+                    .filter(|p| fit.height(p).abs() <= band),
+            )?;
+        }
+        let on = points.iter().filter(|p| {
+            fit.height(p).abs() <= GROUND_FIT
+                && (p.x - centre.x).hypot(p.z - centre.z) <= GROUND_RANGE.1
+        });
+        Some(Self::least_squares(on)?.facing(centre))
+    }
+
+    /// y = a·x + b·z + c over `points`, as a plane.
+    fn least_squares<'p>(points: impl Iterator<Item = &'p Vector3<f64>>) -> Option<Ground> {
+        let mut ata = Matrix3::<f64>::zeros();
+        let mut aty = Vector3::<f64>::zeros();
+        let mut n = 0usize;
+        for p in points {
+            let row = Vector3::new(p.x, p.z, 1.0);
+            ata += row * row.transpose();
+            aty += row * p.y;
+            n += 1;
+        }
+        if n < GROUND_MIN_POINTS {
+            return None;
+        }
+        let [a, b, c] = ata.lu().solve(&aty)?.into();
+        // a·x − y + b·z + c = 0
+        let normal = Vector3::new(a, -1.0, b);
+        let norm = normal.norm();
+        Some(Ground {
+            normal: normal / norm,
+            offset: -c / norm,
+        })
+    }
+
+    /// The same plane with its normal towards `p`.
+    fn facing(self, p: &Vector3<f64>) -> Ground {
+        if self.height(p) >= 0.0 {
+            self
+        } else {
+            Ground {
+                normal: -self.normal,
+                offset: -self.offset,
+            }
+        }
+    }
+}
+
+/// A spherical depth buffer around a viewpoint: per cell of longitude × latitude (about the
+/// reference frame's y axis), the range of the nearest splat.
+#[derive(Debug, Clone)]
+struct Splats {
+    width: usize,
+    height: usize,
+    range: Vec<f32>,
+}
+
+impl Splats {
+    fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
+        let lon = d.x.atan2(d.z);
+        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
+        (
+            (lon + PI) / TAU * self.width as f64,
+            (lat + PI / 2.0) / PI * self.height as f64,
+        )
+    }
+
+    fn new(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
+        let width = (360.0 * CELLS_PER_DEG) as usize;
+        let height = (180.0 * CELLS_PER_DEG) as usize;
+        let mut splats = Splats {
+            width,
+            height,
+            range: vec![f32::INFINITY; width * height],
+        };
+        let radius = SPLAT_DEG * CELLS_PER_DEG;
+        for p in points {
+            let v = p - origin;
+            let range = v.norm();
+            if !(range > 0.0) {
+                continue;
+            }
+            let (x, y) = splats.cell_of(&v);
+            let lat = (y / height as f64) * PI - PI / 2.0;
+            // a disc on the sphere: wider in cells of longitude away from the equator
+            let stretch = 1.0 / lat.cos().max(0.05);
+            let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
+            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
+            for cy in y0..y1.min(height) {
+                let dy = (cy as f64 + 0.5 - y) / ry;
+                let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
+                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
+                for cx in x0..x1 {
+                    let cx = cx.rem_euclid(width as i64) as usize;
+                    let cell = &mut splats.range[cy * width + cx];
+                    *cell = cell.min(range as f32);
+                }
+            }
+        }
+        splats
+    }
+
+    /// The nearest splat's range along unit `d` from the origin (infinite: none).
+    fn range(&self, d: &Vector3<f64>) -> f64 {
+        let (x, y) = self.cell_of(d);
+        let cx = (x.floor() as i64).rem_euclid(self.width as i64) as usize;
+        let cy = (y.floor().max(0.0) as usize).min(self.height - 1);
+        self.range[cy * self.width + cx] as f64
+    }
+}
+
+/// A frame's scene for a depth-guided stitch from `centre`, its cameras at `eyes`.
+#[derive(Debug, Clone)]
+pub struct SceneDepth {
+    centre: Vector3<f64>,
+    eyes: Vec<Vector3<f64>>,
+    solids: Vec<Solid>,
+    ground: Option<Ground>,
+    /// The residual points' buffers seen from the centre, then from each eye (empty: none).
+    splats: Vec<Splats>,
+    nearest: f64,
+}
+
+impl SceneDepth {
+    /// The scene of `frame` (its boxes and scan) seen from `centre`, for cameras at `eyes`.
+    pub fn new(frame: &Frame, centre: Vector3<f64>, eyes: Vec<Vector3<f64>>) -> Self {
+        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
+        let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
+        let ground = Ground::fit(&points, &centre);
+        let residual: Vec<Vector3<f64>> = points
+            .into_iter()
+            .filter(|p| ground.is_none_or(|g| g.height(p) > GROUND_FIT * 2.0))
+            .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
+            .collect();
+        let splats = if residual.is_empty() {
+            Vec::new()
+        } else {
+            std::iter::once(&centre)
+                .chain(&eyes)
+                .map(|o| Splats::new(*o, &residual))
+                .collect()
+        };
+        let mut nearest = FAR;
+        for s in &solids {
+            nearest = nearest.min((s.centre - centre).norm() - s.radius);
+        }
+        if let Some(g) = ground {
+            nearest = nearest.min(g.height(&centre).abs());
+        }
+        for p in &residual {
+            nearest = nearest.min((p - centre).norm());
+        }
+        SceneDepth {
+            centre,
+            eyes,
+            solids,
+            ground,
+            splats,
+            nearest: nearest.max(0.0),
+        }
+    }
+
+    /// The fitted ground plane, if the scan held one.
+    pub fn ground(&self) -> Option<Ground> {
+        self.ground
+    }
+
+    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none.
+    fn exact_hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
+        let mut t = self
+            .ground
+            .and_then(|g| g.hit(o, d))
+            .unwrap_or(f64::INFINITY);
+        for s in &self.solids {
+            if let Some(h) = s.hit(o, d) {
+                t = t.min(h);
+            }
+        }
+        t
+    }
+}
+
+impl StitchDepth for SceneDepth {
+    fn distance(&self, d: &Vector3<f64>) -> f64 {
+        let t = self.exact_hit(&self.centre, d);
+        match self.splats.first() {
+            Some(s) => t.min(s.range(d)),
+            None => t,
+        }
+        .min(FAR)
+    }
+
+    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
+        let Some(eye) = self.eyes.get(camera) else {
+            return false;
+        };
+        let v = x - eye;
+        let length = v.norm();
+        if !(length > 0.0) {
+            return false;
+        }
+        let d = v / length;
+        if self.exact_hit(eye, &d) < length - SURFACE_TOLERANCE - 1e-9 * length {
+            return false;
+        }
+        self.splats
+            .get(camera + 1)
+            .is_none_or(|s| s.range(&d) >= length * 0.95 - SCAN_TOLERANCE)
+    }
+
+    fn nearest(&self) -> f64 {
+        self.nearest
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::LidarPoint;
+
+    fn frame(points: Vec<Vector3<f64>>, objects: Vec<SourceBox>) -> Frame {
+        Frame {
+            id: "0".into(),
+            provenance: Vec::new(),
+            rig: Vec::new(),
+            objects,
+            regions: Vec::new(),
+            lidar: points
+                .into_iter()
+                .map(|position| LidarPoint {
+                    position,
+                    intensity: 0.0,
+                })
+                .collect(),
+            world_from_reference: None,
+        }
+    }
+
+    /// A scan of the ground 1.6 m below the origin, slightly sloped, on a grid.
+    fn ground_points() -> Vec<Vector3<f64>> {
+        let mut p = Vec::new();
+        for i in -30..=30 {
+            for j in -30..=30 {
+                let (x, z) = (i as f64, j as f64);
+                p.push(Vector3::new(x, 1.6 + 0.01 * x - 0.02 * z, z));
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn the_ground_boxes_and_residual_points_give_exact_distances_and_occlusion() {
+        let car = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(0.0, 1.6, 10.0), 0.3);
+        // a wall of points 20 m to the left, 4 m high, not in any box
+        let mut points = ground_points();
+        for i in 0..200 {
+            for j in 0..40 {
+                points.push(Vector3::new(
+                    -20.0,
+                    1.5 - j as f64 * 0.1,
+                    i as f64 * 0.1 - 10.0,
+                ));
+            }
+        }
+        let f = frame(points, vec![car.clone()]);
+        let eyes = vec![Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, 16.0)];
+        let scene = SceneDepth::new(&f, Vector3::zeros(), eyes);
+        let g = scene.ground().expect("a ground plane");
+        // the plane y = 1.6 + 0.01x − 0.02z, to a millimetre (the wall's lowest returns lie
+        // within the fit's band, up to 5 cm off the plane)
+        for (x, z) in [(0.0, 0.0), (5.0, -7.0)] {
+            let y = 1.6 + 0.01 * x - 0.02 * z;
+            let h = g.height(&Vector3::new(x, y, z));
+            assert!(h.abs() < 1e-3, "{h}");
+        }
+        assert!(g.height(&Vector3::zeros()) > 1.5);
+        // straight down: the ground at 1.6 m
+        let down = scene.distance(&Vector3::new(0.0, 1.0, 0.0));
+        assert!((down - 1.6).abs() < 1e-3, "{down}");
+        // straight ahead: the car's rear face (the ray meets its rotated box)
+        let towards = Vector3::new(0.0, 0.085, 1.0).normalize();
+        let ahead = scene.distance(&towards);
+        let exact = Solid::new(&car).hit(&Vector3::zeros(), &towards).unwrap();
+        assert!(ahead == exact && ahead > car.centre.z - 2.5 && ahead < car.centre.z - 0.9);
+        // up: nothing but the sky
+        assert_eq!(scene.distance(&Vector3::new(0.0, -1.0, 0.0)), FAR);
+        // left, level: the wall's splats, within the splat's angular error
+        let left = scene.distance(&Vector3::new(-1.0, 0.0, 0.0));
+        assert!((left - 20.0).abs() < 0.1, "{left}");
+        // the car's far side: the centre does not see it, the eye ahead of the car does
+        let beside = car.centre + car.rotation * Vector3::new(0.0, 0.0, 0.9);
+        assert!(!scene.sees(0, &beside) && scene.sees(1, &beside));
+        // a point on the ground behind the car is hidden from the first eye
+        assert!(!scene.sees(0, &Vector3::new(0.0, 1.6 - 0.02 * 20.0, 20.0)));
+        // the wall hides what lies behind it, and not itself
+        assert!(!scene.sees(0, &Vector3::new(-30.0, 0.0, 0.0)));
+        assert!(scene.sees(0, &Vector3::new(-20.0, 0.0, 0.0)));
+        assert!(scene.nearest() > 1.0 && scene.nearest() < 1.6);
+    }
+
+    #[test]
+    fn without_a_scan_there_is_no_ground_and_the_sky_everywhere() {
+        let scene = SceneDepth::new(&frame(Vec::new(), Vec::new()), Vector3::zeros(), vec![]);
+        assert!(scene.ground().is_none());
+        assert_eq!(scene.distance(&Vector3::new(0.0, 1.0, 0.0)), FAR);
+        assert!(!scene.sees(0, &Vector3::z()));
+    }
+}

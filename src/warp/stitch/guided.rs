@@ -1,0 +1,96 @@
+//! The depth-guided stitch: each output pixel's ray meets the scene at its own distance, given
+//! by a [`StitchDepth`] (from a frame's LiDAR and 3D boxes), instead of the proxy sphere; a
+//! camera that does not see that point (something nearer on its own ray) gives the pixel
+//! nothing, and a pixel no camera sees stays empty.
+
+use super::{Stitch, StitchCamera, StitchOptions};
+use crate::camera::{CameraModel, ImageSize};
+use crate::error::Result;
+use crate::warp::mask::EgoMask;
+use crate::warp::reach::{border_cone, Cone, Reach};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// The scene a depth-guided stitch is built through, in the reference frame.
+pub trait StitchDepth: Sync + std::fmt::Debug {
+    /// Distance from the output centre along unit bearing `d` to the scene, metres: finite and
+    /// positive (a far distance where nothing is known to be nearer).
+    fn distance(&self, d: &Vector3<f64>) -> f64;
+
+    /// Whether camera `camera` (its index in the stitch's list) sees reference point `x`:
+    /// nothing of the scene lies nearer on the segment from its centre to `x`.
+    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool;
+
+    /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
+    fn nearest(&self) -> f64;
+}
+
+/// Camera `camera`'s reach bound for a depth-guided stitch. The scene point X = C + t·d lies at
+/// t ≥ t_min = `nearest`, so seen from the camera (b = `baseline` from C) it is at most
+/// asin(b / t_min) from the bearing d: the bound is the plain bound of the bearings' directions
+/// (`local` rotates them into the camera's axes, parallax 1) with the cone widened by that
+/// angle. None (every pixel mapped) where t_min ≤ b.
+pub(super) fn guided_cone<'a>(
+    camera: &StitchCamera,
+    local: &'a (dyn Fn(&Vector3<f64>) -> Vector3<f64> + Sync),
+    baseline: Option<f64>,
+    nearest: f64,
+    bounded: bool,
+) -> Cone<'a> {
+    let widen = baseline
+        .filter(|b| b.is_finite() && *b < nearest)
+        .map(|b| (b / nearest).asin());
+    let half_angle = camera
+        .max_theta
+        .or_else(|| border_cone(camera.model))
+        .zip(widen)
+        .map(|(c, w)| c + w)
+        .filter(|_| bounded);
+    Cone {
+        local,
+        half_angle,
+        parallax: Some(1.0),
+    }
+}
+
+/// The scene's distance at every output pixel centre (0 where the output has no bearing).
+pub(super) fn pixel_distances(reach: &Reach, size: ImageSize, depth: &dyn StitchDepth) -> Vec<f64> {
+    let w = size.width as usize;
+    let mut out = vec![0.0; w * size.height as usize];
+    out.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(v, row)| {
+            for (u, t) in row.iter_mut().enumerate() {
+                if let Some(d) = reach.bearing(u, v) {
+                    *t = depth.distance(&d.normalize());
+                }
+            }
+        });
+    out
+}
+
+impl Stitch {
+    /// The depth-guided stitch of `cameras` into `output` (bearings in the reference frame's
+    /// axes, from `centre`): as [`Stitch::build_masked`], with each output ray meeting the
+    /// scene at `depth`'s distance instead of the proxy distance (`options.distance` is not
+    /// used), and camera i's weight 0 wherever `depth` says it does not see that point.
+    pub fn build_guided(
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        cameras: &[StitchCamera],
+        masks: &[Option<&EgoMask>],
+        options: StitchOptions,
+        depth: &dyn StitchDepth,
+    ) -> Result<Stitch> {
+        Self::check_masks(cameras, masks)?;
+        let built =
+            Self::tables_and_weights(output, centre, cameras, masks, options, true, Some(depth));
+        Ok(Stitch::from_parts(output.size(), built, options))
+    }
+
+    /// With a depth-guided stitch, the scene's distance from the output centre at each output
+    /// pixel's centre, row-major, metres (0 where the output has no bearing); None otherwise.
+    pub fn distances(&self) -> Option<&[f64]> {
+        self.distances.as_deref()
+    }
+}
