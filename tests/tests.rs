@@ -36,6 +36,7 @@ mod kitti360_stitch;
 mod kitti_benchmark;
 mod labels;
 mod labels_meant;
+mod nuscenes;
 mod pano;
 mod png;
 mod png_rows;
