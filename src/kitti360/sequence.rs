@@ -253,11 +253,12 @@ impl Sequence {
             })
             .map(|b| b.to_source(&level_from_world))
             .collect();
+        let level_from_velo = level_from_world.compose(&self.world_from_velo(frame)?);
         let mut lidar = Vec::new();
+        let mut input_hashes = Vec::new();
         if self.options.lidar {
             let path = scan_path(&self.root, &self.name, frame);
             let bytes = crate::fs::read_file(&path)?;
-            let level_from_velo = level_from_world.compose(&self.world_from_velo(frame)?);
             let motion = match self.options.compensate_sweep {
                 true => self.sweep_motion(frame)?,
                 false => None,
@@ -272,6 +273,7 @@ impl Sequence {
                     }
                 })
                 .collect();
+            input_hashes.push((path.clone(), crate::fs::hash_hex(&bytes)));
             provenance.push(path);
         }
         Ok(Frame {
@@ -282,6 +284,9 @@ impl Sequence {
             regions: Vec::new(),
             lidar,
             world_from_reference: Some(world_from_level),
+            reference_from_lidar: Some(level_from_velo),
+            lidar_from_imu: self.calibration.pose_from_velo().inverse(),
+            input_hashes,
         })
     }
 }

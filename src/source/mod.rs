@@ -13,11 +13,13 @@ mod object;
 mod pose;
 mod region;
 mod rig;
+mod rig_source;
 
 pub use object::SourceBox;
 pub use pose::Pose;
 pub use region::SourceRegion;
 pub use rig::RigCamera;
+pub use rig_source::{CameraInfo, RigItem, RigSource, SourceCamera};
 
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -48,6 +50,13 @@ pub struct Frame {
     pub lidar: Vec<LidarPoint>,
     /// Reference frame to the dataset's world frame, where the dataset has one.
     pub world_from_reference: Option<Pose>,
+    /// The LiDAR's axes in the reference frame, where the dataset has a LiDAR.
+    pub reference_from_lidar: Option<Pose>,
+    /// The IMU (the vehicle's pose sensor) in the LiDAR's axes, where the dataset has one.
+    pub lidar_from_imu: Option<Pose>,
+    /// blake3 (hex) of the per-frame input files this read took, by path: a run records
+    /// these instead of reading the files a second time.
+    pub input_hashes: Vec<(PathBuf, String)>,
 }
 
 impl Frame {

@@ -24,31 +24,7 @@ use std::path::PathBuf;
 /// The split every frame is written to (KITTI's loaders and panoconv's tools find it there).
 pub const SPLIT: &str = "training";
 
-/// Which classes' objects are written (KITTI types: docs/kitti360.md's class table).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Kitti360Classes {
-    /// The classes with a KITTI type only.
-    Kitti,
-    /// Every class; those without a KITTI type named by their KITTI-360 class.
-    All,
-    /// The KITTI types and these KITTI-360 classes (named by their KITTI-360 class).
-    Also(Vec<String>),
-}
-
-impl Kitti360Classes {
-    /// Whether a box of the KITTI-360 class `dataset_class`, written as `class`, is kept.
-    pub fn keeps(&self, class: &str, dataset_class: &str) -> bool {
-        let kitti_type = crate::kitti360::classes::CLASSES
-            .iter()
-            .any(|(_, name, kind)| *name == dataset_class && *kind == Some(class));
-        match self {
-            Kitti360Classes::Kitti => kitti_type,
-            Kitti360Classes::All => true,
-            Kitti360Classes::Also(names) => kitti_type || names.iter().any(|n| n == dataset_class),
-        }
-    }
-}
+pub use crate::kitti360::{drive_number, frame_id, Kitti360Classes};
 
 /// A `panoconv kitti360` conversion.
 #[derive(Debug, Clone)]
@@ -103,25 +79,6 @@ impl Kitti360Job {
     /// Whether LiDAR scans are read (depth maps, or the objects' LiDAR check).
     pub fn needs_lidar(&self) -> bool {
         self.depth.is_some() || self.objects.min_points > 0
-    }
-}
-
-/// The drive number of a KITTI-360 sequence name (`2013_05_28_drive_0003_sync` → 3).
-pub fn drive_number(sequence: &str) -> Option<u32> {
-    let rest = sequence.split("_drive_").nth(1)?;
-    let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
-    if digits.is_empty() || digits.len() > 4 {
-        return None;
-    }
-    digits.parse().ok()
-}
-
-/// A frame's output id: the frame number in six digits, after the drive number in four when
-/// several sequences share the output (`drive` Some).
-pub fn frame_id(drive: Option<u32>, frame: u32) -> String {
-    match drive {
-        Some(d) => format!("{d:04}{frame:06}"),
-        None => format!("{frame:06}"),
     }
 }
 
@@ -264,24 +221,5 @@ impl<'a> Parameters<'a> {
             style,
             augment: job.augment.as_ref(),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ids_are_six_digit_frames_and_drive_prefixed_for_several_sequences() {
-        assert_eq!(frame_id(None, 250), "000250");
-        assert_eq!(frame_id(Some(3), 250), "0003000250");
-        assert_eq!(drive_number("2013_05_28_drive_0003_sync"), Some(3));
-        assert_eq!(drive_number("2013_05_28_drive_0010_sync"), Some(10));
-        assert_eq!(drive_number("my_sequence"), None);
-        let classes = Kitti360Classes::Also(vec!["building".into()]);
-        assert!(classes.keeps("Car", "car") && classes.keeps("building", "building"));
-        assert!(!classes.keeps("pole", "pole"));
-        assert!(!Kitti360Classes::Kitti.keeps("building", "building"));
-        assert!(Kitti360Classes::All.keeps("pole", "pole"));
     }
 }

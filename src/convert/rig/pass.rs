@@ -10,7 +10,7 @@
 //! tables are built per frame.
 
 use super::objects::{label_objects, ObjectOutcome, ObjectRule};
-use crate::camera::{CameraModel, ImageSize, Intrinsics, OutputCamera, ProjectionReject};
+use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
 use crate::geometry::Target;
@@ -26,15 +26,7 @@ use crate::warp::{EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, NO
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::sync::Arc;
 
-/// What a reader knows of a rig camera besides its model and pose.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraInfo {
-    /// Pixels per radian and principal point at the image centre (the scale an output keeps
-    /// by default).
-    pub focal: Intrinsics,
-    /// Half the field of view of a lens that has one, radians.
-    pub max_theta: Option<f64>,
-}
+pub use crate::source::CameraInfo;
 
 /// How a frame is converted.
 #[derive(Debug, Clone)]
