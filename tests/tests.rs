@@ -37,6 +37,7 @@ mod kitti_benchmark;
 mod labels;
 mod labels_meant;
 mod nuscenes;
+mod nuscenes_devkit;
 mod pano;
 mod png;
 mod png_rows;

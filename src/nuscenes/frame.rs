@@ -54,7 +54,7 @@ pub struct Item {
 }
 
 /// What nuScenes says of an object beside its box.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ObjectInfo {
     /// The category (`vehicle.car`).
     pub category: String,
@@ -149,8 +149,13 @@ impl NuScenes {
             .compose(&self.calibrated[&data.calibrated_sensor].ego_from_sensor))
     }
 
-    /// The pinhole camera of a camera reading: `camera_intrinsic` and the image's size.
+    /// The pinhole camera of a camera reading, shared.
     pub fn camera_model(&self, data: &SampleData) -> Result<Arc<dyn CameraModel>> {
+        Ok(Arc::new(self.pinhole(data)?))
+    }
+
+    /// The pinhole camera of a camera reading: `camera_intrinsic` and the image's size.
+    pub fn pinhole(&self, data: &SampleData) -> Result<Perspective> {
         let path = self.table("calibrated_sensor");
         let c = &self.calibrated[&data.calibrated_sensor];
         let at = |field: &str, m: String| {
@@ -184,10 +189,10 @@ impl NuScenes {
                 ),
             ));
         }
-        Ok(Arc::new(Perspective::new(
+        Ok(Perspective::new(
             Intrinsics::new(k[0][0], k[1][1], k[0][2], k[1][2]),
             ImageSize::new(w, h),
-        )))
+        ))
     }
 
     /// world_from_level of a sample: the reference camera at the LiDAR keyframe's ego pose.
@@ -232,9 +237,11 @@ impl NuScenes {
         let lidar_data = self.keyframe(sample, &self.lidar)?;
         let reference_from_lidar = level_from_world.compose(&self.world_from_sensor(lidar_data)?);
         let mut lidar = Vec::new();
+        let mut input_hashes = Vec::new();
         if options.lidar {
             let path = self.dataroot.join(&lidar_data.filename);
             let bytes = crate::fs::read_file(&path)?;
+            input_hashes.push((path.clone(), crate::fs::hash_hex(&bytes)));
             lidar = parse_points(&bytes, &path)?
                 .into_iter()
                 .map(|(p, intensity)| LidarPoint {
@@ -254,6 +261,12 @@ impl NuScenes {
                 regions: Vec::new(),
                 lidar,
                 world_from_reference: Some(world_from_level),
+                reference_from_lidar: Some(reference_from_lidar),
+                // the ego frame is the vehicle's pose frame (KITTI's IMU)
+                lidar_from_imu: self.calibrated[&lidar_data.calibrated_sensor]
+                    .ego_from_sensor
+                    .inverse(),
+                input_hashes,
             },
             scene: scene.name.clone(),
             sample_token: sample.to_string(),
@@ -262,6 +275,15 @@ impl NuScenes {
             objects: infos,
             reference_from_lidar,
         })
+    }
+
+    /// What nuScenes says of each object a frame of `sample` holds, in its order.
+    pub fn object_infos(&self, sample: &Token, options: &Options) -> Result<Vec<ObjectInfo>> {
+        let level_from_world = self
+            .world_from_level(sample)?
+            .inverse()
+            .expect("a rotation");
+        Ok(self.objects(sample, &level_from_world, options)?.1)
     }
 
     fn objects(

@@ -10,6 +10,7 @@ mod frame;
 mod json;
 mod level;
 pub mod lidar;
+mod source;
 mod tables;
 mod token;
 
@@ -18,4 +19,5 @@ pub use dataset::{
     REFERENCE_LIDAR,
 };
 pub use frame::{Item, NuScenesFrame, ObjectInfo, Options};
+pub use source::{NuScenesClasses, NuScenesSelection, NuScenesSource};
 pub use token::Token;
