@@ -38,6 +38,7 @@ mod labels;
 mod labels_meant;
 mod nuscenes;
 mod nuscenes_devkit;
+mod nuscenes_stitch;
 mod pano;
 mod png;
 mod png_rows;
