@@ -9,7 +9,8 @@ use nalgebra::{Matrix3, Matrix3x4, Point2, Vector3};
 use panoconv::camera::{Perspective, Projection};
 use panoconv::codec::png::{encode_rgb8, PngCompression};
 use panoconv::geometry::{output_camera, OutputSpec};
-use panoconv::reproject::depth::{depth_map, rect_from_velo, OcclusionFilter};
+use panoconv::kitti::velodyne::rect_from_velo;
+use panoconv::reproject::depth::{depth_map, OcclusionFilter};
 use panoconv::tools::synth::{frames, SynthCalib};
 use panoconv::warp::{RemapTable, Wrap};
 

@@ -306,16 +306,7 @@ fn file_imports(src: &Path, file: &Path) -> Vec<PathBuf> {
             tail = t;
         }
         for path in expand_paths(tail) {
-            let mut module = base.clone();
-            let mut found = module_file(src, &module);
-            for seg in path {
-                module.push(seg);
-                match module_file(src, &module) {
-                    Some(f) => found = Some(f),
-                    None => break,
-                }
-            }
-            if let Some(f) = found.filter(|f| f != file) {
+            if let Some(f) = resolve(src, base.clone(), &path, 0).filter(|f| f != file) {
                 out.push(f);
             }
         }
@@ -323,6 +314,73 @@ fn file_imports(src: &Path, file: &Path) -> Vec<PathBuf> {
     out.sort();
     out.dedup();
     out
+}
+
+/// The library file that defines what `path` names from module `module`: the deepest module
+/// file on the path, and where that is a module's `mod.rs` (or `lib.rs`) and the rest of the
+/// path an item it re-exports (`pub use child::Item`), the file the re-export leads to, so
+/// that a circle through a `mod.rs`'s re-exports is seen.
+fn resolve(src: &Path, mut module: Vec<String>, path: &[String], depth: usize) -> Option<PathBuf> {
+    let mut found = module_file(src, &module);
+    for seg in path {
+        module.push(seg.clone());
+        if let Some(f) = module_file(src, &module) {
+            found = Some(f);
+            continue;
+        }
+        module.pop();
+        let holder = found.clone()?;
+        let is_module_root = matches!(
+            holder.file_name().and_then(|n| n.to_str()),
+            Some("mod.rs" | "lib.rs")
+        );
+        if is_module_root && depth < 8 {
+            if let Some(f) = reexport(src, &holder, &module, seg, depth) {
+                return Some(f);
+            }
+        }
+        break;
+    }
+    found
+}
+
+/// The file that `holder` (the module root of `module`) re-exports `item` from, if it does.
+fn reexport(
+    src: &Path,
+    holder: &Path,
+    module: &[String],
+    item: &str,
+    depth: usize,
+) -> Option<PathBuf> {
+    let text = std::fs::read_to_string(holder).ok()?;
+    let code = text.split("#[cfg(test)]").next()?;
+    for statement in code.split(';') {
+        let statement = statement.trim();
+        let Some(at) = statement.find("use ") else {
+            continue;
+        };
+        if !statement[..at].trim_start().starts_with("pub") {
+            continue;
+        }
+        let tail = statement[at + 4..].trim();
+        let (base, tail) = if let Some(t) = tail.strip_prefix("crate::") {
+            (Vec::new(), t)
+        } else if let Some(t) = tail.strip_prefix("self::") {
+            (module.to_vec(), t)
+        } else if let Some(t) = tail.strip_prefix("super::") {
+            (module[..module.len().saturating_sub(1)].to_vec(), t)
+        } else {
+            (module.to_vec(), tail)
+        };
+        for path in expand_paths(tail) {
+            if path.last().map(String::as_str) == Some(item) {
+                if let Some(f) = resolve(src, base.clone(), &path, depth + 1) {
+                    return Some(f);
+                }
+            }
+        }
+    }
+    None
 }
 
 #[test]
@@ -336,6 +394,22 @@ fn the_path_expander_sees_nested_groups() {
             "run::frames::A",
             "run::frames::b::C"
         ]
+    );
+}
+
+#[test]
+fn an_import_through_a_reexport_leads_to_the_defining_file() {
+    let src = repo().join("src");
+    let path = |p: &str| p.split("::").map(str::to_owned).collect::<Vec<_>>();
+    // `camera::Equirect` is `camera/mod.rs`'s `pub use equirect::Equirect`
+    assert_eq!(
+        resolve(&src, Vec::new(), &path("camera::Equirect"), 0),
+        Some(src.join("camera/equirect.rs"))
+    );
+    // an item defined in a module's own root stays there
+    assert_eq!(
+        resolve(&src, Vec::new(), &path("source::Frame"), 0),
+        Some(src.join("source/mod.rs"))
     );
 }
 

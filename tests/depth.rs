@@ -6,8 +6,9 @@
 use nalgebra::{Point2, Vector3};
 use panoconv::camera::{CameraModel, LinearCamera, Perspective, Projection};
 use panoconv::geometry::{output_camera, OutputSpec};
+use panoconv::kitti::velodyne::rect_from_velo;
 use panoconv::kitti::Cam;
-use panoconv::reproject::depth::{depth_map, rect_from_velo, DepthMap, OcclusionFilter};
+use panoconv::reproject::depth::{depth_map, DepthMap, OcclusionFilter};
 use panoconv::tools::synth::{frames, SynthCalib};
 
 /// The bars.

@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use panoconv::camera::{CameraModel, ImageSize, Intrinsics, LinearCamera, Projection};
 use panoconv::kitti::{Label, LabelFile};
-use panoconv::reproject::unproject::{
+use panoconv::tools::unproject::{
     format_pixel_line, label_to_pixel, parse_pixel_line, pixel_to_box, trained_focal_scale,
 };
 use proptest::prelude::*;

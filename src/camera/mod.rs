@@ -26,6 +26,7 @@ mod linear;
 mod output;
 mod perspective;
 mod projection;
+mod projection_camera;
 pub(crate) mod rotated;
 mod separable;
 mod unified;

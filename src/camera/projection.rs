@@ -3,11 +3,11 @@
 //! and the CLI's `--to` value.
 //!
 //! [`Projection`] is a *linear* projection: K and the image size alone make its camera, so
-//! [`Projection::camera`] is total. A real fisheye lens is not one: its camera is made from
+//! [`Projection::camera`] (`projection_camera.rs`: the mappings name their projection, so its
+//! constructor lives apart from the enum) is total. A real fisheye lens is not one: its camera is made from
 //! its lens ([`crate::camera::FisheyeCamera`]). [`OutputProjection`] is what a `projection:`
 //! calib line names, either kind.
 
-use super::{Cylindrical, Equirect, ImageSize, Intrinsics, LinearCamera, Perspective};
 use std::f64::consts::PI;
 
 /// A linear projection (names as in the `projection:` calib line).
@@ -29,15 +29,6 @@ impl Projection {
             Projection::Perspective => "perspective",
             Projection::Equirect => "equirect",
             Projection::Cylindrical => "cylindrical",
-        }
-    }
-
-    /// The camera of this projection with intrinsics `k` and image `size`.
-    pub fn camera(self, k: Intrinsics, size: ImageSize) -> Box<dyn LinearCamera> {
-        match self {
-            Projection::Perspective => Box::new(Perspective::new(k, size)),
-            Projection::Equirect => Box::new(Equirect::new(k, size)),
-            Projection::Cylindrical => Box::new(Cylindrical::new(k, size)),
         }
     }
 

@@ -1,16 +1,14 @@
 //! `kitti`, `kitti-raw` and `merge`: dataset conversion, its options and its signals.
 
 use super::export::{export_after_kitti, FormatArg};
-use super::{
-    count, parse_size, projection_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED,
-    EXIT_INTERRUPTED,
-};
+use super::outcome::exit_code;
+use super::EXIT_INTERRUPTED;
+use super::{count, parse_size, projection_of, with_pool, Bar, RunArgs, To};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use panoconv::camera::ImageSize;
-use panoconv::convert::kitti::{
-    run_kitti, DepthJob, KittiOptions, KittiSource, StyleJob, StyleOrder,
-};
+use panoconv::convert::kitti::{run_kitti, KittiOptions, KittiSource, KittiSummary};
+use panoconv::convert::run_options::{DepthJob, RunOptions, StyleJob, StyleOrder};
 use panoconv::error::Error;
 use panoconv::geometry::augment::Augment;
 use panoconv::geometry::Crop;
@@ -95,7 +93,7 @@ pub(super) struct AugmentArgs {
 
 impl AugmentArgs {
     /// The views `--augment` asks for, if given.
-    pub(super) fn views(self) -> Option<Augment> {
+    pub(super) fn views(&self) -> Option<Augment> {
         self.augment.map(|count| Augment {
             count,
             seed: self.seed,
@@ -351,7 +349,27 @@ fn convert(
     };
     let job = KittiOptions {
         input,
-        output: args.output,
+        run: RunOptions {
+            output: args.output,
+            mode: OutputMode::from_flags(args.run.overwrite, args.resume),
+            png_compression: args.run.png_compression(),
+            depth: args.depth.then(|| DepthJob {
+                occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
+            }),
+            augment,
+            shard: args.shard,
+            style: style_job(&args.style, &args.ort_lib, args.device, args.style_batch).map(|s| {
+                StyleJob {
+                    order: if args.style_after_warp {
+                        StyleOrder::AfterWarp
+                    } else {
+                        StyleOrder::BeforeWarp
+                    },
+                    ..s
+                }
+            }),
+            export: !args.export.is_empty(),
+        },
         source,
         to: projection_of(args.to),
         camera: args.camera,
@@ -363,95 +381,19 @@ fn convert(
         resize: args.resize,
         mask: args.mask,
         frames,
-        mode: OutputMode::from_flags(args.run.overwrite, args.resume),
-        png_compression: args.run.png_compression(),
         cameras: args.cameras.clone(),
-        depth: args.depth.then(|| DepthJob {
-            occlusion_filter: (!args.no_occlusion_filter).then(OcclusionFilter::default),
-        }),
-        augment,
-        shard: args.shard,
-        style: args.style.map(|model| StyleJob {
-            options: StyleOptions {
-                model,
-                ort_lib: args.ort_lib,
-                device: match args.device {
-                    DeviceArg::Cpu => Device::Cpu,
-                    DeviceArg::Cuda => Device::Cuda,
-                },
-                intra_threads: 1,
-            },
-            order: if args.style_after_warp {
-                StyleOrder::AfterWarp
-            } else {
-                StyleOrder::BeforeWarp
-            },
-            batch: args.style_batch.map_or(
-                match args.device {
-                    DeviceArg::Cpu => 1,
-                    DeviceArg::Cuda => 4,
-                },
-                usize::from,
-            ),
-        }),
-        export: !args.export.is_empty(),
     }
     .validate()?;
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
     let summary = with_pool(args.run.jobs, || run_kitti(&job, &bar, &STOP))??;
     if !args.run.quiet {
-        let resumed = if summary.run.resumed > 0 {
-            format!(" ({} kept from the previous run)", summary.run.resumed)
-        } else {
-            String::new()
-        };
-        eprintln!(
-            "panoconv: {} converted{resumed}, {} failed in {:.2} s ({:.1} frames/s) -> {}",
-            count(summary.run.converted, "frame"),
-            summary.run.failed,
-            summary.run.seconds,
-            (summary.run.converted - summary.run.resumed) as f64 / summary.run.seconds.max(1e-9),
-            job.output.display()
-        );
-        if !summary.not_frames.is_empty() {
-            // The run succeeds without them, but a dataset smaller than its folder is named.
-            const SHOWN: usize = 20;
-            eprintln!(
-                "panoconv: {} of the input not converted (not frames):",
-                count(summary.not_frames.len(), "file")
-            );
-            for line in summary.not_frames.iter().take(SHOWN) {
-                eprintln!("  {line}");
-            }
-            if summary.not_frames.len() > SHOWN {
-                eprintln!("  and {} more", summary.not_frames.len() - SHOWN);
-            }
-        }
-        if let Some((views, min)) = summary.thin_views {
-            eprintln!(
-                "panoconv: {} held fewer than {} (DontCare regions aside)",
-                count(views, "augmented view"),
-                count(min, "object")
-            );
-        }
-        if let Some((runs, images)) = summary.style_runs {
-            eprintln!(
-                "panoconv: style pass: {} in {}",
-                count(images, "image"),
-                count(runs, "model run")
-            );
-        }
+        report(&summary, &job.output);
     }
-    if let Some(full) = &summary.run.device_full {
-        eprintln!("panoconv: {full}");
-        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
+    if let Some(code) = exit_code(&summary.run) {
+        return Ok(code);
     }
-    if summary.run.interrupted {
-        eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
-        return Ok(ExitCode::from(EXIT_INTERRUPTED));
-    }
-    if summary.run.failed == 0 && !args.export.is_empty() {
+    if !args.export.is_empty() {
         let augmented = job.augment.is_some();
         // A resumed run replaces the export of the run it continues.
         let (overwrite, quiet) = (job.mode != OutputMode::New, args.run.quiet);
@@ -464,10 +406,71 @@ fn convert(
             quiet,
         );
     }
-    Ok(if summary.run.failed > 0 {
-        ExitCode::from(EXIT_FRAMES_FAILED)
-    } else {
-        ExitCode::SUCCESS
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A KITTI run's summary: frames, the files that are not frames, thin views, the style pass.
+fn report(summary: &KittiSummary, output: &std::path::Path) {
+    super::outcome::report(&summary.run, "frame", output);
+    if !summary.not_frames.is_empty() {
+        // The run succeeds without them, but a dataset smaller than its folder is named.
+        const SHOWN: usize = 20;
+        eprintln!(
+            "panoconv: {} of the input not converted (not frames):",
+            count(summary.not_frames.len(), "file")
+        );
+        for line in summary.not_frames.iter().take(SHOWN) {
+            eprintln!("  {line}");
+        }
+        if summary.not_frames.len() > SHOWN {
+            eprintln!("  and {} more", summary.not_frames.len() - SHOWN);
+        }
+    }
+    if let Some((views, min)) = summary.thin_views {
+        eprintln!(
+            "panoconv: {} held fewer than {} (DontCare regions aside)",
+            count(views, "augmented view"),
+            count(min, "object")
+        );
+    }
+    if let Some((runs, images)) = summary.style_runs {
+        eprintln!(
+            "panoconv: style pass: {} in {}",
+            count(images, "image"),
+            count(runs, "model run")
+        );
+    }
+}
+
+/// The style pass of `--style`, `--ort-lib`, `--device` and `--style-batch` (before the warp;
+/// `kitti` sets `--style-after-warp`'s order itself).
+pub(super) fn style_job(
+    model: &Option<PathBuf>,
+    ort_lib: &Option<PathBuf>,
+    device: DeviceArg,
+    batch: Option<u16>,
+) -> Option<StyleJob> {
+    let model = model.clone()?;
+    let device = match device {
+        DeviceArg::Cpu => Device::Cpu,
+        DeviceArg::Cuda => Device::Cuda,
+    };
+    Some(StyleJob {
+        options: StyleOptions {
+            model,
+            ort_lib: ort_lib.clone(),
+            device,
+            intra_threads: 1,
+        },
+        order: StyleOrder::BeforeWarp,
+        // a batch is no faster on the CPU
+        batch: batch.map_or(
+            match device {
+                Device::Cpu => 1,
+                Device::Cuda => 4,
+            },
+            usize::from,
+        ),
     })
 }
 

@@ -1,6 +1,6 @@
 //! `fisheye` and `pano`: folders of fisheye images or panoramas.
 
-use super::{count, scale_of, with_pool, Bar, RunArgs, EXIT_FRAMES_FAILED};
+use super::{scale_of, with_pool, Bar, RunArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use panoconv::camera::Projection;
@@ -133,23 +133,9 @@ pub(super) fn run_folder_job(
         panoconv::convert::folder::run_folder(&job, plan, &bar)
     })??;
     if !common.run.quiet {
-        eprintln!(
-            "panoconv: {} converted, {} failed in {:.2} s -> {}",
-            count(summary.converted, "image"),
-            summary.failed,
-            summary.seconds,
-            job.output.display()
-        );
+        super::outcome::report(&summary, "image", &job.output);
     }
-    if let Some(full) = &summary.device_full {
-        eprintln!("panoconv: {full}");
-        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
-    }
-    Ok(if summary.failed > 0 {
-        ExitCode::from(EXIT_FRAMES_FAILED)
-    } else {
-        ExitCode::SUCCESS
-    })
+    Ok(super::outcome::exit_code(&summary).unwrap_or(ExitCode::SUCCESS))
 }
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {

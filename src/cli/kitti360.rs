@@ -1,21 +1,26 @@
 //! `panoconv kitti360`: a KITTI-360 sequence's rig into panoramas (or one camera converted),
 //! with labels, calib, depth and the source map, as a KITTI dataset.
 
-use super::convert::{install_stop_handler, parse_crop, parse_shard, AugmentArgs, DeviceArg, STOP};
+use super::convert::{
+    install_stop_handler, parse_crop, parse_shard, style_job, AugmentArgs, DeviceArg, STOP,
+};
 use super::export::{export_after_kitti, FormatArg};
-use super::EXIT_INTERRUPTED;
-use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To, EXIT_FRAMES_FAILED};
+use super::outcome::exit_code;
+use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::convert::rig::{run_kitti360, Kitti360Classes, Kitti360Job, ObjectRule};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSummary};
+use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
-use panoconv::kitti360::DEFAULT_FISHEYE_FOV_DEG;
+use panoconv::kitti360::{
+    Kitti360Classes, Kitti360Selection, Kitti360Source, DEFAULT_FISHEYE_FOV_DEG,
+};
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::run::journal::Shard;
-use panoconv::style::{Device, StyleOptions};
+use panoconv::run::OutputMode;
 use panoconv::warp::StitchOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -189,6 +194,36 @@ fn setup(message: String) -> anyhow::Error {
 }
 
 pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
+    refuse_unsupported(&args)?;
+    let (job, selection) = jobs(&args)?;
+    install_stop_handler();
+    let bar = Bar::new(args.run.quiet);
+    let summary = with_pool(args.run.jobs, || -> panoconv::error::Result<_> {
+        let source = Kitti360Source::open(selection)?;
+        run_rig(&job, &source, &bar, &STOP)
+    })??;
+    if !args.run.quiet {
+        report(&summary, &job);
+    }
+    if let Some(code) = exit_code(&summary.run) {
+        return Ok(code);
+    }
+    if !args.export.is_empty() {
+        let overwrite = job.run.mode != OutputMode::New;
+        return export_after_kitti(
+            &job.run.output,
+            &job.run.output,
+            &args.export,
+            job.run.augment.is_some(),
+            overwrite,
+            args.run.quiet,
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The flags kitti360 names only to refuse them, with the reason.
+fn refuse_unsupported(args: &Kitti360Args) -> Result<()> {
     for (given, flag, why) in [
         (
             args.style_after_warp,
@@ -206,12 +241,14 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             bail!(setup(format!("{flag} is not supported by kitti360: {why}")));
         }
     }
-    if args.shard.is_some() && !args.export.is_empty() {
-        bail!(setup(
-            "--export needs the whole output: not with --shard (run panoconv export after merge)"
-                .into()
-        ));
-    }
+    Ok(())
+}
+
+/// Ego mask files by rig index.
+type EgoMasks = Vec<(usize, PathBuf)>;
+
+/// The rig cameras of `--cameras` and the ego masks of `--ego-mask`, by rig index.
+fn cameras_and_masks(args: &Kitti360Args) -> Result<(Vec<usize>, EgoMasks)> {
     let mut cameras = Vec::new();
     for c in &args.cameras {
         let Some(k) = rig_camera(c) else {
@@ -240,9 +277,13 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         };
         ego_masks.push((k, PathBuf::from(path)));
     }
-    // A panorama of several cameras covers 360°; one camera, or a perspective view, the first
-    // camera's field of view.
-    let target = match (projection_of(args.to), &args.camera) {
+    Ok((cameras, ego_masks))
+}
+
+/// The output camera. A panorama of several cameras covers 360°; one camera, or a perspective
+/// view, the first camera's field of view.
+fn target(args: &Kitti360Args, cameras: usize) -> Result<Target> {
+    Ok(match (projection_of(args.to), &args.camera) {
         (OutputProjection::Fisheye, Some(file)) => {
             if args.pano_width.is_some() || args.px_per_deg.is_some() {
                 bail!(setup(
@@ -265,7 +306,7 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
         (OutputProjection::Linear(projection), None) => Target::Linear(OutputSpec {
             projection,
             scale: scale_of(args.pano_width, args.px_per_deg)?,
-            canvas: if cameras.len() > 1 && projection != Projection::Perspective {
+            canvas: if cameras > 1 && projection != Projection::Perspective {
                 Canvas::Full360
             } else {
                 Canvas::Tight
@@ -273,7 +314,12 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             crop: args.crop,
             resize: args.resize,
         }),
-    };
+    })
+}
+
+/// What of the KITTI-360 root is read: `--sequence`, `--frames`, `--classes`,
+/// `--fisheye-fov`.
+fn selection(args: &Kitti360Args, lidar: bool) -> Result<Kitti360Selection> {
     let frames = match &args.frames {
         Some(list) => {
             let mut out = Vec::new();
@@ -305,29 +351,56 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             Kitti360Classes::Also(list.clone())
         }
     };
-    let fov = match args.fisheye_fov.as_deref() {
+    let fisheye_fov_deg = match args.fisheye_fov.as_deref() {
         None => [DEFAULT_FISHEYE_FOV_DEG; 2],
         Some([a]) => [*a, *a],
         Some([a, b]) => [*a, *b],
         Some(_) => bail!(setup("--fisheye-fov takes one or two angles".into())),
     };
+    Ok(Kitti360Selection {
+        input: args.input.clone(),
+        sequences: args.sequence.iter().map(|s| s.trim().to_owned()).collect(),
+        frames,
+        classes,
+        fisheye_fov_deg,
+        lidar,
+    })
+}
+
+/// The rig job and the selection of the arguments, their rules checked.
+fn jobs(args: &Kitti360Args) -> Result<(RigJob, Kitti360Selection)> {
+    let (cameras, ego_masks) = cameras_and_masks(args)?;
+    let target = target(args, cameras.len())?;
+    if !(args.lidar_azimuth_step > 0.0 && args.lidar_azimuth_step.is_finite()) {
+        bail!(setup("--lidar-azimuth-step must be positive".into()));
+    }
     for (v, flag) in [
         (args.stitch_distance, "--stitch-distance"),
         (args.blend_width, "--blend-width"),
         (args.max_distance, "--max-distance"),
-        (args.lidar_azimuth_step, "--lidar-azimuth-step"),
     ] {
         if !(v > 0.0 && v.is_finite()) {
             bail!(setup(format!("{flag} must be positive")));
         }
     }
-    let job = Kitti360Job {
-        input: args.input,
-        sequences: args.sequence.iter().map(|s| s.trim().to_owned()).collect(),
-        output: args.output,
+    let job = RigJob {
+        run: RunOptions {
+            output: args.output.clone(),
+            mode: OutputMode::from_flags(args.run.overwrite, args.resume),
+            shard: args.shard,
+            png_compression: args.run.png_compression(),
+            style: style_job(&args.style, &args.ort_lib, args.device, args.style_batch),
+            augment: args.augment.views(),
+            depth: args.depth.then(|| DepthJob {
+                occlusion_filter: (!args.no_occlusion_filter).then(|| OcclusionFilter {
+                    azimuth_spacing: args.lidar_azimuth_step.to_radians(),
+                    ..OcclusionFilter::default()
+                }),
+            }),
+            export: !args.export.is_empty(),
+        },
         target,
         cameras,
-        frames,
         stitch: StitchOptions {
             distance: args.stitch_distance,
             blend_width: args.blend_width.to_radians(),
@@ -338,100 +411,42 @@ pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
             max_distance: args.max_distance,
             min_points: args.min_points,
         },
-        classes,
-        depth: args.depth.then(|| {
-            (!args.no_occlusion_filter).then(|| OcclusionFilter {
-                azimuth_spacing: args.lidar_azimuth_step.to_radians(),
-                ..OcclusionFilter::default()
-            })
-        }),
-        fisheye_fov_deg: fov,
-        overwrite: args.run.overwrite,
-        resume: args.resume,
-        shard: args.shard,
-        png_compression: args.run.png_compression(),
         ego_masks,
-        style_batch: args.style_batch.map_or(
-            match args.device {
-                DeviceArg::Cpu => 1,
-                DeviceArg::Cuda => 4,
-            },
-            usize::from,
-        ),
-        style: args.style.map(|model| StyleOptions {
-            model,
-            ort_lib: args.ort_lib,
-            device: match args.device {
-                DeviceArg::Cpu => Device::Cpu,
-                DeviceArg::Cuda => Device::Cuda,
-            },
-            intra_threads: 1,
-        }),
-        augment: args.augment.views(),
     };
-    install_stop_handler();
-    let bar = Bar::new(args.run.quiet);
-    let summary = with_pool(args.run.jobs, || run_kitti360(&job, &bar, &STOP))??;
-    let run = &summary.run;
-    if !args.run.quiet {
-        let o = &summary.objects;
+    job.validate()?;
+    let selection = selection(args, job.needs_lidar())?;
+    Ok((job, selection))
+}
+
+/// The run's summary: frames, objects written and dropped, thin views, the style pass.
+fn report(summary: &RigSummary, job: &RigJob) {
+    super::outcome::report(&summary.run, "frame", &job.run.output);
+    let o = &summary.objects;
+    eprintln!(
+        "panoconv: {} written ({} tilted); dropped: {} by class, {} beyond {} m, {} with \
+         fewer than {} LiDAR points, {} outside the image",
+        count(o.written, "object"),
+        o.tilted,
+        o.class,
+        o.distance,
+        job.objects.max_distance,
+        o.unseen,
+        job.objects.min_points,
+        o.outside
+    );
+    if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
         eprintln!(
-            "panoconv: {} converted, {} failed in {:.2} s -> {}",
-            count(run.converted, "frame"),
-            run.failed,
-            run.seconds,
-            job.output.display()
+            "panoconv: {} with fewer than {} objects after {} draws",
+            count(thin, "augmented view"),
+            job.run.augment.map_or(0, |a| a.min_objects),
+            panoconv::geometry::augment::MAX_ATTEMPTS
         );
+    }
+    if let Some((runs, images)) = summary.style_runs {
         eprintln!(
-            "panoconv: {} written ({} tilted); dropped: {} by class, {} beyond {} m, {} with \
-             fewer than {} LiDAR points, {} outside the image",
-            count(o.written, "object"),
-            o.tilted,
-            o.class,
-            o.distance,
-            job.objects.max_distance,
-            o.unseen,
-            job.objects.min_points,
-            o.outside
-        );
-        if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
-            eprintln!(
-                "panoconv: {} with fewer than {} objects after {} draws",
-                count(thin, "augmented view"),
-                job.augment.map_or(0, |a| a.min_objects),
-                panoconv::geometry::augment::MAX_ATTEMPTS
-            );
-        }
-        if let Some((runs, images)) = summary.style_runs {
-            eprintln!(
-                "panoconv: style pass: {} in {}",
-                count(images, "image"),
-                count(runs, "model run")
-            );
-        }
-    }
-    if let Some(full) = &run.device_full {
-        eprintln!("panoconv: {full}");
-        return Ok(ExitCode::from(EXIT_FRAMES_FAILED));
-    }
-    if run.interrupted {
-        eprintln!("panoconv: interrupted; the manifest lists the finished frames: run again with --resume");
-        return Ok(ExitCode::from(EXIT_INTERRUPTED));
-    }
-    if run.failed == 0 && !args.export.is_empty() {
-        let overwrite = args.run.overwrite || args.resume;
-        return export_after_kitti(
-            &job.output,
-            &job.output,
-            &args.export,
-            job.augment.is_some(),
-            overwrite,
-            args.run.quiet,
+            "panoconv: style pass: {} in {}",
+            count(images, "image"),
+            count(runs, "model run")
         );
     }
-    Ok(if run.failed > 0 {
-        ExitCode::from(EXIT_FRAMES_FAILED)
-    } else {
-        ExitCode::SUCCESS
-    })
 }

@@ -19,6 +19,7 @@ mod convert;
 mod export;
 mod folders;
 mod kitti360;
+mod outcome;
 mod tools;
 
 use camera::{CameraArgs, CAMERA_EXAMPLES};

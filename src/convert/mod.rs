@@ -7,6 +7,7 @@ pub mod folder;
 pub mod kitti;
 pub mod pano;
 pub mod rig;
+pub mod run_options;
 mod style_pass;
 mod view_depth;
 mod view_pass;

@@ -10,7 +10,7 @@ use crate::fs;
 use crate::geometry::augment::View;
 use crate::image::RgbImage;
 use crate::reproject::depth::DepthMap;
-use crate::run::manifest::{LidarRecord, ViewRecord};
+use crate::run::manifest::{FrameRecord, FrameStatus, LidarRecord, ViewRecord};
 use crate::warp::{ImageMapping, PngSource, RemapTable};
 use std::path::{Path, PathBuf};
 
@@ -92,6 +92,28 @@ pub(super) struct WrittenViews {
     pub(super) views: Vec<ViewRecord>,
     /// The LiDAR record of the last view with a depth map.
     pub(super) lidar: Option<LidarRecord>,
+}
+
+impl WrittenViews {
+    /// The record of a frame converted: its split and id, its inputs with their hashes, and
+    /// these outputs, views and LiDAR record.
+    pub(super) fn record(
+        self,
+        split: String,
+        id: String,
+        inputs: Vec<(String, String)>,
+    ) -> FrameRecord {
+        FrameRecord {
+            split,
+            id,
+            status: FrameStatus::Ok,
+            error: None,
+            inputs,
+            outputs: self.outputs,
+            views: self.views,
+            lidar: self.lidar,
+        }
+    }
 }
 
 /// Encodes every view's files through `files`, then writes them atomically under `output`

@@ -70,13 +70,13 @@ fn row_major(p: &Pose) -> String {
 /// The calib of an output camera whose rect is the reference frame: `P0:`..`P3:` the pinhole
 /// K2·[I | −C2] of the output intrinsics (exact for a perspective output; for the others a
 /// nominal matrix, the projection lines describe the image), `R0_rect:` identity,
-/// `Tr_velo_to_cam:` (reference_from_velo), `Tr_imu_to_velo:` when known, then `Calib`'s
+/// `Tr_velo_to_cam:` (reference_from_velo) and `Tr_imu_to_velo:` when known, then `Calib`'s
 /// `projection:`, `K2:`, `C2:` (and lens) lines, and `Tr_rect_to_world:` (3x4, row-major)
 /// when the dataset has a world frame.
 pub fn rig_calib_text(
     camera: &dyn OutputCamera,
     centre: &Vector3<f64>,
-    reference_from_velo: &Pose,
+    reference_from_velo: Option<&Pose>,
     velo_from_imu: Option<&Pose>,
     world_from_reference: Option<&Pose>,
 ) -> String {
@@ -94,10 +94,9 @@ pub fn rig_calib_text(
     let mut lines: Vec<String> = (0..4).map(|n| format!("P{n}: {p}")).collect();
     let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0].map(format_sci);
     lines.push(format!("R0_rect: {}", identity.join(" ")));
-    lines.push(format!(
-        "Tr_velo_to_cam: {}",
-        row_major(reference_from_velo)
-    ));
+    if let Some(velo) = reference_from_velo {
+        lines.push(format!("Tr_velo_to_cam: {}", row_major(velo)));
+    }
     if let Some(imu) = velo_from_imu {
         lines.push(format!("Tr_imu_to_velo: {}", row_major(imu)));
     }
@@ -142,7 +141,7 @@ mod tests {
         let centre = Vector3::new(0.1, -0.2, 0.3);
         let velo = Pose::new(nalgebra::Matrix3::identity(), Vector3::new(0.0, -1.0, 0.5));
         let world = Pose::new(nalgebra::Matrix3::identity(), Vector3::new(10.0, 20.0, 3.0));
-        let text = rig_calib_text(camera.as_ref(), &centre, &velo, None, Some(&world));
+        let text = rig_calib_text(camera.as_ref(), &centre, Some(&velo), None, Some(&world));
         let lines: Vec<String> = text.lines().map(str::to_owned).collect();
         let calib = Calib::parse(Path::new("c"), lines).unwrap();
         let (read, c) = calib

@@ -13,7 +13,7 @@ mod source;
 mod text;
 pub mod velodyne;
 
-pub use bboxes::WorldBox;
+pub use bboxes::{parse_boxes, WorldBox};
 pub use calib::{Calibration, RectCamera, CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
 pub use sequence::{Options, Sequence};
 pub use source::{drive_number, frame_id, Kitti360Classes, Kitti360Selection, Kitti360Source};

@@ -210,6 +210,3 @@ fn occlusion_mask(
         })
         .collect()
 }
-
-/// LiDAR points (LiDAR frame) to rect (KITTI's calibration convention, kept in `kitti/`).
-pub use crate::kitti::velodyne::rect_from_velo;

@@ -1,7 +1,6 @@
-//! Moving annotations with the image: 2D/3D labels into the output camera, LiDAR into a depth
-//! map, and predictions in output pixels back to KITTI's rectified camera.
+//! Moving annotations with the image: neutral 2D/3D boxes into the output camera, LiDAR into a
+//! depth map. Below the dataset readers: it knows none of their formats.
 
 pub mod depth;
 pub mod labels;
 pub(crate) mod source_box;
-pub mod unproject;

@@ -27,6 +27,12 @@ pub enum StyleError {
         /// The loader's or runtime's message.
         detail: String,
     },
+    /// This build of panoconv has no style pass (built without its `ort` feature).
+    #[error("style model {}: this panoconv was built without the style pass (cargo feature `ort`)", model.display())]
+    NotBuilt {
+        /// The model file.
+        model: PathBuf,
+    },
     /// The model file cannot be read.
     #[error("style model {}: cannot read the file: {source}", model.display())]
     ModelUnreadable {

@@ -20,16 +20,29 @@ mod error;
 pub mod runtime;
 
 pub use error::StyleError;
+#[cfg(not(feature = "ort"))]
+mod without_runtime;
+#[cfg(not(feature = "ort"))]
+pub use without_runtime::StyleModel;
 
-use std::path::{Path, PathBuf};
+#[cfg(feature = "ort")]
+use std::path::Path;
+use std::path::PathBuf;
+#[cfg(feature = "ort")]
 use std::sync::atomic::{AtomicUsize, Ordering};
+#[cfg(feature = "ort")]
 use std::sync::{Mutex, MutexGuard};
 
+#[cfg(feature = "ort")]
 use ort::session::builder::GraphOptimizationLevel;
+#[cfg(feature = "ort")]
 use ort::session::Session;
+#[cfg(feature = "ort")]
 use ort::value::{TensorElementType, TensorRef, ValueType};
 
+#[cfg(feature = "ort")]
 use crate::image::RgbImage;
+#[cfg(feature = "ort")]
 use convert::{AxisTiles, Blender};
 
 /// Where inference runs.
@@ -87,12 +100,14 @@ pub const TILE_ALIGN: u32 = 4;
 pub const MAX_BATCH: usize = 8;
 
 /// One spatial axis of the model input.
+#[cfg(feature = "ort")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Axis {
     Dynamic,
     Fixed(u32),
 }
 
+#[cfg(feature = "ort")]
 impl Axis {
     fn of(d: i64) -> Axis {
         if d > 0 {
@@ -117,6 +132,7 @@ impl Axis {
 }
 
 /// A loaded generator. `Send + Sync`; build it once per run and share it.
+#[cfg(feature = "ort")]
 pub struct StyleModel {
     path: PathBuf,
     info: StyleInfo,
@@ -131,6 +147,7 @@ pub struct StyleModel {
     library: PathBuf,
 }
 
+#[cfg(feature = "ort")]
 impl std::fmt::Debug for StyleModel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("StyleModel")
@@ -142,6 +159,7 @@ impl std::fmt::Debug for StyleModel {
     }
 }
 
+#[cfg(feature = "ort")]
 impl StyleModel {
     /// Loads the model with one session (see the module docs for the concurrency choice).
     pub fn load(opts: &StyleOptions) -> Result<StyleModel, StyleError> {
@@ -403,6 +421,7 @@ impl StyleModel {
 }
 
 /// A fixed image with edges, gradients and noise, for [`StyleModel::batch_matches_single`].
+#[cfg(feature = "ort")]
 fn probe_pattern(width: u32, height: u32) -> RgbImage {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut data = Vec::with_capacity(width as usize * height as usize * 3);
@@ -422,6 +441,7 @@ fn probe_pattern(width: u32, height: u32) -> RgbImage {
     RgbImage::from_raw(width, height, data).expect("width * height * 3 bytes")
 }
 
+#[cfg(feature = "ort")]
 fn new_session(
     env: &ort::environment::Environment,
     opts: &StyleOptions,
@@ -464,6 +484,7 @@ fn new_session(
 
 /// Checks the model is an image-to-image generator; returns the input shape, whether the batch
 /// axis is dynamic, and the H and W axes.
+#[cfg(feature = "ort")]
 fn validate(model: &Path, s: &Session) -> Result<(Vec<i64>, bool, Axis, Axis), StyleError> {
     if s.inputs().len() != 1 || s.outputs().is_empty() {
         return Err(StyleError::Arity {

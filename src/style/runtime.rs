@@ -6,10 +6,13 @@
 //! `ort::init_from` (which returns an error for a non-library or a too-old one instead of
 //! panicking) and builds the environment once; later calls reuse it.
 
+#[cfg(feature = "ort")]
 use std::ffi::{CStr, CString};
 use std::path::{Path, PathBuf};
+#[cfg(feature = "ort")]
 use std::sync::Mutex;
 
+#[cfg(feature = "ort")]
 use ort::environment::Environment;
 
 /// The ONNX Runtime version `scripts/install_ort.sh` installs (the PyPI wheel `onnxruntime`).
@@ -113,11 +116,13 @@ fn beside(dir: &Path) -> Option<PathBuf> {
     names.pop().map(|n| dir.join(n))
 }
 
+#[cfg(feature = "ort")]
 struct Loaded {
     lib: PathBuf,
     env: Environment,
 }
 
+#[cfg(feature = "ort")]
 static RUNTIME: Mutex<Option<Loaded>> = Mutex::new(None);
 
 /// The process-wide ort environment, loading the library found by [`find_library`] on first
@@ -125,6 +130,7 @@ static RUNTIME: Mutex<Option<Loaded>> = Mutex::new(None);
 ///
 /// A second call naming a *different* library is an error: ONNX Runtime cannot be loaded twice
 /// into one process (ort would silently keep the first).
+#[cfg(feature = "ort")]
 pub fn environment(explicit: Option<&Path>) -> Result<(Environment, PathBuf), LibError> {
     let mut guard = RUNTIME.lock().unwrap_or_else(|p| p.into_inner());
     let (path, source) = find_library(explicit)?;
@@ -165,6 +171,7 @@ pub fn environment(explicit: Option<&Path>) -> Result<(Environment, PathBuf), Li
 
 /// The execution providers compiled into the loaded library (`CPUExecutionProvider`, ...).
 /// Only call after [`environment`] succeeded.
+#[cfg(feature = "ort")]
 pub fn available_providers() -> Result<Vec<String>, String> {
     let api = ort::api();
     let mut list: *mut *mut std::ffi::c_char = std::ptr::null_mut();
@@ -192,6 +199,7 @@ pub fn available_providers() -> Result<Vec<String>, String> {
 /// ort 2.0.0-rc.15 exposes `ort::ep::CUDA` only with its `cuda` cargo feature; with
 /// `load-dynamic` that feature only compiles the wrapper, so this calls the same C API
 /// (`CreateCUDAProviderOptions` + `SessionOptionsAppendExecutionProvider_CUDA_V2`) directly.
+#[cfg(feature = "ort")]
 pub fn append_cuda(builder: &mut ort::session::builder::SessionBuilder) -> Result<(), String> {
     use ort::AsPointer;
     let providers = available_providers()?;
@@ -228,6 +236,7 @@ pub fn append_cuda(builder: &mut ort::session::builder::SessionBuilder) -> Resul
     r
 }
 
+#[cfg(feature = "ort")]
 fn status_to_result(st: ort::sys::OrtStatusPtr) -> Result<(), String> {
     if st.0.is_null() {
         return Ok(());

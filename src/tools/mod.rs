@@ -8,4 +8,5 @@ pub mod preview;
 pub mod synth;
 pub mod synth360;
 pub mod synth_nuscenes;
+pub mod unproject;
 pub mod verify;

@@ -1,4 +1,4 @@
-//! Folder commands around the pixel-object format (see [`crate::reproject::unproject`]):
+//! Folder commands around the pixel-object format (see [`crate::tools::unproject`]):
 //! `labels-to-pixels` (training targets from a converted dataset) and `unproject` (detector
 //! outputs back to KITTI 3D results). Each frame needs the calib panoconv wrote and the image
 //! beside it (for its size).
@@ -10,7 +10,7 @@ use crate::fs::write_atomic;
 use crate::fs::{read_file, read_lines};
 use crate::kitti::Cam;
 use crate::kitti::{Calib, LabelFile};
-use crate::reproject::unproject::{
+use crate::tools::unproject::{
     format_pixel_line, label_to_pixel, parse_pixel_line, result_line, trained_focal_scale, BoxImage,
 };
 use nalgebra::Vector3;

@@ -171,7 +171,7 @@ fn the_written_calib_projects_like_the_camera_that_wrote_it_in_panoconv_and_in_p
             for (line, p) in labels.iter().zip(py) {
                 let label = parse_label(line);
                 let lib =
-                    panoconv::reproject::unproject::label_to_pixel(&label, read.as_ref(), &centre);
+                    panoconv::tools::unproject::label_to_pixel(&label, read.as_ref(), &centre);
                 match (p, lib) {
                     (Some((u, v)), Some(o)) => {
                         worst_py_lib = worst_py_lib.max((u - o.u).hypot(v - o.v));

@@ -11,6 +11,7 @@ mod tables;
 mod views;
 mod write;
 
+pub use crate::convert::run_options::{DepthJob, StyleJob, StyleOrder};
 pub use labels::transform_label;
 pub use options::KittiOptions;
 pub use run::run_kitti;
@@ -20,10 +21,9 @@ use crate::error::Result;
 use crate::geometry::augment::Augment;
 use crate::geometry::{FisheyeTarget, Target, TargetRecord};
 use crate::kitti::{raw, Cam, Dataset};
-use crate::reproject::depth::OcclusionFilter;
 use crate::run::journal::Shard;
 use crate::run::{OutputMode, Summary};
-use crate::style::{StyleInfo, StyleModel, StyleOptions};
+use crate::style::{StyleInfo, StyleModel};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -146,40 +146,11 @@ impl<'a> Parameters<'a> {
     }
 }
 
-/// The depth output of a conversion.
-#[derive(Debug, Clone, Serialize)]
-pub struct DepthJob {
-    /// None turns the occlusion correction off.
-    pub occlusion_filter: Option<OcclusionFilter>,
-}
-
-/// The style pass of a conversion.
-#[derive(Debug, Clone)]
-pub struct StyleJob {
-    /// The model, the ONNX Runtime library and the device.
-    pub options: StyleOptions,
-    /// Before or after the warp.
-    pub order: StyleOrder,
-    /// Equal-size images of up to this many consecutive frames go through the model in one
-    /// run (1: frame by frame). Outputs do not depend on it (see `batch`).
-    pub batch: usize,
-}
-
 /// What the manifest records of the style pass.
 #[derive(Debug, Serialize)]
 struct StyleRecord<'a> {
     model: &'a StyleInfo,
     order: StyleOrder,
-}
-
-/// Whether the style pass takes the source images or the warped ones.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StyleOrder {
-    /// Style the source image, then warp it (as the paper does).
-    BeforeWarp,
-    /// Warp, then style the output image.
-    AfterWarp,
 }
 
 /// What a KITTI conversion did: the run's counts and what only a KITTI conversion has.

@@ -3,14 +3,12 @@
 //! ([`KittiJob`]): every rule that needs no file is checked here, before the output folder is
 //! locked or a style model loaded, and each can be tested without the binary.
 
-use super::{DepthJob, KittiJob, KittiSource, StyleJob};
+use super::{KittiJob, KittiSource};
 use crate::camera::{ImageSize, OutputProjection};
-use crate::codec::png::PngCompression;
+use crate::convert::run_options::RunOptions;
 use crate::error::{Error, Result};
-use crate::geometry::augment::Augment;
 use crate::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Scale, Target};
 use crate::kitti::Cam;
-use crate::run::{OutputMode, Shard};
 use std::path::PathBuf;
 
 /// A KITTI conversion's options as given, before their rules are checked.
@@ -18,8 +16,8 @@ use std::path::PathBuf;
 pub struct KittiOptions {
     /// The dataset's root.
     pub input: PathBuf,
-    /// The output folder.
-    pub output: PathBuf,
+    /// The options every conversion shares (output, mode, shard, style, augment, depth, ...).
+    pub run: RunOptions,
     /// Which layout `input` has and what part of it is converted.
     pub source: KittiSource,
     /// `--to`: a projection, or a fisheye camera (then `camera` is its file).
@@ -42,22 +40,8 @@ pub struct KittiOptions {
     pub mask: bool,
     /// The frames asked for (`--frames`, `--frames-from`, `--image-set`); None: all.
     pub frames: Option<Vec<String>>,
-    /// New, `--overwrite` or `--resume`.
-    pub mode: OutputMode,
-    /// PNG encoder effort.
-    pub png_compression: PngCompression,
     /// `--cameras`, in any order, repeats allowed.
     pub cameras: Vec<Cam>,
-    /// `--depth` and its occlusion filter.
-    pub depth: Option<DepthJob>,
-    /// `--augment` and its draw.
-    pub augment: Option<Augment>,
-    /// `--shard K/N`.
-    pub shard: Option<Shard>,
-    /// `--style` and its options.
-    pub style: Option<StyleJob>,
-    /// Whether `--export` asks for an export after the conversion.
-    pub export: bool,
 }
 
 impl KittiOptions {
@@ -67,7 +51,7 @@ impl KittiOptions {
     /// `--augment` an object dataset. Reads the fisheye camera file, nothing else.
     pub fn validate(self) -> Result<KittiJob> {
         let raw = matches!(self.source, KittiSource::Raw { .. });
-        if (raw || self.shard.is_some()) && self.export {
+        if (raw || self.run.shard.is_some()) && self.run.export {
             return Err(Error::Setup(
                 "--export needs a whole KITTI object dataset: not with kitti-raw or --shard (run panoconv export after merge)".into(),
             ));
@@ -81,25 +65,27 @@ impl KittiOptions {
                 "--cameras must include 2 (labels and depth belong to camera 2)".into(),
             ));
         }
-        if raw && self.augment.is_some() {
+        self.run.validate()?;
+        if raw && self.run.augment.is_some() {
             return Err(Error::Setup(
                 "--augment is not available for KITTI raw drives (one calib per drive)".into(),
             ));
         }
+        let run = self.run;
         Ok(KittiJob {
             input: self.input,
-            output: self.output,
+            output: run.output,
             source: self.source,
             target,
             mask: self.mask,
             frames: self.frames,
-            mode: self.mode,
-            png_compression: self.png_compression,
-            style: self.style,
-            augment: self.augment,
+            mode: run.mode,
+            png_compression: run.png_compression,
+            style: run.style,
+            augment: run.augment,
             cameras,
-            depth: self.depth,
-            shard: self.shard,
+            depth: run.depth,
+            shard: run.shard,
         })
     }
 
@@ -154,11 +140,23 @@ impl KittiOptions {
 mod tests {
     use super::*;
     use crate::camera::Projection;
+    use crate::codec::png::PngCompression;
+    use crate::geometry::augment::Augment;
+    use crate::run::{OutputMode, Shard};
 
     fn options() -> KittiOptions {
         KittiOptions {
             input: "in".into(),
-            output: "out".into(),
+            run: RunOptions {
+                output: "out".into(),
+                mode: OutputMode::New,
+                png_compression: PngCompression::Fast,
+                depth: None,
+                augment: None,
+                shard: None,
+                style: None,
+                export: false,
+            },
             source: KittiSource::Object { split: None },
             to: Projection::Equirect.into(),
             camera: None,
@@ -170,14 +168,7 @@ mod tests {
             resize: None,
             mask: false,
             frames: None,
-            mode: OutputMode::New,
-            png_compression: PngCompression::Fast,
             cameras: vec![Cam::C3, Cam::C2, Cam::C3],
-            depth: None,
-            augment: None,
-            shard: None,
-            style: None,
-            export: false,
         }
     }
 
@@ -237,20 +228,18 @@ mod tests {
             ..options()
         });
         assert!(m.contains("--camera describes"), "{m}");
-        let m = refusal(KittiOptions {
-            shard: Some(Shard { index: 0, count: 2 }),
-            export: true,
-            ..options()
-        });
+        let mut o = options();
+        o.run.shard = Some(Shard { index: 0, count: 2 });
+        o.run.export = true;
+        let m = refusal(o);
         assert!(
             m.starts_with("--export needs a whole KITTI object dataset"),
             "{m}"
         );
-        let m = refusal(KittiOptions {
-            source: KittiSource::Raw { drive: None },
-            export: true,
-            ..options()
-        });
+        let mut o = options();
+        o.source = KittiSource::Raw { drive: None };
+        o.run.export = true;
+        let m = refusal(o);
         assert!(m.starts_with("--export needs"), "{m}");
         let m = refusal(KittiOptions {
             cameras: vec![Cam::C3],
@@ -274,11 +263,10 @@ mod tests {
             crop_size: ImageSize::new(100, 50),
             min_objects: 0,
         };
-        let m = refusal(KittiOptions {
-            source: KittiSource::Raw { drive: None },
-            augment: Some(augment),
-            ..options()
-        });
+        let mut o = options();
+        o.source = KittiSource::Raw { drive: None };
+        o.run.augment = Some(augment);
+        let m = refusal(o);
         assert!(
             m.starts_with("--augment is not available for KITTI raw"),
             "{m}"

@@ -14,7 +14,7 @@ use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::names::IMAGE_SETS;
 use crate::run::{Claim, FrameWork, OutputFolder, Progress};
-use crate::style::{Device, StyleModel, StyleOptions};
+use crate::style::StyleModel;
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -49,7 +49,7 @@ pub fn run_kitti(
     if let Some(shard) = job.shard {
         frames.retain(|f| shard.owns(&f.split, &f.id));
     }
-    let style = load_style(job)?;
+    let style = crate::convert::run_options::load_style(job.style.as_ref())?;
     let parameters =
         serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
     let previous = folder.previous(&parameters)?;
@@ -119,34 +119,6 @@ pub fn run_kitti(
             .map(|a| (ctx.views.thin_views(), a.min_objects.max(1) as usize)),
         not_frames,
     })
-}
-
-/// The style model's sessions, loaded before anything is written: a missing library or a bad
-/// model is a set-up error. On the CPU, one session per worker with one thread each, so
-/// --jobs alone sets the core count. On a GPU each session holds its own weights and
-/// activation arena in device memory, and one device runs one model at a time anyway: two
-/// sessions (one computing while the other's inputs are prepared) serve any number of workers.
-fn load_style(job: &KittiJob) -> Result<Option<StyleModel>> {
-    let Some(s) = &job.style else {
-        return Ok(None);
-    };
-    // The model is the user's own file: name it missing before asking for the runtime.
-    if !s.options.model.is_file() {
-        return Err(Error::Setup(format!(
-            "--style {}: no such model file",
-            s.options.model.display()
-        )));
-    }
-    let options = StyleOptions {
-        intra_threads: 1,
-        ..s.options.clone()
-    };
-    let workers = rayon::current_num_threads();
-    let sessions = match options.device {
-        Device::Cpu => workers,
-        Device::Cuda => workers.min(2),
-    };
-    Ok(Some(StyleModel::load_pool(&options, sessions)?))
 }
 
 /// Two inputs that look like a KITTI root but are not the one to give: a dataset panoconv

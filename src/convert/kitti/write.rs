@@ -19,7 +19,7 @@ use crate::kitti::Cam;
 use crate::kitti::KittiFrame;
 use crate::kitti::OutputKind;
 use crate::kitti::Split;
-use crate::run::manifest::{FrameRecord, FrameStatus};
+use crate::run::manifest::FrameRecord;
 use crate::warp::PngSource;
 use nalgebra::Vector3;
 use std::path::PathBuf;
@@ -250,15 +250,6 @@ pub(super) fn finish(
         written.outputs.push(file.clone());
     }
     Ok(FrameOutput {
-        record: FrameRecord {
-            split: split.name.clone(),
-            id: id.to_owned(),
-            status: FrameStatus::Ok,
-            error: None,
-            inputs,
-            outputs: written.outputs,
-            views: written.views,
-            lidar: written.lidar,
-        },
+        record: written.record(split.name.clone(), id.to_owned(), inputs),
     })
 }

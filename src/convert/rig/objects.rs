@@ -11,7 +11,6 @@
 //! was dropped) is kept for the frame's `objects/` record.
 
 use crate::camera::CameraModel;
-use crate::kitti::rig_output::label_line;
 use crate::reproject::source_box::source_box_in_image;
 use crate::source::{LidarPoint, SourceBox};
 use nalgebra::Vector3;
@@ -113,9 +112,23 @@ pub fn points_inside(b: &SourceBox, lidar: &[LidarPoint]) -> usize {
         .count()
 }
 
-/// The label lines of `objects` in `camera` (centre `centre`, the reference frame's axes) and
-/// every object's outcome, in the objects' order; classes that `keep_class` refuses are
-/// dropped first.
+/// A written object placed in an output camera: which of the frame's objects, its exact 2D
+/// box, truncation and occlusion. The dataset's writer formats it (`kitti::rig_output`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedObject {
+    /// Its index in the frame's `objects`.
+    pub index: usize,
+    /// The exact 2D box in the output image: left, top, right, bottom, pixels.
+    pub bounds: [f64; 4],
+    /// The part of the box outside the image, 0 to 1.
+    pub truncation: f64,
+    /// The dataset's occlusion level (0 when it has none).
+    pub occlusion: u8,
+}
+
+/// The written objects of `objects` placed in `camera` (centre `centre`, the reference
+/// frame's axes) and every object's outcome, in the objects' order; classes that
+/// `keep_class` refuses are dropped first.
 pub(super) fn label_objects(
     objects: &[SourceBox],
     lidar: &[LidarPoint],
@@ -123,10 +136,10 @@ pub(super) fn label_objects(
     camera: &dyn CameraModel,
     rule: &ObjectRule,
     keep_class: &(dyn Fn(&SourceBox) -> bool + Sync),
-) -> (Vec<String>, Vec<ObjectOutcome>) {
-    let mut lines = Vec::new();
+) -> (Vec<PlacedObject>, Vec<ObjectOutcome>) {
+    let mut placed = Vec::new();
     let mut outcomes = Vec::with_capacity(objects.len());
-    for b in objects {
+    for (index, b) in objects.iter().enumerate() {
         let mut outcome = ObjectOutcome::of(b, centre);
         if !keep_class(b) {
             outcome.dropped = Some(DropReason::Class);
@@ -142,19 +155,19 @@ pub(super) fn label_objects(
             }
             if outcome.dropped.is_none() {
                 match source_box_in_image(b, centre, camera) {
-                    Some(image) => lines.push(label_line(
-                        b,
-                        image.bounds,
-                        image.truncation,
-                        b.occlusion.unwrap_or(0),
-                    )),
+                    Some(image) => placed.push(PlacedObject {
+                        index,
+                        bounds: image.bounds,
+                        truncation: image.truncation,
+                        occlusion: b.occlusion.unwrap_or(0),
+                    }),
                     None => outcome.dropped = Some(DropReason::Outside),
                 }
             }
         }
         outcomes.push(outcome);
     }
-    (lines, outcomes)
+    (placed, outcomes)
 }
 
 #[cfg(test)]
@@ -167,6 +180,21 @@ mod tests {
             position: Vector3::new(x, y, z),
             intensity: 0.0,
         }
+    }
+
+    /// The KITTI label lines of the placed objects.
+    fn lines(objects: &[SourceBox], placed: &[PlacedObject]) -> Vec<String> {
+        placed
+            .iter()
+            .map(|p| {
+                crate::kitti::rig_output::label_line(
+                    &objects[p.index],
+                    p.bounds,
+                    p.truncation,
+                    p.occlusion,
+                )
+            })
+            .collect()
     }
 
     #[test]
@@ -193,16 +221,14 @@ mod tests {
             max_distance: 80.0,
             min_points: 2,
         };
-        let (lines, outcomes) = label_objects(
-            &[seen, far, unseen, behind.clone()],
-            &lidar,
-            &Vector3::zeros(),
-            &camera,
-            &rule,
-            &|_| true,
-        );
-        assert_eq!(lines.len(), 1);
-        assert!(lines[0].starts_with("Car 0.00 0 "));
+        let objects = [seen, far, unseen, behind.clone()];
+        let (placed, outcomes) =
+            label_objects(&objects, &lidar, &Vector3::zeros(), &camera, &rule, &|_| {
+                true
+            });
+        assert_eq!(placed.len(), 1);
+        assert_eq!((placed[0].index, placed[0].truncation), (0, 0.0));
+        assert!(lines(&objects, &placed)[0].starts_with("Car 0.00 0 "));
         let reasons: Vec<_> = outcomes.iter().map(|o| o.dropped).collect();
         assert_eq!(
             reasons,
@@ -246,14 +272,10 @@ mod tests {
             max_distance: 80.0,
             min_points: 0,
         };
-        let (lines, outcomes) = label_objects(
-            &[upright, tilted.clone()],
-            &[],
-            &Vector3::zeros(),
-            &camera,
-            &rule,
-            &|_| true,
-        );
+        let objects = [upright, tilted.clone()];
+        let (placed, outcomes) =
+            label_objects(&objects, &[], &Vector3::zeros(), &camera, &rule, &|_| true);
+        let lines = lines(&objects, &placed);
         assert_eq!(lines.len(), 2);
         assert!(!outcomes[0].is_tilted() && outcomes[1].is_tilted());
         assert_eq!(outcomes[1].tilt_mrad, 50.0);
@@ -265,7 +287,7 @@ mod tests {
         assert_eq!(ry, ["0.30", "0.30"]);
         let r = outcomes[1].rotation;
         assert!((0..9).all(|i| r[i] == tilted.rotation[(i / 3, i % 3)]));
-        let counts = super::super::kitti360::ObjectCounts::of(&outcomes);
+        let counts = super::super::job::ObjectCounts::of(&outcomes);
         assert_eq!((counts.written, counts.tilted), (2, 1));
     }
 }

@@ -9,7 +9,7 @@
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
 //! tables are built per frame.
 
-use super::objects::{label_objects, ObjectOutcome, ObjectRule};
+use super::objects::{label_objects, ObjectOutcome, ObjectRule, PlacedObject};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -59,8 +59,8 @@ pub struct RigFrame {
     pub source: Vec<u8>,
     /// Each used camera's exposure gain.
     pub gains: Vec<f64>,
-    /// KITTI label lines of the written objects.
-    pub labels: Vec<String>,
+    /// The written objects, placed in the output camera (the dataset's writer formats them).
+    pub labels: Vec<PlacedObject>,
     /// Every object's outcome.
     pub objects: Vec<ObjectOutcome>,
     /// The depth map (none where no camera gives the pixel) and its manifest record.
@@ -177,10 +177,20 @@ fn chosen_cameras<'f>(frame: &'f Frame, options: &RigOptions) -> Result<Vec<&'f 
 /// with a style model, styled (each image on its own, so a pixel's style does not depend on
 /// the other cameras).
 pub fn read_images(frame: &Frame, options: &RigOptions) -> Result<Vec<RgbImage>> {
+    Ok(read_images_hashed(frame, options)?.0)
+}
+
+/// [`read_images`], with the blake3 (hex) of each image file's bytes as they were read.
+pub fn read_images_hashed(
+    frame: &Frame,
+    options: &RigOptions,
+) -> Result<(Vec<RgbImage>, Vec<String>)> {
     let chosen = chosen_cameras(frame, options)?;
     let mut images = Vec::with_capacity(chosen.len());
+    let mut hashes = Vec::with_capacity(chosen.len());
     for c in &chosen {
         let bytes = crate::fs::read_file(&c.image)?;
+        hashes.push(crate::fs::hash_hex(&bytes));
         let image = crate::codec::decode_rgb8(&bytes, &c.image)?;
         let want = c.model.size();
         if (image.width(), image.height()) != (want.width, want.height) {
@@ -204,7 +214,7 @@ pub fn read_images(frame: &Frame, options: &RigOptions) -> Result<Vec<RgbImage>>
         };
         images.push(image);
     }
-    Ok(images)
+    Ok((images, hashes))
 }
 
 /// [`convert_frame`] into a given output `camera` (its axes the reference frame's), from the

@@ -1,18 +1,19 @@
-//! Running `panoconv kitti360`: the sequences opened and the selection checked before anything
-//! is written (`kitti360_setup.rs`), then the output folder's run (`run::OutputFolder`: claim,
-//! previous records, journal, the frame loop, the manifest) over this command's
-//! [`FrameWork`]: frames in groups through `convert::style_pass` (each read with its views
-//! drawn, the group's camera images styled together, then each converted through the rig pass
-//! and written, atomically and hashed for the manifest); a failed frame leaves no file.
+//! The one rig run, for any dataset behind [`RigSource`]: the selection and the cameras checked
+//! before anything is written (`setup.rs`), then the output folder's run (`run::OutputFolder`:
+//! claim, previous records, journal, the frame loop, the manifest) over a [`FrameWork`]:
+//! frames in groups through `convert::style_pass` (each read with its views drawn, the group's
+//! camera images styled together, then each converted through the rig pass and written,
+//! atomically and hashed for the manifest); a failed frame leaves no file. The KITTI files
+//! (label lines, calib) are `kitti::rig_output`'s.
 
 use super::gray::encode_gray8;
-use super::kitti360::{Kitti360Job, Kitti360Summary, ObjectCounts, Parameters, SPLIT};
-use super::kitti360_setup::{
-    check_output_camera, load_style, open_sequences, read_ego_masks, select, Item,
-};
+use super::job::{parameters, ObjectCounts, RigJob, RigSummary, SPLIT};
+use super::objects::ObjectOutcome;
 use super::pass::{
-    convert_into, count_objects, output_camera, read_images, CameraInfo, ClassFilter, RigOptions,
+    convert_into, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
+    RigOptions,
 };
+use super::setup::{check_cameras, check_output_camera, read_ego_masks};
 use crate::camera::OutputCamera;
 use crate::convert::augment_draw::{draw_view, CountObjects};
 use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
@@ -21,9 +22,9 @@ use crate::error::{Error, Result};
 use crate::fs;
 use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
-use crate::kitti360::Sequence;
-use crate::run::manifest::{FrameRecord, FrameStatus};
-use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, OutputMode, Progress};
+use crate::run::manifest::FrameRecord;
+use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, Progress};
+use crate::source::{Frame, RigItem, RigSource, SourceBox};
 use crate::style::{StyleError, StyleModel};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -40,13 +41,15 @@ type OutputView = (String, Option<View>, Box<dyn OutputCamera>);
 
 /// A frame read, its views drawn, waiting for the style pass and the stitch.
 struct Prepared {
-    frame: crate::source::Frame,
+    frame: Frame,
     views: Vec<OutputView>,
     /// The chosen cameras' images, in `--cameras` order (styled in place by the style pass).
     images: Vec<RgbImage>,
     /// The chosen cameras' image files, in `images`' order: a failed style pass names the
     /// image that failed.
     image_paths: Vec<PathBuf>,
+    /// blake3 of each chosen camera's image file, as read, in `images`' order.
+    image_hashes: Vec<String>,
 }
 
 impl StyleImages for Prepared {
@@ -63,8 +66,10 @@ impl StyleImages for Prepared {
 }
 
 struct Ctx<'a> {
-    job: &'a Kitti360Job,
-    sequences: Vec<(Sequence, Vec<CameraInfo>)>,
+    job: &'a RigJob,
+    source: &'a dyn RigSource,
+    /// Each part's camera set, as the rig pass takes it.
+    infos: Vec<Vec<CameraInfo>>,
     /// blake3 of the input files shared by frames (calibration, poses, boxes), by path.
     hashes: OnceMap<PathBuf, std::result::Result<String, String>>,
     objects: Mutex<ObjectCounts>,
@@ -80,6 +85,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     fn output_path(&self, folder: &str, id: &str, ext: &str) -> PathBuf {
         self.job
+            .run
             .output
             .join(SPLIT)
             .join(folder)
@@ -103,10 +109,8 @@ impl Ctx<'_> {
             .collect()
     }
 
-    fn input_hash(&self, path: &Path, per_frame: bool) -> Result<String> {
-        if per_frame {
-            return Ok(fs::hash_hex(&fs::read_file(path)?));
-        }
+    /// blake3 of an input file shared by frames, read once per run.
+    fn shared_hash(&self, path: &Path) -> Result<String> {
         self.hashes
             .get_or_build(&path.to_path_buf(), || {
                 fs::read_file(path)
@@ -117,8 +121,8 @@ impl Ctx<'_> {
     }
 
     /// The output ids of a frame: its own, or its augmented views'.
-    fn output_ids(&self, item: &Item) -> Vec<String> {
-        match &self.job.augment {
+    fn output_ids(&self, item: &RigItem) -> Vec<String> {
+        match &self.job.run.augment {
             None => vec![item.id.clone()],
             Some(aug) => (0..aug.count)
                 .filter_map(|i| view_id(&item.id, aug.count, i))
@@ -130,15 +134,15 @@ impl Ctx<'_> {
     /// (each redrawn, up to `MAX_ATTEMPTS` times, until it holds `min_objects` objects).
     fn output_views(
         &self,
-        item: &Item,
-        frame: &crate::source::Frame,
+        item: &RigItem,
+        frame: &Frame,
         info: &[CameraInfo],
         options: &RigOptions,
         keep: ClassFilter,
     ) -> Result<Vec<OutputView>> {
         let job = self.job;
         let canvas = output_camera(frame, info, &job.target, job.cameras[0])?;
-        let Some(aug) = &job.augment else {
+        let Some(aug) = &job.run.augment else {
             return Ok(vec![(item.id.clone(), None, canvas)]);
         };
         let view_camera = |view: &View| -> Result<Box<dyn OutputCamera>> {
@@ -171,12 +175,13 @@ impl Ctx<'_> {
 
     /// Reads a frame and its chosen cameras' images, and draws its output views: everything
     /// before the style pass.
-    fn prepare(&self, item: &Item) -> Result<Prepared> {
-        let (sequence, info) = &self.sequences[item.sequence];
-        let frame = sequence.frame(item.frame)?;
+    fn prepare(&self, item: &RigItem) -> Result<Prepared> {
+        let frame = self.source.read(item)?;
+        let info = &self.infos[item.part];
         let options = &self.options;
-        let views = self.output_views(item, &frame, info, options, &|b| self.keeps(b))?;
-        let images = read_images(&frame, options)?;
+        let keep = |b: &SourceBox| self.source.keeps(b);
+        let views = self.output_views(item, &frame, info, options, &keep)?;
+        let (images, image_hashes) = read_images_hashed(&frame, options)?;
         let image_paths = options
             .cameras
             .iter()
@@ -187,42 +192,28 @@ impl Ctx<'_> {
             views,
             images,
             image_paths,
+            image_hashes,
         })
-    }
-
-    /// Whether a box's class is written.
-    fn keeps(&self, b: &crate::source::SourceBox) -> bool {
-        self.job.classes.keeps(&b.class, &b.dataset_class)
     }
 
     /// The rest of a prepared frame's conversion: each output view stitched from its (styled)
     /// images, with its labels, depth and calib, written and recorded.
-    fn finish(&self, item: &Item, prepared: Prepared) -> Result<FrameRecord> {
-        let (sequence, info) = &self.sequences[item.sequence];
+    fn finish(&self, item: &RigItem, prepared: Prepared) -> Result<FrameRecord> {
         let job = self.job;
         let Prepared {
             frame,
             views,
             images,
-            ..
+            image_paths,
+            image_hashes,
         } = prepared;
-        let world_from_level = sequence.world_from_level(item.frame)?;
-        let level_from_world = world_from_level.inverse().ok_or_else(|| {
-            Error::file(
-                &frame.provenance[0],
-                format!("frame {}: singular pose", item.frame),
-            )
-        })?;
         let mut files = RigViewFiles {
             ctx: self,
-            sequence,
-            frame_number: item.frame,
+            item,
             frame: &frame,
-            info,
+            info: &self.infos[item.part],
             images: &images,
             options: &self.options,
-            level_from_velo: level_from_world.compose(&sequence.world_from_velo(item.frame)?),
-            velo_from_imu: sequence.calibration.pose_from_velo().inverse(),
             counts: ObjectCounts::default(),
         };
         let views = views.into_iter().map(|(id, view, camera)| PassView {
@@ -230,54 +221,72 @@ impl Ctx<'_> {
             view,
             files: (id, camera),
         });
-        let written = write_views(&job.output, job.png_compression, views, &mut files)?;
+        let written = write_views(&job.run.output, job.run.png_compression, views, &mut files)?;
         let counts = files.counts;
-        // the images of the cameras used, and every other input the frame read
-        let unused: Vec<&PathBuf> = frame
-            .rig
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| !job.cameras.contains(k))
-            .map(|(_, c)| &c.image)
-            .collect();
-        let per_frame: Vec<&PathBuf> = frame.rig.iter().map(|c| &c.image).collect();
-        let mut inputs = Vec::new();
-        for path in frame.provenance.iter().filter(|p| !unused.contains(p)) {
-            let own = per_frame.contains(&path) || path.extension().is_some_and(|e| e == "bin");
-            inputs.push((relative(&job.input, path), self.input_hash(path, own)?));
-        }
+        let inputs = self.inputs(&frame, &image_paths, &image_hashes)?;
         self.objects
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .add(&counts);
-        Ok(FrameRecord {
-            split: SPLIT.to_owned(),
-            id: item.id.clone(),
-            status: FrameStatus::Ok,
-            error: None,
-            inputs,
-            outputs: written.outputs,
-            views: written.views,
-            lidar: written.lidar,
-        })
+        Ok(written.record(SPLIT.to_owned(), item.id.clone(), inputs))
+    }
+
+    /// The frame's inputs for its record, in the order it names them, each hashed once: the
+    /// chosen cameras' images by the bytes they were decoded from, the files the read took
+    /// by the read's hashes, the files frames share once per run; the other cameras' images
+    /// are not inputs.
+    fn inputs(
+        &self,
+        frame: &Frame,
+        image_paths: &[PathBuf],
+        image_hashes: &[String],
+    ) -> Result<Vec<(String, String)>> {
+        let unused: Vec<&PathBuf> = frame
+            .rig
+            .iter()
+            .map(|c| &c.image)
+            .filter(|p| !image_paths.contains(p))
+            .collect();
+        let mut inputs = Vec::new();
+        for path in frame.provenance.iter().filter(|p| !unused.contains(p)) {
+            let read = image_paths
+                .iter()
+                .zip(image_hashes)
+                .chain(frame.input_hashes.iter().map(|(p, h)| (p, h)))
+                .find(|(p, _)| *p == path);
+            let hash = match read {
+                Some((_, h)) => h.clone(),
+                None => self.shared_hash(path)?,
+            };
+            inputs.push((relative(self.source.root(), path), hash));
+        }
+        Ok(inputs)
     }
 }
 
-/// A KITTI-360 frame's files for each output view: the stitch's image, calib, labels, source
-/// map, objects record and depth.
+/// A rig frame's files for each output view: the stitch's image, calib, labels, source map,
+/// objects record and depth.
 struct RigViewFiles<'a> {
     ctx: &'a Ctx<'a>,
-    sequence: &'a Sequence,
-    frame_number: u32,
-    frame: &'a crate::source::Frame,
+    item: &'a RigItem,
+    frame: &'a Frame,
     info: &'a [CameraInfo],
     /// The chosen cameras' (styled) images.
     images: &'a [RgbImage],
     options: &'a RigOptions,
-    level_from_velo: crate::source::Pose,
-    velo_from_imu: Option<crate::source::Pose>,
     /// The frame's object counts, over its views.
     counts: ObjectCounts,
+}
+
+/// A view's `objects/ID.json`: which frame of the dataset (the source's fields), the
+/// exposure gains, the counts and every object's outcome.
+#[derive(serde::Serialize)]
+struct ObjectsFile<'a> {
+    #[serde(flatten)]
+    frame: serde_json::Map<String, serde_json::Value>,
+    gains: &'a [f64],
+    counts: ObjectCounts,
+    objects: &'a [ObjectOutcome],
 }
 
 impl ViewFiles for RigViewFiles<'_> {
@@ -286,33 +295,31 @@ impl ViewFiles for RigViewFiles<'_> {
 
     fn view_files(&mut self, (id, camera): Self::View, sink: &mut ViewSink) -> Result<()> {
         let ctx = self.ctx;
-        let keep = |b: &crate::source::SourceBox| ctx.keeps(b);
+        let keep = |b: &SourceBox| ctx.source.keeps(b);
         let frame = self.frame;
         let out = convert_into(frame, self.info, camera, self.images, self.options, &keep)?;
         let calib = crate::kitti::rig_output::rig_calib_text(
             out.camera.as_ref(),
             &out.centre,
-            &self.level_from_velo,
-            self.velo_from_imu.as_ref(),
+            frame.reference_from_lidar.as_ref(),
+            frame.lidar_from_imu.as_ref(),
             frame.world_from_reference.as_ref(),
         );
-        let mut labels = out.labels.join("\n");
-        if !labels.is_empty() {
+        let mut labels = String::new();
+        for p in &out.labels {
+            let b = &frame.objects[p.index];
+            labels.push_str(&crate::kitti::rig_output::label_line(
+                b,
+                p.bounds,
+                p.truncation,
+                p.occlusion,
+            ));
             labels.push('\n');
-        }
-        #[derive(serde::Serialize)]
-        struct ObjectsFile<'a> {
-            sequence: &'a str,
-            frame: u32,
-            gains: &'a [f64],
-            counts: ObjectCounts,
-            objects: &'a [super::objects::ObjectOutcome],
         }
         let view_counts = ObjectCounts::of(&out.objects);
         self.counts.add(&view_counts);
         let objects = serde_json::to_vec_pretty(&ObjectsFile {
-            sequence: &self.sequence.name,
-            frame: self.frame_number,
+            frame: ctx.source.record(self.item),
             gains: &out.gains,
             counts: view_counts,
             objects: &out.objects,
@@ -338,20 +345,17 @@ impl ViewFiles for RigViewFiles<'_> {
 }
 
 impl FrameWork for Ctx<'_> {
-    type Item = Item;
+    type Item = RigItem;
 
-    fn key<'k>(&self, item: &'k Item) -> (&'k str, &'k str) {
+    fn key<'k>(&self, item: &'k RigItem) -> (&'k str, &'k str) {
         (SPLIT, &item.id)
     }
 
-    fn convert(&self, group: &[&Item]) -> Vec<Result<FrameRecord>> {
+    fn convert(&self, group: &[&RigItem]) -> Vec<Result<FrameRecord>> {
         let results = convert_group(
             self.style_pass.as_ref(),
             group,
-            |item| {
-                let sequence = &self.sequences[item.sequence].0;
-                sequence.root.join("data_2d_raw").join(&sequence.name)
-            },
+            |item| self.source.frame_folder(item),
             |item| self.prepare(item),
             |item, p| self.finish(item, p),
         );
@@ -372,49 +376,57 @@ impl FrameWork for Ctx<'_> {
     }
 }
 
-/// Runs a conversion. Set-up problems return `Err` before anything is written; a broken frame
-/// is reported through `progress`, recorded in the manifest and counted in the summary.
-/// `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside the caller's rayon pool.
-pub fn run_kitti360(
-    job: &Kitti360Job,
+/// Runs a rig conversion of `source`. Set-up problems return `Err` before anything is
+/// written; a broken frame is reported through `progress`, recorded in the manifest and
+/// counted in the summary. `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside
+/// the caller's rayon pool.
+pub fn run_rig(
+    job: &RigJob,
+    source: &dyn RigSource,
     progress: &dyn Progress,
     stop: &AtomicBool,
-) -> Result<Kitti360Summary> {
+) -> Result<RigSummary> {
     let started = std::time::Instant::now();
-    let sequences = open_sequences(job)?;
-    let mut items = select(job, &sequences)?;
-    check_output_camera(job, &sequences, &items)?;
-    let style = load_style(job)?;
+    job.validate()?;
+    check_cameras(job, source)?;
+    let mut items = source.items()?;
+    check_output_camera(job, source, &items)?;
+    let style = crate::convert::run_options::load_style(job.run.style.as_ref())?;
     let folder = OutputFolder::claim(Claim {
-        input: &job.input,
-        output: &job.output,
-        shard: job.shard,
-        mode: OutputMode::from_flags(job.overwrite, job.resume),
+        input: source.root(),
+        output: &job.run.output,
+        shard: job.run.shard,
+        mode: job.run.mode,
         resumable: true,
         started,
     })?;
-    if let Some(shard) = job.shard {
+    if let Some(shard) = job.run.shard {
         items.retain(|i| shard.owns(SPLIT, &i.id));
     }
-    let (masks, mask_records) = read_ego_masks(job, &sequences)?;
-    let parameters = serde_json::to_value(Parameters::new(
+    let (masks, mask_records) = read_ego_masks(job, source)?;
+    let parameters = parameters(
         job,
+        source,
         &mask_records,
         style.as_ref().map(StyleModel::info),
-    ))
-    .expect("parameters serialise");
+    );
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
     for name in FOLDERS {
-        if name == "depth_2" && job.depth.is_none() {
+        if name == "depth_2" && job.run.depth.is_none() {
             continue;
         }
         let dir = folder.root().join(SPLIT).join(name);
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     }
+    let infos = (0..source.parts())
+        .map(|p| source.cameras(p).iter().map(|c| c.info).collect())
+        .collect();
+    let batch = job.run.style.as_ref().map_or(1, |s| s.batch);
     let ctx = Ctx {
         job,
-        sequences,
+        source,
+        infos,
         hashes: OnceMap::default(),
         objects: Mutex::new(ObjectCounts::default()),
         options: RigOptions {
@@ -422,16 +434,16 @@ pub fn run_kitti360(
             stitch: job.stitch,
             centre: job.centre,
             objects: job.objects,
-            depth: job.depth,
+            depth: job.depth(),
             ego_masks: masks,
             // the style pass styles the images between `prepare` and `finish`
             style: None,
         },
-        style_pass: style.as_ref().map(|m| StylePass::new(m, job.style_batch)),
+        style_pass: style.as_ref().map(|m| StylePass::new(m, batch)),
         thin_views: AtomicUsize::new(0),
     };
     let mut run = folder.start(
-        "kitti360",
+        source.command(),
         parameters,
         previous,
         items.len(),
@@ -442,10 +454,13 @@ pub fn run_kitti360(
     run.run(&items, group, &ctx);
     let summary = run.finish(0, |_| Ok(()))?;
     let objects = *ctx.objects.lock().unwrap_or_else(|e| e.into_inner());
-    Ok(Kitti360Summary {
+    Ok(RigSummary {
         run: summary,
         objects,
         style_runs: style.as_ref().map(StyleModel::runs),
-        thin_views: job.augment.map(|_| ctx.thin_views.load(Ordering::Relaxed)),
+        thin_views: job
+            .run
+            .augment
+            .map(|_| ctx.thin_views.load(Ordering::Relaxed)),
     })
 }
