@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Installs the Python packages that the tests use as independent references (pycocotools for
 # the COCO export, OpenCV's fisheye and omnidir modules for the camera models, kitti360scripts
-# for the KITTI-360 readers) into a virtual environment of their own, `<repo>/.venv-test/`,
-# from PyPI.
+# for the KITTI-360 readers, nuscenes-devkit for the nuScenes tables) into a virtual
+# environment of their own, `<repo>/.venv-test/`, from PyPI.
 #
 # kitti360scripts is installed without its declared dependencies: the loaders the tests use
 # (calibration, fisheye YAML, 3D boxes, camera projections) need only numpy and PyYAML, while
 # its 2D-annotation and viewer helpers pull matplotlib and scikit-image (with SciPy), which the
-# tests stub (tests/kitti360_scripts.py).
+# tests stub (tests/kitti360_scripts.py). nuscenes-devkit likewise: its table loader, poses and
+# projections need numpy, OpenCV and pyquaternion; its renderers' and map helpers' imports
+# (matplotlib, scikit-learn, Pillow, tqdm, cachetools, shapely) are stubbed
+# (tests/nuscenes_devkit.py).
 #
 # Idempotent: nothing is downloaded when the environment already holds these pinned versions.
 # Always prints the absolute path of the environment's python on stdout (last line), e.g. to
@@ -28,6 +31,8 @@ REQUIREMENTS=(
 )
 NO_DEPS=(
     "kitti360Scripts==1.0.0"
+    "nuscenes-devkit==1.2.0"
+    "pyquaternion==0.9.9"
 )
 STAMP="$VENV/.panoconv-requirements"
 WANT="$(printf '%s\n' "${REQUIREMENTS[@]}" "${NO_DEPS[@]}")"

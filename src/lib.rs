@@ -16,6 +16,7 @@ pub mod geometry;
 pub mod image;
 pub mod kitti;
 pub mod kitti360;
+pub mod nuscenes;
 pub mod reproject;
 pub mod run;
 pub mod source;

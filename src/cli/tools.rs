@@ -186,20 +186,38 @@ pub(super) struct SynthArgs {
     #[arg(long)]
     overwrite: bool,
     /// Write a synthetic KITTI-360 sequence in the official layout instead (docs/kitti360.md).
-    #[arg(long)]
+    #[arg(long, group = "rig")]
     kitti360: bool,
-    /// With --kitti360: image scale (1 = the official 1408x376 and 1400x1400 images).
-    #[arg(long, requires = "kitti360", default_value_t = 1.0)]
+    /// Write a synthetic nuScenes scene in the official layout instead (docs/nuscenes.md).
+    #[arg(long, group = "rig")]
+    nuscenes: bool,
+    /// With --kitti360 or --nuscenes: image scale (1 = the official sizes).
+    #[arg(long, requires = "rig", default_value_t = 1.0)]
     scale: f64,
-    /// With --kitti360: move all four camera centres to image_00's.
-    #[arg(long, requires = "kitti360")]
+    /// With --kitti360 or --nuscenes: all camera centres at the first camera's (nuScenes: and
+    /// every camera firing at the LiDAR's time).
+    #[arg(long, requires = "rig")]
     zero_baseline: bool,
-    /// With --kitti360: the number of frames.
-    #[arg(long, requires = "kitti360", default_value_t = 3)]
+    /// With --kitti360: the number of frames; with --nuscenes: the number of samples.
+    #[arg(long, requires = "rig", default_value_t = 3)]
     frames: u32,
 }
 
 pub(super) fn synth(args: SynthArgs) -> Result<ExitCode> {
+    if args.nuscenes {
+        use panoconv::tools::synth_nuscenes::{write_scene, SynthNuScenesOptions};
+        let options = SynthNuScenesOptions {
+            samples: args.frames,
+            scale: args.scale,
+            zero_baseline: args.zero_baseline,
+        };
+        write_scene(&args.output, &options, args.overwrite, &Bar::new(false))?;
+        eprintln!(
+            "panoconv: synthetic nuScenes scene written to {}",
+            args.output.display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     if args.kitti360 {
         use panoconv::tools::synth360::{write_sequence, Synth360Options};
         let options = Synth360Options {

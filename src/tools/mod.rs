@@ -1,5 +1,5 @@
 //! The commands around a conversion: preview, inspect, verify, depth evaluation, predictions
-//! back to KITTI, and the synthetic samples (KITTI and KITTI-360).
+//! back to KITTI, and the synthetic samples (KITTI, KITTI-360 and nuScenes).
 
 pub mod depth_array;
 pub mod eval_depth;
@@ -8,5 +8,6 @@ pub mod predictions;
 pub mod preview;
 pub mod synth;
 pub mod synth360;
+pub mod synth_nuscenes;
 pub mod unproject;
 pub mod verify;

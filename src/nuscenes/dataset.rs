@@ -1,0 +1,437 @@
+//! [`NuScenes`]: the tables of one version (`DATAROOT/VERSION/*.json`), indexed for a
+//! selection of scenes and cameras.
+//!
+//! Only what the selection needs is kept: the scenes asked for, their samples, the keyframe
+//! `sample_data` of the chosen cameras, the reference camera and the LiDAR of those samples,
+//! the ego poses these name, the samples' annotations and the instances, categories,
+//! attributes and visibility levels they name. The large tables (`sample_data`, `ego_pose`,
+//! `sample_annotation`, `instance`) are streamed and filtered record by record, so a version of
+//! millions of records is indexed in the memory of the selection.
+
+use super::json::{read_all, stream, Fields};
+use super::tables::{
+    self, raw, read_ego_pose, read_instance, read_named, read_visibility, Annotation,
+    CalibratedSensor, Sample, SampleData, Scene, Sensor,
+};
+use super::token::Token;
+use crate::error::{Error, Result};
+use crate::source::Pose;
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// nuScenes' six cameras, clockwise from the front: the order of a rig by default.
+pub const NUSCENES_CAMERAS: [&str; 6] = [
+    "CAM_FRONT",
+    "CAM_FRONT_RIGHT",
+    "CAM_BACK_RIGHT",
+    "CAM_BACK",
+    "CAM_BACK_LEFT",
+    "CAM_FRONT_LEFT",
+];
+
+/// The camera whose optical centre and heading define the level frame, when the dataset has it.
+pub const REFERENCE_CAMERA: &str = "CAM_FRONT";
+
+/// The LiDAR whose keyframe times a sample, when the dataset has it.
+pub const REFERENCE_LIDAR: &str = "LIDAR_TOP";
+
+/// Scenes and cameras to read.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Selection {
+    /// Scene names; None: every scene, in `scene.json`'s order.
+    pub scenes: Option<Vec<String>>,
+    /// Camera channels, in the rig's order; None: every camera channel of the dataset
+    /// (nuScenes' six clockwise from the front, then the others by name).
+    pub cameras: Option<Vec<String>>,
+}
+
+/// A selected scene: its name, its position in `scene.json` and its samples in order.
+#[derive(Debug, Clone)]
+pub struct SceneEntry {
+    /// The scene's name.
+    pub name: String,
+    /// The scene's token.
+    pub token: Token,
+    /// Its position in `scene.json` (the frame ids' first part).
+    pub position: usize,
+    /// Its samples, first to last.
+    pub samples: Vec<Token>,
+}
+
+/// The tables of a version, indexed for a selection.
+#[derive(Debug)]
+pub struct NuScenes {
+    /// The data root (the folder holding `samples/`, `sweeps/` and the version folder).
+    pub dataroot: PathBuf,
+    /// The version folder's name (`v1.0-mini`).
+    pub version: String,
+    /// The selected scenes, in `scene.json`'s order.
+    pub scenes: Vec<SceneEntry>,
+    /// The rig's camera channels.
+    pub cameras: Vec<String>,
+    /// The channel that defines the level frame.
+    pub reference_camera: String,
+    /// The LiDAR channel.
+    pub lidar: String,
+    pub(super) calibrated: HashMap<Token, CalibratedSensor>,
+    /// Keyframe readings by (sample, channel).
+    pub(super) keyframes: HashMap<(Token, String), SampleData>,
+    pub(super) ego_poses: HashMap<Token, Pose>,
+    pub(super) annotations: HashMap<Token, Vec<Annotation>>,
+    pub(super) instances: HashMap<Token, Token>,
+    pub(super) categories: HashMap<Token, String>,
+    pub(super) attributes: HashMap<Token, String>,
+    pub(super) visibility: HashMap<Token, String>,
+}
+
+impl NuScenes {
+    /// The path of table `name` (`sample_data`) of the version.
+    pub fn table(&self, name: &str) -> PathBuf {
+        table_path(&self.dataroot, &self.version, name)
+    }
+
+    /// Reads the tables of `version` under `dataroot` for `selection`.
+    pub fn open(dataroot: &Path, version: &str, selection: &Selection) -> Result<Self> {
+        if version.is_empty() || version.contains(['/', '\\']) || version == ".." {
+            return Err(Error::Setup(format!(
+                "version {version:?} must be a folder name such as v1.0-mini"
+            )));
+        }
+        let dir = dataroot.join(version);
+        if !dir.is_dir() {
+            return Err(Error::file(
+                &dir,
+                "no such version folder (expected DATAROOT/VERSION/*.json)",
+            ));
+        }
+        let path = |name: &str| table_path(dataroot, version, name);
+        let (sensors, calibrated) = read_sensors(&path("sensor"), &path("calibrated_sensor"))?;
+        let channels = Channels::choose(&path("sensor"), &sensors, selection)?;
+        let scenes_path = path("scene");
+        let samples_path = path("sample");
+        let mut all_scenes = Vec::new();
+        stream(&scenes_path, |i, r: raw::Scene| {
+            all_scenes.push(Scene::read(&scenes_path, i, &r)?.1);
+            Ok(())
+        })?;
+        let mut samples = HashMap::new();
+        stream(&samples_path, |i, r: raw::Sample| {
+            let (token, sample) = Sample::read(&samples_path, i, &r)?;
+            samples.insert(token, sample);
+            Ok(())
+        })?;
+        let scenes = select_scenes(
+            &scenes_path,
+            &samples_path,
+            &all_scenes,
+            &samples,
+            selection,
+        )?;
+        let wanted: HashSet<Token> = scenes
+            .iter()
+            .flat_map(|s| s.samples.iter().cloned())
+            .collect();
+        let keyframes = read_keyframes(
+            &path("sample_data"),
+            &wanted,
+            &channels,
+            &calibrated,
+            &sensors,
+        )?;
+        let pose_tokens: HashSet<Token> = keyframes.values().map(|d| d.ego_pose.clone()).collect();
+        let mut ego_poses = HashMap::new();
+        let ego_path = path("ego_pose");
+        stream(&ego_path, |i, r: raw::EgoPose| {
+            let (_, listed) = Fields::new(&ego_path, i, &r.token)?;
+            if pose_tokens.contains(&listed) {
+                let (token, pose) = read_ego_pose(&ego_path, i, &r)?;
+                ego_poses.insert(token, pose);
+            }
+            Ok(())
+        })?;
+        let mut annotations: HashMap<Token, Vec<Annotation>> = HashMap::new();
+        let annotation_path = path("sample_annotation");
+        stream(&annotation_path, |i, r: raw::Annotation| {
+            if Annotation::sample_of(&r).is_some_and(|s| wanted.contains(&s)) {
+                let (sample, a) = Annotation::read(&annotation_path, i, &r)?;
+                annotations.entry(sample).or_default().push(a);
+            }
+            Ok(())
+        })?;
+        let instance_tokens: HashSet<Token> = annotations
+            .values()
+            .flatten()
+            .map(|a| a.instance.clone())
+            .collect();
+        let mut instances = HashMap::new();
+        let instance_path = path("instance");
+        stream(&instance_path, |i, r: raw::Instance| {
+            let (_, listed) = Fields::new(&instance_path, i, &r.token)?;
+            if instance_tokens.contains(&listed) {
+                let (token, category) = read_instance(&instance_path, i, &r)?;
+                instances.insert(token, category);
+            }
+            Ok(())
+        })?;
+        let named = |name: &str| -> Result<HashMap<Token, String>> {
+            let p = path(name);
+            read_all::<raw::Named>(&p)?
+                .iter()
+                .enumerate()
+                .map(|(i, r)| read_named(&p, i, r))
+                .collect()
+        };
+        let visibility_path = path("visibility");
+        let visibility = read_all::<raw::Visibility>(&visibility_path)?
+            .iter()
+            .enumerate()
+            .map(|(i, r)| read_visibility(&visibility_path, i, r))
+            .collect::<Result<_>>()?;
+        Ok(NuScenes {
+            dataroot: dataroot.to_path_buf(),
+            version: version.to_owned(),
+            scenes,
+            cameras: channels.cameras,
+            reference_camera: channels.reference,
+            lidar: channels.lidar,
+            calibrated,
+            keyframes,
+            ego_poses,
+            annotations,
+            instances,
+            categories: named("category")?,
+            attributes: named("attribute")?,
+            visibility,
+        })
+    }
+}
+
+/// `DATAROOT/VERSION/NAME.json`.
+pub fn table_path(dataroot: &Path, version: &str, name: &str) -> PathBuf {
+    dataroot.join(version).join(format!("{name}.json"))
+}
+
+type SensorTables = (HashMap<Token, Sensor>, HashMap<Token, CalibratedSensor>);
+
+fn read_sensors(sensor_path: &Path, calibrated_path: &Path) -> Result<SensorTables> {
+    let sensors: HashMap<Token, Sensor> = read_all::<raw::Sensor>(sensor_path)?
+        .iter()
+        .enumerate()
+        .map(|(i, r)| Sensor::read(sensor_path, i, r))
+        .collect::<Result<_>>()?;
+    let mut calibrated = HashMap::new();
+    stream(calibrated_path, |i, r: raw::CalibratedSensor| {
+        let (token, c) = CalibratedSensor::read(calibrated_path, i, &r)?;
+        if !sensors.contains_key(&c.sensor) {
+            return Err(tables::missing(
+                sensor_path,
+                "sensor",
+                &c.sensor,
+                &format!("calibrated_sensor {token}"),
+            ));
+        }
+        calibrated.insert(token, c);
+        Ok(())
+    })?;
+    Ok((sensors, calibrated))
+}
+
+/// The channels a selection reads.
+struct Channels {
+    cameras: Vec<String>,
+    reference: String,
+    lidar: String,
+}
+
+impl Channels {
+    fn choose(
+        sensor_path: &Path,
+        sensors: &HashMap<Token, Sensor>,
+        selection: &Selection,
+    ) -> Result<Self> {
+        let of = |modality: &str| -> Vec<String> {
+            let mut v: Vec<String> = sensors
+                .values()
+                .filter(|s| s.modality == modality)
+                .map(|s| s.channel.clone())
+                .collect();
+            v.sort_by_key(|c| {
+                (
+                    NUSCENES_CAMERAS
+                        .iter()
+                        .position(|n| n == c)
+                        .unwrap_or(usize::MAX),
+                    c.clone(),
+                )
+            });
+            v.dedup();
+            v
+        };
+        let all_cameras = of("camera");
+        let lidars = of("lidar");
+        let Some(first_camera) = all_cameras.first() else {
+            return Err(Error::file(sensor_path, "no sensor of modality \"camera\""));
+        };
+        let lidar = match lidars
+            .iter()
+            .find(|c| *c == REFERENCE_LIDAR)
+            .or(lidars.first())
+        {
+            Some(l) => l.clone(),
+            None => {
+                return Err(Error::file(
+                    sensor_path,
+                    "no sensor of modality \"lidar\": a sample's time is its LiDAR keyframe's",
+                ))
+            }
+        };
+        let cameras = match &selection.cameras {
+            None => all_cameras.clone(),
+            Some(names) => {
+                let mut seen = HashSet::new();
+                for n in names {
+                    if !all_cameras.contains(n) {
+                        return Err(Error::Setup(format!(
+                            "camera {n} is not a camera channel of {} (it has {})",
+                            sensor_path.display(),
+                            all_cameras.join(", ")
+                        )));
+                    }
+                    if !seen.insert(n) {
+                        return Err(Error::Setup(format!("camera {n} is named twice")));
+                    }
+                }
+                if names.is_empty() {
+                    return Err(Error::Setup("no camera chosen".into()));
+                }
+                names.clone()
+            }
+        };
+        let reference = if all_cameras.iter().any(|c| c == REFERENCE_CAMERA) {
+            REFERENCE_CAMERA.to_owned()
+        } else {
+            first_camera.clone()
+        };
+        Ok(Channels {
+            cameras,
+            reference,
+            lidar,
+        })
+    }
+
+    fn wanted(&self, channel: &str) -> bool {
+        channel == self.lidar
+            || channel == self.reference
+            || self.cameras.iter().any(|c| c == channel)
+    }
+}
+
+fn select_scenes(
+    scenes_path: &Path,
+    samples_path: &Path,
+    all: &[Scene],
+    samples: &HashMap<Token, Sample>,
+    selection: &Selection,
+) -> Result<Vec<SceneEntry>> {
+    if let Some(names) = &selection.scenes {
+        for n in names {
+            if !all.iter().any(|s| &s.name == n) {
+                return Err(Error::Setup(format!(
+                    "scene {n} is not in {}",
+                    scenes_path.display()
+                )));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (position, scene) in all.iter().enumerate() {
+        if selection
+            .scenes
+            .as_ref()
+            .is_some_and(|n| !n.contains(&scene.name))
+        {
+            continue;
+        }
+        let mut chain = Vec::new();
+        let mut next = Some(scene.first_sample.clone());
+        while let Some(token) = next {
+            let Some(sample) = samples.get(&token) else {
+                return Err(tables::missing(
+                    samples_path,
+                    "sample",
+                    &token,
+                    &format!("scene {}'s chain", scene.name),
+                ));
+            };
+            if sample.scene != scene.token {
+                return Err(Error::file(
+                    samples_path,
+                    format!(
+                        "record {token}: scene_token: {} is not scene {} whose chain holds it",
+                        sample.scene, scene.name
+                    ),
+                ));
+            }
+            if chain.len() >= samples.len() {
+                return Err(Error::file(
+                    samples_path,
+                    format!(
+                        "record {token}: next: the samples of scene {} form a loop",
+                        scene.name
+                    ),
+                ));
+            }
+            chain.push(token);
+            next = sample.next.clone();
+        }
+        out.push(SceneEntry {
+            name: scene.name.clone(),
+            token: scene.token.clone(),
+            position,
+            samples: chain,
+        });
+    }
+    Ok(out)
+}
+
+fn read_keyframes(
+    path: &Path,
+    wanted: &HashSet<Token>,
+    channels: &Channels,
+    calibrated: &HashMap<Token, CalibratedSensor>,
+    sensors: &HashMap<Token, Sensor>,
+) -> Result<HashMap<(Token, String), SampleData>> {
+    let mut out = HashMap::new();
+    stream(path, |i, r: raw::SampleData| {
+        if !SampleData::is_wanted(&r, |s| wanted.contains(s)) {
+            return Ok(());
+        }
+        let d = SampleData::read(path, i, &r)?;
+        let Some(c) = calibrated.get(&d.calibrated_sensor) else {
+            return Err(Error::file(
+                path,
+                format!(
+                    "record {}: calibrated_sensor_token: no calibrated_sensor {}",
+                    d.token, d.calibrated_sensor
+                ),
+            ));
+        };
+        let channel = &sensors[&c.sensor].channel;
+        if channels.wanted(channel) {
+            let key = (d.sample.clone(), channel.clone());
+            if let Some(other) = out.get(&key) {
+                let other: &SampleData = other;
+                return Err(Error::file(
+                    path,
+                    format!(
+                        "record {}: sample {} has two {channel} keyframes ({} and this one)",
+                        d.token, d.sample, other.token
+                    ),
+                ));
+            }
+            out.insert(key, d);
+        }
+        Ok(())
+    })?;
+    Ok(out)
+}
