@@ -10,7 +10,7 @@ use super::dataset::{NuScenes, Selection};
 use super::frame::{Item, Options};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
-use crate::source::{CameraInfo, Frame, RigItem, RigSource, SourceBox, SourceCamera};
+use crate::source::{CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera};
 use serde::Serialize;
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
@@ -195,7 +195,7 @@ impl RigSource for NuScenesSource {
         &self.cameras[part]
     }
 
-    fn items(&self) -> Result<Vec<RigItem>> {
+    fn items(&self, _cameras: &[usize]) -> Result<RigItems> {
         let items: Vec<RigItem> = self
             .dataset
             .items()?
@@ -209,7 +209,11 @@ impl RigSource for NuScenesSource {
         if items.is_empty() {
             return Err(Error::Setup("the selection holds no sample".into()));
         }
-        Ok(items)
+        // every sample has each camera's keyframe: a sample is a frame
+        Ok(RigItems {
+            items,
+            not_frames: Vec::new(),
+        })
     }
 
     fn read(&self, item: &RigItem) -> Result<Frame> {
