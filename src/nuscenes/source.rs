@@ -209,7 +209,7 @@ impl RigSource for NuScenesSource {
         if items.is_empty() {
             return Err(Error::Setup("the selection holds no sample".into()));
         }
-        // every sample has each camera's keyframe: a sample is a frame
+        // a sample lacking a chosen camera fails as a frame, naming the table and channel
         Ok(RigItems {
             items,
             not_frames: Vec::new(),
