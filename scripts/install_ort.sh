@@ -109,7 +109,8 @@ else
 fi
 
 shopt -s nullglob
-WHEEL="$(ls "$src"/"$WHEEL_NAME"-"$ORT_VERSION"-*.whl 2>/dev/null | head -n 1 || true)"
+found=("$src"/"$WHEEL_NAME"-"$ORT_VERSION"-*.whl)
+WHEEL="${found[0]:-}"
 if [[ -z "$WHEEL" ]]; then
     echo "install_ort: no $WHEEL_NAME $ORT_VERSION wheel for this platform in $src" >&2
     exit 1
@@ -126,7 +127,8 @@ if [[ $gpu -eq 1 ]]; then
     mkdir -p "$TMP/cuda"
     for spec in "${GPU_WHEELS[@]:1}"; do
         name="${spec%%==*}"
-        w="$(ls "$src"/"${name//-/_}"-"${spec##*==}"-*.whl 2>/dev/null | head -n 1 || true)"
+        found=("$src"/"${name//-/_}"-"${spec##*==}"-*.whl)
+        w="${found[0]:-}"
         if [[ -z "$w" ]]; then
             echo "install_ort: no wheel of $spec in $src" >&2
             exit 1
