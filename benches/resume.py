@@ -12,8 +12,12 @@ $PANOCONV_KITTI/training hard-linked round-robin under N ids, as benches/scale.p
 A state already in --tmp from an earlier call (same N) is reused.
 Each binary then runs `merge` on a copy of the parts' manifests and `--resume` on a
 hard-linked copy of the killed state (safe: panoconv writes every file by a rename). The
-first new frame is the first moment one of the dropped frames' image_2 PNGs exists. Every
-figure line carries the load average.
+first new frame is the first moment one of the dropped frames' image_2 PNGs exists.
+Each binary also makes its own early-killed state and resumes it: a fresh run SIGKILLed as
+soon as its journal holds the `--early` fraction of the frames (no manifest yet: the records
+are the journal's, most frames are still to convert), then `--resume` to the end ("kill" and
+"resume-early" rows, "resume" being the late kill above). Every figure line carries the load
+average.
 
     benches/resume.py --bin new=target/release/panoconv --bin old=/tmp/old/panoconv \
         --frames 1000 100000 --tmp /tmp/resume-bench [-- extra panoconv options]
@@ -36,12 +40,16 @@ def load() -> str:
     return "load " + " ".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def timed(cmd: list[str], watch: list[Path] | None = None) -> dict:
+def timed(cmd: list[str], watch: list[Path] | None = None,
+          kill_at: tuple[Path, int] | None = None) -> dict:
     """Runs `cmd`: wall, peak RSS (wait4) and, with `watch`, when one of those files first
-    exists (polled every 20 ms: a few stat calls, not a listing of 100 000 files)."""
+    exists (polled every 20 ms: a few stat calls, not a listing of 100 000 files). With
+    `kill_at` (journal, k) the process is SIGKILLed once that journal holds k frame lines."""
     t0 = time.monotonic()
     child = subprocess.Popen(cmd, stderr=subprocess.PIPE)
     first = first_cpu = None
+    lines = JournalLines(kill_at[0]) if kill_at else None
+    killed = False
     while True:
         pid, status, usage = os.wait4(child.pid, os.WNOHANG)
         if pid:
@@ -49,13 +57,41 @@ def timed(cmd: list[str], watch: list[Path] | None = None) -> dict:
         if watch and first is None and any(p.exists() for p in watch):
             first = time.monotonic() - t0
             first_cpu = cpu_seconds(child.pid)
+        if lines and not killed and lines.frames() >= kill_at[1]:
+            child.kill()
+            killed = True
         time.sleep(0.02)
     wall = time.monotonic() - t0
     err = child.stderr.read().decode(errors="replace")
+    if killed:
+        if os.WIFSIGNALED(status) and os.WTERMSIG(status) == 9:
+            return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "first": None,
+                    "first_cpu": None, "cpu": usage.ru_utime + usage.ru_stime,
+                    "frames": lines.frames()}
+        sys.exit(f"{' '.join(cmd)} was to be killed, but ended first:\n{err}")
     if os.waitstatus_to_exitcode(status) != 0:
         sys.exit(f"{' '.join(cmd)} failed:\n{err}")
     return {"wall": wall, "rss_mb": usage.ru_maxrss / 1024, "first": first,
             "first_cpu": first_cpu, "cpu": usage.ru_utime + usage.ru_stime}
+
+
+class JournalLines:
+    """The frame lines of a growing journal, counted from the bytes appended since the last
+    call (the first line is the header)."""
+
+    def __init__(self, path: Path):
+        self.path, self.read, self.newlines = path, 0, 0
+
+    def frames(self) -> int:
+        try:
+            with self.path.open("rb") as f:
+                f.seek(self.read)
+                chunk = f.read()
+        except FileNotFoundError:
+            return 0
+        self.read += len(chunk)
+        self.newlines += chunk.count(b"\n")
+        return max(0, self.newlines - 1)
 
 
 def cpu_seconds(pid: int) -> float | None:
@@ -95,6 +131,8 @@ def main() -> None:
     ap.add_argument("--keep-states", action="store_true", help="keep the frame sets and states")
     ap.add_argument("--redo", type=float, default=0.5,
                     help="fraction of the frames whose image_2 PNG is removed before --resume")
+    ap.add_argument("--early", type=float, default=0.05,
+                    help="fraction of the frames journalled when the early kill comes")
     ap.add_argument("extra", nargs="*", help="more panoconv options (after --)")
     a = ap.parse_args()
     bins = [b.split("=", 1) for b in a.bin]
@@ -144,6 +182,9 @@ def main() -> None:
                 rows.append((name, mode, n, r))
                 print(f"{name} {mode} {n}: {r}", flush=True)
                 shutil.rmtree(work, ignore_errors=True)
+            for mode, r in early_kill(binary, data, a.tmp / "work", n, a.early, a.extra):
+                rows.append((name, mode, n, r))
+                print(f"{name} {mode} {n}: {r}", flush=True)
         if not a.keep_states:
             for d in (parts, half, data):
                 shutil.rmtree(d, ignore_errors=True)
@@ -154,13 +195,53 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|---|---|---|")
     base = {}
     for name, mode, n, r in rows:
-        fps = n / r["wall"]
+        # a killed run did only its journalled frames
+        fps = r.get("frames", n) / r["wall"]
         base.setdefault((name, mode), fps)
         first = "—"
         if r["first"] is not None:
             first = f"{r['first']:.2f} ({r['first_cpu']:.2f})"
-        print(f"| {name} | {mode} | {n} | {r['wall']:.1f} | {r['cpu']:.1f} | {fps:.0f} | "
+        label = mode
+        if "frames" in r:
+            label = f"{mode} (after {r['frames']} frames)"
+        elif "kept" in r:
+            label = f"{mode} ({r['kept']} kept)"
+        print(f"| {name} | {label} | {n} | {r['wall']:.1f} | {r['cpu']:.1f} | {fps:.0f} | "
               f"{100 * fps / base[(name, mode)]:.0f} % | {r['rss_mb']:.0f} | {first} | {r['load']} |")
+
+
+def missing_pngs(images: Path, start: int, n: int, k: int) -> list[Path]:
+    """The first `k` ids from `start` whose image_2 PNG does not exist (one stat each)."""
+    out = []
+    for i in range(start, n):
+        p = images / f"{i:06d}.png"
+        if not p.exists():
+            out.append(p)
+            if len(out) == k:
+                break
+    return out
+
+
+def early_kill(binary: str, data: Path, work: Path, n: int, early: float,
+               extra: list[str]) -> list[tuple[str, dict]]:
+    """A fresh run SIGKILLed once its journal holds `early` of the `n` frames, then
+    `--resume`d to the end: the figures of both."""
+    shutil.rmtree(work, ignore_errors=True)
+    journal = work / "panoconv.journal"
+    before = load()
+    killed = timed(convert(binary, data, work, extra, []), kill_at=(journal, max(1, round(n * early))))
+    killed["load"] = f"{before} / after {load()}"
+    before = load()
+    kept = JournalLines(journal).frames()
+    images = work / "training" / "image_2"
+    # the resumed run converts the frames still to do first, from where each worker of the
+    # killed run stopped: watch the first ids without a PNG from the start and from halfway
+    todo = [p for start in (0, n // 2) for p in missing_pngs(images, start, n, 3)]
+    resumed = timed(convert(binary, data, work, extra, ["--resume"]), todo)
+    resumed["load"] = f"{before} / after {load()}"
+    resumed["kept"] = kept
+    shutil.rmtree(work, ignore_errors=True)
+    return [("kill", killed), ("resume-early", resumed)]
 
 
 if __name__ == "__main__":

@@ -3,6 +3,10 @@
 //!
 //! Needs the ONNX Runtime library (ORT_DYLIB_PATH or `.ort/`, see `scripts/install_ort.sh`).
 //! `cargo bench --bench style`
+//!
+//! With the real generator `.style/vintagify.onnx` (`scripts/make_vintagify_onnx.sh`) and the
+//! real frames (`$PANOCONV_KITTI`, default `../shared/kitti`), it first prints the peak RSS of
+//! `panoconv kitti --style vintagify.onnx --jobs 2` on the six training frames.
 
 use std::fs::File;
 use std::hint::black_box;
@@ -91,7 +95,53 @@ fn median(mut v: Vec<Duration>) -> Duration {
     v[v.len() / 2]
 }
 
+/// Peak RSS of the conversion of the real training frames with the real generator, through the
+/// binary (the process's own arena, sessions and threads, as a user runs it).
+fn style_run_peak_rss() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = root.join(".style/vintagify.onnx");
+    let kitti = std::env::var_os("PANOCONV_KITTI")
+        .map_or_else(|| root.join("../shared/kitti"), PathBuf::from);
+    if !model.is_file() || !kitti.join("training/image_2").is_dir() {
+        println!(
+            "style run peak RSS: skipped (needs {} and {})",
+            model.display(),
+            kitti.display()
+        );
+        return;
+    }
+    let out = tempfile::tempdir().unwrap();
+    let input = out.path().join("in");
+    std::fs::create_dir(&input).unwrap();
+    // training only (the testing frame has no labels): linked, not copied
+    std::os::unix::fs::symlink(kitti.join("training"), input.join("training")).unwrap();
+    let t = Instant::now();
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_panoconv"))
+        .args([
+            "kitti", "--to", "equirect", "--jobs", "2", "--quiet", "--style",
+        ])
+        .arg(&model)
+        .arg("--ort-lib")
+        .arg(ort_lib())
+        .arg("--input")
+        .arg(&input)
+        .arg("--output")
+        .arg(out.path().join("out"))
+        .status()
+        .unwrap();
+    assert!(status.success(), "panoconv failed: {status}");
+    // SAFETY: getrusage fills the struct; RUSAGE_CHILDREN: the largest waited-for child.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut usage) };
+    println!(
+        "style run (vintagify, 6 real frames 1242x375, --jobs 2, CPU): peak RSS {:.0} MB, {:.1} s (target under 1500 MB)",
+        usage.ru_maxrss as f64 / 1024.0,
+        t.elapsed().as_secs_f64()
+    );
+}
+
 fn bench(c: &mut Criterion) {
+    style_run_peak_rss();
     let mut s = setup();
     // Warm up both (first runs allocate the arenas).
     for _ in 0..2 {

@@ -193,23 +193,118 @@ pub fn available_providers() -> Result<Vec<String>, String> {
     Ok(out)
 }
 
+/// The folder beside the library where `scripts/install_ort.sh --gpu` puts the CUDA and cuDNN
+/// libraries of NVIDIA's PyPI wheels.
+pub const CUDA_LIBS_DIR: &str = "cuda";
+
 /// Appends the CUDA execution provider (device 0) to `builder`, failing (not falling back to the
-/// CPU) when the library has no CUDA support or CUDA cannot start.
+/// CPU) when the machine has no NVIDIA driver, the library has no CUDA support, or CUDA cannot
+/// start. `library`: the ONNX Runtime library in use; the CUDA libraries in its
+/// [`CUDA_LIBS_DIR`] folder, if any, are loaded first so the provider finds them.
 ///
 /// ort 2.0.0-rc.15 exposes `ort::ep::CUDA` only with its `cuda` cargo feature; with
 /// `load-dynamic` that feature only compiles the wrapper, so this calls the same C API
 /// (`CreateCUDAProviderOptions` + `SessionOptionsAppendExecutionProvider_CUDA_V2`) directly.
 #[cfg(feature = "ort")]
-pub fn append_cuda(builder: &mut ort::session::builder::SessionBuilder) -> Result<(), String> {
-    use ort::AsPointer;
+pub fn append_cuda(
+    builder: &mut ort::session::builder::SessionBuilder,
+    library: &Path,
+) -> Result<(), String> {
+    // The driver first: on a machine without a GPU no library fixes anything.
+    dlopen(Path::new("libcuda.so.1")).map_err(|e| {
+        format!(
+            "no NVIDIA GPU driver on this machine (libcuda.so.1 cannot be loaded: {e}); --device cuda \
+             needs an NVIDIA GPU and its driver: use --device cpu"
+        )
+    })?;
     let providers = available_providers()?;
     if !providers.iter().any(|p| p == "CUDAExecutionProvider") {
         return Err(format!(
-            "this ONNX Runtime library has no CUDA execution provider (it has: {}); the PyPI `onnxruntime` \
-             wheel is CPU-only, use the library of `onnxruntime-gpu` {ORT_VERSION} with CUDA 12 and cuDNN 9 installed",
+            "this ONNX Runtime library ({}) has no CUDA execution provider (it has: {}); the PyPI \
+             `onnxruntime` wheel is CPU-only: run `scripts/install_ort.sh --gpu` (onnxruntime-gpu \
+             {ORT_VERSION} and NVIDIA's CUDA 13 and cuDNN 9 wheels into <repo>/.ort-gpu/) and pass \
+             the library it prints with --ort-lib or ORT_DYLIB_PATH",
+            library.display(),
             providers.join(", ")
         ));
     }
+    let unloaded = library
+        .parent()
+        .map(|d| preload(&d.join(CUDA_LIBS_DIR)))
+        .unwrap_or_default();
+    append_cuda_provider(builder).map_err(|e| {
+        if unloaded.is_empty() {
+            e
+        } else {
+            format!(
+                "{e} (libraries beside it that did not load: {})",
+                unloaded.join("; ")
+            )
+        }
+    })
+}
+
+/// Loads every `*.so*` in `dir` (globally, so the CUDA provider's own dependencies resolve to
+/// them), in passes until no more load: a library whose dependency comes later in the listing
+/// loads in a later pass. Returns `name: error` of those that never loaded; nothing when
+/// `dir` does not exist (CUDA installed system-wide).
+#[cfg(feature = "ort")]
+fn preload(dir: &Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut pending: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.contains(".so"))
+        })
+        .collect();
+    pending.sort();
+    loop {
+        let before = pending.len();
+        let mut failed = Vec::new();
+        pending.retain(|p| match dlopen(p) {
+            Ok(()) => false,
+            Err(e) => {
+                failed.push(format!("{}: {e}", p.display()));
+                true
+            }
+        });
+        if pending.is_empty() || pending.len() == before {
+            return failed;
+        }
+    }
+}
+
+/// `dlopen(path, RTLD_NOW | RTLD_GLOBAL)`, never closed (the provider uses it for the life of the
+/// process); the loader's message on failure.
+#[cfg(feature = "ort")]
+fn dlopen(path: &Path) -> Result<(), String> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = CString::new(path.as_os_str().as_bytes()).map_err(|e| e.to_string())?;
+    // SAFETY: a NUL-terminated path; the handle is deliberately leaked.
+    let handle = unsafe { libc::dlopen(c.as_ptr(), libc::RTLD_NOW | libc::RTLD_GLOBAL) };
+    if !handle.is_null() {
+        return Ok(());
+    }
+    // SAFETY: dlerror returns the calling thread's last loader message, or null.
+    let msg = unsafe { libc::dlerror() };
+    Err(if msg.is_null() {
+        "cannot be loaded".into()
+    } else {
+        // SAFETY: non-null, NUL-terminated, valid until the next loader call on this thread.
+        unsafe { CStr::from_ptr(msg) }
+            .to_string_lossy()
+            .into_owned()
+    })
+}
+
+/// The C API calls that append the CUDA provider with `device_id` 0.
+#[cfg(feature = "ort")]
+fn append_cuda_provider(builder: &mut ort::session::builder::SessionBuilder) -> Result<(), String> {
+    use ort::AsPointer;
     let api = ort::api();
     let mut opts: *mut ort::sys::OrtCUDAProviderOptionsV2 = std::ptr::null_mut();
     // SAFETY: C API with a valid out-pointer; released below on every path.

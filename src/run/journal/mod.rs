@@ -145,7 +145,7 @@ impl Journal {
             state: Mutex::new(State {
                 file,
                 end,
-                index: LineIndex::default(),
+                index: LineIndex::with_capacity(selected),
                 last_sync: Instant::now(),
                 error: None,
             }),
