@@ -40,9 +40,16 @@ impl Visibility {
         min_share: 0.0,
     };
 
-    /// Whether the defaults apply (the manifest records the rule only when it differs).
+    /// Whether the defaults apply.
     pub fn is_default(&self) -> bool {
         *self == Self::default()
+    }
+
+    /// Whether the rule is one the other options imply (the default of `--augment`, or none
+    /// without it): the manifest records the rule only otherwise, so that runs without the
+    /// flag keep their manifests.
+    pub fn is_implied(&self) -> bool {
+        self.is_default() || *self == Self::OFF
     }
 
     /// Whether a box `bounds` ([left, top, right, bottom], clipped) of which `truncation`
