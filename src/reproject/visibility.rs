@@ -56,7 +56,8 @@ impl Visibility {
     /// (the clipped fraction of the full box) lies outside the image is an object.
     pub fn accepts(&self, bounds: [f64; 4], truncation: f64) -> bool {
         let (w, h) = (bounds[2] - bounds[0], bounds[3] - bounds[1]);
-        w >= self.min_side_px && h >= self.min_side_px && 1.0 - truncation >= self.min_share
+        // (1e-9: a written truncation of 0.90 is a tenth visible, though 1 − 0.9 < 0.1 in f64)
+        w >= self.min_side_px && h >= self.min_side_px && 1.0 - truncation >= self.min_share - 1e-9
     }
 
     /// [`Visibility::accepts`] of a placed box.
