@@ -604,11 +604,18 @@ fn barely_visible_objects_become_dont_care_regions_and_do_not_count() {
         .find(|l| l.contains("augmented view"))
         .map_or(0, |l| l.split_whitespace().nth(1).unwrap().parse().unwrap());
     assert_eq!(empty, said, "{}", run.stderr);
-    // The manifest records a rule other than the default, so --resume cannot mix them.
-    assert!(read_manifest(&all)["parameters"]["visibility"]["min_share"] == 0.0);
+    // The manifest records a rule the options do not imply, so --resume cannot mix them.
     assert!(read_manifest(&s.output)["parameters"]
         .get("visibility")
         .is_none());
+    let strict = s.path("strict");
+    let mut three = args.to_vec();
+    three.extend(["--min-visible", "3,0.2"]);
+    assert_success(&kitti("equirect", &s.input, &strict, &three));
+    assert_eq!(
+        read_manifest(&strict)["parameters"]["visibility"]["min_side_px"],
+        3.0
+    );
 
     // The exports apply the same rule to a dataset written without it.
     let coco = |extra: &[&str], out: &Path| -> serde_json::Value {
@@ -632,7 +639,7 @@ fn barely_visible_objects_become_dont_care_regions_and_do_not_count() {
             .filter(|a| a["iscrowd"] == crowd)
             .count()
     };
-    let ruled = coco(&[], &s.path("coco"));
+    let ruled = coco(&["--min-visible", "2,0.1"], &s.path("coco"));
     let every = coco(&["--min-visible", "0,0"], &s.path("coco_all"));
     assert_eq!(count(&every, 0), objects_off);
     assert_eq!(count(&ruled, 0), objects_off - slivers_off);

@@ -92,15 +92,19 @@ pub(super) struct AugmentArgs {
     min_objects: Option<u32>,
     /// Write an object as an object only when its 2D box is at least PX pixels on each side
     /// and at least SHARE of its full projected box is in the image; the others become DontCare
-    /// regions (every output, views or not; 0,0 writes every object).
-    #[arg(long, value_name = "PX,SHARE", default_value = "2,0.1", value_parser = Visibility::parse)]
-    min_visible: Visibility,
+    /// regions [default: 2,0.1 with --augment, else 0,0: every object the source labels]
+    #[arg(long, value_name = "PX,SHARE", value_parser = Visibility::parse)]
+    min_visible: Option<Visibility>,
 }
 
 impl AugmentArgs {
     /// The visibility rule of `--min-visible`.
     pub(super) fn visibility(&self) -> Visibility {
-        self.min_visible
+        self.min_visible.unwrap_or(if self.augment.is_some() {
+            Visibility::default()
+        } else {
+            Visibility::OFF
+        })
     }
 
     /// The views `--augment` asks for, if given.

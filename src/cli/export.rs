@@ -70,9 +70,10 @@ pub(super) struct ExportArgs {
     #[arg(long, value_name = "PREFIX", default_value = "")]
     path_prefix: String,
     /// Export an object as an object only when its 2D box is at least PX pixels on each side
-    /// and its truncation at most 1 - SHARE; the others become ignore regions (0,0: all).
-    #[arg(long, value_name = "PX,SHARE", default_value = "2,0.1", value_parser = Visibility::parse)]
-    min_visible: Visibility,
+    /// and its truncation at most 1 - SHARE; the others become ignore regions (the rule of
+    /// `kitti --min-visible`; without it every labelled object is exported).
+    #[arg(long, value_name = "PX,SHARE", value_parser = Visibility::parse)]
+    min_visible: Option<Visibility>,
     /// Replace export files that exist.
     #[arg(long)]
     overwrite: bool,
@@ -99,7 +100,7 @@ pub(super) fn export(args: ExportArgs) -> Result<ExitCode> {
         split_rule,
         overwrite: args.overwrite,
         path_prefix: args.path_prefix,
-        visibility: args.min_visible,
+        visibility: args.min_visible.unwrap_or(Visibility::OFF),
     };
     run_export(
         &args.dataset,

@@ -40,16 +40,24 @@ impl Visibility {
         min_share: 0.0,
     };
 
-    /// Whether the defaults apply (the manifest records the rule only when it differs).
+    /// Whether the defaults apply.
     pub fn is_default(&self) -> bool {
         *self == Self::default()
+    }
+
+    /// Whether the rule is one the other options imply (the default of `--augment`, or none
+    /// without it): the manifest records the rule only otherwise, so that runs without the
+    /// flag keep their manifests.
+    pub fn is_implied(&self) -> bool {
+        self.is_default() || *self == Self::OFF
     }
 
     /// Whether a box `bounds` ([left, top, right, bottom], clipped) of which `truncation`
     /// (the clipped fraction of the full box) lies outside the image is an object.
     pub fn accepts(&self, bounds: [f64; 4], truncation: f64) -> bool {
         let (w, h) = (bounds[2] - bounds[0], bounds[3] - bounds[1]);
-        w >= self.min_side_px && h >= self.min_side_px && 1.0 - truncation >= self.min_share
+        // (1e-9: a written truncation of 0.90 is a tenth visible, though 1 − 0.9 < 0.1 in f64)
+        w >= self.min_side_px && h >= self.min_side_px && 1.0 - truncation >= self.min_share - 1e-9
     }
 
     /// [`Visibility::accepts`] of a placed box.

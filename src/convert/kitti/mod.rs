@@ -115,7 +115,7 @@ struct Parameters<'a> {
     cameras: &'a [Cam],
     depth: Option<&'a DepthJob>,
     shard: Option<Shard>,
-    #[serde(skip_serializing_if = "Visibility::is_default")]
+    #[serde(skip_serializing_if = "Visibility::is_implied")]
     visibility: Visibility,
     raw: bool,
     style: Option<StyleRecord<'a>>,

@@ -34,7 +34,7 @@ pub struct ObjectRule {
     /// LiDAR points an object's box must hold (0: no LiDAR check).
     pub min_points: usize,
     /// Which boxes in the image are objects (the others are written as DontCare regions).
-    #[serde(skip_serializing_if = "Visibility::is_default")]
+    #[serde(skip_serializing_if = "Visibility::is_implied")]
     pub visibility: Visibility,
 }
 
