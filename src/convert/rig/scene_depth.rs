@@ -443,6 +443,9 @@ mod tests {
                 })
                 .collect(),
             world_from_reference: None,
+            reference_from_lidar: None,
+            lidar_from_imu: None,
+            input_hashes: Vec::new(),
         }
     }
 
