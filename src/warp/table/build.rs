@@ -159,14 +159,14 @@ impl<'a> Builder<'a> {
         parts.bearings.clear();
         match self.by_parts {
             Some(sep) => {
-                sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
-                if self.seen.is_some() {
-                    for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
-                        if !sees(u) {
-                            *d = None;
-                        }
-                    }
+                // only the columns the footprint keeps are unprojected (None elsewhere)
+                let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
+                let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
+                parts.bearings.resize((lo + 1) as usize, None);
+                if !kept.is_empty() {
+                    sep.bearings(kept, sep.row(v as f64), &mut parts.bearings);
                 }
+                parts.bearings.resize((w + 2) as usize, None);
             }
             // a lens is unprojected only where the source may be seen (most of it is not)
             None => parts.bearings.extend(
@@ -205,6 +205,13 @@ impl<'a> Builder<'a> {
             parts.tap_rows.iter_mut().for_each(Vec::clear);
             for u in 0..w {
                 let centre = here[u + 1];
+                if centre.is_none() {
+                    // no tap (what the general path below gives such a pixel, cheaply)
+                    band.quads.push(Quad::default());
+                    band.counts.push(1);
+                    band.cover.push(Cover::None);
+                    continue;
+                }
                 let (nu, nv) = supersampling(
                     centre,
                     [here[u], here[u + 2]],
