@@ -76,7 +76,9 @@ impl Warp {
         // unprojected by columns and rows (a `Turned` camera is not separable).
         let unturned = match (self.target.turn, dst.projection()) {
             (Some(turn), OutputProjection::Linear(projection)) => Some((
-                projection.camera(dst.intrinsics(), dst.size()).boxed_output(),
+                projection
+                    .camera(dst.intrinsics(), dst.size())
+                    .boxed_output(),
                 turn,
             )),
             _ => None,
