@@ -71,10 +71,26 @@ impl Warp {
             Some(p) => p,
             None => src,
         };
+        // A turned linear target is built as its unturned camera with the turn as the
+        // rotation: the same bearings, bit for bit (`Turned` applies the same product), but
+        // unprojected by columns and rows (a `Turned` camera is not separable).
+        let unturned = match (self.target.turn, dst.projection()) {
+            (Some(turn), OutputProjection::Linear(projection)) => Some((
+                projection
+                    .camera(dst.intrinsics(), dst.size())
+                    .boxed_output(),
+                turn,
+            )),
+            _ => None,
+        };
+        let (dst, src_from_dst): (&dyn CameraModel, Matrix3<f64>) = match &unturned {
+            Some((camera, turn)) => (camera.as_ref(), *turn),
+            None => (dst, identity),
+        };
         RemapTable::build_within(
             dst,
             src,
-            &identity,
+            &src_from_dst,
             wrap,
             self.supersample,
             seen.as_ref(),
@@ -280,9 +296,8 @@ impl Warp {
     fn mask<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<bool>> {
         let table = self.table(py);
         let s = table.size();
-        let m = Array2::from_shape_fn((s.height as usize, s.width as usize), |(v, u)| {
-            table.is_inside(u as u32, v as u32)
-        });
+        let m = Array2::from_shape_vec((s.height as usize, s.width as usize), table.inside())
+            .expect("one value a pixel");
         PyArray2::from_owned_array(py, m)
     }
 

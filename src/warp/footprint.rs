@@ -128,6 +128,18 @@ impl Footprint {
             .is_some_and(|&(lo, hi)| u as f64 >= lo && u as f64 <= hi)
     }
 
+    /// The columns `u` of row `v` within `first..=last` for which [`Footprint::may_see`]
+    /// holds, as (lowest, highest): lowest above highest when there are none.
+    pub(super) fn columns(&self, v: isize, first: isize, last: isize) -> (isize, isize) {
+        match self.spans.get((v + 1) as usize) {
+            Some(&(lo, hi)) if lo <= hi => (
+                (lo.ceil().max(first as f64) as isize).min(last + 1),
+                (hi.floor().min(last as f64) as isize).max(first - 1),
+            ),
+            _ => (last + 1, last),
+        }
+    }
+
     /// Fraction of the output's pixels inside the footprint (for reports and benchmarks).
     pub fn share(&self, width: u32) -> f64 {
         let rows = &self.spans[1..self.spans.len() - 1];

@@ -117,6 +117,11 @@ impl RemapTable {
         self.cover[v as usize * self.size.width as usize + u as usize] == Cover::Full
     }
 
+    /// [`RemapTable::is_inside`] of every pixel, row by row.
+    pub fn inside(&self) -> Vec<bool> {
+        self.cover.iter().map(|&c| c == Cover::Full).collect()
+    }
+
     /// Resamples `src` (which must have the table's source size).
     pub fn apply(&self, src: &RgbImage) -> RgbImage {
         let mut out = RgbImage::new(self.size.width, self.size.height);

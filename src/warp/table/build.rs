@@ -31,14 +31,34 @@ impl RemapTable {
         let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
         let h = dst.size().height as usize;
         if !parallel {
-            return b.finish(vec![b.band(0..h)]);
+            // the last serial build's band, reused: a fresh one's pages cost a fault each
+            let mut band = SPARE_BAND.with(|s| std::mem::take(&mut *s.borrow_mut()));
+            b.band(0..h, &mut band);
+            let table = b.finish(std::slice::from_ref(&band));
+            if band.counts.capacity() <= SPARE_MAX_PIXELS {
+                SPARE_BAND.with(|s| *s.borrow_mut() = band);
+            }
+            return table;
         }
-        let bands = (0..h.div_ceil(BAND_ROWS))
+        let bands: Vec<Band> = (0..h.div_ceil(BAND_ROWS))
             .into_par_iter()
-            .map(|i| b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
+            .map(|i| {
+                let mut band = Band::default();
+                b.band(i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h), &mut band);
+                band
+            })
             .collect();
-        b.finish(bands)
+        b.finish(&bands)
     }
+}
+
+/// Largest band (in output pixels) a thread keeps for its next serial build.
+const SPARE_MAX_PIXELS: usize = 1 << 20;
+
+thread_local! {
+    /// A thread's band of its last serial build, for the next (tables drawn one after another,
+    /// a camera per training sample, would otherwise fault in fresh pages each time).
+    static SPARE_BAND: std::cell::RefCell<Band> = std::cell::RefCell::new(Band::default());
 }
 
 /// The camera mapping and tap rules shared by the serial and the parallel build.
@@ -159,14 +179,14 @@ impl<'a> Builder<'a> {
         parts.bearings.clear();
         match self.by_parts {
             Some(sep) => {
-                sep.bearings(&self.centre_columns, sep.row(v as f64), &mut parts.bearings);
-                if self.seen.is_some() {
-                    for (d, u) in parts.bearings.iter_mut().zip(-1..=w) {
-                        if !sees(u) {
-                            *d = None;
-                        }
-                    }
+                // only the columns the footprint keeps are unprojected (None elsewhere)
+                let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
+                let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
+                parts.bearings.resize((lo + 1) as usize, None);
+                if !kept.is_empty() {
+                    sep.bearings(kept, sep.row(v as f64), &mut parts.bearings);
                 }
+                parts.bearings.resize((w + 2) as usize, None);
             }
             // a lens is unprojected only where the source may be seen (most of it is not)
             None => parts.bearings.extend(
@@ -177,21 +197,24 @@ impl<'a> Builder<'a> {
         self.bearings_to_src(&mut parts.bearings, out);
     }
 
-    /// Builds output rows `rows`. Each pixel centre is mapped once: it is the tap of a pixel
+    /// Builds output rows `rows` into `band` (its old contents dropped). Each pixel centre is mapped once: it is the tap of a pixel
     /// that is not supersampled (most of them), and the centres of its four neighbours give
     /// the local scale. A band maps the rows above and below it itself, with the same values
     /// its neighbouring bands compute, so any split into bands gives the same table.
-    fn band(&self, rows: std::ops::Range<usize>) -> Band {
+    fn band(&self, rows: std::ops::Range<usize>, band: &mut Band) {
         let w = self.dst.size().width as usize;
         let n = rows.len() * w;
-        let mut band = Band {
-            // room for the second blocks of some supersampled pixels: growing would copy it all
-            quads: Vec::with_capacity(n + n / 4),
-            counts: Vec::with_capacity(n),
-            row_lens: Vec::with_capacity(rows.len()),
-            row_reach: Vec::with_capacity(rows.len()),
-            cover: Vec::with_capacity(n),
-        };
+        band.quads.clear();
+        band.counts.clear();
+        band.row_lens.clear();
+        band.row_reach.clear();
+        band.cover.clear();
+        // room for the second blocks of some supersampled pixels: growing would copy it all
+        band.quads.reserve(n + n / 4);
+        band.counts.reserve(n);
+        band.row_lens.reserve(rows.len());
+        band.row_reach.reserve(rows.len());
+        band.cover.reserve(n);
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut scratch = Scratch::default();
         let mut parts = Parts::default();
@@ -205,6 +228,13 @@ impl<'a> Builder<'a> {
             parts.tap_rows.iter_mut().for_each(Vec::clear);
             for u in 0..w {
                 let centre = here[u + 1];
+                if centre.is_none() {
+                    // no tap (what the general path below gives such a pixel, cheaply)
+                    band.quads.push(Quad::default());
+                    band.counts.push(1);
+                    band.cover.push(Cover::None);
+                    continue;
+                }
                 let (nu, nv) = supersampling(
                     centre,
                     [here[u], here[u + 2]],
@@ -257,7 +287,6 @@ impl<'a> Builder<'a> {
             std::mem::swap(&mut above, &mut here);
             std::mem::swap(&mut here, &mut below);
         }
-        band
     }
 
     /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
@@ -304,7 +333,7 @@ impl<'a> Builder<'a> {
     }
 
     /// Concatenates the bands (in row order) into the table, its rows in groups of pixels.
-    fn finish(&self, bands: Vec<Band>) -> RemapTable {
+    fn finish(&self, bands: &[Band]) -> RemapTable {
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES) * h;
