@@ -468,12 +468,21 @@ fn report(summary: &RigSummary, job: &RigJob) {
         );
     }
     if !summary.not_frames.is_empty() {
-        let first: Vec<&str> = summary.not_frames.iter().take(5).map(String::as_str).collect();
+        let first: Vec<&str> = summary
+            .not_frames
+            .iter()
+            .take(5)
+            .map(String::as_str)
+            .collect();
         eprintln!(
             "panoconv: {} without the images of --cameras not converted (not frames): {}{}",
             count(summary.not_frames.len(), "pose"),
             first.join(", "),
-            if summary.not_frames.len() > 5 { ", ..." } else { "" }
+            if summary.not_frames.len() > 5 {
+                ", ..."
+            } else {
+                ""
+            }
         );
     }
     if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {

@@ -171,7 +171,7 @@ impl NuScenes {
             ));
         };
         let pinhole = k[0][1] == 0.0 && k[1][0] == 0.0 && k[2] == [0.0, 0.0, 1.0];
-        if !pinhole || !(k[0][0] > 0.0 && k[1][1] > 0.0) {
+        if !(pinhole && k[0][0] > 0.0 && k[1][1] > 0.0) {
             return Err(at(
                 "camera_intrinsic",
                 format!(

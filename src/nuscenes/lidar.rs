@@ -10,7 +10,7 @@ pub const POINT_BYTES: usize = 20;
 
 /// The points of a scan: position in the sensor frame and intensity.
 pub fn parse_points(bytes: &[u8], path: &Path) -> Result<Vec<(Vector3<f64>, f32)>> {
-    if bytes.len() % POINT_BYTES != 0 {
+    if !bytes.len().is_multiple_of(POINT_BYTES) {
         return Err(Error::file(
             path,
             format!(

@@ -470,11 +470,8 @@ fn new_session(
     if opts.device == Device::Cpu {
         b = b
             .with_memory_pattern(false)
-            .and_then(|b| {
-                b.with_execution_providers([ort::ep::CPU::default()
-                    .with_arena_allocator(false)
-                    .build()])
-            })
+            .map_err(|e| serr(e.to_string()))?
+            .with_execution_providers([ort::ep::CPU::default().with_arena_allocator(false).build()])
             .map_err(|e| serr(e.to_string()))?;
     }
     if opts.intra_threads > 0 {

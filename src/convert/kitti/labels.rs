@@ -4,9 +4,9 @@
 //! box and truncation.
 
 use crate::camera::CameraModel;
+use crate::kitti::rig_output::dont_care_line;
 use crate::kitti::{FrameLabels, Label, LabelItem};
 use crate::reproject::source_box::{region_in_image, source_box_in_image, BoxInImage};
-use crate::kitti::rig_output::dont_care_line;
 use crate::reproject::visibility::Visibility;
 use crate::source::Frame;
 use nalgebra::Vector3;

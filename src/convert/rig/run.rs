@@ -9,11 +9,11 @@
 use super::gray::encode_gray8;
 use super::job::{parameters, ObjectCounts, RigJob, RigSummary, SPLIT};
 use super::objects::ObjectOutcome;
-use super::scene_depth::StitchMode;
 use super::pass::{
     convert_into, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
     RigOptions,
 };
+use super::scene_depth::StitchMode;
 use super::setup::{check_cameras, check_output_camera, read_ego_masks};
 use crate::camera::OutputCamera;
 use crate::convert::augment_draw::{draw_view, CountObjects};

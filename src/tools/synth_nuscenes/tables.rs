@@ -79,11 +79,7 @@ fn calibrated(m: &Mounting, intrinsic: Value) -> Value {
 }
 
 /// Every table as (name, JSON text). `sweeps` holds each sample's world_from_lidar and points.
-pub fn tables(
-    rig: &Rig,
-    samples: u32,
-    sweeps: &[(Matrix4<f64>, Vec<(Vector3<f64>, f32, u8)>)],
-) -> Vec<(&'static str, String)> {
+pub fn tables(rig: &Rig, samples: u32, sweeps: Points) -> Vec<(&'static str, String)> {
     let log = token("log");
     let scene = token("scene");
     let sample_tokens: Vec<String> = (0..samples)
