@@ -305,7 +305,7 @@ mod tests {
                 blend_width: 0.1,
                 even_exposure: true,
             },
-            stitch_mode: StitchMode::Depth,
+            stitch_mode: StitchMode::Fixed,
             stitch_depth: false,
             centre: None,
             objects: ObjectRule {
@@ -328,6 +328,17 @@ mod tests {
     fn each_rule_of_a_rig_job_refuses_before_anything_is_read() {
         assert!(job().validate().is_ok());
         assert!(!job().needs_lidar());
+        // a depth-guided stitch of two cameras reads the scans; of one camera it is a warp
+        let depth = RigJob {
+            stitch_mode: StitchMode::Depth,
+            ..job()
+        };
+        assert!(depth.depth_guided() && depth.needs_lidar());
+        assert!(!RigJob {
+            cameras: vec![0],
+            ..depth
+        }
+        .depth_guided());
         let m = refusal(RigJob {
             cameras: vec![],
             ..job()
