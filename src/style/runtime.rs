@@ -312,8 +312,13 @@ fn append_cuda_provider(builder: &mut ort::session::builder::SessionBuilder) -> 
     if opts.is_null() {
         return Err("CreateCUDAProviderOptions returned null".into());
     }
-    let keys = [CString::new("device_id").expect("no NUL")];
-    let vals = [CString::new("0").expect("no NUL")];
+    // TF32 (ONNX Runtime's default on Ampere and later) rounds convolution inputs to a 10-bit
+    // mantissa: full FP32 keeps the GPU's output within a level of the CPU's. The exhaustive
+    // cuDNN search (the default) picks each convolution's algorithm by timing, so two runs can
+    // take algorithms that round differently: the heuristic choice depends on the shapes alone.
+    let keys = ["device_id", "use_tf32", "cudnn_conv_algo_search"]
+        .map(|k| CString::new(k).expect("no NUL"));
+    let vals = ["0", "0", "DEFAULT"].map(|v| CString::new(v).expect("no NUL"));
     let kp: Vec<*const std::ffi::c_char> = keys.iter().map(|k| k.as_ptr()).collect();
     let vp: Vec<*const std::ffi::c_char> = vals.iter().map(|v| v.as_ptr()).collect();
     // SAFETY: `opts` is valid; key/value arrays outlive the call.

@@ -159,7 +159,7 @@ pub fn count_objects(
     let chosen = chosen_cameras(frame, options)?;
     let centre = output_centre(&chosen, options);
     let (_, outcomes) = label_objects(
-        &listed_objects(frame, options),
+        &listed_objects(frame, options).0,
         &frame.lidar,
         &centre,
         camera,
@@ -170,17 +170,16 @@ pub fn count_objects(
     Ok(outcomes.iter().filter(|o| o.dropped.is_none()).count())
 }
 
-/// The frame's boxes that are labelled ([`RigOptions::listed`]).
-fn listed_objects(frame: &Frame, options: &RigOptions) -> Vec<SourceBox> {
-    match options.listed {
-        None => frame.objects.clone(),
-        Some(listed) => frame
-            .objects
-            .iter()
-            .filter(|b| listed(b))
-            .cloned()
-            .collect(),
-    }
+/// The frame's boxes that are labelled ([`RigOptions::listed`]), and the index of each in the
+/// frame's `objects` (where [`PlacedObject::index`] points).
+fn listed_objects(frame: &Frame, options: &RigOptions) -> (Vec<SourceBox>, Vec<usize>) {
+    frame
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| options.listed.is_none_or(|listed| listed(b)))
+        .map(|(i, b)| (b.clone(), i))
+        .unzip()
 }
 
 /// The chosen cameras of the frame's rig, in the options' order.
@@ -310,14 +309,18 @@ pub fn convert_into(
             None => NO_SOURCE,
         })
         .collect();
-    let (labels, objects) = label_objects(
-        &listed_objects(frame, options),
+    let (listed, frame_index) = listed_objects(frame, options);
+    let (mut labels, objects) = label_objects(
+        &listed,
         &frame.lidar,
         &centre,
         camera.as_ref(),
         &options.objects,
         keep_class,
     );
+    for placed in &mut labels {
+        placed.index = frame_index[placed.index];
+    }
     let depth = options.depth.map(|filter| {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let lidar = ViewLidar {
