@@ -4,7 +4,7 @@
 //! - the 3D boxes (every class, not only those written): exact ray–box intersections, so a
 //!   labelled object's pixels are stitched at its faces' distance;
 //! - the ground: a plane fitted to the scan's lowest dense layer (least squares, twice, over
-//!   the points within [`GROUND_BAND`] then [`GROUND_FIT`] of it), which also holds near the
+//!   the points within `GROUND_BAND` then `GROUND_FIT` of it), which also holds near the
 //!   vehicle where the scan has no returns;
 //! - the rest of the scan (points neither on the ground nor in a box, [`BOX_MARGIN`]): each
 //!   point splatted as a disc of [`SPLAT_DEG`] into a spherical depth buffer per viewpoint
@@ -185,10 +185,10 @@ impl Ground {
     }
 
     /// The plane fitted to `points` (y down, the reference frame's): the lowest point of each
-    /// 1 m cell (horizontally, within [`GROUND_RANGE`] of `centre`: a wall's or a car's
+    /// 1 m cell (horizontally, within `GROUND_RANGE` of `centre`: a wall's or a car's
     /// lowest return is the ground beside or under it, or near it), fitted as y = a·x + b·z + c
-    /// by least squares, refitted over the cells within [`GROUND_BAND`] of the fit, then over
-    /// every point within [`GROUND_FIT`] of that. None with too few points.
+    /// by least squares, refitted over the cells within `GROUND_BAND` of the fit, then over
+    /// every point within `GROUND_FIT` of that. None with too few points.
     pub fn fit(points: &[Vector3<f64>], centre: &Vector3<f64>) -> Option<Ground> {
         let mut lowest = std::collections::BTreeMap::<(i64, i64), Vector3<f64>>::new();
         for p in points {
