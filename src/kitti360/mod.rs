@@ -6,7 +6,6 @@
 mod bboxes;
 mod calib;
 pub mod classes;
-mod level;
 mod poses;
 mod sequence;
 mod source;

@@ -17,11 +17,11 @@
 
 use super::bboxes::{read_boxes, WorldBox};
 use super::calib::{Calibration, CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
-use super::level::world_from_level;
 use super::poses::read_poses;
 use super::velodyne::{parse_scan, SweepMotion};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
+use crate::source::world_from_level;
 use crate::source::{Frame, LidarPoint, Pose, RigCamera};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -9,12 +9,12 @@
 
 use super::classes::{kitti_type, occlusion};
 use super::dataset::{NuScenes, SceneEntry};
-use super::level::world_from_level;
 use super::lidar::parse_points;
 use super::tables::{Annotation, SampleData};
 use super::token::Token;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Perspective};
 use crate::error::{Error, Result};
+use crate::source::world_from_level;
 use crate::source::{Frame, LidarPoint, Pose, RigCamera, SourceBox};
 use nalgebra::Matrix3;
 use std::sync::Arc;

@@ -8,7 +8,6 @@ pub mod classes;
 mod dataset;
 mod frame;
 mod json;
-mod level;
 pub mod lidar;
 mod source;
 mod tables;

@@ -9,12 +9,14 @@
 //! labels, depth) treats a KITTI frame and a KITTI-360 frame alike. Readers fill these types;
 //! nothing here reads a file.
 
+mod level;
 mod object;
 mod pose;
 mod region;
 mod rig;
 mod rig_source;
 
+pub use level::world_from_level;
 pub use object::SourceBox;
 pub use pose::Pose;
 pub use region::SourceRegion;

@@ -1,18 +1,19 @@
-//! The level reference frame of a KITTI-360 frame: origin at image_00's optical centre,
-//! y = gravity down (world −z), z = image_00's *rectified* optical axis projected on the
-//! horizontal plane, x = y × z. A level frame keeps a panorama's horizon straight and lets
-//! KITTI's one angle `rotation_y` describe upright objects exactly, whatever the vehicle's
-//! pitch and roll and the camera's mounting tilt.
+//! The level reference frame of a rig dataset's frame (KITTI-360's and nuScenes' alike): origin
+//! at a reference camera's optical centre, y = gravity down (world −z), z = that camera's
+//! optical axis projected on the horizontal plane, x = y × z. A level frame keeps a panorama's
+//! horizon straight and lets KITTI's one angle `rotation_y` describe upright objects exactly,
+//! whatever the vehicle's pitch and roll and the camera's mounting tilt.
 
-use crate::source::Pose;
+use super::Pose;
 use nalgebra::{Matrix3, Vector3};
 
-/// Smallest horizontal component of image_00's optical axis (its sine of the angle from the
-/// vertical) for which a heading is defined.
+/// Smallest horizontal component of the reference camera's optical axis (its sine of the angle
+/// from the vertical) for which a heading is defined.
 const MIN_HORIZONTAL: f64 = 1e-6;
 
-/// world_from_level for a frame whose rectified image_00 is `world_from_rect0`, or None when
-/// image_00 looks straight up or down (no heading).
+/// world_from_level for a frame whose reference camera (KITTI-360: rectified image_00;
+/// nuScenes: CAM_FRONT) is `world_from_rect0` (camera axes: x right, y down, z forward), or
+/// None when it looks straight up or down (no heading).
 pub fn world_from_level(world_from_rect0: &Pose) -> Option<Pose> {
     let axis = world_from_rect0.apply_vector(&Vector3::z());
     let horizontal = Vector3::new(axis.x, axis.y, 0.0);
