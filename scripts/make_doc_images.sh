@@ -60,6 +60,10 @@ for mode in fixed depth; do
         --output "$work/k360_$mode"
     pv "$work/k360_$mode" --frame 000250 --output "$out/kitti360_seam_$mode.png"
 done
+# docs/nuscenes.md: the synthetic nuScenes scene's six cameras stitched, boxes and depth
+p nuscenes --to equirect --pano-width 1024 --depth --lidar-azimuth-step 0.8 \
+    --input fixtures/nuscenes --version v1.0-mini --output "$work/nus"
+pv "$work/nus" --frame 000000 --output "$out/nuscenes_equirect.png"
 # docs/depth.md
 if [[ $previews_only -eq 0 ]]; then
     # the test profile: the build scripts/test.sh already made, and the one it checks the figures with

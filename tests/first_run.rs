@@ -92,7 +92,7 @@ fn the_pictures_in_docs_are_what_the_script_makes() {
         String::from_utf8_lossy(&out.stderr)
     );
     let made = tree_bytes(tmp.path());
-    assert_eq!(made.len(), 12, "{:?}", made.keys());
+    assert_eq!(made.len(), 13, "{:?}", made.keys());
     for (name, bytes) in &made {
         let committed = std::fs::read(repo().join("docs/images").join(name))
             .unwrap_or_else(|e| panic!("docs/images/{name}: {e}"));

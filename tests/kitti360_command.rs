@@ -224,7 +224,7 @@ pub(crate) fn exact_box(w: &Written, corners: &[Vector3<f64>; 8]) -> Option<[f64
 
 /// Every object of the scene with a KITTI type within 80 m is written once, at its exact
 /// location and heading (to the labels' rounding), with its exact 2D box. Returns the count.
-fn check_labels(w: &Written, frame: u32, what: &str) -> usize {
+pub(crate) fn check_labels(w: &Written, frame: u32, what: &str) -> usize {
     let truth: Vec<Truth> = truths(w, frame)
         .into_iter()
         .filter(|t| {
@@ -320,10 +320,41 @@ pub(crate) fn labels_back_through_unproject(out: &Path, work: &Path) -> PathBuf 
 /// The depth map against the scene seen from C2 through each pixel's centre: (pixels, share
 /// within 5 %, share farther than the truth by more than 5 %).
 pub(crate) fn check_depth(out: &Path, id: &str, w: &Written, frame: u32, what: &str) {
-    check_depth_share(out, id, w, frame, what, MIN_DEPTH_CORRECT);
+    check_depth_share(out, id, w, frame, what, MIN_DEPTH_CORRECT, false);
 }
 
-/// [`check_depth`] with `min_correct` the share of pixels that must be within 5 %.
+/// The scene's distance from C2 through the centre of pixel (u, v), or with `footprint` the
+/// range of distances over the pixel's area (its centre, corners and edge midpoints): None
+/// where the ray meets nothing.
+pub(crate) fn scene_distance(
+    scene: &panoconv::tools::synth::Scene,
+    w: &Written,
+    (u, v): (u32, u32),
+    footprint: bool,
+) -> Option<(f64, f64)> {
+    let scene_from_level = world_from_scene().transpose() * w.world_rotation;
+    let origin = world_to_scene(&(w.world_rotation * w.centre + w.world_translation));
+    let offsets: &[f64] = if footprint { &[-0.5, 0.0, 0.5] } else { &[0.0] };
+    let mut range: Option<(f64, f64)> = None;
+    for dv in offsets {
+        for du in offsets {
+            let ray = w
+                .camera
+                .unproject(&Point2::new(u as f64 + du, v as f64 + dv))
+                .unwrap();
+            let Some((t, _)) = scene.first_hit(&origin, &(scene_from_level * ray).normalize())
+            else {
+                continue;
+            };
+            let d = w.camera.distance(&(ray.normalize() * t));
+            range = Some(range.map_or((d, d), |(lo, hi)| (lo.min(d), hi.max(d))));
+        }
+    }
+    range
+}
+
+/// [`check_depth`] with `min_correct` the share of pixels that must be within 5 %, of the
+/// distance through the pixel's centre or (`footprint`) of the distances over its area.
 pub(crate) fn check_depth_share(
     out: &Path,
     id: &str,
@@ -331,12 +362,11 @@ pub(crate) fn check_depth_share(
     frame: u32,
     what: &str,
     min_correct: f64,
+    footprint: bool,
 ) {
     let depth = common::read_png(&out.join(format!("training/depth_2/{id}.png")));
     assert_eq!(depth.depth, png::BitDepth::Sixteen);
     let scene = scene_at(frame);
-    let scene_from_level = world_from_scene().transpose() * w.world_rotation;
-    let origin = world_to_scene(&(w.world_rotation * w.centre + w.world_translation));
     let (mut n, mut correct, mut leaks) = (0usize, 0usize, 0usize);
     for v in 0..depth.height {
         for u in 0..depth.width {
@@ -346,18 +376,12 @@ pub(crate) fn check_depth_share(
                 continue;
             }
             n += 1;
-            let ray = w
-                .camera
-                .unproject(&Point2::new(u as f64, v as f64))
-                .unwrap();
-            let Some((t, _)) = scene.first_hit(&origin, &(scene_from_level * ray).normalize())
-            else {
+            let Some((near, far)) = scene_distance(&scene, w, (u, v), footprint) else {
                 continue;
             };
-            let truth = w.camera.distance(&(ray.normalize() * t));
-            if (d - truth).abs() <= DEPTH_TOLERANCE * truth {
+            if d >= near * (1.0 - DEPTH_TOLERANCE) && d <= far * (1.0 + DEPTH_TOLERANCE) {
                 correct += 1;
-            } else if d > truth {
+            } else if d > far {
                 leaks += 1;
             }
         }

@@ -297,7 +297,7 @@ fn augmented_views_keep_exact_labels_calib_and_depth() {
         eprintln!("{what}: {} objects", w.labels.labels.len());
         // (the 99.5 % holds over a whole panorama; a view drawn to hold three objects
         // is mostly their edges, where a LiDAR step's mixed pixels fall: 99 % of its pixels)
-        check_depth_share(&one, id, &w, 250, &what, 0.99);
+        check_depth_share(&one, id, &w, 250, &what, 0.99, false);
     }
     assert!(
         scales.windows(2).any(|s| s[0] != s[1]),

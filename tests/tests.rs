@@ -38,6 +38,7 @@ mod kitti_benchmark;
 mod labels;
 mod labels_meant;
 mod nuscenes;
+mod nuscenes_command;
 mod nuscenes_devkit;
 mod nuscenes_stitch;
 mod pano;

@@ -2,10 +2,11 @@
 
 use super::export::{export_after_kitti, FormatArg};
 use super::outcome::exit_code;
+use super::style::StyleArgs;
 use super::EXIT_INTERRUPTED;
 use super::{count, parse_size, projection_of, with_pool, Bar, RunArgs, To};
 use anyhow::{bail, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use panoconv::camera::ImageSize;
 use panoconv::convert::kitti::{run_kitti, KittiOptions, KittiSource, KittiSummary};
 use panoconv::convert::run_options::{DepthJob, RunOptions, StyleJob, StyleOrder};
@@ -17,7 +18,6 @@ use panoconv::kitti::Cam;
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::reproject::visibility::Visibility;
 use panoconv::run::{OutputMode, Shard};
-use panoconv::style::{Device, StyleOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -203,34 +203,15 @@ pub(super) struct ConvertArgs {
     shard: Option<Shard>,
     #[command(flatten)]
     run: RunArgs,
-    /// CycleGAN generator (ONNX) giving each image the target domain's look, before the warp.
-    #[arg(long, value_name = "MODEL.onnx")]
-    style: Option<PathBuf>,
+    #[command(flatten)]
+    styling: StyleArgs,
     /// Apply the style model to the warped image instead of the source.
     #[arg(long, requires = "style")]
     style_after_warp: bool,
-    /// ONNX Runtime library (libonnxruntime.so); else $ORT_DYLIB_PATH, else beside the binary.
-    #[arg(long, value_name = "PATH", requires = "style")]
-    ort_lib: Option<PathBuf>,
-    /// Where the style model runs.
-    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu, requires = "style")]
-    device: DeviceArg,
-    /// Equal-size images of up to N consecutive frames go through the model in one run, when
-    /// its batch axis is dynamic [default: 4 with --device cuda, 1 on the CPU, where a batch
-    /// is no faster]. Outputs are the same for every N.
-    #[arg(long, value_name = "N", requires = "style",
-          value_parser = clap::value_parser!(u16).range(1..=panoconv::style::MAX_BATCH as i64))]
-    style_batch: Option<u16>,
     /// After a conversion with no failed frame, also export: coco and omni3d into
     /// OUT/annotations, yolo into OUT_yolo beside OUT (see `panoconv export --help`).
     #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT,...")]
     export: Vec<FormatArg>,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-pub(super) enum DeviceArg {
-    Cpu,
-    Cuda,
 }
 
 #[derive(Args)]
@@ -374,15 +355,13 @@ fn convert(
             }),
             augment,
             shard: args.shard,
-            style: style_job(&args.style, &args.ort_lib, args.device, args.style_batch).map(|s| {
-                StyleJob {
-                    order: if args.style_after_warp {
-                        StyleOrder::AfterWarp
-                    } else {
-                        StyleOrder::BeforeWarp
-                    },
-                    ..s
-                }
+            style: args.styling.job().map(|s| StyleJob {
+                order: if args.style_after_warp {
+                    StyleOrder::AfterWarp
+                } else {
+                    StyleOrder::BeforeWarp
+                },
+                ..s
             }),
             export: !args.export.is_empty(),
         },
@@ -457,38 +436,6 @@ fn report(summary: &KittiSummary, output: &std::path::Path) {
             count(runs, "model run")
         );
     }
-}
-
-/// The style pass of `--style`, `--ort-lib`, `--device` and `--style-batch` (before the warp;
-/// `kitti` sets `--style-after-warp`'s order itself).
-pub(super) fn style_job(
-    model: &Option<PathBuf>,
-    ort_lib: &Option<PathBuf>,
-    device: DeviceArg,
-    batch: Option<u16>,
-) -> Option<StyleJob> {
-    let model = model.clone()?;
-    let device = match device {
-        DeviceArg::Cpu => Device::Cpu,
-        DeviceArg::Cuda => Device::Cuda,
-    };
-    Some(StyleJob {
-        options: StyleOptions {
-            model,
-            ort_lib: ort_lib.clone(),
-            device,
-            intra_threads: 1,
-        },
-        order: StyleOrder::BeforeWarp,
-        // a batch is no faster on the CPU
-        batch: batch.map_or(
-            match device {
-                Device::Cpu => 1,
-                Device::Cuda => 4,
-            },
-            usize::from,
-        ),
-    })
 }
 
 /// Set by SIGINT/SIGTERM: the conversion takes no new frame, finishes those in flight and

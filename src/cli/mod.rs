@@ -19,7 +19,10 @@ mod convert;
 mod export;
 mod folders;
 mod kitti360;
+mod nuscenes;
 mod outcome;
+mod rig;
+mod style;
 mod tools;
 
 use camera::{CameraArgs, CAMERA_EXAMPLES};
@@ -29,6 +32,7 @@ use convert::{
 use export::{ExportArgs, EXPORT_EXAMPLES};
 use folders::{fisheye, pano, FisheyeArgs, PanoArgs, FISHEYE_EXAMPLES, PANO_EXAMPLES};
 use kitti360::{kitti360, Kitti360Args, KITTI360_EXAMPLES};
+use nuscenes::{nuscenes, NuScenesArgs, NUSCENES_EXAMPLES};
 use tools::{
     completions, eval_depth, inspect, labels_to_pixels, man, preview, synth, unproject, verify,
     CompletionsArgs, EvalDepthArgs, InspectArgs, LabelsToPixelsArgs, ManArgs, PreviewArgs,
@@ -66,6 +70,10 @@ enum Command {
     /// converted), with its 3D boxes, LiDAR depth and the camera of each pixel.
     #[command(after_help = KITTI360_EXAMPLES)]
     Kitti360(Box<Kitti360Args>),
+    /// Convert a nuScenes-format dataset: each sample's cameras stitched into a panorama (or
+    /// one camera converted), every sensor at its own time, with 3D boxes and LiDAR depth.
+    #[command(after_help = NUSCENES_EXAMPLES)]
+    Nuscenes(Box<NuScenesArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
@@ -296,6 +304,7 @@ fn run() -> Result<ExitCode> {
         Command::Kitti(a) => kitti(*a),
         Command::KittiRaw(a) => kitti_raw(*a),
         Command::Kitti360(a) => kitti360(*a),
+        Command::Nuscenes(a) => nuscenes(*a),
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),

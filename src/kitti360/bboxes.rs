@@ -107,6 +107,7 @@ impl WorldBox {
             instance: u64::try_from(self.instance_id).ok(),
             truncation: None,
             occlusion: None,
+            sensor_points: None,
         }
     }
 }

@@ -90,6 +90,13 @@ impl NuScenes {
         table_path(&self.dataroot, &self.version, name)
     }
 
+    /// The names of category.json's categories, sorted.
+    pub fn category_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self.categories.values().cloned().collect();
+        names.sort();
+        names
+    }
+
     /// Reads the tables of `version` under `dataroot` for `selection`.
     pub fn open(dataroot: &Path, version: &str, selection: &Selection) -> Result<Self> {
         if version.is_empty() || version.contains(['/', '\\']) || version == ".." {

@@ -315,6 +315,7 @@ impl NuScenes {
                 instance: Some(a.instance.number()),
                 truncation: None,
                 occlusion: Some(occlusion(info.visibility.as_deref())),
+                sensor_points: Some(a.lidar_points + a.radar_points),
             });
             infos.push(info);
         }

@@ -129,16 +129,25 @@ impl NuScenesSource {
         })
     }
 
+    /// The same source, reading each sample's LiDAR keyframe or not (depth maps, a
+    /// depth-guided stitch, the objects' LiDAR check need it).
+    pub fn with_lidar(mut self, lidar: bool) -> Self {
+        self.selection.lidar = lidar;
+        self
+    }
+
     /// The indexed tables.
     pub fn dataset(&self) -> &NuScenes {
         &self.dataset
     }
 
+    /// Every annotation is read: the class table and the unseen rule are the run's verdicts
+    /// ([`RigSource::keeps`], [`RigSource::drops_unseen`]), so that the summary counts them.
     fn options(&self) -> Options {
         Options {
             lidar: self.selection.lidar,
-            all_classes: self.selection.classes != NuScenesClasses::Kitti,
-            keep_unseen: self.selection.keep_unseen,
+            all_classes: true,
+            keep_unseen: true,
         }
     }
 
@@ -222,6 +231,10 @@ impl RigSource for NuScenesSource {
 
     fn keeps(&self, b: &SourceBox) -> bool {
         self.selection.classes.keeps(&b.class, &b.dataset_class)
+    }
+
+    fn drops_unseen(&self, b: &SourceBox) -> bool {
+        !self.selection.keep_unseen && b.sensor_points == Some(0)
     }
 
     fn record(&self, item: &RigItem) -> Map<String, Value> {

@@ -31,6 +31,9 @@ pub struct SourceBox {
     pub truncation: Option<f64>,
     /// Occlusion state (KITTI's 0 to 3), where known.
     pub occlusion: Option<u8>,
+    /// The sensor returns the dataset counted inside the box (nuScenes: LiDAR and radar
+    /// points), where it counts them.
+    pub sensor_points: Option<u64>,
 }
 
 impl SourceBox {
@@ -52,6 +55,7 @@ impl SourceBox {
             instance: None,
             truncation: None,
             occlusion: None,
+            sensor_points: None,
         }
     }
 

@@ -98,6 +98,13 @@ pub trait RigSource: Sync {
     /// classes); the others are dropped for their class.
     fn keeps(&self, object: &SourceBox) -> bool;
 
+    /// Whether a box is left out because the dataset's own count says no sensor saw it
+    /// ([`SourceBox::sensor_points`] is 0) and the selection leaves such boxes out (nuScenes'
+    /// evaluation rule); counted as unseen.
+    fn drops_unseen(&self, _object: &SourceBox) -> bool {
+        false
+    }
+
     /// The first fields of a frame's `objects/ID.json` (which frame of the dataset it is:
     /// `"sequence"` and `"frame"`, or `"scene"` and `"sample_token"`).
     fn record(&self, item: &RigItem) -> Map<String, Value>;

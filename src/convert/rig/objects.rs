@@ -145,14 +145,14 @@ pub(super) fn label_objects(
     centre: &Vector3<f64>,
     camera: &dyn CameraModel,
     rule: &ObjectRule,
-    keep_class: &(dyn Fn(&SourceBox) -> bool + Sync),
+    keep_class: &(dyn Fn(&SourceBox) -> Option<DropReason> + Sync),
 ) -> (Vec<PlacedObject>, Vec<ObjectOutcome>) {
     let mut placed = Vec::new();
     let mut outcomes = Vec::with_capacity(objects.len());
     for (index, b) in objects.iter().enumerate() {
         let mut outcome = ObjectOutcome::of(b, centre);
-        if !keep_class(b) {
-            outcome.dropped = Some(DropReason::Class);
+        if let Some(reason) = keep_class(b) {
+            outcome.dropped = Some(reason);
         } else if !((b.centre - centre).norm() <= rule.max_distance) {
             outcome.dropped = Some(DropReason::Distance);
         } else {
@@ -241,7 +241,7 @@ mod tests {
         let objects = [seen, far, unseen, behind.clone()];
         let (placed, outcomes) =
             label_objects(&objects, &lidar, &Vector3::zeros(), &camera, &rule, &|_| {
-                true
+                None
             });
         assert_eq!(placed.len(), 1);
         assert_eq!((placed[0].index, placed[0].truncation), (0, 0.0));
@@ -266,7 +266,7 @@ mod tests {
                 min_points: 0,
                 ..rule
             },
-            &|b: &SourceBox| b.class == "Car",
+            &|b: &SourceBox| (b.class != "Car").then_some(DropReason::Class),
         );
         assert_eq!(outcomes[0].dropped, Some(DropReason::Outside));
         assert!(outcomes[0].lidar_points.is_none() && !outcomes[0].is_tilted());
@@ -292,7 +292,7 @@ mod tests {
         };
         let objects = [upright, tilted.clone()];
         let (placed, outcomes) =
-            label_objects(&objects, &[], &Vector3::zeros(), &camera, &rule, &|_| true);
+            label_objects(&objects, &[], &Vector3::zeros(), &camera, &rule, &|_| None);
         let lines = lines(&objects, &placed);
         assert_eq!(lines.len(), 2);
         assert!(!outcomes[0].is_tilted() && outcomes[1].is_tilted());

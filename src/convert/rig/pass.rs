@@ -9,7 +9,7 @@
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
 //! tables are built per frame.
 
-use super::objects::{label_objects, ObjectOutcome, ObjectRule, PlacedObject};
+use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
 use super::scene_depth::{distance_map, frame_stitch, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
@@ -21,8 +21,9 @@ use crate::run::manifest::LidarRecord;
 use crate::source::{Frame, RigCamera, SourceBox};
 use crate::style::StyleModel;
 
-/// Which objects' classes are written (the others are dropped for their class).
-pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> bool + Sync);
+/// The dataset's own verdict on a box before any geometry: None to go on, or why it is
+/// dropped (its class, or the dataset's count of the sensor returns in it).
+pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> Option<DropReason> + Sync);
 use crate::warp::{EgoMask, ImageMapping, StitchCamera, StitchOptions, NO_SOURCE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::sync::Arc;

@@ -8,7 +8,7 @@
 
 use super::gray::encode_gray8;
 use super::job::{parameters, ObjectCounts, RigJob, RigSummary, SPLIT};
-use super::objects::ObjectOutcome;
+use super::objects::{DropReason, ObjectOutcome};
 use super::pass::{
     convert_into, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
     RigOptions,
@@ -186,7 +186,7 @@ impl Ctx<'_> {
         let frame = self.source.read(item)?;
         let info = &self.infos[item.part];
         let options = &self.options;
-        let keep = |b: &SourceBox| self.source.keeps(b);
+        let keep = |b: &SourceBox| source_verdict(self.source, b);
         let views = self.output_views(item, &frame, info, options, &keep)?;
         let (images, image_hashes) = read_images_hashed(&frame, options)?;
         let image_paths = options
@@ -303,7 +303,7 @@ impl ViewFiles for RigViewFiles<'_> {
 
     fn view_files(&mut self, (id, camera): Self::View, sink: &mut ViewSink) -> Result<()> {
         let ctx = self.ctx;
-        let keep = |b: &SourceBox| ctx.source.keeps(b);
+        let keep = |b: &SourceBox| source_verdict(ctx.source, b);
         let frame = self.frame;
         let out = convert_into(frame, self.info, camera, self.images, self.options, &keep)?;
         let calib = crate::kitti::rig_output::rig_calib_text(
@@ -490,4 +490,15 @@ pub fn run_rig(
             .map(|_| ctx.thin_views.load(Ordering::Relaxed)),
         not_frames,
     })
+}
+
+/// The dataset's own verdict on a box: its class, then its count of sensor returns.
+fn source_verdict(source: &dyn RigSource, b: &SourceBox) -> Option<DropReason> {
+    if !source.keeps(b) {
+        Some(DropReason::Class)
+    } else if source.drops_unseen(b) {
+        Some(DropReason::Unseen)
+    } else {
+        None
+    }
 }

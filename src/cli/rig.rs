@@ -1,0 +1,400 @@
+//! What every rig command (`kitti360`, `nuscenes`) shares: the output camera, the stitch, the
+//! objects, the depth maps and the run options ([`RigArgs`]), turned into one
+//! [`RigJob`] and run on any [`RigSource`] through one path ([`run_rig_command`]).
+
+use super::convert::{install_stop_handler, parse_crop, parse_shard, AugmentArgs, STOP};
+use super::export::{export_after_kitti, FormatArg};
+use super::outcome::exit_code;
+use super::style::StyleArgs;
+use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To};
+use anyhow::{bail, Result};
+use clap::Args;
+use nalgebra::Vector3;
+use panoconv::camera::{ImageSize, OutputProjection, Projection};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSummary, StitchMode};
+use panoconv::convert::run_options::{DepthJob, RunOptions};
+use panoconv::error::Error;
+use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
+use panoconv::reproject::depth::OcclusionFilter;
+use panoconv::run::journal::Shard;
+use panoconv::run::OutputMode;
+use panoconv::source::RigSource;
+use panoconv::warp::StitchOptions;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// `--stitch-mode`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum StitchModeArg {
+    /// Each pixel at its own distance (the frame's scan and 3D boxes).
+    Depth,
+    /// Every pixel at --stitch-distance.
+    Fixed,
+}
+
+/// The options of a rig conversion that do not depend on the dataset.
+#[derive(Args)]
+pub(super) struct RigArgs {
+    /// Target projection (fisheye: the camera of --camera, its rotation relative to the level
+    /// frame).
+    #[arg(long, value_enum)]
+    to: To,
+    /// The fisheye camera of --to fisheye (a camera description or calibration file).
+    #[arg(long, value_name = "FILE")]
+    camera: Option<PathBuf>,
+    /// Output root (created; must be empty unless --overwrite).
+    #[arg(long, short = 'o')]
+    pub(super) output: PathBuf,
+    /// Also write LiDAR depth maps (depth_2/: range from C2 for equirect and fisheye, z for
+    /// perspective, rho for cylindrical; 16-bit, round(d·256)).
+    #[arg(long)]
+    depth: bool,
+    /// Keep LiDAR points the output centre cannot see (the occlusion correction is on).
+    #[arg(long, requires = "depth")]
+    no_occlusion_filter: bool,
+    /// Azimuth step of the LiDAR sweep, degrees, for the occlusion filter [default: the
+    /// dataset's LiDAR: 0.09 for KITTI-360's HDL-64E, 0.33 for nuScenes' HDL-32E; synthetic
+    /// data: 0.2 / scale].
+    #[arg(long, value_name = "DEG", requires = "depth")]
+    lidar_azimuth_step: Option<f64>,
+    /// Proxy distance of the stitch, metres: with `--stitch-mode fixed`, or for a frame
+    /// without a scan, every pixel is stitched at this distance.
+    #[arg(long, value_name = "M", default_value_t = 10.0)]
+    stitch_distance: f64,
+    /// `depth`: each pixel stitched at its own distance, from the frame's scan and 3D boxes;
+    /// `fixed`: every pixel at --stitch-distance.
+    #[arg(long, value_enum, value_name = "MODE", default_value = "depth")]
+    stitch_mode: StitchModeArg,
+    /// Also write the distance each pixel was stitched at (stitch_depth_2/: metres from C2
+    /// along the ray, 16-bit round(d·256), 0 for the sky).
+    #[arg(long)]
+    stitch_depth: bool,
+    /// Blend width, degrees: a camera's weight rises from 0 at its field of view's edge to 1
+    /// this far inside.
+    #[arg(long, value_name = "DEG", default_value_t = 5.0)]
+    blend_width: f64,
+    /// Keep each camera's exposure (no per-frame gains).
+    #[arg(long)]
+    no_exposure_gains: bool,
+    /// Leave out objects whose centre is farther from C2, metres.
+    #[arg(long, value_name = "M", default_value_t = 80.0)]
+    max_distance: f64,
+    /// Leave out objects with fewer LiDAR points inside their box (its lowest 0.1 m aside);
+    /// 0 reads no scan for this [default: 3 for KITTI-360; 0 for nuScenes, whose annotations
+    /// count their points (see --keep-unseen)].
+    #[arg(long, value_name = "N")]
+    min_points: Option<usize>,
+    /// The panorama centre C2 in the level frame, metres (default: the mean of the cameras'
+    /// centres).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_centre, allow_hyphen_values = true)]
+    centre: Option<Vector3<f64>>,
+    /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: the
+    /// first camera's focal length.
+    #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
+    pano_width: Option<u32>,
+    /// Scale in pixels per degree at the image centre.
+    #[arg(long, value_name = "PX")]
+    px_per_deg: Option<f64>,
+    /// Crop the output canvas to this window (canvas pixels).
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<Crop>,
+    /// Resize the (cropped) output to this size.
+    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    resize: Option<ImageSize>,
+    /// Continue a killed or interrupted run.
+    #[arg(long)]
+    resume: bool,
+    /// Convert only shard K of N, writing panoconv.shard-K-of-N.json (join with `merge`).
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<Shard>,
+    /// After a conversion with no failed frame, also export (coco, omni3d into OUT/annotations,
+    /// yolo into OUT_yolo).
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT,...")]
+    export: Vec<FormatArg>,
+    #[command(flatten)]
+    pub(super) run: RunArgs,
+    #[command(flatten)]
+    augment: AugmentArgs,
+    #[command(flatten)]
+    styling: StyleArgs,
+    /// Not supported by rig commands (named here to say so).
+    #[arg(long, hide = true)]
+    style_after_warp: bool,
+    /// Not supported by rig commands (named here to say so).
+    #[arg(long, hide = true)]
+    mask: bool,
+}
+
+/// What a dataset's command decides of a [`RigJob`]: the cameras, their masks and the
+/// defaults of its LiDAR.
+pub(super) struct RigChoice {
+    /// The command's name, for errors (`kitti360`).
+    pub(super) command: &'static str,
+    /// The rig cameras used, by index into the source's camera set.
+    pub(super) cameras: Vec<usize>,
+    /// Ego masks by rig index.
+    pub(super) ego_masks: Vec<(usize, PathBuf)>,
+    /// `--lidar-azimuth-step`'s default, degrees.
+    pub(super) lidar_azimuth_step_deg: f64,
+    /// `--min-points`'s default.
+    pub(super) min_points: usize,
+}
+
+pub(super) fn setup(message: String) -> anyhow::Error {
+    Error::Setup(message).into()
+}
+
+fn parse_centre(s: &str) -> std::result::Result<Vector3<f64>, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| "expected X,Y,Z in metres, e.g. 0,0,0.5".to_owned())?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vector3::new(x, y, z)),
+        _ => Err("expected X,Y,Z in metres, e.g. 0,0,0.5".into()),
+    }
+}
+
+/// Ego masks of `--ego-mask K=PATH,...`, the camera named as `camera` resolves it to a rig
+/// index (None: not a camera of the rig; `expected` says which are).
+pub(super) fn ego_masks(
+    given: &[String],
+    camera: impl Fn(&str) -> Option<usize>,
+    expected: &str,
+) -> Result<Vec<(usize, PathBuf)>> {
+    let mut masks = Vec::new();
+    for g in given {
+        let (k, path) = g.split_once('=').ok_or_else(|| {
+            setup(format!(
+                "--ego-mask {g:?}: expected CAMERA=PATH, e.g. {expected}=masks/camera.png"
+            ))
+        })?;
+        let Some(k) = camera(k.trim()) else {
+            bail!(setup(format!(
+                "--ego-mask {:?}={path}: not a chosen camera (expected {expected})",
+                k.trim()
+            )))
+        };
+        masks.push((k, PathBuf::from(path)));
+    }
+    Ok(masks)
+}
+
+impl RigArgs {
+    /// The flags rig commands name only to refuse them, with the reason.
+    fn refuse_unsupported(&self, command: &str) -> Result<()> {
+        for (given, flag, why) in [
+            (
+                self.style_after_warp,
+                "--style-after-warp",
+                "each camera's image is styled before the stitch, so that the blend and the \
+                 exposure gains work on styled images",
+            ),
+            (
+                self.mask,
+                "--mask",
+                "source_2/ marks the pixels without a camera (255)",
+            ),
+        ] {
+            if given {
+                bail!(setup(format!(
+                    "{flag} is not supported by {command}: {why}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The output camera. A panorama of several cameras covers 360°; one camera, or a
+    /// perspective view, the first camera's field of view.
+    fn target(&self, cameras: usize) -> Result<Target> {
+        Ok(match (projection_of(self.to), &self.camera) {
+            (OutputProjection::Fisheye, Some(file)) => {
+                if self.pano_width.is_some() || self.px_per_deg.is_some() {
+                    bail!(setup(
+                        "--pano-width/--px-per-deg: a fisheye target has the scale of its \
+                         camera file"
+                            .into()
+                    ));
+                }
+                Target::Fisheye {
+                    camera: Box::new(FisheyeTarget::read(file)?),
+                    crop: self.crop,
+                    resize: self.resize,
+                }
+            }
+            (OutputProjection::Fisheye, None) => bail!(setup(
+                "--to fisheye needs --camera FILE: a camera description or calibration file".into()
+            )),
+            (OutputProjection::Linear(_), Some(_)) => bail!(setup(
+                "--camera describes the camera of --to fisheye".into()
+            )),
+            (OutputProjection::Linear(projection), None) => Target::Linear(OutputSpec {
+                projection,
+                scale: scale_of(self.pano_width, self.px_per_deg)?,
+                canvas: if cameras > 1 && projection != Projection::Perspective {
+                    Canvas::Full360
+                } else {
+                    Canvas::Tight
+                },
+                crop: self.crop,
+                resize: self.resize,
+            }),
+        })
+    }
+
+    /// The rig job of these options and the dataset's choice, its rules checked.
+    pub(super) fn job(&self, choice: RigChoice) -> Result<RigJob> {
+        self.refuse_unsupported(choice.command)?;
+        let target = self.target(choice.cameras.len())?;
+        let azimuth_step = self
+            .lidar_azimuth_step
+            .unwrap_or(choice.lidar_azimuth_step_deg);
+        if !(azimuth_step > 0.0 && azimuth_step.is_finite()) {
+            bail!(setup("--lidar-azimuth-step must be positive".into()));
+        }
+        for (v, flag) in [
+            (self.stitch_distance, "--stitch-distance"),
+            (self.blend_width, "--blend-width"),
+            (self.max_distance, "--max-distance"),
+        ] {
+            if !(v > 0.0 && v.is_finite()) {
+                bail!(setup(format!("{flag} must be positive")));
+            }
+        }
+        let job = RigJob {
+            run: RunOptions {
+                output: self.output.clone(),
+                mode: OutputMode::from_flags(self.run.overwrite, self.resume),
+                shard: self.shard,
+                png_compression: self.run.png_compression(),
+                style: self.styling.job(),
+                augment: self.augment.views(),
+                depth: self.depth.then(|| DepthJob {
+                    occlusion_filter: (!self.no_occlusion_filter).then(|| OcclusionFilter {
+                        azimuth_spacing: azimuth_step.to_radians(),
+                        ..OcclusionFilter::default()
+                    }),
+                }),
+                export: !self.export.is_empty(),
+            },
+            target,
+            cameras: choice.cameras,
+            stitch: StitchOptions {
+                distance: self.stitch_distance,
+                blend_width: self.blend_width.to_radians(),
+                even_exposure: !self.no_exposure_gains,
+            },
+            stitch_mode: match self.stitch_mode {
+                StitchModeArg::Depth => StitchMode::Depth,
+                StitchModeArg::Fixed => StitchMode::Fixed,
+            },
+            stitch_depth: self.stitch_depth,
+            centre: self.centre,
+            objects: ObjectRule {
+                max_distance: self.max_distance,
+                min_points: self.min_points.unwrap_or(choice.min_points),
+                visibility: self.augment.visibility(),
+            },
+            ego_masks: choice.ego_masks,
+        };
+        job.validate()?;
+        Ok(job)
+    }
+}
+
+/// Runs a rig job on the source that `open` gives (inside the worker pool), reports it, and
+/// exports when asked: the one run path of every rig command.
+pub(super) fn run_rig_command<S: RigSource>(
+    args: &RigArgs,
+    job: &RigJob,
+    open: impl FnOnce() -> panoconv::error::Result<S> + Send,
+) -> Result<ExitCode> {
+    install_stop_handler();
+    let bar = Bar::new(args.run.quiet);
+    let summary = with_pool(args.run.jobs, || -> panoconv::error::Result<_> {
+        let source = open()?;
+        run_rig(job, &source, &bar, &STOP)
+    })??;
+    if !args.run.quiet {
+        report(&summary, job);
+    }
+    if let Some(code) = exit_code(&summary.run) {
+        return Ok(code);
+    }
+    if !args.export.is_empty() {
+        let overwrite = job.run.mode != OutputMode::New;
+        return export_after_kitti(
+            &job.run.output,
+            &job.run.output,
+            &args.export,
+            job.run.augment.is_some(),
+            overwrite,
+            args.run.quiet,
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The run's summary: frames, objects written and dropped, thin views, the style pass.
+fn report(summary: &RigSummary, job: &RigJob) {
+    super::outcome::report(&summary.run, "frame", &job.run.output);
+    let o = &summary.objects;
+    let unseen = match job.objects.min_points {
+        0 => format!("{} seen by no sensor", o.unseen),
+        n => format!("{} with fewer than {n} LiDAR points", o.unseen),
+    };
+    eprintln!(
+        "panoconv: {} written ({} tilted); dropped: {} by class, {} beyond {} m, {unseen}, {} \
+         outside the image",
+        count(o.written, "object"),
+        o.tilted,
+        o.class,
+        o.distance,
+        job.objects.max_distance,
+        o.outside
+    );
+    if o.barely_visible > 0 {
+        eprintln!(
+            "panoconv: {} written as DontCare regions: less of them visible than \
+             --min-visible {},{}",
+            count(o.barely_visible, "object"),
+            job.objects.visibility.min_side_px,
+            job.objects.visibility.min_share
+        );
+    }
+    if !summary.not_frames.is_empty() {
+        let first: Vec<&str> = summary
+            .not_frames
+            .iter()
+            .take(5)
+            .map(String::as_str)
+            .collect();
+        eprintln!(
+            "panoconv: {} without the images of --cameras not converted (not frames): {}{}",
+            count(summary.not_frames.len(), "pose"),
+            first.join(", "),
+            if summary.not_frames.len() > 5 {
+                ", ..."
+            } else {
+                ""
+            }
+        );
+    }
+    if let Some(thin) = summary.thin_views.filter(|n| *n > 0) {
+        eprintln!(
+            "panoconv: {} with fewer than {} objects after {} draws",
+            count(thin, "augmented view"),
+            job.run.augment.map_or(0, |a| a.min_objects),
+            panoconv::geometry::augment::MAX_ATTEMPTS
+        );
+    }
+    if let Some((runs, images)) = summary.style_runs {
+        eprintln!(
+            "panoconv: style pass: {} in {}",
+            count(images, "image"),
+            count(runs, "model run")
+        );
+    }
+}
