@@ -48,6 +48,42 @@ pub enum OutputKind {
     Label,
     /// The calib (`calib/`).
     Calib,
+    /// A rig output's camera of each pixel (`source_2/`).
+    Source,
+    /// A rig output's objects record (`objects/`).
+    Objects,
+    /// The distance each pixel of a rig output was stitched at (`stitch_depth_2/`).
+    StitchDepth,
+}
+
+impl OutputKind {
+    /// Its folder under an object split (`image_2`, `label_2`, ...).
+    pub fn folder(self) -> String {
+        match self {
+            OutputKind::Image(c) => format!("image_{c}"),
+            OutputKind::Mask(c) => format!("mask_{c}"),
+            OutputKind::Depth => "depth_2".into(),
+            OutputKind::Label => "label_2".into(),
+            OutputKind::Calib => "calib".into(),
+            OutputKind::Source => "source_2".into(),
+            OutputKind::Objects => "objects".into(),
+            OutputKind::StitchDepth => "stitch_depth_2".into(),
+        }
+    }
+
+    /// Its files' extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            OutputKind::Label | OutputKind::Calib => "txt",
+            OutputKind::Objects => "json",
+            _ => "png",
+        }
+    }
+
+    /// Frame `id`'s file of this kind under an object split (`label_2/000042.txt`).
+    pub fn object_path(self, id: &str) -> PathBuf {
+        PathBuf::from(self.folder()).join(format!("{id}.{}", self.extension()))
+    }
 }
 
 /// A KITTI dataset on disk: its root and the splits found there.
@@ -193,17 +229,14 @@ impl Split {
     /// An output file of a frame, relative to the split's output folder (None: this layout
     /// has no such file per frame; raw drives write one calib, see `split_calib_output`).
     pub fn output_path(&self, kind: OutputKind, id: &str) -> Option<PathBuf> {
-        let raw = matches!(self.layout, Layout::Raw { .. });
-        Some(PathBuf::from(match (kind, raw) {
-            (OutputKind::Image(c), false) => format!("image_{c}/{id}.png"),
-            (OutputKind::Image(c), true) => format!("image_0{c}/data/{id}.png"),
-            (OutputKind::Mask(c), false) => format!("mask_{c}/{id}.png"),
-            (OutputKind::Mask(c), true) => format!("mask_0{c}/data/{id}.png"),
-            (OutputKind::Depth, false) => format!("depth_2/{id}.png"),
-            (OutputKind::Depth, true) => format!("depth_02/data/{id}.png"),
-            (OutputKind::Label, false) => format!("label_2/{id}.txt"),
-            (OutputKind::Calib, false) => format!("calib/{id}.txt"),
-            (OutputKind::Label | OutputKind::Calib, true) => return None,
+        if !matches!(self.layout, Layout::Raw { .. }) {
+            return Some(kind.object_path(id));
+        }
+        Some(PathBuf::from(match kind {
+            OutputKind::Image(c) => format!("image_0{c}/data/{id}.png"),
+            OutputKind::Mask(c) => format!("mask_0{c}/data/{id}.png"),
+            OutputKind::Depth => format!("depth_02/data/{id}.png"),
+            _ => return None,
         }))
     }
 

@@ -23,6 +23,7 @@ use crate::error::{Error, Result};
 use crate::fs;
 use crate::geometry::augment::{view_id, Augment, View};
 use crate::image::RgbImage;
+use crate::kitti::{Cam, OutputKind};
 use crate::run::manifest::FrameRecord;
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, Progress};
 use crate::source::{Frame, RigItem, RigItems, RigSource, SourceBox};
@@ -31,15 +32,15 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-/// The per-frame output folders under `OUT/training/`.
-const FOLDERS: [&str; 7] = [
-    "image_2",
-    "calib",
-    "label_2",
-    "source_2",
-    "objects",
-    "depth_2",
-    "stitch_depth_2",
+/// The per-frame outputs under `OUT/training/`.
+const OUTPUTS: [OutputKind; 7] = [
+    OutputKind::Image(Cam::C2),
+    OutputKind::Calib,
+    OutputKind::Label,
+    OutputKind::Source,
+    OutputKind::Objects,
+    OutputKind::Depth,
+    OutputKind::StitchDepth,
 ];
 
 /// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
@@ -90,30 +91,14 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    fn output_path(&self, folder: &str, id: &str, ext: &str) -> PathBuf {
-        self.job
-            .run
-            .output
-            .join(SPLIT)
-            .join(folder)
-            .join(format!("{id}.{ext}"))
+    /// Frame `id`'s file of `kind`.
+    fn output_path(&self, kind: OutputKind, id: &str) -> PathBuf {
+        self.job.run.output.join(SPLIT).join(kind.object_path(id))
     }
 
     /// Every file a frame may write.
     fn output_paths(&self, id: &str) -> Vec<PathBuf> {
-        FOLDERS
-            .iter()
-            .map(|f| {
-                let ext = if matches!(*f, "calib" | "label_2") {
-                    "txt"
-                } else if *f == "objects" {
-                    "json"
-                } else {
-                    "png"
-                };
-                self.output_path(f, id, ext)
-            })
-            .collect()
+        OUTPUTS.iter().map(|&k| self.output_path(k, id)).collect()
     }
 
     /// blake3 of an input file shared by frames, read once per run.
@@ -336,18 +321,18 @@ impl ViewFiles for RigViewFiles<'_> {
         .expect("the objects record serialises");
         let size = out.camera.size();
         sink.image(
-            ctx.output_path("image_2", &id, "png"),
+            ctx.output_path(OutputKind::Image(Cam::C2), &id),
             ViewImage::Warped(&out.image),
         )?;
-        sink.file(ctx.output_path("calib", &id, "txt"), calib.into_bytes());
-        sink.file(ctx.output_path("label_2", &id, "txt"), labels.into_bytes());
+        sink.file(ctx.output_path(OutputKind::Calib, &id), calib.into_bytes());
+        sink.file(ctx.output_path(OutputKind::Label, &id), labels.into_bytes());
         sink.file(
-            ctx.output_path("source_2", &id, "png"),
+            ctx.output_path(OutputKind::Source, &id),
             encode_gray8(size.width, size.height, &out.source),
         );
-        sink.file(ctx.output_path("objects", &id, "json"), objects);
+        sink.file(ctx.output_path(OutputKind::Objects, &id), objects);
         if let Some(depth) = out.depth {
-            sink.depth(ctx.output_path("depth_2", &id, "png"), depth);
+            sink.depth(ctx.output_path(OutputKind::Depth, &id), depth);
         }
         if let Some(map) = out.distances {
             let png = crate::codec::png::encode_gray16(
@@ -356,7 +341,7 @@ impl ViewFiles for RigViewFiles<'_> {
                 &map.to_u16(),
                 ctx.job.run.png_compression,
             );
-            sink.file(ctx.output_path("stitch_depth_2", &id, "png"), png);
+            sink.file(ctx.output_path(OutputKind::StitchDepth, &id), png);
         }
         Ok(())
     }
@@ -433,13 +418,13 @@ pub fn run_rig(
     );
     let previous = folder.previous(&parameters)?;
     folder.prepare()?;
-    for name in FOLDERS {
-        if (name == "depth_2" && job.run.depth.is_none())
-            || (name == "stitch_depth_2" && !(job.stitch_depth && job.depth_guided()))
+    for kind in OUTPUTS {
+        if (kind == OutputKind::Depth && job.run.depth.is_none())
+            || (kind == OutputKind::StitchDepth && !(job.stitch_depth && job.depth_guided()))
         {
             continue;
         }
-        let dir = folder.root().join(SPLIT).join(name);
+        let dir = folder.root().join(SPLIT).join(kind.folder());
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     }
     let infos = (0..source.parts())
