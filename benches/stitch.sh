@@ -13,7 +13,8 @@
 # panoconv runs twice a round: at the fixed proxy distance (`--stitch-mode fixed`, the model the
 # Python implements) and depth-guided (the default: each pixel at its distance from the scan and
 # boxes). Checks that every Python panorama agrees with panoconv's fixed one (PSNR >= 40 dB),
-# else exit 1.
+# else exit 1. Also prints each run's CPU time (GNU time's user + sys, /usr/bin/time), which a
+# shared machine's load disturbs less than the wall time.
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, as benches/run.sh does.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -79,20 +80,24 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 load() { cut -d' ' -f1 /proc/loadavg; }
 now() { date +%s.%N; }
-rust_s=0
-depth_s=0
-py_s=0
-# timed ROUND NAME NOTE TOTAL_VAR COMMAND...: runs COMMAND, adds its seconds to TOTAL_VAR and
-# prints its rate with the load average before it
+rust_s=0 rust_cpu=0
+depth_s=0 depth_cpu=0
+py_s=0 py_cpu=0
+# timed ROUND NAME NOTE TOTAL COMMAND...: runs COMMAND, adds its wall seconds to $TOTAL and its
+# CPU seconds (user + sys, its child processes included) to ${TOTAL%_s}_cpu, and prints both
+# with its rate and the load average before it
 timed() {
-    local round="$1" name="$2" note="$3" total="$4" l t0 dt
+    local round="$1" name="$2" note="$3" total="$4" l t0 dt cpu
     shift 4
     l=$(load); t0=$(now)
-    "$@"
+    /usr/bin/time -f '%U + %S' -o "$work/cpu" "$@"
     dt=$(echo "$(now) - $t0" | bc -l)
+    cpu=$(echo "$(tail -n 1 "$work/cpu")" | bc -l)
     printf -v "$total" '%s' "$(echo "${!total} + $dt" | bc -l)"
-    printf 'round %d %-8s %6.2f s  %5.2f frames/s  load %s%s\n' "$round" "$name" "$dt" \
-        "$(echo "$n / $dt" | bc -l)" "$l" "$note"
+    local cpu_total="${total%_s}_cpu"
+    printf -v "$cpu_total" '%s' "$(echo "${!cpu_total} + $cpu" | bc -l)"
+    printf 'round %d %-8s %6.2f s  %5.2f frames/s  CPU %6.2f s  load %s%s\n' "$round" "$name" \
+        "$dt" "$(echo "$n / $dt" | bc -l)" "$cpu" "$l" "$note"
 }
 echo "frames $n a round, $rounds rounds, ${width}x$((width / 2)), $cameras cameras, --jobs $jobs"
 for r in $(seq 1 "$rounds"); do
@@ -112,6 +117,9 @@ printf 'panoconv %.3f frames/s, python+opencv %.3f frames/s, ratio %.2f (load no
     "$rf" "$pf" "$(echo "$rf / $pf" | bc -l)" "$(load)"
 printf 'panoconv depth-guided %.3f frames/s: %.2fx the fixed distance time, %.2f times python+opencv\n' \
     "$df" "$(echo "$rf / $df" | bc -l)" "$(echo "$df / $pf" | bc -l)"
+printf 'CPU s a frame: panoconv %.2f, depth-guided %.2f, python+opencv %.2f (python / panoconv %.2f)\n' \
+    "$(echo "$rust_cpu / $total" | bc -l)" "$(echo "$depth_cpu / $total" | bc -l)" \
+    "$(echo "$py_cpu / $total" | bc -l)" "$(echo "$py_cpu / $rust_cpu" | bc -l)"
 worst=999
 for f in "$work"/python/image_2/*.png; do
     name=$(basename "$f")
