@@ -8,8 +8,10 @@ of the four camera centres), the proxy point at the stitch distance, the pinhole
 fisheyes with p1/p2 and their 185 deg field of view, the blend weights (field-of-view and
 image-border margin over the local scale, smoothstep), the box prefilter where the output is
 coarser than a source (nu x nv taps, as panoconv's remap tables), the exposure gains and the
-weighted blend; cv2.remap does the resampling (float32 maps), cv2.imread / cv2.imwrite the
-files. Writes OUT/image_2/NNNNNN.png and OUT/source_2/NNNNNN.png.
+weighted blend; cv2.remap does the resampling (float32 maps; within half a pixel of an image's
+border its edge pixel, as panoconv's tables), cv2.imread / cv2.imwrite the files. Writes
+OUT/image_2/NNNNNN.png and OUT/source_2/NNNNNN.png. The stitch of a placed rig
+(`stitch_rig`) and the runner are shared with benches/opencv_stitch_nuscenes.py.
 
     opencv_stitch.py --input ROOT --sequence SEQ --output OUT [--frames 250,251] [--jobs 2]
         [--width 2048]
@@ -56,8 +58,8 @@ def homogeneous(m34):
 
 
 class Pinhole:
-    def __init__(self, p_rect, size):
-        self.fu, self.fv, self.cu, self.cv = p_rect[0], p_rect[5], p_rect[2], p_rect[6]
+    def __init__(self, fu, fv, cu, cv, size):
+        self.fu, self.fv, self.cu, self.cv = fu, fv, cu, cv
         self.size = size
         self.max_theta = None
 
@@ -105,7 +107,8 @@ def read_rig(root, seq):
         mount = homogeneous(numbers(c2p, f"image_0{k}"))
         if k < 2:
             size = tuple(int(s) for s in numbers(persp, f"S_rect_0{k}"))
-            model = Pinhole(numbers(persp, f"P_rect_0{k}"), size)
+            p = numbers(persp, f"P_rect_0{k}")
+            model = Pinhole(p[0], p[5], p[2], p[6], size)
             r_rect = np.eye(4)
             r_rect[:3, :3] = numbers(persp, f"R_rect_0{k}").reshape(3, 3)
             mount = mount @ np.linalg.inv(r_rect)
@@ -210,6 +213,16 @@ def taps(u, v):
     return across(u, v, 1), across(u, v, 0)
 
 
+def source_map(img, u, v):
+    """cv2.remap's map of source points (u, v) as panoconv's tables sample them: within half a
+    pixel of the border the edge pixel is repeated, beyond it (or without a point) black."""
+    h, w = img.shape[:2]
+    inside = (u >= -0.5) & (u < w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
+    mx = np.where(inside, np.clip(u, 0, w - 1), -1e4).astype(np.float32)
+    my = np.where(inside, np.clip(v, 0, h - 1), -1e4).astype(np.float32)
+    return mx, my
+
+
 def gather(img, su, sv):
     """Bilinear samples of img at the points (su, sv) (cv2.remap of a map 1024 wide: its maps
     must be under 32767 a side)."""
@@ -217,21 +230,31 @@ def gather(img, su, sv):
     rows = -(-n // 1024)
     mx = np.full(rows * 1024, -1e4, np.float32)
     my = np.full(rows * 1024, -1e4, np.float32)
-    mx[:n] = np.where(np.isfinite(su), su, -1e4)
-    my[:n] = np.where(np.isfinite(sv), sv, -1e4)
+    mx[:n], my[:n] = source_map(img, su, sv)
     out = cv2.remap(img, mx.reshape(rows, 1024), my.reshape(rows, 1024), cv2.INTER_LINEAR,
                     borderMode=cv2.BORDER_CONSTANT)
     return out.reshape(-1, 3)[:n].astype(np.float64)
 
 
 def stitch_frame(job):
-    root, seq, out, frame, width, cams, pose = job
+    """One KITTI-360 frame: the rig at the frame's pose, in the level frame of image_00."""
+    out, frame, width, cams, pose = job
+    world_from = [pose @ mount for _, mount, _ in cams]
+    level = level_from_world(world_from[0])
+    rig = [(model, level @ w, os.path.join(folder, f"{frame:010d}.png"))
+           for (model, _, folder), w in zip(cams, world_from)]
+    stitch_rig(rig, width, out, f"{frame:06d}.png")
+    return frame
+
+
+def stitch_rig(rig, width, out, name):
+    """Stitches the cameras of `rig`, (model, level_from_camera 4x4, image file) each, into a
+    width x width/2 equirect around the mean of their centres; writes OUT/image_2/NAME (the
+    panorama) and OUT/source_2/NAME (each pixel's camera by its place in `rig`, 255 none)."""
     height = width // 2
     f = width / (2 * math.pi)
     cx, cy = width / 2 - 0.5, height / 2 - 0.5
-    world_from = [pose @ mount for _, mount, _ in cams]
-    level = level_from_world(world_from[0])
-    level_from = [level @ w for w in world_from]
+    level_from = [t for _, t, _ in rig]
     centre = np.mean([t[:3, 3] for t in level_from], axis=0)
     cam_from = [np.linalg.inv(t) for t in level_from]
     uu, vv = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
@@ -243,16 +266,17 @@ def stitch_frame(job):
 
     d = bearings(uu.ravel(), vv.ravel())
     remapped, ws = [], []
-    for (model, _, folder), t in zip(cams, cam_from):
-        img = cv2.imread(os.path.join(folder, f"{frame:010d}.png"), cv2.IMREAD_COLOR)
+    for (model, _, path), t in zip(rig, cam_from):
+        img = cv2.imread(path, cv2.IMREAD_COLOR)
+        if img is None:
+            raise SystemExit(f"{path}: not an image")
         rot, trans = t[:3, :3], t[:3, 3]
         q, u, v = samples(model, rot, trans, centre, d)
         w = weights(model, q, u, v).reshape(height, width)
         u, v = u.reshape(height, width), v.reshape(height, width)
         nu, nv = taps(u, v)
         # one bilinear tap a pixel: a plain cv2.remap of the whole map
-        mx = np.where(np.isfinite(u), u, -1e4).astype(np.float32)
-        my = np.where(np.isfinite(v), v, -1e4).astype(np.float32)
+        mx, my = source_map(img, u, v)
         acc = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
         acc = acc.astype(np.float64)
         seen = w > 0
@@ -282,10 +306,8 @@ def stitch_frame(job):
     pano = np.clip(np.floor(pano + 0.5), 0, 255).astype(np.uint8)
     stack = np.stack(ws)
     source = np.where(stack.max(axis=0) > 0, stack.argmax(axis=0), 255).astype(np.uint8)
-    name = f"{frame:06d}.png"
     cv2.imwrite(os.path.join(out, "image_2", name), pano)
     cv2.imwrite(os.path.join(out, "source_2", name), source)
-    return frame
 
 
 def exposure_gains(remapped, ws):
@@ -327,33 +349,50 @@ def init_worker():
     cv2.setNumThreads(1)
 
 
+def run(worker, jobs, processes, out):
+    """Runs worker over jobs on `processes` worker processes (each cv2 single-threaded), into
+    OUT/image_2 and OUT/source_2; reports the time on stderr."""
+    for sub in ("image_2", "source_2"):
+        os.makedirs(os.path.join(out, sub), exist_ok=True)
+    start = time.perf_counter()
+    if processes > 1:
+        with Pool(processes, initializer=init_worker) as pool:
+            list(pool.imap_unordered(worker, jobs))
+    else:
+        cv2.setNumThreads(1)
+        for j in jobs:
+            worker(j)
+    print(f"{len(jobs)} frames in {time.perf_counter() - start:.2f} s", file=sys.stderr)
+
+
+def common_arguments(p):
+    """The options every stitch script takes: output, worker count, width, --compare."""
+    p.add_argument("--output")
+    p.add_argument("--jobs", type=int, default=1)
+    p.add_argument("--width", type=int, default=2048)
+    p.add_argument("--compare", nargs=2)
+
+
+def compare(a):
+    """Prints the PSNR of --compare's two images and says whether that was asked."""
+    if a.compare:
+        print(f"{psnr(*a.compare):.2f}")
+    return bool(a.compare)
+
+
 def main():
     p = argparse.ArgumentParser()
     p.add_argument("--input")
     p.add_argument("--sequence")
-    p.add_argument("--output")
     p.add_argument("--frames")
-    p.add_argument("--jobs", type=int, default=1)
-    p.add_argument("--width", type=int, default=2048)
-    p.add_argument("--compare", nargs=2)
+    common_arguments(p)
     a = p.parse_args()
-    if a.compare:
-        print(f"{psnr(*a.compare):.2f}")
+    if compare(a):
         return
     cams, poses = read_rig(a.input, a.sequence)
     frames = [int(x) for x in a.frames.split(",")] if a.frames else sorted(poses)
-    for sub in ("image_2", "source_2"):
-        os.makedirs(os.path.join(a.output, sub), exist_ok=True)
-    jobs = [(a.input, a.sequence, a.output, fr, a.width, cams, poses[fr]) for fr in frames]
-    start = time.perf_counter()
-    if a.jobs > 1:
-        with Pool(a.jobs, initializer=init_worker) as pool:
-            list(pool.imap_unordered(stitch_frame, jobs))
-    else:
-        cv2.setNumThreads(1)
-        for j in jobs:
-            stitch_frame(j)
-    print(f"{len(frames)} frames in {time.perf_counter() - start:.2f} s", file=sys.stderr)
+    jobs = [(a.output, fr, a.width, cams, poses[fr]) for fr in frames]
+    run(stitch_frame, jobs, a.jobs, a.output)
 
 
 if __name__ == "__main__":

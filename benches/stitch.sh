@@ -1,22 +1,27 @@
 #!/usr/bin/env bash
-# KITTI-360 stitch throughput: `panoconv kitti360 --to equirect` against benches/opencv_stitch.py
-# (the same stitch model in numpy + cv2.remap) on the same frames of a synthetic sequence.
-#   benches/stitch.sh [--data DIR] [--rounds R] [--jobs J] [--width W] [--scale S] [--frames N]
-#                     [--bin BIN]
-# --data: where the synthetic sequence lives (written by `panoconv synth --kitti360 --scale S
-# --frames N` on first use, minutes at scale 1; default /tmp/panoconv-stitch-bench). Each round
-# runs panoconv (--jobs J) then Python (J worker processes) over every frame of the sequence;
-# the figures are frames/s over all rounds, with the 1-minute load average before each run.
+# Stitch throughput: `panoconv kitti360 --to equirect` against benches/opencv_stitch.py (the
+# same stitch model in numpy + cv2.remap) on the same frames of a synthetic sequence; with
+# --nuscenes, `panoconv nuscenes --to equirect` against benches/opencv_stitch_nuscenes.py on a
+# synthetic nuScenes scene (six 1600x900 cameras at scale 1).
+#   benches/stitch.sh [--nuscenes] [--data DIR] [--rounds R] [--jobs J] [--width W] [--scale S]
+#                     [--frames N] [--bin BIN]
+# --data: where the synthetic sequence lives (written by `panoconv synth --kitti360|--nuscenes
+# --scale S --frames N` on first use, minutes at scale 1; default /tmp/panoconv-stitch-bench or
+# /tmp/panoconv-stitch-bench-nuscenes). Each round runs panoconv (--jobs J) then Python (J
+# worker processes) over every frame (nuScenes: sample) of the sequence; the figures are
+# frames/s over all rounds, with the 1-minute load average before each run.
 # panoconv runs twice a round: at the fixed proxy distance (`--stitch-mode fixed`, the model the
 # Python implements) and depth-guided (the default: each pixel at its distance from the scan and
 # boxes). Checks that every Python panorama agrees with panoconv's fixed one (PSNR >= 40 dB),
-# else exit 1.
+# else exit 1. Also prints each run's CPU time (GNU time's user + sys, /usr/bin/time), which a
+# shared machine's load disturbs less than the wall time.
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, as benches/run.sh does.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"
 venv="$here/.venv"
-data=/tmp/panoconv-stitch-bench
+data=""
+nuscenes=0
 rounds=3
 jobs=2
 width=2048
@@ -25,6 +30,7 @@ frames=3
 bin=""
 while [ $# -gt 0 ]; do
     case "$1" in
+        --nuscenes) nuscenes=1; shift ;;
         --data) data="$2"; shift 2 ;;
         --rounds) rounds="$2"; shift 2 ;;
         --jobs) jobs="$2"; shift 2 ;;
@@ -43,42 +49,65 @@ if [ -z "$bin" ]; then
     (cd "$root" && cargo build --release --quiet --bin panoconv)
     bin="${CARGO_TARGET_DIR:-$root/target}/release/panoconv"
 fi
-seq=2013_05_28_drive_0000_sync
-if [ ! -f "$data/data_poses/$seq/poses.txt" ]; then
-    echo "writing the synthetic sequence (scale $scale, $frames frames) into $data"
-    "$bin" synth --kitti360 --scale "$scale" --frames "$frames" --output "$data" >/dev/null
+# the dataset's command and its Python stitch, both reading "$data"
+if [ "$nuscenes" = 1 ]; then
+    data="${data:-/tmp/panoconv-stitch-bench-nuscenes}"
+    version=v1.0-mini
+    if [ ! -f "$data/$version/sample.json" ]; then
+        echo "writing the synthetic scene (scale $scale, $frames samples) into $data"
+        "$bin" synth --nuscenes --scale "$scale" --frames "$frames" --output "$data" >/dev/null
+    fi
+    n=$("$venv/bin/python" -c 'import json, sys; print(len(json.load(open(sys.argv[1]))))' \
+        "$data/$version/sample.json")
+    cameras=$("$venv/bin/python" -c 'import json, sys
+print(sum(s["modality"] == "camera" for s in json.load(open(sys.argv[1]))))' \
+        "$data/$version/sensor.json")
+    convert=(nuscenes --input "$data" --version "$version")
+    python=("$here/opencv_stitch_nuscenes.py" --input "$data" --version "$version")
+else
+    data="${data:-/tmp/panoconv-stitch-bench}"
+    seq=2013_05_28_drive_0000_sync
+    if [ ! -f "$data/data_poses/$seq/poses.txt" ]; then
+        echo "writing the synthetic sequence (scale $scale, $frames frames) into $data"
+        "$bin" synth --kitti360 --scale "$scale" --frames "$frames" --output "$data" >/dev/null
+    fi
+    n=$(wc -l <"$data/data_poses/$seq/poses.txt")
+    cameras=4
+    convert=(kitti360 --input "$data" --sequence "$seq")
+    python=("$here/opencv_stitch.py" --input "$data" --sequence "$seq")
 fi
-n=$(wc -l <"$data/data_poses/$seq/poses.txt")
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 load() { cut -d' ' -f1 /proc/loadavg; }
 now() { date +%s.%N; }
-rust_s=0
-depth_s=0
-py_s=0
-echo "frames $n a round, $rounds rounds, ${width}x$((width / 2)), 4 cameras, --jobs $jobs"
+rust_s=0 rust_cpu=0
+depth_s=0 depth_cpu=0
+py_s=0 py_cpu=0
+# timed ROUND NAME NOTE TOTAL COMMAND...: runs COMMAND, adds its wall seconds to $TOTAL and its
+# CPU seconds (user + sys, its child processes included) to ${TOTAL%_s}_cpu, and prints both
+# with its rate and the load average before it
+timed() {
+    local round="$1" name="$2" note="$3" total="$4" l t0 dt cpu
+    shift 4
+    l=$(load); t0=$(now)
+    /usr/bin/time -f '%U + %S' -o "$work/cpu" "$@"
+    dt=$(echo "$(now) - $t0" | bc -l)
+    cpu=$(echo "$(tail -n 1 "$work/cpu")" | bc -l)
+    printf -v "$total" '%s' "$(echo "${!total} + $dt" | bc -l)"
+    local cpu_total="${total%_s}_cpu"
+    printf -v "$cpu_total" '%s' "$(echo "${!cpu_total} + $cpu" | bc -l)"
+    printf 'round %d %-8s %6.2f s  %5.2f frames/s  CPU %6.2f s  load %s%s\n' "$round" "$name" \
+        "$dt" "$(echo "$n / $dt" | bc -l)" "$cpu" "$l" "$note"
+}
+echo "frames $n a round, $rounds rounds, ${width}x$((width / 2)), $cameras cameras, --jobs $jobs"
 for r in $(seq 1 "$rounds"); do
-    l=$(load); t0=$(now)
-    "$bin" kitti360 --to equirect --pano-width "$width" --input "$data" --sequence "$seq" \
-        --output "$work/rust" --overwrite --quiet --jobs "$jobs" --stitch-mode fixed
-    t1=$(now)
-    dt=$(echo "$t1 - $t0" | bc -l)
-    rust_s=$(echo "$rust_s + $dt" | bc -l)
-    printf 'round %d panoconv %6.2f s  %5.2f frames/s  load %s (fixed)\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
-    l=$(load); t0=$(now)
-    "$bin" kitti360 --to equirect --pano-width "$width" --input "$data" --sequence "$seq" \
-        --output "$work/depth" --overwrite --quiet --jobs "$jobs"
-    t1=$(now)
-    dt=$(echo "$t1 - $t0" | bc -l)
-    depth_s=$(echo "$depth_s + $dt" | bc -l)
-    printf 'round %d panoconv %6.2f s  %5.2f frames/s  load %s (depth-guided)\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
-    l=$(load); t0=$(now)
-    "$venv/bin/python" "$here/opencv_stitch.py" --input "$data" --sequence "$seq" \
-        --output "$work/python" --width "$width" --jobs "$jobs" 2>/dev/null
-    t1=$(now)
-    dt=$(echo "$t1 - $t0" | bc -l)
-    py_s=$(echo "$py_s + $dt" | bc -l)
-    printf 'round %d python   %6.2f s  %5.2f frames/s  load %s\n' "$r" "$dt" "$(echo "$n / $dt" | bc -l)" "$l"
+    timed "$r" panoconv " (fixed)" rust_s "$bin" "${convert[@]}" --to equirect \
+        --pano-width "$width" --output "$work/rust" --overwrite --quiet --jobs "$jobs" \
+        --stitch-mode fixed
+    timed "$r" panoconv " (depth-guided)" depth_s "$bin" "${convert[@]}" --to equirect \
+        --pano-width "$width" --output "$work/depth" --overwrite --quiet --jobs "$jobs"
+    timed "$r" python "" py_s "$venv/bin/python" "${python[@]}" --output "$work/python" \
+        --width "$width" --jobs "$jobs" 2>/dev/null
 done
 total=$((n * rounds))
 rf=$(echo "$total / $rust_s" | bc -l)
@@ -88,6 +117,9 @@ printf 'panoconv %.3f frames/s, python+opencv %.3f frames/s, ratio %.2f (load no
     "$rf" "$pf" "$(echo "$rf / $pf" | bc -l)" "$(load)"
 printf 'panoconv depth-guided %.3f frames/s: %.2fx the fixed distance time, %.2f times python+opencv\n' \
     "$df" "$(echo "$rf / $df" | bc -l)" "$(echo "$df / $pf" | bc -l)"
+printf 'CPU s a frame: panoconv %.2f, depth-guided %.2f, python+opencv %.2f (python / panoconv %.2f)\n' \
+    "$(echo "$rust_cpu / $total" | bc -l)" "$(echo "$depth_cpu / $total" | bc -l)" \
+    "$(echo "$py_cpu / $total" | bc -l)" "$(echo "$py_cpu / $rust_cpu" | bc -l)"
 worst=999
 for f in "$work"/python/image_2/*.png; do
     name=$(basename "$f")
