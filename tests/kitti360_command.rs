@@ -12,7 +12,7 @@ mod cameras;
 mod rigs;
 mod runs;
 
-use crate::common::{self, assert_success, iou, panoconv, read_text, BIN};
+use crate::common::{self, assert_success, iou, panoconv, read_text};
 use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::{ImageSize, OutputCamera};
 use panoconv::kitti::{Calib, Cam, LabelFile};
@@ -44,37 +44,12 @@ pub(crate) fn sequence(zero_baseline: bool) -> &'static Path {
     static OFFSET: OnceLock<PathBuf> = OnceLock::new();
     let cell = if zero_baseline { &ZERO } else { &OFFSET };
     cell.get_or_init(|| {
-        let bin = std::fs::read(BIN).expect("read the panoconv binary");
-        let key = &blake3::hash(&bin).to_hex()[..16];
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("panoconv-kitti360");
-        std::fs::create_dir_all(&root).unwrap();
-        let name = if zero_baseline { "zero" } else { "offset" };
-        let dir = root.join(format!("{name}-{key}"));
-        if dir.is_dir() {
-            return dir;
-        }
-        for e in std::fs::read_dir(&root).unwrap().flatten() {
-            if e.file_name()
-                .to_string_lossy()
-                .starts_with(&format!("{name}-"))
-            {
-                let _ = std::fs::remove_dir_all(e.path());
-            }
-        }
-        let tmp = root.join(format!("tmp-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&tmp);
-        let mut args = vec!["synth", "--kitti360", "--scale", "0.25", "--frames", "2"];
+        let mut args = vec!["--kitti360", "--scale", "0.25", "--frames", "2"];
         if zero_baseline {
             args.push("--zero-baseline");
         }
-        let tmp_s = tmp.to_str().unwrap().to_owned();
-        args.extend(["--output", &tmp_s]);
-        assert_success(&panoconv(&args));
-        if std::fs::rename(&tmp, &dir).is_err() {
-            let _ = std::fs::remove_dir_all(&tmp);
-            assert!(dir.is_dir(), "synthetic sequence cache missing");
-        }
-        dir
+        let name = if zero_baseline { "zero" } else { "offset" };
+        common::synth_cache("panoconv-kitti360", name, &args)
     })
 }
 

@@ -5,7 +5,7 @@
 //! the objects records, the summary's counts, thread counts, the tools and the exports on the
 //! output, one camera converted alone, and bad input.
 
-use crate::common::{self, assert_success, iou, panoconv, read_manifest, read_text, BIN};
+use crate::common::{self, assert_success, iou, panoconv, read_manifest, read_text};
 use crate::kitti360_command::{
     check_depth_share, check_labels, exact_box, truths, written, Written, LIDAR_STEP, MIN_IOU,
 };
@@ -23,37 +23,12 @@ fn scene(zero_baseline: bool) -> &'static Path {
     static OFFSET: OnceLock<PathBuf> = OnceLock::new();
     let cell = if zero_baseline { &ZERO } else { &OFFSET };
     cell.get_or_init(|| {
-        let bin = std::fs::read(BIN).expect("read the panoconv binary");
-        let key = &blake3::hash(&bin).to_hex()[..16];
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("panoconv-nuscenes");
-        std::fs::create_dir_all(&root).unwrap();
-        let name = if zero_baseline { "zero" } else { "offset" };
-        let dir = root.join(format!("{name}-{key}"));
-        if dir.is_dir() {
-            return dir;
-        }
-        for e in std::fs::read_dir(&root).unwrap().flatten() {
-            if e.file_name()
-                .to_string_lossy()
-                .starts_with(&format!("{name}-"))
-            {
-                let _ = std::fs::remove_dir_all(e.path());
-            }
-        }
-        let tmp = root.join(format!("tmp-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&tmp);
-        let mut args = vec!["synth", "--nuscenes", "--scale", "0.25", "--frames", "2"];
+        let mut args = vec!["--nuscenes", "--scale", "0.25", "--frames", "2"];
         if zero_baseline {
             args.push("--zero-baseline");
         }
-        let tmp_s = tmp.to_str().unwrap().to_owned();
-        args.extend(["--output", &tmp_s]);
-        assert_success(&panoconv(&args));
-        if std::fs::rename(&tmp, &dir).is_err() {
-            let _ = std::fs::remove_dir_all(&tmp);
-            assert!(dir.is_dir(), "synthetic scene cache missing");
-        }
-        dir
+        let name = if zero_baseline { "zero" } else { "offset" };
+        common::synth_cache("panoconv-nuscenes", name, &args)
     })
 }
 

@@ -545,3 +545,37 @@ pub fn png_crc32(bytes: &[u8]) -> u32 {
     }
     !crc
 }
+
+/// A dataset `panoconv synth ARGS --output DIR` writes, made once per binary build under
+/// `CARGO_TARGET_TMPDIR/GROUP/NAME-KEY` (KEY: the binary's hash; older copies removed): the
+/// synthetic sequences and scenes the rig tests share.
+pub fn synth_cache(group: &str, name: &str, args: &[&str]) -> PathBuf {
+    let bin = std::fs::read(BIN).expect("read the panoconv binary");
+    let key = &blake3::hash(&bin).to_hex()[..16];
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join(group);
+    std::fs::create_dir_all(&root).unwrap();
+    let dir = root.join(format!("{name}-{key}"));
+    if dir.is_dir() {
+        return dir;
+    }
+    for e in std::fs::read_dir(&root).unwrap().flatten() {
+        if e.file_name()
+            .to_string_lossy()
+            .starts_with(&format!("{name}-"))
+        {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+    let tmp = root.join(format!("tmp-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    let tmp_s = tmp.to_str().unwrap().to_owned();
+    let mut all = vec!["synth"];
+    all.extend(args);
+    all.extend(["--output", &tmp_s]);
+    assert_success(&panoconv(&all));
+    if std::fs::rename(&tmp, &dir).is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+        assert!(dir.is_dir(), "synthetic data cache missing");
+    }
+    dir
+}
