@@ -285,3 +285,36 @@ fn bad_input_is_a_set_up_error_naming_what_is_wrong() {
     assert_eq!(run.code, 2, "{}", run.stderr);
     assert!(run.stderr.contains("v1.0-trainval"), "{}", run.stderr);
 }
+
+#[test]
+fn classes_add_categories_without_a_kitti_type_named_by_their_category() {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/nuscenes");
+    let tmp = tempfile::tempdir().unwrap();
+    let labels = |extra: &[&str]| -> String {
+        let out = tmp.path().join(extra.join("_").replace(['-', '.'], ""));
+        let mut args = vec![
+            "--to",
+            "equirect",
+            "--pano-width",
+            "360",
+            "--stitch-mode",
+            "fixed",
+        ];
+        args.extend(extra);
+        assert_success(&nuscenes(&fixture, &out, &args));
+        read_text(&out.join("training/label_2/000000.txt"))
+    };
+    let kitti = labels(&[]);
+    let barrier = labels(&["--classes", "movable_object.barrier"]);
+    assert!(!kitti.contains("movable_object.barrier"), "{kitti}");
+    let added: Vec<&str> = barrier
+        .lines()
+        .filter(|l| l.starts_with("movable_object.barrier "))
+        .collect();
+    assert_eq!(added.len(), 1, "{barrier}");
+    // the other objects are the same lines
+    assert_eq!(barrier.lines().count(), kitti.lines().count() + 1);
+    for line in kitti.lines() {
+        assert!(barrier.contains(line), "{line}");
+    }
+}
