@@ -14,6 +14,12 @@
 //! δ_i = 2·A·s/(s − b_i): those centres are the candidates, and a centre without a bearing is
 //! one too. Widened by two pixels (a pixel's scale estimate reads its neighbours' centres),
 //! they are the pixels the table maps; the others take nothing from the camera.
+//!
+//! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
+//! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened
+//! by that angle per tile of [`TILE`]×[`TILE`] positions, t a lower bound of the scene's
+//! distance over every bearing within the tile's angular radius (plus two turns A for the
+//! taps) of its middle position's bearing.
 
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
@@ -23,6 +29,12 @@ use rayon::prelude::*;
 const WIDEN: usize = 2;
 /// Radians added to a cone measured on an image border.
 const BORDER_SLACK: f64 = 1e-3;
+/// Positions per side of a tile of the depth-guided bound.
+const TILE: usize = 8;
+
+/// A lower bound of a scene's distance (metres) over the unit bearings within an angle
+/// (radians) of a unit bearing.
+pub(super) type NearBound<'a> = &'a (dyn Fn(&Vector3<f64>, f64) -> f64 + Sync);
 
 /// The bearings of an output's pixel centres and, per camera, the pixels it may reach.
 #[derive(Debug)]
@@ -42,6 +54,9 @@ pub(super) struct Cone<'a> {
     pub half_angle: Option<f64>,
     /// s/(s − b_i), None where the camera lies on or beyond the proxy sphere.
     pub parallax: Option<f64>,
+    /// With a depth-guided stitch, b_i: the cone is widened per tile by asin(b_i / t) (no
+    /// bound in a tile where t ≤ b_i).
+    pub baseline: Option<f64>,
 }
 
 /// The widest angle from the optical axis of `model`'s image border, one pixel out, plus a
@@ -74,8 +89,13 @@ pub(super) fn border_cone(model: &dyn CameraModel) -> Option<f64> {
 }
 
 impl Reach {
-    /// The bound of `cameras` in `output`.
-    pub(super) fn new(output: &dyn CameraModel, cameras: &[Cone]) -> Reach {
+    /// The bound of `cameras` in `output`; `near` bounds the scene's distance for the cones
+    /// with a baseline (a cone with one is unbounded without it).
+    pub(super) fn new(
+        output: &dyn CameraModel,
+        cameras: &[Cone],
+        near: Option<NearBound>,
+    ) -> Reach {
         let size = output.size();
         let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
         let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
@@ -123,6 +143,8 @@ impl Reach {
             })
             .reduce(|| 0.0, f64::max);
         let step = 2.0 * (step / 2.0).min(1.0).asin();
+        let tiles = near.map(|near| tile_nearest(&bearings, gw, gh, step, near));
+        let tiles_across = gw.div_ceil(TILE);
         let reach = cameras
             .iter()
             .map(|cone| {
@@ -130,22 +152,50 @@ impl Reach {
                     return None;
                 };
                 let limit = c + 2.0 * step * k + 1e-9;
-                if !(limit < std::f64::consts::PI) {
+                // one limit for every position, or with a baseline one per tile
+                let limits: Vec<f64> = match (cone.baseline, &tiles) {
+                    (None, _) => vec![limit],
+                    (Some(b), Some(tiles)) => tiles
+                        .iter()
+                        .map(|&t| {
+                            if b.is_finite() && b < t {
+                                limit + (b / t).asin()
+                            } else {
+                                f64::INFINITY
+                            }
+                        })
+                        .collect(),
+                    (Some(_), None) => return None,
+                };
+                if !limits.iter().any(|l| *l < std::f64::consts::PI) {
                     return None;
                 }
                 // θ(q) > limit + 1e-6 as cos θ < cos(limit + 1e-6): no atan2 per position, and
                 // the few positions within 1e-6 rad beyond the limit stay candidates (a larger
                 // set changes no value); near π a cosine no longer resolves the angle
-                let cos_limit = (limit < 3.0).then(|| (limit + 1e-6).cos());
+                let cos_limits: Vec<Option<f64>> = limits
+                    .iter()
+                    .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
+                    .collect();
                 let candidate: Vec<bool> = bearings
                     .par_iter()
-                    .map(|d| {
+                    .enumerate()
+                    .map(|(at, d)| {
                         if !d.x.is_finite() {
+                            return true;
+                        }
+                        let tile = if limits.len() == 1 {
+                            0
+                        } else {
+                            (at / gw / TILE) * tiles_across + at % gw / TILE
+                        };
+                        let limit = limits[tile];
+                        if !(limit < std::f64::consts::PI) {
                             return true;
                         }
                         let q = (cone.local)(d);
                         // NaN compares false: such a point is a candidate too
-                        match cos_limit {
+                        match cos_limits[tile] {
                             Some(c) => !(q.z < c * q.norm()),
                             None => !(q.x.hypot(q.y).atan2(q.z) > limit),
                         }
@@ -204,6 +254,41 @@ impl Reach {
             .as_ref()
             .is_none_or(|r| r[(v + 1) * (self.size.width as usize + 2) + u + 1])
     }
+}
+
+/// Per tile of [`TILE`]×[`TILE`] positions (row-major), a lower bound of the scene's distance
+/// over the bearings of its positions' taps: `near` at the middle position's bearing within
+/// (k + 2)·`step`, k the most positions from the middle to another of the tile (every path of
+/// k steps turns by at most k·`step`, a tap lies within two turns of its centre); 0 where a
+/// position has no bearing.
+fn tile_nearest(
+    bearings: &[Vector3<f64>],
+    gw: usize,
+    gh: usize,
+    step: f64,
+    near: NearBound,
+) -> Vec<f64> {
+    let (across, down) = (gw.div_ceil(TILE), gh.div_ceil(TILE));
+    (0..across * down)
+        .into_par_iter()
+        .map(|tile| {
+            let (i0, j0) = (tile % across * TILE, tile / across * TILE);
+            let (i1, j1) = ((i0 + TILE).min(gw), (j0 + TILE).min(gh));
+            let every = (j0..j1).all(|j| (i0..i1).all(|i| bearings[j * gw + i].x.is_finite()));
+            if !every {
+                return 0.0;
+            }
+            let (mi, mj) = ((i0 + i1 - 1) / 2, (j0 + j1 - 1) / 2);
+            let k = (mi - i0).max(i1 - 1 - mi).max(mj - j0).max(j1 - 1 - mj);
+            let radius = (k as f64 + 2.0) * step + 1e-9;
+            let t = near(&bearings[mj * gw + mi].normalize(), radius);
+            if t.is_finite() {
+                t
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter).

@@ -152,6 +152,21 @@ impl Solid {
         (t0 <= t1 && t0 > 0.0).then_some(t0)
     }
 
+    /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit
+    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it.
+    fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
+        let oc = self.centre - o;
+        let far = oc.norm();
+        if !(far > self.radius) {
+            return 0.0;
+        }
+        let off_axis = (oc.dot(d) / far).clamp(-1.0, 1.0).acos();
+        if off_axis > radius + (self.radius / far).asin() + 1e-9 {
+            return f64::INFINITY;
+        }
+        (far - self.radius) * (1.0 - 1e-9)
+    }
+
     fn contains(&self, p: &Vector3<f64>, margin: f64) -> bool {
         if (p - self.centre).norm() > self.radius + margin {
             return false;
@@ -182,6 +197,18 @@ impl Ground {
         // a ray from above the plane meets it going down, one from below going up
         let t = -h / along;
         (t > 0.0 && t.is_finite()).then_some(t)
+    }
+
+    /// A lower bound of the hit distance over the unit rays from `o` within `radius` of unit
+    /// `d`: |h| / cos ψ, ψ the least angle such a ray makes with the way to the plane.
+    fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
+        let h = self.height(o);
+        let towards = if h >= 0.0 { -self.normal } else { self.normal };
+        let angle = (towards.dot(d).clamp(-1.0, 1.0).acos() - radius - 1e-9).max(0.0);
+        if angle >= std::f64::consts::FRAC_PI_2 {
+            return f64::INFINITY;
+        }
+        h.abs() / angle.cos() * (1.0 - 1e-9)
     }
 
     /// The plane fitted to `points` (y down, the reference frame's): the lowest point of each
@@ -310,6 +337,40 @@ impl Splats {
         splats
     }
 
+    /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
+    /// `d`, one cell wider on every side (a lower bound of [`Splats::range`] there). Such a
+    /// bearing's latitude is within `radius` of d's, and its longitude within
+    /// 2·asin(sin(radius/2) / cos φ) (haversines; φ the largest |latitude| in reach).
+    fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
+        let (x, y) = self.cell_of(d);
+        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
+        let rows = radius / PI * self.height as f64;
+        let y0 = ((y - rows).floor() - 1.0).max(0.0) as usize;
+        let y1 = ((y + rows).floor() + 1.0).min(self.height as f64 - 1.0) as usize;
+        let widest = (lat.abs() + radius).min(PI / 2.0).cos();
+        let s = (radius / 2.0).sin() / widest;
+        let columns = if s < 1.0 {
+            2.0 * s.asin() / TAU * self.width as f64
+        } else {
+            f64::INFINITY
+        };
+        let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
+        let mut t = f32::INFINITY;
+        if !(x1 - x0 + 1.0 < self.width as f64) {
+            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
+                t = row.iter().fold(t, |a, b| a.min(*b));
+            }
+        } else {
+            for cy in y0..=y1 {
+                let row = &self.range[cy * self.width..(cy + 1) * self.width];
+                for cx in x0 as i64..=x1 as i64 {
+                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
+                }
+            }
+        }
+        t as f64
+    }
+
     /// The nearest splat's range along unit `d` from the origin (infinite: none).
     fn range(&self, d: &Vector3<f64>) -> f64 {
         let (x, y) = self.cell_of(d);
@@ -421,6 +482,19 @@ impl StitchDepth for SceneDepth {
     fn nearest(&self) -> f64 {
         self.nearest
     }
+
+    fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
+        let mut t = self
+            .ground
+            .map_or(f64::INFINITY, |g| g.nearest_within(&self.centre, d, radius));
+        for s in &self.solids {
+            t = t.min(s.nearest_within(&self.centre, d, radius));
+        }
+        if let Some(s) = self.splats.first() {
+            t = t.min(s.nearest_within(d, radius));
+        }
+        t.min(FAR)
+    }
 }
 
 #[cfg(test)]
@@ -509,6 +583,52 @@ mod tests {
         assert!(!scene.sees(0, &Vector3::new(-30.0, 0.0, 0.0)));
         assert!(scene.sees(0, &Vector3::new(-20.0, 0.0, 0.0)));
         assert!(scene.nearest() > 1.0 && scene.nearest() < 1.6);
+    }
+
+    #[test]
+    fn the_nearest_distance_within_a_cone_bounds_every_bearing_in_it() {
+        let car = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(2.0, 1.6, 8.0), 0.3);
+        let mut points = ground_points();
+        // a post 6 m to the left (residual splats) and a wall behind
+        for j in 0..30 {
+            points.push(Vector3::new(-6.0, 1.5 - j as f64 * 0.1, 1.0));
+            for i in 0..60 {
+                points.push(Vector3::new(
+                    i as f64 * 0.2 - 6.0,
+                    1.5 - j as f64 * 0.1,
+                    -15.0,
+                ));
+            }
+        }
+        let f = frame(points, vec![car]);
+        let scene = SceneDepth::new(&f, Vector3::zeros(), vec![Vector3::zeros()]);
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut useful, mut tested) = (0, 0);
+        for k in 0..3000 {
+            let radius = [0.002, 0.02, 0.2][k % 3];
+            let d = Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let bound = scene.nearest_within(&d, radius);
+            // two axes across d (a random d is never along the helper)
+            let a = d.cross(&Vector3::new(0.36, 0.48, 0.8)).normalize();
+            let b = d.cross(&a);
+            for _ in 0..20 {
+                // a bearing within `radius` of d
+                let (angle, turn) = (radius * next().sqrt(), next() * TAU);
+                let e =
+                    (d * angle.cos() + (a * turn.cos() + b * turn.sin()) * angle.sin()).normalize();
+                let t = scene.distance(&e);
+                assert!(t >= bound, "{t} < {bound} at {e} (cone {d}, {radius})");
+                tested += 1;
+            }
+            useful += usize::from(bound > 2.0 * scene.nearest());
+        }
+        assert!(tested == 60_000 && useful > 1000, "{useful}");
     }
 
     #[test]

@@ -23,33 +23,37 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
 
     /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
     fn nearest(&self) -> f64;
+
+    /// A lower bound of [`StitchDepth::distance`] over the unit bearings within `radius`
+    /// radians of unit bearing `d`, metres: by default [`StitchDepth::nearest`].
+    fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
+        let _ = (d, radius);
+        self.nearest()
+    }
 }
 
-/// Camera `camera`'s reach bound for a depth-guided stitch. The scene point X = C + t·d lies at
-/// t ≥ t_min = `nearest`, so seen from the camera (b = `baseline` from C) it is at most
-/// asin(b / t_min) from the bearing d: the bound is the plain bound of the bearings' directions
-/// (`local` rotates them into the camera's axes, parallax 1) with the cone widened by that
-/// angle. None (every pixel mapped) where t_min ≤ b.
+/// Camera `camera`'s reach bound for a depth-guided stitch. The scene point X = C + t·d, seen
+/// from the camera (b = `baseline` from C), lies at most asin(b / t) from the bearing d: the
+/// bound is the plain bound of the bearings' directions (`local` rotates them into the
+/// camera's axes, parallax 1) with the cone widened by that angle per tile of the output, t a
+/// lower bound of the scene's distance there ([`StitchDepth::nearest_within`]). None (every
+/// pixel mapped) without a finite baseline.
 pub(super) fn guided_cone<'a>(
     camera: &StitchCamera,
     local: &'a (dyn Fn(&Vector3<f64>) -> Vector3<f64> + Sync),
     baseline: Option<f64>,
-    nearest: f64,
     bounded: bool,
 ) -> Cone<'a> {
-    let widen = baseline
-        .filter(|b| b.is_finite() && *b < nearest)
-        .map(|b| (b / nearest).asin());
+    let baseline = baseline.filter(|b| b.is_finite());
     let half_angle = camera
         .max_theta
         .or_else(|| border_cone(camera.model))
-        .zip(widen)
-        .map(|(c, w)| c + w)
-        .filter(|_| bounded);
+        .filter(|_| bounded && baseline.is_some());
     Cone {
         local,
         half_angle,
         parallax: Some(1.0),
+        baseline,
     }
 }
 

@@ -5,7 +5,7 @@ use super::proxy::{Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::CameraModel;
 use crate::warp::mask::EgoMask;
-use crate::warp::reach::{border_cone, Cone, Gated, Reach};
+use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
 use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
@@ -137,14 +137,8 @@ impl Stitch {
                 let camera = &proxy.camera;
                 let inverse = camera.rotation.try_inverse();
                 let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
-                if let Some(depth) = depth {
-                    return super::guided::guided_cone(
-                        camera,
-                        local,
-                        baseline,
-                        depth.nearest(),
-                        bounded,
-                    );
+                if depth.is_some() {
+                    return super::guided::guided_cone(camera, local, baseline, bounded);
                 }
                 Cone {
                     local,
@@ -156,10 +150,17 @@ impl Stitch {
                     parallax: baseline
                         .filter(|b| b.is_finite() && *b < options.distance)
                         .map(|b| options.distance / (options.distance - b)),
+                    baseline: None,
                 }
             })
             .collect();
-        let reach = Reach::new(output, &cones);
+        // a tile's lower bound is at least the scene's nearest distance
+        let near = |d: &Vector3<f64>, radius: f64| {
+            depth.map_or(0.0, |depth| {
+                depth.nearest_within(d, radius).max(depth.nearest())
+            })
+        };
+        let reach = Reach::new(output, &cones, depth.map(|_| &near as NearBound));
         let distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
