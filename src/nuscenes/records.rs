@@ -439,7 +439,7 @@ mod tests {
 
     #[test]
     fn loose_fields_borrow_strings_and_skip_the_rest() {
-        #[derive(Deserialize)]
+        #[derive(serde::Deserialize)]
         struct Key<'a> {
             #[serde(borrow, default)]
             a: Option<Loose<'a>>,
