@@ -8,14 +8,15 @@
 //! `sample_annotation`, `instance`) are streamed and filtered record by record, so a version of
 //! millions of records is indexed in the memory of the selection.
 
-use super::json::{read_all, stream, Fields};
+use super::records::stream;
 use super::tables::{
-    self, raw, read_ego_pose, read_instance, read_named, read_visibility, Annotation,
+    self, key, raw, read_ego_pose, read_instance, read_named, read_visibility, Annotation,
     CalibratedSensor, Sample, SampleData, Scene, Sensor,
 };
 use super::token::Token;
 use crate::error::{Error, Result};
 use crate::source::Pose;
+use serde::Deserialize;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -77,7 +78,7 @@ pub struct NuScenes {
     /// Keyframe readings by (sample, channel).
     pub(super) keyframes: HashMap<(Token, String), SampleData>,
     pub(super) ego_poses: HashMap<Token, Pose>,
-    pub(super) annotations: HashMap<Token, Vec<Annotation>>,
+    pub(super) annotations: Annotations,
     pub(super) instances: HashMap<Token, Token>,
     pub(super) categories: HashMap<Token, String>,
     pub(super) attributes: HashMap<Token, String>,
@@ -116,17 +117,13 @@ impl NuScenes {
         let channels = Channels::choose(&path("sensor"), &sensors, selection)?;
         let scenes_path = path("scene");
         let samples_path = path("sample");
-        let mut all_scenes = Vec::new();
-        stream(&scenes_path, |i, r: raw::Scene| {
-            all_scenes.push(Scene::read(&scenes_path, i, &r)?.1);
-            Ok(())
-        })?;
-        let mut samples = HashMap::new();
-        stream(&samples_path, |i, r: raw::Sample| {
-            let (token, sample) = Sample::read(&samples_path, i, &r)?;
-            samples.insert(token, sample);
-            Ok(())
-        })?;
+        let all_scenes: Vec<Scene> = read_records(&scenes_path, Scene::read)?
+            .into_iter()
+            .map(|(_, scene)| scene)
+            .collect();
+        let samples: HashMap<Token, Sample> = read_records(&samples_path, Sample::read)?
+            .into_iter()
+            .collect();
         let scenes = select_scenes(
             &scenes_path,
             &samples_path,
@@ -134,6 +131,7 @@ impl NuScenes {
             &samples,
             selection,
         )?;
+        drop(samples);
         let wanted: HashSet<Token> = scenes
             .iter()
             .flat_map(|s| s.samples.iter().cloned())
@@ -146,54 +144,18 @@ impl NuScenes {
             &sensors,
         )?;
         let pose_tokens: HashSet<Token> = keyframes.values().map(|d| d.ego_pose.clone()).collect();
-        let mut ego_poses = HashMap::new();
-        let ego_path = path("ego_pose");
-        stream(&ego_path, |i, r: raw::EgoPose| {
-            let (_, listed) = Fields::new(&ego_path, i, &r.token)?;
-            if pose_tokens.contains(&listed) {
-                let (token, pose) = read_ego_pose(&ego_path, i, &r)?;
-                ego_poses.insert(token, pose);
-            }
-            Ok(())
-        })?;
-        let mut annotations: HashMap<Token, Vec<Annotation>> = HashMap::new();
-        let annotation_path = path("sample_annotation");
-        stream(&annotation_path, |i, r: raw::Annotation| {
-            if Annotation::sample_of(&r).is_some_and(|s| wanted.contains(&s)) {
-                let (sample, a) = Annotation::read(&annotation_path, i, &r)?;
-                annotations.entry(sample).or_default().push(a);
-            }
-            Ok(())
-        })?;
-        let instance_tokens: HashSet<Token> = annotations
-            .values()
-            .flatten()
-            .map(|a| a.instance.clone())
-            .collect();
-        let mut instances = HashMap::new();
-        let instance_path = path("instance");
-        stream(&instance_path, |i, r: raw::Instance| {
-            let (_, listed) = Fields::new(&instance_path, i, &r.token)?;
-            if instance_tokens.contains(&listed) {
-                let (token, category) = read_instance(&instance_path, i, &r)?;
-                instances.insert(token, category);
-            }
-            Ok(())
-        })?;
+        let ego_poses = read_listed(&path("ego_pose"), &pose_tokens, read_ego_pose)?;
+        let annotations = read_annotations(&path("sample_annotation"), &wanted)?;
+        let instance_tokens: HashSet<Token> =
+            annotations.all().map(|a| a.instance.clone()).collect();
+        let instances = read_listed(&path("instance"), &instance_tokens, read_instance)?;
         let named = |name: &str| -> Result<HashMap<Token, String>> {
             let p = path(name);
-            read_all::<raw::Named>(&p)?
-                .iter()
-                .enumerate()
-                .map(|(i, r)| read_named(&p, i, r))
-                .collect()
+            Ok(read_records(&p, read_named)?.into_iter().collect())
         };
-        let visibility_path = path("visibility");
-        let visibility = read_all::<raw::Visibility>(&visibility_path)?
-            .iter()
-            .enumerate()
-            .map(|(i, r)| read_visibility(&visibility_path, i, r))
-            .collect::<Result<_>>()?;
+        let visibility = read_records(&path("visibility"), read_visibility)?
+            .into_iter()
+            .collect();
         Ok(NuScenes {
             dataroot: dataroot.to_path_buf(),
             version: version.to_owned(),
@@ -221,14 +183,11 @@ pub fn table_path(dataroot: &Path, version: &str, name: &str) -> PathBuf {
 type SensorTables = (HashMap<Token, Sensor>, HashMap<Token, CalibratedSensor>);
 
 fn read_sensors(sensor_path: &Path, calibrated_path: &Path) -> Result<SensorTables> {
-    let sensors: HashMap<Token, Sensor> = read_all::<raw::Sensor>(sensor_path)?
-        .iter()
-        .enumerate()
-        .map(|(i, r)| Sensor::read(sensor_path, i, r))
-        .collect::<Result<_>>()?;
+    let sensors: HashMap<Token, Sensor> = read_records(sensor_path, Sensor::read)?
+        .into_iter()
+        .collect();
     let mut calibrated = HashMap::new();
-    stream(calibrated_path, |i, r: raw::CalibratedSensor| {
-        let (token, c) = CalibratedSensor::read(calibrated_path, i, &r)?;
+    for (token, c) in read_records(calibrated_path, CalibratedSensor::read)? {
         if !sensors.contains_key(&c.sensor) {
             return Err(tables::missing(
                 sensor_path,
@@ -238,9 +197,121 @@ fn read_sensors(sensor_path: &Path, calibrated_path: &Path) -> Result<SensorTabl
             ));
         }
         calibrated.insert(token, c);
-        Ok(())
-    })?;
+    }
     Ok((sensors, calibrated))
+}
+
+/// Every record of a table, each read from its raw form by `read` (in parallel, in the
+/// file's order).
+fn read_records<R, T>(path: &Path, read: fn(&Path, usize, &R) -> Result<T>) -> Result<Vec<T>>
+where
+    R: for<'de> Deserialize<'de>,
+    T: Send,
+{
+    let mut all = Vec::new();
+    stream(
+        path,
+        |r| read(path, r.index, &r.parse::<R>()?).map(Some),
+        |_, t| {
+            all.push(t);
+            Ok(())
+        },
+    )?;
+    Ok(all)
+}
+
+/// The records of a table whose token `wanted` holds, read by `read`; every record's token
+/// is checked, the others are skipped unread.
+fn read_listed<R, T>(
+    path: &Path,
+    wanted: &HashSet<Token>,
+    read: fn(&Path, usize, &R) -> Result<(Token, T)>,
+) -> Result<HashMap<Token, T>>
+where
+    R: for<'de> Deserialize<'de>,
+    T: Send,
+{
+    let mut out = HashMap::new();
+    stream(
+        path,
+        |r| {
+            let listed = r.parse::<key::Listed>().ok().and_then(|k| k.token?.token());
+            if listed.is_some_and(|t| !wanted.contains(&t)) {
+                return Ok(None);
+            }
+            // A wanted record, or one whose token is wrong: read it strictly.
+            read(path, r.index, &r.parse::<R>()?).map(Some)
+        },
+        |_, (token, t)| {
+            out.insert(token, t);
+            Ok(())
+        },
+    )?;
+    Ok(out)
+}
+
+/// Annotations in the file's order, held in chunks of a fixed size (a large version keeps over
+/// a million: a growing `Vec` per sample would leave a third of its room empty), and each
+/// sample's positions among them.
+#[derive(Debug, Default)]
+pub(super) struct Annotations {
+    chunks: Vec<Vec<Annotation>>,
+    by_sample: HashMap<Token, Vec<u32>>,
+}
+
+/// Annotations per chunk of `Annotations`.
+const ANNOTATION_CHUNK: usize = 4096;
+
+impl Annotations {
+    fn push(&mut self, sample: Token, a: Annotation) -> Result<()> {
+        let position = match self.chunks.last() {
+            Some(last) => (self.chunks.len() - 1) * ANNOTATION_CHUNK + last.len(),
+            None => 0,
+        };
+        let Ok(position32) = u32::try_from(position) else {
+            return Err(Error::Setup(format!(
+                "more than {} annotations selected",
+                u32::MAX
+            )));
+        };
+        if position % ANNOTATION_CHUNK == 0 {
+            self.chunks.push(Vec::with_capacity(ANNOTATION_CHUNK));
+        }
+        self.chunks.last_mut().expect("a chunk").push(a);
+        self.by_sample.entry(sample).or_default().push(position32);
+        Ok(())
+    }
+
+    /// The annotations of `sample`, in the file's order.
+    pub(super) fn of<'a>(&'a self, sample: &Token) -> impl Iterator<Item = &'a Annotation> + 'a {
+        let positions = self.by_sample.get(sample).map_or(&[][..], Vec::as_slice);
+        positions.iter().map(|&p| {
+            let p = p as usize;
+            &self.chunks[p / ANNOTATION_CHUNK][p % ANNOTATION_CHUNK]
+        })
+    }
+
+    /// Every annotation kept.
+    fn all(&self) -> impl Iterator<Item = &Annotation> {
+        self.chunks.iter().flatten()
+    }
+}
+
+/// The annotations of the `wanted` samples.
+fn read_annotations(path: &Path, wanted: &HashSet<Token>) -> Result<Annotations> {
+    let mut out = Annotations::default();
+    stream(
+        path,
+        |r| {
+            let k = r.parse::<key::Annotation>()?;
+            if !Annotation::sample_of(&k).is_some_and(|s| wanted.contains(&s)) {
+                return Ok(None);
+            }
+            Annotation::read(path, r.index, &r.parse::<raw::Annotation>()?).map(Some)
+        },
+        |_, (sample, a)| out.push(sample, a),
+    )?;
+    Ok(out)
 }
 
 /// The channels a selection reads.
@@ -408,37 +479,40 @@ fn read_keyframes(
     calibrated: &HashMap<Token, CalibratedSensor>,
     sensors: &HashMap<Token, Sensor>,
 ) -> Result<HashMap<(Token, String), SampleData>> {
-    let mut out = HashMap::new();
-    stream(path, |i, r: raw::SampleData| {
-        if !SampleData::is_wanted(&r, |s| wanted.contains(s)) {
-            return Ok(());
-        }
-        let d = SampleData::read(path, i, &r)?;
-        let Some(c) = calibrated.get(&d.calibrated_sensor) else {
-            return Err(Error::file(
-                path,
-                format!(
-                    "record {}: calibrated_sensor_token: no calibrated_sensor {}",
-                    d.token, d.calibrated_sensor
-                ),
-            ));
-        };
-        let channel = &sensors[&c.sensor].channel;
-        if channels.wanted(channel) {
-            let key = (d.sample.clone(), channel.clone());
-            if let Some(other) = out.get(&key) {
-                let other: &SampleData = other;
+    let mut out: HashMap<(Token, String), SampleData> = HashMap::new();
+    stream(
+        path,
+        |r| {
+            if !SampleData::is_wanted(&r.parse::<key::SampleData>()?, |s| wanted.contains(s)) {
+                return Ok(None);
+            }
+            let d = SampleData::read(path, r.index, &r.parse::<raw::SampleData>()?)?;
+            let Some(c) = calibrated.get(&d.calibrated_sensor) else {
                 return Err(Error::file(
                     path,
                     format!(
-                        "record {}: sample {} has two {channel} keyframes ({} and this one)",
-                        d.token, d.sample, other.token
+                        "record {}: calibrated_sensor_token: no calibrated_sensor {}",
+                        d.token, d.calibrated_sensor
+                    ),
+                ));
+            };
+            let channel = &sensors[&c.sensor].channel;
+            Ok(channels.wanted(channel).then(|| (d, channel.clone())))
+        },
+        |_, (d, channel)| {
+            let key = (d.sample.clone(), channel);
+            if let Some(other) = out.get(&key) {
+                return Err(Error::file(
+                    path,
+                    format!(
+                        "record {}: sample {} has two {} keyframes ({} and this one)",
+                        d.token, d.sample, key.1, other.token
                     ),
                 ));
             }
             out.insert(key, d);
-        }
-        Ok(())
-    })?;
+            Ok(())
+        },
+    )?;
     Ok(out)
 }

@@ -294,7 +294,7 @@ impl NuScenes {
     ) -> Result<(Vec<SourceBox>, Vec<ObjectInfo>)> {
         let mut boxes = Vec::new();
         let mut infos = Vec::new();
-        for a in self.annotations.get(sample).into_iter().flatten() {
+        for a in self.annotations.of(sample) {
             let info = self.object_info(a)?;
             if !options.keep_unseen && a.lidar_points + a.radar_points == 0 {
                 continue;

@@ -1,101 +1,16 @@
-//! Reading a nuScenes table (`VERSION/NAME.json`: one JSON array of records) as a stream, and
-//! the checked access to a record's fields.
+//! The checked access to a nuScenes record's fields.
 //!
-//! The tables of a large version hold millions of records (about a gigabyte of JSON), so a
-//! table is never held whole: [`stream`] hands each record to a callback as it is parsed
-//! (serde's `deserialize_seq` visitor over a buffered file), and the callback keeps only what
-//! the selection needs. A record is first read into a table's *raw* struct, whose fields are
+//! A record the selection keeps is read into its table's *raw* struct, whose fields are
 //! `serde_json::Value`s (so that another key order, extra keys and integers where floats are
 //! meant all load); [`Fields`] then checks each field it is asked for, and an error names the
-//! file, the record's token and the field.
+//! file, the record's token and the field. (The tables are read by `records.rs`.)
 
 use crate::error::{Error, Result};
-use serde::de::{DeserializeOwned, SeqAccess, Visitor};
-use serde::Deserializer;
 use serde_json::Value;
 use std::fmt;
-use std::io::BufReader;
 use std::path::Path;
 
 use super::token::Token;
-
-/// Buffer of the table reader: large reads keep a gigabyte table's parse near the speed of
-/// parsing it in memory, without holding it.
-const READ_BUFFER: usize = 1 << 20;
-
-/// Streams the records of the table at `path` into `keep`, with each record's position
-/// (0-based). A file that is not a JSON array of objects is an error naming its line; an
-/// error of `keep` stops the read and is returned as it is.
-pub fn stream<T, F>(path: &Path, mut keep: F) -> Result<()>
-where
-    T: DeserializeOwned,
-    F: FnMut(usize, T) -> Result<()>,
-{
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut de = serde_json::Deserializer::from_reader(BufReader::with_capacity(READ_BUFFER, file));
-    let mut failure = None;
-    let visitor = RecordVisitor::<T, F> {
-        keep: &mut keep,
-        failure: &mut failure,
-        marker: std::marker::PhantomData,
-    };
-    let parsed = (&mut de).deserialize_seq(visitor).and_then(|()| de.end());
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    parsed.map_err(|e| json_error(path, e))
-}
-
-/// Reads every record of a (small) table.
-pub fn read_all<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
-    let mut all = Vec::new();
-    stream(path, |_, r: T| {
-        all.push(r);
-        Ok(())
-    })?;
-    Ok(all)
-}
-
-fn json_error(path: &Path, e: serde_json::Error) -> Error {
-    let table = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    if e.is_io() {
-        return Error::file(path, format!("cannot read: {e}"));
-    }
-    Error::parse(path, e.line().max(1), table, e.to_string())
-}
-
-struct RecordVisitor<'a, T, F> {
-    keep: &'a mut F,
-    failure: &'a mut Option<Error>,
-    marker: std::marker::PhantomData<T>,
-}
-
-impl<'de, T, F> Visitor<'de> for RecordVisitor<'_, T, F>
-where
-    T: DeserializeOwned,
-    F: FnMut(usize, T) -> Result<()>,
-{
-    type Value = ();
-
-    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        f.write_str("a JSON array of records")
-    }
-
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<(), A::Error> {
-        let mut index = 0;
-        while let Some(record) = seq.next_element::<T>()? {
-            if let Err(e) = (self.keep)(index, record) {
-                *self.failure = Some(e);
-                return Err(serde::de::Error::custom("stopped"));
-            }
-            index += 1;
-        }
-        Ok(())
-    }
-}
 
 /// The checked fields of one record: every error names the table file, the record (its token,
 /// or its position when it has none) and the field.

@@ -8,6 +8,7 @@
 //! z up); timestamps are microseconds.
 
 use super::json::Fields;
+use super::records::Loose;
 use super::token::Token;
 use crate::error::{Error, Result};
 use crate::source::Pose;
@@ -52,6 +53,40 @@ pub mod raw {
         Named { token, name });
     raw_record!(/// `visibility.json`
         Visibility { token, level });
+}
+
+/// The fields the filters of the large tables read, borrowed from a record's text (the
+/// others skipped unread).
+pub mod key {
+    use super::super::records::Loose;
+    use serde::Deserialize;
+
+    /// A record's token.
+    #[derive(Debug, Deserialize)]
+    pub struct Listed<'a> {
+        /// `token`.
+        #[serde(borrow, default)]
+        pub token: Option<Loose<'a>>,
+    }
+
+    /// `sample_data.json`'s filter: the sample and whether the reading is its keyframe.
+    #[derive(Debug, Deserialize)]
+    pub struct SampleData<'a> {
+        /// `sample_token`.
+        #[serde(borrow, default)]
+        pub sample_token: Option<Loose<'a>>,
+        /// `is_key_frame`.
+        #[serde(borrow, default)]
+        pub is_key_frame: Option<Loose<'a>>,
+    }
+
+    /// `sample_annotation.json`'s filter: the sample.
+    #[derive(Debug, Deserialize)]
+    pub struct Annotation<'a> {
+        /// `sample_token`.
+        #[serde(borrow, default)]
+        pub sample_token: Option<Loose<'a>>,
+    }
 }
 
 /// A scene: a named drive of about 20 s.
@@ -215,10 +250,10 @@ impl CalibratedSensor {
 impl SampleData {
     /// Whether a raw record is a keyframe of a sample that `wanted` accepts (checked
     /// loosely: a record that is not is skipped unread).
-    pub fn is_wanted(r: &raw::SampleData, wanted: impl Fn(&Token) -> bool) -> bool {
-        let key_frame = matches!(r.is_key_frame, Some(serde_json::Value::Bool(true)));
-        let sample = r.sample_token.as_ref().and_then(|v| v.as_str());
-        key_frame && sample.is_some_and(|s| wanted(&Token::new(s)))
+    pub fn is_wanted(k: &key::SampleData, wanted: impl Fn(&Token) -> bool) -> bool {
+        let key_frame = matches!(k.is_key_frame, Some(Loose::Bool(true)));
+        let sample = k.sample_token.as_ref().and_then(Loose::token);
+        key_frame && sample.is_some_and(|s| wanted(&s))
     }
 
     /// Checks a raw record.
@@ -255,11 +290,8 @@ pub fn read_ego_pose(path: &Path, index: usize, r: &raw::EgoPose) -> Result<(Tok
 
 impl Annotation {
     /// The sample of a raw record, read loosely for the filter.
-    pub fn sample_of(r: &raw::Annotation) -> Option<Token> {
-        r.sample_token
-            .as_ref()
-            .and_then(|v| v.as_str())
-            .map(Token::new)
+    pub fn sample_of(k: &key::Annotation) -> Option<Token> {
+        k.sample_token.as_ref().and_then(Loose::token)
     }
 
     /// Checks a raw record.
