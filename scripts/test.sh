@@ -42,6 +42,7 @@ done
 # The Python package: the module built by `maturin develop` (sharing target/), the command the
 # test build made; pytest runs against both.
 PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
-"$PANOCONV_PYTHON" -m pytest -q -p no:cacheprovider python/tests
+# -rs: a test skipped for want of ../shared is named with its reason
+"$PANOCONV_PYTHON" -m pytest -q -rs --no-fold-skipped -p no:cacheprovider python/tests
 # the skipped tests last, where they are seen
 cat "$skips_log" >&2
