@@ -14,6 +14,7 @@
 //!   written, its frames, files and manifest, for any dataset.
 
 mod gray;
+mod ground;
 mod job;
 mod objects;
 mod pass;
@@ -21,6 +22,7 @@ mod run;
 mod scene_depth;
 mod setup;
 
+pub use ground::Ground;
 pub use job::{ObjectCounts, RigJob, RigSummary, SPLIT};
 pub use objects::{
     DropReason, ObjectOutcome, ObjectRule, PlacedObject, GROUND_MARGIN, TILT_TOLERANCE,
@@ -29,4 +31,4 @@ pub use pass::{
     convert_frame, convert_into, count_objects, read_images, CameraInfo, RigFrame, RigOptions,
 };
 pub use run::run_rig;
-pub use scene_depth::{frame_stitch, Ground, SceneDepth, StitchMode, FAR};
+pub use scene_depth::{frame_stitch, SceneDepth, StitchMode, FAR};
