@@ -32,38 +32,6 @@ pub fn zero_baseline_scene() -> &'static Path {
     .1
 }
 
-/// A window of a camera's image: pixel (0, 0) is the camera's `origin`.
-#[derive(Debug)]
-struct Window<'a> {
-    inner: &'a dyn CameraModel,
-    origin: Point2<f64>,
-    size: ImageSize,
-}
-
-impl CameraModel for Window<'_> {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, panoconv::camera::ProjectionReject> {
-        self.inner
-            .project(d)
-            .map(|p| Point2::from(p - self.origin.coords))
-    }
-
-    fn unproject(
-        &self,
-        p: &Point2<f64>,
-    ) -> Result<Vector3<f64>, panoconv::camera::ProjectionReject> {
-        self.inner
-            .unproject(&Point2::from(p.coords + self.origin.coords))
-    }
-
-    fn distance(&self, p: &Vector3<f64>) -> f64 {
-        self.inner.distance(p)
-    }
-
-    fn size(&self) -> ImageSize {
-        self.size
-    }
-}
-
 /// The floor every camera's region reaches today (46.8 to 53.4 dB measured). The issue's
 /// target is 50 dB: CAM_FRONT (46.8), CAM_BACK_RIGHT, CAM_BACK and CAM_FRONT_LEFT (48.6 to
 /// 48.8) miss it; the blur model of the reference (σ at each 16-column strip's angle from the
@@ -169,7 +137,7 @@ fn a_zero_baseline_six_camera_stitch_matches_the_direct_panorama_render() {
                 .unwrap();
             let cos = middle.normalize().dot(&axis).clamp(0.05, 1.0);
             let sigma = (0.55f64 * 0.55 + 1.0 / 6.0).sqrt() * k.fu / (source_fu / cos.powf(1.5));
-            let window = Window {
+            let window = common::Window {
                 inner: &direct_camera,
                 origin: Point2::new(u0 as f64, lo.1 as f64),
                 size: ImageSize::new(u1 + 1 - u0, hi.1 + 1 - lo.1),

@@ -429,13 +429,7 @@ fn report(summary: &KittiSummary, output: &std::path::Path) {
             count(min, "object")
         );
     }
-    if let Some((runs, images)) = summary.style_runs {
-        eprintln!(
-            "panoconv: style pass: {} in {}",
-            count(images, "image"),
-            count(runs, "model run")
-        );
-    }
+    super::outcome::report_style(summary.style_runs);
 }
 
 /// Set by SIGINT/SIGTERM: the conversion takes no new frame, finishes those in flight and

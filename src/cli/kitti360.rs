@@ -76,9 +76,11 @@ fn rig_camera(name: &str) -> Option<usize> {
 const HDL64_AZIMUTH_STEP_DEG: f64 = 0.09;
 
 pub(super) fn kitti360(args: Kitti360Args) -> Result<ExitCode> {
-    let job = args.rig.job(choice(&args)?)?;
-    let selection = selection(&args, job.needs_lidar(), job.depth_guided())?;
-    run_rig_command(&args.rig, &job, || Kitti360Source::open(selection))
+    run_rig_command(&args.rig, || {
+        let job = args.rig.job(choice(&args)?)?;
+        let selection = selection(&args, job.needs_lidar(), job.depth_guided())?;
+        Ok((job, Kitti360Source::open(selection)?))
+    })
 }
 
 /// The cameras of `--cameras`, the masks of `--ego-mask`, KITTI-360's LiDAR defaults.

@@ -73,20 +73,22 @@ pub(super) fn nuscenes(args: NuScenesArgs) -> Result<ExitCode> {
         .map(|s| s.iter().map(|n| n.trim().to_owned()).collect());
     selection.classes = classes;
     selection.keep_unseen = args.keep_unseen;
-    // the tables name the cameras (and so the job's) when --cameras does not
-    let source = NuScenesSource::open(selection)?;
-    let channels: Vec<String> = source.cameras(0).iter().map(|c| c.name.clone()).collect();
-    let camera = |name: &str| channels.iter().position(|c| c == name);
-    let job = args.rig.job(RigChoice {
-        command: "nuscenes",
-        cameras: (0..channels.len()).collect(),
-        ego_masks: ego_masks(&args.ego_mask, camera, &channels.join(", "))?,
-        lidar_azimuth_step_deg: HDL32_AZIMUTH_STEP_DEG,
-        min_points: 0,
-    })?;
-    let source = source.with_lidar(job.needs_lidar());
-    check_classes(&source, &args)?;
-    run_rig_command(&args.rig, &job, || Ok(source))
+    run_rig_command(&args.rig, || {
+        // the tables name the cameras (and so the job's) when --cameras does not
+        let source = NuScenesSource::open(selection)?;
+        let channels: Vec<String> = source.cameras(0).iter().map(|c| c.name.clone()).collect();
+        let camera = |name: &str| channels.iter().position(|c| c == name);
+        let job = args.rig.job(RigChoice {
+            command: "nuscenes",
+            cameras: (0..channels.len()).collect(),
+            ego_masks: ego_masks(&args.ego_mask, camera, &channels.join(", "))?,
+            lidar_azimuth_step_deg: HDL32_AZIMUTH_STEP_DEG,
+            min_points: 0,
+        })?;
+        let source = source.with_lidar(job.needs_lidar());
+        check_classes(&source, &args)?;
+        Ok((job, source))
+    })
 }
 
 /// `--classes`: the KITTI types only, every category, or the KITTI types and the named ones.

@@ -23,6 +23,17 @@ pub(super) fn report(run: &Summary, noun: &str, output: &Path) {
     );
 }
 
+/// The style pass's line: images styled in how many model runs, if styled.
+pub(super) fn report_style(style_runs: Option<(usize, usize)>) {
+    if let Some((runs, images)) = style_runs {
+        eprintln!(
+            "panoconv: style pass: {} in {}",
+            count(images, "image"),
+            count(runs, "model run")
+        );
+    }
+}
+
 /// The speed of a run: `12.3 frames/s`, or `4.2 s/frame` when under one item a second (where
 /// a rate would round to `0.0`).
 fn rate(items: usize, seconds: f64, noun: &str) -> String {

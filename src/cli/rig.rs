@@ -304,19 +304,21 @@ impl RigArgs {
     }
 }
 
-/// Runs a rig job on the source that `open` gives (inside the worker pool), reports it, and
-/// exports when asked: the one run path of every rig command.
+/// Runs the rig job and source that `prepare` gives (inside the worker pool, so that a
+/// reader's own parallel work keeps to `--jobs`), reports it, and exports when asked: the one
+/// run path of every rig command.
 pub(super) fn run_rig_command<S: RigSource>(
     args: &RigArgs,
-    job: &RigJob,
-    open: impl FnOnce() -> panoconv::error::Result<S> + Send,
+    prepare: impl FnOnce() -> Result<(RigJob, S)> + Send,
 ) -> Result<ExitCode> {
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
-    let summary = with_pool(args.run.jobs, || -> panoconv::error::Result<_> {
-        let source = open()?;
-        run_rig(job, &source, &bar, &STOP)
+    let (job, summary) = with_pool(args.run.jobs, || -> Result<_> {
+        let (job, source) = prepare()?;
+        let summary = run_rig(&job, &source, &bar, &STOP)?;
+        Ok((job, summary))
     })??;
+    let job = &job;
     if !args.run.quiet {
         report(&summary, job);
     }
@@ -390,11 +392,5 @@ fn report(summary: &RigSummary, job: &RigJob) {
             panoconv::geometry::augment::MAX_ATTEMPTS
         );
     }
-    if let Some((runs, images)) = summary.style_runs {
-        eprintln!(
-            "panoconv: style pass: {} in {}",
-            count(images, "image"),
-            count(runs, "model run")
-        );
-    }
+    super::outcome::report_style(summary.style_runs);
 }

@@ -14,7 +14,7 @@ pub const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 mod paths;
 pub use paths::*;
 mod render;
-pub use render::{psnr, render_where};
+pub use render::{psnr, render_where, Window};
 
 /// The outcome of one run of the binary.
 #[derive(Debug)]

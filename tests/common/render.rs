@@ -8,6 +8,35 @@ use panoconv::camera::{CameraModel, ImageSize, ProjectionReject};
 use panoconv::image::RgbImage;
 use panoconv::tools::synth::Scene;
 
+/// A window of a camera's image: pixel (0, 0) is the camera's `origin`.
+#[derive(Debug)]
+pub struct Window<'a> {
+    pub inner: &'a dyn CameraModel,
+    pub origin: Point2<f64>,
+    pub size: ImageSize,
+}
+
+impl CameraModel for Window<'_> {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        self.inner
+            .project(d)
+            .map(|p| Point2::from(p - self.origin.coords))
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        self.inner
+            .unproject(&Point2::from(p.coords + self.origin.coords))
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.inner.distance(p)
+    }
+
+    fn size(&self) -> ImageSize {
+        self.size
+    }
+}
+
 /// `render_with`'s footprint half-width for σ = `sigma` px: 1.5 px at its default σ of 0.55 px,
 /// in proportion otherwise.
 fn footprint_reach(sigma: f64) -> f64 {

@@ -167,38 +167,6 @@ fn geometric_misregistration(
 /// (55.7 and 55.6 with 16), which keeps their reference 4x cheaper.
 const REFERENCE_GRID: [usize; 4] = [16, 16, 8, 8];
 
-/// A window of a camera's image: pixel (0, 0) is the camera's `origin`.
-#[derive(Debug)]
-struct Window<'a> {
-    inner: &'a dyn CameraModel,
-    origin: Point2<f64>,
-    size: ImageSize,
-}
-
-impl CameraModel for Window<'_> {
-    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, panoconv::camera::ProjectionReject> {
-        self.inner
-            .project(d)
-            .map(|p| Point2::from(p - self.origin.coords))
-    }
-
-    fn unproject(
-        &self,
-        p: &Point2<f64>,
-    ) -> Result<Vector3<f64>, panoconv::camera::ProjectionReject> {
-        self.inner
-            .unproject(&Point2::from(p.coords + self.origin.coords))
-    }
-
-    fn distance(&self, p: &Vector3<f64>) -> f64 {
-        self.inner.distance(p)
-    }
-
-    fn size(&self) -> ImageSize {
-        self.size
-    }
-}
-
 /// PSNR the stitch must reach in every camera's region.
 const MIN_PSNR_DB: f64 = 50.0;
 
@@ -326,7 +294,7 @@ fn a_zero_baseline_stitch_matches_the_direct_panorama_render() {
             }
         }
         let (u0, v0) = (lo.0.saturating_sub(1), lo.1.saturating_sub(1));
-        let window = Window {
+        let window = crate::common::Window {
             inner: &direct_camera,
             origin: Point2::new(u0 as f64, v0 as f64),
             size: ImageSize::new(
