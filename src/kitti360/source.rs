@@ -10,7 +10,9 @@ use super::calib::{CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
 use super::sequence::{Options, Sequence};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
-use crate::source::{CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera};
+use crate::source::{
+    record_value, CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera,
+};
 use serde::Serialize;
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
@@ -221,11 +223,6 @@ fn camera_set(seq: &Sequence) -> Vec<SourceCamera> {
     vec![pinhole(0), pinhole(1), fisheye(0), fisheye(1)]
 }
 
-/// A value the manifest records, serialised (the types here always serialise).
-fn value(v: impl Serialize) -> Value {
-    serde_json::to_value(v).expect("manifest parameters serialise")
-}
-
 impl RigSource for Kitti360Source {
     fn command(&self) -> &'static str {
         "kitti360"
@@ -332,17 +329,17 @@ impl RigSource for Kitti360Source {
     fn parameters(&self) -> Map<String, Value> {
         let s = &self.selection;
         let mut m = Map::new();
-        m.insert("input".into(), value(&s.input));
-        m.insert("sequences".into(), value(&s.sequences));
+        m.insert("input".into(), record_value(&s.input));
+        m.insert("sequences".into(), record_value(&s.sequences));
         let frame_ids = if s.sequences.len() > 1 {
             "drive_frame"
         } else {
             "frame"
         };
-        m.insert("frame_ids".into(), value(frame_ids));
-        m.insert("frames".into(), value(s.frames.as_deref()));
-        m.insert("classes".into(), value(&s.classes));
-        m.insert("fisheye_fov_deg".into(), value(s.fisheye_fov_deg));
+        m.insert("frame_ids".into(), record_value(frame_ids));
+        m.insert("frames".into(), record_value(s.frames.as_deref()));
+        m.insert("classes".into(), record_value(&s.classes));
+        m.insert("fisheye_fov_deg".into(), record_value(s.fisheye_fov_deg));
         m
     }
 

@@ -10,7 +10,9 @@ use super::dataset::{NuScenes, Selection};
 use super::frame::{Item, Options};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
-use crate::source::{CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera};
+use crate::source::{
+    record_value, CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera,
+};
 use serde::Serialize;
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
@@ -160,10 +162,6 @@ impl NuScenesSource {
     }
 }
 
-fn value(v: impl Serialize) -> Value {
-    serde_json::to_value(v).expect("manifest parameters serialise")
-}
-
 /// The order of the manifest's parameters of a `nuscenes` run.
 const PARAMETER_ORDER: &[&str] = &[
     "input",
@@ -245,7 +243,7 @@ impl RigSource for NuScenesSource {
         m.insert("sample_token".into(), Value::from(sample.to_string()));
         // each object of the frame (in its order): what nuScenes says of it
         if let Ok(infos) = self.dataset.object_infos(sample, &self.options()) {
-            m.insert("annotations".into(), value(infos));
+            m.insert("annotations".into(), record_value(infos));
         }
         m
     }
@@ -253,12 +251,12 @@ impl RigSource for NuScenesSource {
     fn parameters(&self) -> Map<String, Value> {
         let s = &self.selection;
         let mut m = Map::new();
-        m.insert("input".into(), value(&s.input));
-        m.insert("version".into(), value(&s.version));
-        m.insert("scenes".into(), value(&s.scenes));
-        m.insert("frame_ids".into(), value("scene_sample"));
-        m.insert("classes".into(), value(&s.classes));
-        m.insert("keep_unseen".into(), value(s.keep_unseen));
+        m.insert("input".into(), record_value(&s.input));
+        m.insert("version".into(), record_value(&s.version));
+        m.insert("scenes".into(), record_value(&s.scenes));
+        m.insert("frame_ids".into(), record_value("scene_sample"));
+        m.insert("classes".into(), record_value(&s.classes));
+        m.insert("keep_unseen".into(), record_value(s.keep_unseen));
         m
     }
 

@@ -123,3 +123,9 @@ pub trait RigSource: Sync {
     /// style pass over the group).
     fn frame_folder(&self, item: &RigItem) -> PathBuf;
 }
+
+/// A value a manifest or an objects record holds, serialised (the selections' and records'
+/// types always serialise).
+pub fn record_value(v: impl serde::Serialize) -> Value {
+    serde_json::to_value(v).expect("record values serialise")
+}
