@@ -47,6 +47,7 @@ mod png_rows;
 mod preview;
 mod raw;
 mod resume;
+mod rig_plugin;
 mod sample;
 mod scale;
 mod style;
