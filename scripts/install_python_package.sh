@@ -2,9 +2,10 @@
 # Builds the Python package (`import panoconv` and the `panoconv` command, pyproject.toml) into
 # a virtual environment of its own, `<repo>/.venv-python/`, for the Python tests
 # (python/tests). The build tools come from PyPI, pinned; the extension module is built by
-# `maturin develop` in cargo's dev profile, which shares target/ and the dependencies the
-# Rust tests already built, and the command staged beside it is the binary `cargo test` built.
-# (`pip install .` builds both in release instead: docs/python.md.)
+# `maturin develop` in cargo's dev profile, which shares target/ and the library the Rust tests
+# already built, and the command staged beside it is the binary `cargo test` built.
+# (`pip install .` builds both in release instead, the library without its `cli` and `ort`
+# features: docs/python.md.)
 #
 # Always prints the absolute path of the environment's python on stdout (last line).
 #
@@ -42,5 +43,10 @@ mkdir -p target/wheel-data/scripts
 rm -f target/wheel-data/scripts/*
 cp "${CARGO_TARGET_DIR:-target}/debug/panoconv" target/wheel-data/scripts/panoconv
 
-VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop --locked --quiet >&2
+# With the library's default features, as the test build has them: the module then links that
+# build of the library instead of compiling it a second time without them (a whole optimised
+# build of the library less; the features add code the module never calls). CI checks the
+# module against the library without them (`cargo check -p panoconv-python`).
+VIRTUAL_ENV="$VENV" PATH="$VENV/bin:$PATH" "$VENV/bin/maturin" develop --locked --quiet \
+    --features panoconv/default >&2
 echo "$VENV/bin/python"
