@@ -6,8 +6,7 @@ It reads the same KITTI-360 layout (calibration/, data_poses/, data_2d_raw/), bu
 model per frame (docs/kitti360.md, "Stitching"): the level frame, the output centre C2 (the mean
 of the four camera centres), the proxy point at the stitch distance, the pinholes and the MEI
 fisheyes with p1/p2 and their 185 deg field of view, the blend weights (field-of-view and
-image-border margin over the local scale, smoothstep; none where a pixel's taps reach beyond
-its image), the box prefilter where the output is
+image-border margin over the local scale, smoothstep), the box prefilter where the output is
 coarser than a source (nu x nv taps, as panoconv's remap tables), the exposure gains and the
 weighted blend; cv2.remap does the resampling (float32 maps; within half a pixel of an image's
 border its edge pixel, as panoconv's tables), cv2.imread / cv2.imwrite the files. Writes
@@ -214,17 +213,11 @@ def taps(u, v):
     return across(u, v, 1), across(u, v, 0)
 
 
-def within(img, u, v):
-    """Whether source points (u, v) are sampled (within half a pixel of the image's edges)."""
-    h, w = img.shape[:2]
-    return (u >= -0.5) & (u < w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
-
-
 def source_map(img, u, v):
     """cv2.remap's map of source points (u, v) as panoconv's tables sample them: within half a
     pixel of the border the edge pixel is repeated, beyond it (or without a point) black."""
     h, w = img.shape[:2]
-    inside = within(img, u, v)
+    inside = (u >= -0.5) & (u < w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
     mx = np.where(inside, np.clip(u, 0, w - 1), -1e4).astype(np.float32)
     my = np.where(inside, np.clip(v, 0, h - 1), -1e4).astype(np.float32)
     return mx, my
@@ -299,10 +292,10 @@ def stitch_rig(rig, width, out, name):
                     for i in range(a):
                         du, dv = (i + 0.5) / a - 0.5, (j + 0.5) / b - 0.5
                         _, su, sv = samples(model, rot, trans, centre, bearings(pu + du, pv + dv))
-                        whole &= within(img, su, sv)
                         total += gather(img, su, sv)
+                        whole &= source_map(img, su, sv)[0] > -1e3
                 acc[sel] = total / (a * b)
-                # a pixel with taps beyond the image (black there) gets no weight
+                # a pixel the image covers only in part gives nothing (its taps beyond are black)
                 w[sel] = np.where(whole, w[sel], 0.0)
         remapped.append(np.clip(np.rint(acc), 0, 255).astype(np.uint8))
         ws.append(w)
