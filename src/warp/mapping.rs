@@ -167,6 +167,57 @@ mod tests {
     }
 
     #[test]
+    fn a_stitched_camera_gives_only_the_pixels_its_image_wholly_covers() {
+        // a panorama coarser than the lens (25.5 px/rad against 60): every pixel is
+        // supersampled, so those along the image's edges have taps beyond it, which the
+        // table counts as black
+        let lens = Perspective::new(
+            Intrinsics::new(60.0, 60.0, 49.5, 39.5),
+            ImageSize::new(100, 80),
+        );
+        let f = 160.0 / (2.0 * std::f64::consts::PI);
+        let output = Equirect::new(Intrinsics::new(f, f, 79.5, 39.5), ImageSize::new(160, 80));
+        let camera = StitchCamera {
+            model: &lens,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            max_theta: None,
+        };
+        let options = StitchOptions {
+            even_exposure: false,
+            ..StitchOptions::default()
+        };
+        let stitch = Stitch::build(&output, &Vector3::zeros(), &[camera], options);
+        let grey = [200, 180, 160];
+        let mut flat = RgbImage::new(100, 80);
+        for y in 0..80 {
+            for x in 0..100 {
+                flat.put_pixel(x, y, grey);
+            }
+        }
+        let stitched = ImageMapping::Stitch(&stitch).apply(&[&flat]);
+        let table = RemapTable::build(&output, &lens, &Matrix3::identity(), Wrap::None);
+        let alone = table.apply(&flat);
+        let (mut covered, mut darkened) = (0, 0);
+        for v in 0..80 {
+            for u in 0..160 {
+                if stitched.source[v as usize * 160 + u as usize] == 0 {
+                    // an edge pixel darkened by the black beyond the image would be a seam
+                    assert_eq!(stitched.image.pixel(u, v), grey, "pixel ({u}, {v})");
+                    covered += 1;
+                }
+                let p = alone.pixel(u, v);
+                darkened += usize::from(p != grey && p != [0, 0, 0]);
+            }
+        }
+        // the case occurs: the table alone has partly covered, darkened pixels
+        assert!(
+            covered > 800 && darkened > 20,
+            "{covered} covered, {darkened} darkened"
+        );
+    }
+
+    #[test]
     fn several_sources_are_the_stitch_and_cover_where_a_camera_weighs() {
         let lens = Perspective::new(
             Intrinsics::new(60.0, 60.0, 49.5, 39.5),
