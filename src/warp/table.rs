@@ -211,6 +211,14 @@ impl RemapTable {
     fn push_row(&mut self, quads: &[Quad], counts: &[u8], reach: u32) {
         let mut rest = quads;
         for pixels in counts.chunks(LANES) {
+            if pixels.iter().all(|&n| n == 1) {
+                // one block a pixel (most groups): the one round the loop below makes of them
+                let group;
+                (group, rest) = rest.split_at(pixels.len());
+                self.depth.push(1);
+                self.rounds.push(Self::round(group));
+                continue;
+            }
             let mut blocks = [&[][..]; LANES];
             for (b, &n) in blocks.iter_mut().zip(pixels) {
                 (*b, rest) = rest.split_at(n as usize);
@@ -239,5 +247,18 @@ impl RemapTable {
         debug_assert!(rest.is_empty(), "every block of the row placed");
         self.row_reach.push(reach);
         self.row_starts.push(self.rounds.len() as u32);
+    }
+
+    /// The round of a group of pixels with one block each; a lane past the row's end repeats
+    /// the group's first block (as [`RemapTable::push_row`] pads a group).
+    #[inline]
+    fn round(group: &[Quad]) -> Round {
+        let mut round = Round::default();
+        for lane in 0..LANES {
+            let q = group.get(lane).unwrap_or(&group[0]);
+            round.offset[lane] = q.offset.checked_mul(3).expect("source under 4 GB");
+            round.w[lane] = q.w;
+        }
+        round
     }
 }
