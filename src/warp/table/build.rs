@@ -487,10 +487,11 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
 fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
     let y = w.map(|x| x * scale);
     let q = y.map(|x| (x + 0.5) as i32);
-    let mut big = 0;
-    for k in 1..4 {
-        if y[k] > y[big] {
-            big = k;
+    // (the running maximum in a register: a select, not a load, per weight)
+    let (mut big, mut top) = (0, y[0]);
+    for (k, &x) in y.iter().enumerate().skip(1) {
+        if x > top {
+            (big, top) = (k, x);
         }
     }
     let fix = total - q.iter().sum::<i32>();
