@@ -201,8 +201,35 @@ impl RemapTable {
         let groups = (self.size.width as usize).div_ceil(LANES);
         let rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
         let depth = &self.depth[v * groups..(v + 1) * groups];
+        // The groups at the row's ends that take nothing (one all-zero round each: most of a
+        // wide view's row beyond the source) are black without the kernel, which would give
+        // them zeros too.
+        let blank = |(&k, round): (&u8, &Round)| k == 1 && *round == Round::default();
+        let lead = depth.iter().zip(rounds).take_while(|&g| blank(g)).count();
+        if lead == groups {
+            row.fill(0);
+            return;
+        }
+        let trail = depth
+            .iter()
+            .rev()
+            .zip(rounds.iter().rev())
+            .take_while(|&g| blank(g))
+            .count();
+        let (first, last) = (lead * LANES * 3, (groups - trail) * LANES * 3);
+        let last = last.min(row.len());
+        row[..first].fill(0);
+        row[last..].fill(0);
         let stride = self.source_size.width as usize;
-        kernel::apply_row(rounds, depth, src, stride, self.row_reach[v], row, kernel);
+        kernel::apply_row(
+            &rounds[lead..rounds.len() - trail],
+            &depth[lead..groups - trail],
+            src,
+            stride,
+            self.row_reach[v],
+            &mut row[first..last],
+            kernel,
+        );
     }
 
     /// Appends one output row, from each pixel's blocks (`counts[u]` of `quads` for pixel u;
