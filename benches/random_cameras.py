@@ -16,10 +16,12 @@ Per core: one process, OpenCV single-threaded, CPU seconds (`time.process_time`)
 load on the machine changes the figures less than wall time would (the load average is
 printed). Then a 4-worker loader of `RandomCameraDataset` against 1 worker: the same arrays.
 
-    PYTHONPATH=python python benches/random_cameras.py [--kitti DIR] [--samples N]
+    benches/random_cameras.sh [--kitti DIR] [--samples N]
 
-(numpy and opencv-python beside the built module: scripts/install_python_package.sh builds
-it, a venv with opencv runs this.)
+builds the module in release, as `pip install .` does, and runs this with numpy and
+opencv-python beside it; `PYTHONPATH=python python benches/random_cameras.py` runs it with the
+Python tests' dev-profile module (scripts/install_python_package.sh). The first line names the
+module that ran.
 """
 
 from __future__ import annotations
@@ -288,7 +290,8 @@ def main():
     cv2.setNumThreads(1)
     print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}"
           f" {os.getloadavg()[2]:.2f} on {os.cpu_count()} CPUs; numpy {np.__version__},"
-          f" OpenCV {cv2.__version__}, panoconv {panoconv.__version__}")
+          f" OpenCV {cv2.__version__}, panoconv {panoconv.__version__}"
+          f" ({panoconv._native.__file__})")
     frames = load_frames(args.kitti)
     print(f"{len(frames)} real KITTI frames, drawn cameras at {SIZE[0]}x{SIZE[1]}")
     for name, sampler in SAMPLERS.items():

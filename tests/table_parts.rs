@@ -153,3 +153,50 @@ fn a_fisheye_output_equals_the_per_pixel_table_with_and_without_its_footprint() 
         );
     }
 }
+
+#[test]
+fn wide_linear_views_within_their_footprint_equal_the_full_tables() {
+    // the Python package's drawn cameras: a turned equirect or cylindrical view much wider
+    // than a KITTI camera (most of its rows and columns outside the footprint), built at one
+    // tap a pixel row by row (serial) and through the general bands (parallel)
+    let src = kitti();
+    let back = -Vector3::z();
+    for projection in [Projection::Equirect, Projection::Cylindrical] {
+        for (fov_deg, turn) in [(100.0, (0.1, -0.05, 0.03)), (140.0, (-0.15, 0.08, -0.07))] {
+            let (w, h) = (320, 240);
+            let fu = w as f64 / f64::to_radians(fov_deg);
+            let k = Intrinsics::new(fu, fu, w as f64 / 2.0 + 3.7, h as f64 / 2.0 - 2.2);
+            let dst = projection.camera(k, ImageSize::new(w, h));
+            let rot = rotation_ypr(turn.0, turn.1, turn.2);
+            let seen = Footprint::new(dst.as_ref(), &src, &rot, &back).expect("a footprint");
+            let name = format!("{projection} {fov_deg}°");
+            for ss in [1, 8] {
+                let full = RemapTable::build_within(
+                    &PerPixel(dst.as_ref()),
+                    &PerPixel(&src),
+                    &rot,
+                    Wrap::None,
+                    ss,
+                    None,
+                    true,
+                );
+                assert!(full.coverage() > 0.05 && full.coverage() < 0.5, "{name}");
+                for parallel in [false, true] {
+                    let within = RemapTable::build_within(
+                        dst.as_ref(),
+                        &src,
+                        &rot,
+                        Wrap::None,
+                        ss,
+                        Some(&seen),
+                        parallel,
+                    );
+                    assert!(
+                        within == full,
+                        "{name}: the table within the footprint differs (supersampling {ss}, parallel {parallel})"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -201,8 +201,35 @@ impl RemapTable {
         let groups = (self.size.width as usize).div_ceil(LANES);
         let rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
         let depth = &self.depth[v * groups..(v + 1) * groups];
+        // The groups at the row's ends that take nothing (one all-zero round each: most of a
+        // wide view's row beyond the source) are black without the kernel, which would give
+        // them zeros too.
+        let blank = |(&k, round): (&u8, &Round)| k == 1 && *round == Round::default();
+        let lead = depth.iter().zip(rounds).take_while(|&g| blank(g)).count();
+        if lead == groups {
+            row.fill(0);
+            return;
+        }
+        let trail = depth
+            .iter()
+            .rev()
+            .zip(rounds.iter().rev())
+            .take_while(|&g| blank(g))
+            .count();
+        let (first, last) = (lead * LANES * 3, (groups - trail) * LANES * 3);
+        let last = last.min(row.len());
+        row[..first].fill(0);
+        row[last..].fill(0);
         let stride = self.source_size.width as usize;
-        kernel::apply_row(rounds, depth, src, stride, self.row_reach[v], row, kernel);
+        kernel::apply_row(
+            &rounds[lead..rounds.len() - trail],
+            &depth[lead..groups - trail],
+            src,
+            stride,
+            self.row_reach[v],
+            &mut row[first..last],
+            kernel,
+        );
     }
 
     /// Appends one output row, from each pixel's blocks (`counts[u]` of `quads` for pixel u;
@@ -211,6 +238,14 @@ impl RemapTable {
     fn push_row(&mut self, quads: &[Quad], counts: &[u8], reach: u32) {
         let mut rest = quads;
         for pixels in counts.chunks(LANES) {
+            if pixels.iter().all(|&n| n == 1) {
+                // one block a pixel (most groups): the one round the loop below makes of them
+                let group;
+                (group, rest) = rest.split_at(pixels.len());
+                self.depth.push(1);
+                self.rounds.push(Self::round(group));
+                continue;
+            }
             let mut blocks = [&[][..]; LANES];
             for (b, &n) in blocks.iter_mut().zip(pixels) {
                 (*b, rest) = rest.split_at(n as usize);
@@ -239,5 +274,18 @@ impl RemapTable {
         debug_assert!(rest.is_empty(), "every block of the row placed");
         self.row_reach.push(reach);
         self.row_starts.push(self.rounds.len() as u32);
+    }
+
+    /// The round of a group of pixels with one block each; a lane past the row's end repeats
+    /// the group's first block (as [`RemapTable::push_row`] pads a group).
+    #[inline]
+    fn round(group: &[Quad]) -> Round {
+        let mut round = Round::default();
+        for lane in 0..LANES {
+            let q = group.get(lane).unwrap_or(&group[0]);
+            round.offset[lane] = q.offset.checked_mul(3).expect("source under 4 GB");
+            round.w[lane] = q.w;
+        }
+        round
     }
 }

@@ -11,6 +11,8 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+mod plain;
+
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
@@ -30,6 +32,9 @@ impl RemapTable {
     ) -> RemapTable {
         let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
         let h = dst.size().height as usize;
+        if !parallel && b.plain() {
+            return b.plain_table();
+        }
         if !parallel {
             // the last serial build's band, reused: a fresh one's pages cost a fault each
             let mut band = SPARE_BAND.with(|s| std::mem::take(&mut *s.borrow_mut()));
@@ -69,6 +74,9 @@ struct Builder<'a> {
     wrap: Wrap,
     cap: u32,
     source_size: ImageSize,
+    /// Every tap inside the source is one block: no 360° wrap, no one-pixel-wide source (see
+    /// [`Builder::add_tap`]).
+    one_block: bool,
     /// Pixels outside it are not mapped (they take nothing from the source).
     seen: Option<&'a Footprint>,
     /// The output camera's unprojection by columns and rows, where it has one: then each
@@ -130,6 +138,7 @@ impl<'a> Builder<'a> {
             wrap,
             cap: max_supersample.clamp(1, MAX_SUPERSAMPLE),
             source_size: src.size(),
+            one_block: wrap == Wrap::None && src.size().width >= 2,
             seen,
             by_parts,
             centre_columns,
@@ -215,71 +224,15 @@ impl<'a> Builder<'a> {
         band.row_lens.reserve(rows.len());
         band.row_reach.reserve(rows.len());
         band.cover.reserve(n);
-        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut scratch = Scratch::default();
         let mut parts = Parts::default();
         let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
         self.centres(rows.start as isize - 1, &mut parts, &mut above);
         self.centres(rows.start as isize, &mut parts, &mut here);
         for v in rows {
-            let vf = v as f64;
             let row_start = band.quads.len();
             self.centres(v as isize + 1, &mut parts, &mut below);
-            parts.tap_rows.iter_mut().for_each(Vec::clear);
-            for u in 0..w {
-                let centre = here[u + 1];
-                if centre.is_none() {
-                    // no tap (what the general path below gives such a pixel, cheaply)
-                    band.quads.push(Quad::default());
-                    band.counts.push(1);
-                    band.cover.push(Cover::None);
-                    continue;
-                }
-                let (nu, nv) = supersampling(
-                    centre,
-                    [here[u], here[u + 2]],
-                    [above[u + 1], below[u + 1]],
-                    period,
-                );
-                let (nu, nv) = (nu.min(self.cap), nv.min(self.cap));
-                scratch.blocks.clear();
-                let inside = if (nu, nv) == (1, 1) {
-                    self.add_tap(centre, &mut scratch) as u32
-                } else {
-                    // the taps row by row, each row's columns left to right
-                    parts.bearings.clear();
-                    match self.by_parts {
-                        Some(sep) => {
-                            let columns =
-                                &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
-                            let rows = &mut parts.tap_rows[nv as usize];
-                            if rows.is_empty() {
-                                rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
-                            }
-                            for &row in rows.iter() {
-                                sep.bearings(columns, row, &mut parts.bearings);
-                            }
-                        }
-                        None => self.tap_bearings(u as f64, vf, nu, nv, &mut parts.bearings),
-                    }
-                    parts.taps.clear();
-                    self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
-                    let mut inside = 0;
-                    for &p in &parts.taps {
-                        inside += self.add_tap(p, &mut scratch) as u32;
-                    }
-                    inside
-                };
-                let taps = nu * nv;
-                let before = band.quads.len();
-                quantize(&mut scratch, inside, taps, &mut band.quads);
-                band.counts.push((band.quads.len() - before) as u8);
-                band.cover.push(match inside {
-                    0 => Cover::None,
-                    k if k == taps => Cover::Full,
-                    _ => Cover::Part,
-                });
-            }
+            self.row(v, [&above, &here, &below], &mut scratch, &mut parts, band);
             let row = &band.quads[row_start..];
             band.row_lens.push(row.len() as u32);
             band.row_reach
@@ -289,22 +242,117 @@ impl<'a> Builder<'a> {
         }
     }
 
+    /// Output row `v` of the band, pixel by pixel, from the source positions of the centres of
+    /// rows v - 1, v and v + 1 (columns -1..=width).
+    fn row(
+        &self,
+        v: usize,
+        [above, here, below]: [&[Option<Point2<f64>>]; 3],
+        scratch: &mut Scratch,
+        parts: &mut Parts,
+        band: &mut Band,
+    ) {
+        let w = self.dst.size().width as usize;
+        let vf = v as f64;
+        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
+        parts.tap_rows.iter_mut().for_each(Vec::clear);
+        for u in 0..w {
+            let centre = here[u + 1];
+            if centre.is_none() {
+                // no tap (what the general path below gives such a pixel, cheaply)
+                band.quads.push(Quad::default());
+                band.counts.push(1);
+                band.cover.push(Cover::None);
+                continue;
+            }
+            // (no scale estimate where the cap allows one tap)
+            let (nu, nv) = match self.cap {
+                1 => (1, 1),
+                cap => {
+                    let (nu, nv) = supersampling(
+                        centre,
+                        [here[u], here[u + 2]],
+                        [above[u + 1], below[u + 1]],
+                        period,
+                    );
+                    (nu.min(cap), nv.min(cap))
+                }
+            };
+            scratch.blocks.clear();
+            let inside = if (nu, nv) == (1, 1) {
+                self.add_tap(centre, scratch) as u32
+            } else {
+                // the taps row by row, each row's columns left to right
+                parts.bearings.clear();
+                match self.by_parts {
+                    Some(sep) => {
+                        let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
+                        let rows = &mut parts.tap_rows[nv as usize];
+                        if rows.is_empty() {
+                            rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
+                        }
+                        for &row in rows.iter() {
+                            sep.bearings(columns, row, &mut parts.bearings);
+                        }
+                    }
+                    None => self.tap_bearings(u as f64, vf, nu, nv, &mut parts.bearings),
+                }
+                parts.taps.clear();
+                self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+                let mut inside = 0;
+                for &p in &parts.taps {
+                    inside += self.add_tap(p, scratch) as u32;
+                }
+                inside
+            };
+            let taps = nu * nv;
+            let before = band.quads.len();
+            quantize(scratch, inside, taps, &mut band.quads);
+            band.counts.push((band.quads.len() - before) as u8);
+            band.cover.push(match inside {
+                0 => Cover::None,
+                k if k == taps => Cover::Full,
+                _ => Cover::Part,
+            });
+        }
+    }
+
     /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
     /// unit scale (the pixel's taps are averaged when quantized). Whether it was inside.
     #[inline(always)]
     fn add_tap(&self, p: Option<Point2<f64>>, s: &mut Scratch) -> bool {
         let Some(p) = p else { return false };
+        let Some((x0, y0, [tl, bl, tr, br])) = self.block(p) else {
+            return false;
+        };
+        let size = self.source_size;
+        let offset = y0 * size.width + x0;
+        if x0 + 1 == size.width {
+            // The right neighbour is column 0 (across a 360° source's wrap, or the same column
+            // of a one-pixel-wide source): it is a block of its own, left column only.
+            merge(&mut s.blocks, offset, [tl, bl, 0.0, 0.0]);
+            merge(&mut s.blocks, y0 * size.width, [tr, br, 0.0, 0.0]);
+        } else {
+            merge(&mut s.blocks, offset, [tl, bl, tr, br]);
+        }
+        true
+    }
+
+    /// The bilinear block of a tap at source position `p`: its top-left source pixel (x0, y0)
+    /// and the weights of top-left, bottom-left, top-right, bottom-right; None outside.
+    #[inline(always)]
+    fn block(&self, p: Point2<f64>) -> Option<(u32, u32, [f64; 4])> {
         let size = self.source_size;
         let (sw, sh) = (size.width as f64, size.height as f64);
         let (mut x, y) = (p.x, p.y);
         if self.wrap == Wrap::Horizontal {
             x = x.rem_euclid(sw);
         } else if !(x >= -0.5 && x < sw - 0.5) {
-            return false;
+            return None;
         }
         // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
         if !(y >= -0.5 && y <= sh - 0.5) {
-            return false;
+            return None;
         }
         // Within half a pixel of the border the edge pixel is repeated (it covers that area).
         let y = y.clamp(0.0, sh - 1.0);
@@ -320,16 +368,7 @@ impl<'a> Builder<'a> {
         let fx = x - x0 as f64;
         let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
         let (tr, br) = (fx * (1.0 - fy), fx * fy);
-        let offset = y0 * size.width + x0;
-        if x0 + 1 == size.width {
-            // The right neighbour is column 0 (across a 360° source's wrap, or the same column
-            // of a one-pixel-wide source): it is a block of its own, left column only.
-            merge(&mut s.blocks, offset, [tl, bl, 0.0, 0.0]);
-            merge(&mut s.blocks, y0 * size.width, [tr, br, 0.0, 0.0]);
-        } else {
-            merge(&mut s.blocks, offset, [tl, bl, tr, br]);
-        }
-        true
+        Some((x0, y0, [tl, bl, tr, br]))
     }
 
     /// Concatenates the bands (in row order) into the table, its rows in groups of pixels.
@@ -387,20 +426,7 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
     let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
     let scale = WEIGHT_ONE as f64 / taps as f64;
     if let [(offset, w)] = s.blocks[..] {
-        // One block (most pixels): each weight rounded, the largest one (first on ties) takes
-        // up the rounding error so that the sum is exact; it moves by at most 1.5/16384.
-        let y = w.map(|x| x * scale);
-        let q = y.map(|x| (x + 0.5) as i32);
-        let mut big = 0;
-        for k in 1..4 {
-            if y[k] > y[big] {
-                big = k;
-            }
-        }
-        let fix = total - q.iter().sum::<i32>();
-        // no store to q[big]: an indexed store sends the weights through memory
-        let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
-        out.push(Quad { offset, w });
+        out.push(quantize_block(offset, w, total, scale));
         return;
     }
     s.ints.clear();
@@ -452,6 +478,26 @@ fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
     if out.len() == before {
         out.push(Quad::default());
     }
+}
+
+/// The quad of a pixel whose taps fell in one block (most pixels): each weight (times `scale`)
+/// rounded, the largest one (first on ties) taking up the rounding error so that the sum is
+/// `total` exactly; it moves by at most 1.5/16384.
+#[inline(always)]
+fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
+    let y = w.map(|x| x * scale);
+    let q = y.map(|x| (x + 0.5) as i32);
+    // (the running maximum in a register: a select, not a load, per weight)
+    let (mut big, mut top) = (0, y[0]);
+    for (k, &x) in y.iter().enumerate().skip(1) {
+        if x > top {
+            (big, top) = (k, x);
+        }
+    }
+    let fix = total - q.iter().sum::<i32>();
+    // no store to q[big]: an indexed store sends the weights through memory
+    let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
+    Quad { offset, w }
 }
 
 /// Supersampling of an output pixel along its u and v axes: the source pixels one output step
