@@ -33,19 +33,11 @@ fn world_from_camera(frame: &Frame, k: usize) -> Pose {
 
 #[test]
 fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fresh = tmp.path().join("kitti360");
-    // One thread here, several where the fixture was made: the bytes must not depend on it.
-    // Two of its three frames: a frame's images depend on nothing else, and a scan on its
-    // neighbour only (the sweep's motion), which the second frame has as the fixture's has.
-    let status = std::process::Command::new(common::BIN)
-        .args(["synth", "--kitti360", "--scale", "0.25", "--frames", "2"])
-        .arg("--output")
-        .arg(&fresh)
-        .env("RAYON_NUM_THREADS", "1")
-        .status()
-        .unwrap();
-    assert!(status.success());
+    // The command tests' sequence (`synth --kitti360 --scale 0.25 --frames 2`), made on one
+    // thread; the fixture was made on several: the bytes must not depend on it. Two of its
+    // three frames: a frame's images depend on nothing else, and a scan on its neighbour only
+    // (the sweep's motion), which the second frame has as the fixture's has.
+    let fresh = crate::kitti360_command::sequence(false);
     let (a, b) = (common::tree_files(&fixture()), common::tree_files(&fresh));
     // 5 calibration files, poses, boxes; 3 frames of 4 images and a scan
     assert_eq!(a.len(), 7 + 3 * 5, "{a:?}");

@@ -57,17 +57,10 @@ pub fn edit_table(root: &Path, name: &str, edit: impl FnOnce(&mut Vec<Value>)) {
 
 #[test]
 fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
-    let tmp = tempfile::tempdir().unwrap();
-    let fresh = tmp.path().join("nuscenes");
-    // The first sample only: a sample's images and sweep depend on nothing else.
-    let status = std::process::Command::new(common::BIN)
-        .args(["synth", "--nuscenes", "--scale", "0.25", "--frames", "1"])
-        .arg("--output")
-        .arg(&fresh)
-        .env("RAYON_NUM_THREADS", "1")
-        .status()
-        .unwrap();
-    assert!(status.success());
+    // The command tests' scene (`synth --nuscenes --scale 0.25 --frames 2`), made on one
+    // thread; the fixture was made on several. Its two samples: a sample's images and sweep
+    // depend on nothing else.
+    let fresh = crate::nuscenes_command::scene(false);
     let shipped = common::tree_files(&fixture());
     assert_eq!(shipped.len(), 13 + 3 * 7, "{shipped:?}");
     let fresh_files = common::tree_files(&fresh);
@@ -75,7 +68,7 @@ fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
         .iter()
         .filter(|f| f.starts_with("samples/"))
         .collect();
-    assert_eq!(data.len(), 7);
+    assert_eq!(data.len(), 2 * 7);
     for f in data {
         assert!(shipped.contains(f), "{f} not shipped");
         assert!(

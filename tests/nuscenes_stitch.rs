@@ -9,28 +9,9 @@ use panoconv::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Rotated};
 use panoconv::image::RgbImage;
 use panoconv::nuscenes::{NuScenes, Options, Selection};
 use panoconv::tools::synth360::scene::{scene_at, world_from_scene, world_to_scene, FIRST_FRAME};
-use panoconv::tools::synth_nuscenes::{write_scene, SynthNuScenesOptions, VERSION};
+use panoconv::tools::synth_nuscenes::VERSION;
 use panoconv::warp::{Stitch, StitchCamera, StitchOptions};
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
-
-/// The zero-baseline scene at scale 0.25 (400x225 images), one sample, made once per run.
-pub fn zero_baseline_scene() -> &'static Path {
-    static DIR: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
-    &DIR.get_or_init(|| {
-        let tmp = tempfile::tempdir().unwrap();
-        let root = tmp.path().join("nuscenes");
-        let options = SynthNuScenesOptions {
-            samples: 1,
-            scale: 0.25,
-            zero_baseline: true,
-        };
-        write_scene(&root, &options, false, &panoconv::run::Silent).unwrap();
-        (tmp, root)
-    })
-    .1
-}
 
 /// PSNR every camera's region must reach (52.7 to 56.2 dB measured). The squared error left
 /// is at the silhouettes (a bilinear tap's blur depends on its fraction between taps; the
@@ -39,7 +20,8 @@ const MIN_PSNR_DB: f64 = 50.0;
 
 #[test]
 fn a_zero_baseline_six_camera_stitch_matches_the_direct_panorama_render() {
-    let root = zero_baseline_scene();
+    // the command tests' zero-baseline scene (scale 0.25, 400x225 images), its first sample
+    let root = crate::nuscenes_command::scene(true);
     let ds = NuScenes::open(root, VERSION, &Selection::default()).unwrap();
     let item = &ds.items().unwrap()[0];
     let frame = ds
