@@ -15,7 +15,10 @@
 //!    axis (for a lens with a field of view), and (b) the distance of p_i to the nearest image
 //!    edge (pixels; the edges at −0.5 and size − 0.5) divided by the local scale at p_i (pixels
 //!    per radian: the larger of the image displacements of q_i turned by 1e-4 rad about two
-//!    axes perpendicular to it). m_i ≤ 0, or no image of q_i, gives w_i = 0.
+//!    axes perpendicular to it). m_i ≤ 0, or no image of q_i, gives w_i = 0; so does a sample
+//!    that lies only partly inside the image (a supersampled pixel at its edge, whose taps
+//!    beyond the edge count as black in the table): a camera contributes where its image covers
+//!    the pixel's whole footprint.
 //! 4. The output value is Σ w_i·g_i·v_i / Σ w_i per channel, rounded to the nearest integer
 //!    (ties away from zero), clamped to 0..=255, black where Σ w_i = 0. The source map names the
 //!    camera of largest weight (the first on a tie), 255 where none.

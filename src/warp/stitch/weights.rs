@@ -171,13 +171,13 @@ impl Stitch {
                 reach: &reach,
                 camera: i,
             };
-            tables.push(RemapTable::build_parallel(
+            let table = RemapTable::build_parallel(
                 &gated,
                 proxy,
                 &Matrix3::identity(),
                 Wrap::None,
                 MAX_SUPERSAMPLE,
-            ));
+            );
             // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
             // the pixels beyond the bound keep w_i = 0
             // where the field of view's margin exceeds the blend width the weight is set by
@@ -193,7 +193,9 @@ impl Stitch {
                 .enumerate()
                 .for_each(|(v, row)| {
                     for (u, out) in row.iter_mut().enumerate() {
-                        if !reach.may_reach_pixel(i, u, v) {
+                        // a sample partly beyond the image (a supersampled pixel at its
+                        // edge) is darkened by the taps outside: the camera gives nothing there
+                        if !reach.may_reach_pixel(i, u, v) || !table.is_inside(u as u32, v as u32) {
                             continue;
                         }
                         let Some(d) = reach.bearing(u, v) else {
@@ -222,6 +224,7 @@ impl Stitch {
                         }
                     }
                 });
+            tables.push(table);
             weights.push(wi);
         }
         TablesAndWeights {
