@@ -18,7 +18,7 @@ const WIDTH: &str = "720";
 const VERSION: &str = "v1.0-mini";
 
 /// A synthetic scene (scale 0.25, two samples), made once per binary build.
-fn scene(zero_baseline: bool) -> &'static Path {
+pub fn scene(zero_baseline: bool) -> &'static Path {
     static ZERO: OnceLock<PathBuf> = OnceLock::new();
     static OFFSET: OnceLock<PathBuf> = OnceLock::new();
     let cell = if zero_baseline { &ZERO } else { &OFFSET };
