@@ -287,12 +287,16 @@ def stitch_rig(rig, width, out, name):
                     continue
                 pu, pv = uu[sel], vv[sel]
                 total = np.zeros((pu.size, 3))
+                whole = np.ones(pu.size, bool)
                 for j in range(b):
                     for i in range(a):
                         du, dv = (i + 0.5) / a - 0.5, (j + 0.5) / b - 0.5
                         _, su, sv = samples(model, rot, trans, centre, bearings(pu + du, pv + dv))
                         total += gather(img, su, sv)
+                        whole &= source_map(img, su, sv)[0] > -1e3
                 acc[sel] = total / (a * b)
+                # a pixel the image covers only in part gives nothing (its taps beyond are black)
+                w[sel] = np.where(whole, w[sel], 0.0)
         remapped.append(np.clip(np.rint(acc), 0, 255).astype(np.uint8))
         ws.append(w)
     gains = exposure_gains(remapped, ws)
