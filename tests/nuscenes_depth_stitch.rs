@@ -25,11 +25,11 @@ const MIN_OBJECT_DB: f64 = 35.0;
 const MAX_P95_MRAD: f64 = 0.5;
 /// Objects covering at least this many pixels are measured. Each is held to
 /// [`MIN_OBJECT_DB`] over its pixels more than one pixel from its silhouette; its whole figure
-/// is reported. At an occlusion edge a camera sees the nearer surface's silhouette displaced
-/// from where C2 sees it by the parallax between them (a car 19 m ahead, its top edge against
-/// the sky: CAM_FRONT is 3 cm lower than C2, 0.33 px at 1656 px), and its own blur (σ 0.55 px,
-/// the bilinear taps) mixes that surface into the pixels beside the edge in another proportion
-/// than C2's: the far car (406 px) reads 33.0 dB whole, 52 dB inside.
+/// is reported. On its outline each camera sees the background beside it displaced from C2's
+/// view by the parallax between them (CAM_FRONT is 3 cm lower than C2: a third of a pixel at
+/// 19 m), and its blur (σ 0.55 px, the bilinear taps) mixes that background into the edge
+/// pixels in another proportion than C2's: the pedestrian (944 px) reads 34.9 dB whole, 53.8 dB
+/// inside.
 const MIN_OBJECT_PX: usize = 20;
 /// Reference samples per pixel side.
 const GRID: usize = 8;
