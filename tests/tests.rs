@@ -39,6 +39,7 @@ mod labels;
 mod labels_meant;
 mod nuscenes;
 mod nuscenes_command;
+mod nuscenes_depth_stitch;
 mod nuscenes_devkit;
 mod nuscenes_stitch;
 mod pano;

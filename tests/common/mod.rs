@@ -15,6 +15,8 @@ mod paths;
 pub use paths::*;
 mod render;
 pub use render::{psnr, render_where, Window};
+mod stitch_figures;
+pub use stitch_figures::Truth;
 
 /// The outcome of one run of the binary.
 #[derive(Debug)]

@@ -14,7 +14,8 @@
 //!
 //! The distance along a ray is the nearest of these; a camera sees a point when none of them
 //! lies nearer on its own ray (within [`SURFACE_TOLERANCE`] for the exact surfaces, the
-//! LiDAR's [`SCAN_TOLERANCE`] for the splats).
+//! LiDAR's [`SCAN_TOLERANCE`] for the splats), and its sample of the point is clean when no
+//! other box lies 5 % nearer on the rim of its footprint ([`RING_RAYS`] rays).
 //!
 //! Time: the scan is the reader's, motion-compensated to the frame's time (docs/kitti360.md,
 //! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
@@ -44,6 +45,8 @@ pub const SURFACE_TOLERANCE: f64 = 1e-3;
 /// A residual splat nearer than the point by more than this (metres, plus 5 % of the
 /// distance) hides it.
 pub const SCAN_TOLERANCE: f64 = 0.1;
+/// Rays on the rim of a camera sample's footprint that [`StitchDepth::hidden_near`] casts.
+const RING_RAYS: usize = 8;
 
 /// How a rig frame's cameras are stitched.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -365,6 +368,49 @@ impl StitchDepth for SceneDepth {
             .is_none_or(|s| s.range(&d) >= length * 0.95 - SCAN_TOLERANCE)
     }
 
+    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        let Some(eye) = self.eyes.get(camera) else {
+            return false;
+        };
+        let v = x - eye;
+        let length = v.norm();
+        if !(length > 0.0 && radius > 0.0) {
+            return false;
+        }
+        let d = v / length;
+        let helper = if d.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let a = d.cross(&helper).normalize();
+        let b = d.cross(&a);
+        let spread = radius.tan();
+        let nearer = length * 0.95 - SURFACE_TOLERANCE;
+        self.solids.iter().any(|s| {
+            if s.contains(x, SURFACE_TOLERANCE) {
+                return false;
+            }
+            let oc = s.centre - eye;
+            let along = oc.dot(&d);
+            let reach = s.radius + along.max(0.0) * spread;
+            if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
+                return false;
+            }
+            (0..RING_RAYS).any(|k| {
+                let turn = k as f64 * TAU / RING_RAYS as f64;
+                let ray = (d + (a * turn.cos() + b * turn.sin()) * spread).normalize();
+                // the box's outline moves by the parallax between the eye and the centre;
+                // under a tenth of the footprint the blur mixes it in as the centre sees it
+                let base = eye - self.centre;
+                let across = (base - ray * base.dot(&ray)).norm();
+                s.hit(eye, &ray).is_some_and(|t| {
+                    t < nearer && across * (1.0 / t - 1.0 / length) > radius / 10.0
+                })
+            })
+        })
+    }
+
     fn nearest(&self) -> f64 {
         self.nearest
     }
@@ -515,6 +561,35 @@ mod tests {
             useful += usize::from(bound > 2.0 * scene.nearest());
         }
         assert!(tested == 60_000 && useful > 1000, "{useful}");
+    }
+
+    #[test]
+    fn a_nearer_box_within_a_samples_footprint_hides_it_and_the_points_own_box_does_not() {
+        // a car across the view 10 m ahead (1.8 m deep: its faces at 9.1 and 10.9 m, its roof
+        // at 0.1 m below the eye)
+        let car = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(0.0, 1.6, 10.0), 0.0);
+        // the eye 0.5 m beside the output centre, and the eye at the centre (no parallax)
+        let f = frame(ground_points(), vec![car]);
+        let scene = SceneDepth::new(&f, Vector3::new(0.5, 0.0, 0.0), vec![Vector3::zeros()]);
+        let centred = SceneDepth::new(&f, Vector3::zeros(), vec![Vector3::zeros()]);
+        let top = 1.6 - 1.5;
+        // the eye sees the roof: its outline is the far edge; a point 30 m away 1 mrad above it
+        let edge = (top / 10.9f64).atan();
+        let above = |mrad: f64| {
+            let e = edge - mrad * 1e-3;
+            Vector3::new(0.0, e.tan(), 1.0).normalize() * 30.0
+        };
+        assert!(scene.sees(0, &above(1.0)));
+        // the footprint of 2 mrad reaches the roof, one of 0.5 mrad does not
+        assert!(scene.hidden_near(0, &above(1.0), 2e-3));
+        assert!(!scene.hidden_near(0, &above(1.0), 0.5e-3));
+        // without parallax the blur mixes the roof in as the centre sees it
+        assert!(!centred.hidden_near(0, &above(1.0), 2e-3));
+        // a point of the car's own rear face beside its edge is not hidden by the car
+        let on_car = Vector3::new(0.0, top + 0.01, 9.1);
+        assert!(scene.sees(0, &on_car) && !scene.hidden_near(0, &on_car, 2e-3));
+        // a camera that is not in the scene hides nothing
+        assert!(!scene.hidden_near(3, &above(1.0), 2e-3));
     }
 
     #[test]

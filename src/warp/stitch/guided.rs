@@ -21,6 +21,16 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
     /// nothing of the scene lies nearer on the segment from its centre to `x`.
     fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool;
 
+    /// Whether a surface other than `x`'s own lies nearer than `x` on a ray from camera
+    /// `camera`'s centre within `radius` radians of its ray to `x`, its outline moved by the
+    /// parallax between the camera and the output centre by more than a tenth of `radius`: the
+    /// camera's sample of `x` (its blur, its bilinear taps) would mix that surface in where the
+    /// output centre does not see it. By default none.
+    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        let _ = (camera, x, radius);
+        false
+    }
+
     /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
     fn nearest(&self) -> f64;
 

@@ -10,6 +10,9 @@ use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 
+/// A depth-guided sample's footprint radius, source pixels: the source's blur (σ 0.55 px,
+/// reaching 1.5 px) and the bilinear taps' reach.
+const FOOTPRINT_PX: f64 = 1.5;
 /// Angle of the small turns that measure a camera's local scale, radians.
 const SCALE_PROBE: f64 = 1e-4;
 
@@ -188,6 +191,16 @@ impl Stitch {
                 .map(|t| t - b - FOV_SLACK)
                 .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
                 .map(|a| (a.cos(), b));
+            // the angle of a sample's footprint in camera i (FOOTPRINT_PX of its pixels at its
+            // axis): nothing nearer than the point may lie within it
+            let footprint = {
+                let axis = camera.model.project_point(&Vector3::z());
+                let off = camera.model.project_point(&Vector3::new(1e-3, 0.0, 1.0));
+                match (axis, off) {
+                    (Ok(p), Ok(q)) => FOOTPRINT_PX / ((q - p).norm() / 1e-3),
+                    _ => 0.0,
+                }
+            };
             let mut wi = vec![0f32; w * h];
             wi.par_chunks_mut(w.max(1))
                 .enumerate()
@@ -207,7 +220,8 @@ impl Stitch {
                                 let t = t[v * w + u];
                                 // step 2 of the guided model: a camera that does not see
                                 // the scene's point gives nothing there
-                                if !depth.sees(i, &proxy.point_at(&n, t)) {
+                                let x = proxy.point_at(&n, t);
+                                if !depth.sees(i, &x) || depth.hidden_near(i, &x, footprint) {
                                     continue;
                                 }
                                 proxy.local_at(&n, t)
