@@ -38,7 +38,7 @@ fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
     // three frames: a frame's images depend on nothing else, and a scan on its neighbour only
     // (the sweep's motion), which the second frame has as the fixture's has.
     let fresh = crate::kitti360_command::sequence(false);
-    let (a, b) = (common::tree_files(&fixture()), common::tree_files(&fresh));
+    let (a, b) = (common::tree_files(&fixture()), common::tree_files(fresh));
     // 5 calibration files, poses, boxes; 3 frames of 4 images and a scan
     assert_eq!(a.len(), 7 + 3 * 5, "{a:?}");
     let third: Vec<&String> = a.iter().filter(|f| f.contains("0000000252.")).collect();

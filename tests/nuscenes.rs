@@ -63,7 +63,7 @@ fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
     let fresh = crate::nuscenes_command::scene(false);
     let shipped = common::tree_files(&fixture());
     assert_eq!(shipped.len(), 13 + 3 * 7, "{shipped:?}");
-    let fresh_files = common::tree_files(&fresh);
+    let fresh_files = common::tree_files(fresh);
     let data: Vec<&String> = fresh_files
         .iter()
         .filter(|f| f.starts_with("samples/"))
