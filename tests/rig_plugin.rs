@@ -93,7 +93,7 @@ impl ToyRig {
         let mut boxes = Vec::new();
         for (n, line) in text.lines().enumerate() {
             let t: Vec<&str> = line.split_whitespace().collect();
-            let v: Vec<f64> = t[1..].iter().filter_map(|s| s.parse().ok()).collect();
+            let v: Vec<f64> = t.iter().skip(1).filter_map(|s| s.parse().ok()).collect();
             if t.len() != 8 || v.len() != 7 {
                 return Err(Error::file(
                     path,

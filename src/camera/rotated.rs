@@ -25,6 +25,18 @@ pub fn is_rotation(m: &Matrix3<f64>, tol: f64) -> bool {
         && (m.determinant() - 1.0).abs() <= tol
 }
 
+/// Two unit vectors perpendicular to unit vector `n` and to each other (a right-handed
+/// frame with `n`).
+pub fn perpendiculars(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let a = n.cross(&helper).normalize();
+    (a, n.cross(&a))
+}
+
 /// `inner` seen from a reference frame in which its axes are `reference_from_camera`: bearings
 /// in and out of this model are in the reference frame.
 #[derive(Debug, Clone)]

@@ -23,22 +23,17 @@ fn the_zero_baseline_panorama_matches_the_direct_render_with_exact_labels_and_de
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
     // the resampling is compared without exposure gains (they move the fisheyes by 0.27 %)
-    let run = kitti360(
-        root,
-        &out,
-        &[
-            "--to",
-            "equirect",
-            "--pano-width",
-            WIDTH,
-            "--frames",
-            "250",
-            "--depth",
-            "--lidar-azimuth-step",
-            LIDAR_STEP,
-            "--no-exposure-gains",
-        ],
-    );
+    let view = [
+        "--to",
+        "equirect",
+        "--pano-width",
+        WIDTH,
+        "--frames",
+        "250",
+        "--no-exposure-gains",
+    ];
+    let depth = ["--depth", "--lidar-azimuth-step", LIDAR_STEP];
+    let run = kitti360(root, &out, &[&view[..], &depth].concat());
     assert_success(&run);
     let w = written(&out, "000250");
     assert_eq!(w.camera.size(), ImageSize::new(720, 360));
@@ -53,21 +48,8 @@ fn the_zero_baseline_panorama_matches_the_direct_render_with_exact_labels_and_de
     // the fixed stitch of the same rig: at zero baseline the distance does not matter, so the
     // depth-guided default gives the same figures
     let fixed = tmp.path().join("fixed");
-    assert_success(&kitti360(
-        root,
-        &fixed,
-        &[
-            "--to",
-            "equirect",
-            "--pano-width",
-            WIDTH,
-            "--frames",
-            "250",
-            "--no-exposure-gains",
-            "--stitch-mode",
-            "fixed",
-        ],
-    ));
+    let fixed_mode = ["--stitch-mode", "fixed"];
+    assert_success(&kitti360(root, &fixed, &[&view[..], &fixed_mode].concat()));
     let w_fixed = written(&fixed, "000250");
     let [depth_db, fixed_db] =
         region_psnr(root, [(out.as_path(), &w), (fixed.as_path(), &w_fixed)]);

@@ -22,7 +22,7 @@
 //! need no further move; a reader with per-camera times would move them here.
 
 use super::ground::{Ground, GROUND_FIT};
-use crate::camera::CameraModel;
+use crate::camera::{perpendiculars, CameraModel};
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::{Frame, SourceBox};
@@ -378,15 +378,13 @@ impl StitchDepth for SceneDepth {
             return false;
         }
         let d = v / length;
-        let helper = if d.x.abs() < 0.9 {
-            Vector3::x()
-        } else {
-            Vector3::y()
-        };
-        let a = d.cross(&helper).normalize();
-        let b = d.cross(&a);
         let spread = radius.tan();
         let nearer = length * 0.95 - SURFACE_TOLERANCE;
+        // the box's outline moves by the parallax across the eye's offset from the centre
+        let base = eye - self.centre;
+        // the rim's rays, made for the first box that passes the sphere test (most samples
+        // have none near)
+        let mut rim: Option<[Vector3<f64>; RING_RAYS]> = None;
         self.solids.iter().any(|s| {
             if s.contains(x, SURFACE_TOLERANCE) {
                 return false;
@@ -397,14 +395,17 @@ impl StitchDepth for SceneDepth {
             if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
                 return false;
             }
-            (0..RING_RAYS).any(|k| {
-                let turn = k as f64 * TAU / RING_RAYS as f64;
-                let ray = (d + (a * turn.cos() + b * turn.sin()) * spread).normalize();
-                // the box's outline moves by the parallax between the eye and the centre;
-                // under a tenth of the footprint the blur mixes it in as the centre sees it
-                let base = eye - self.centre;
-                let across = (base - ray * base.dot(&ray)).norm();
-                s.hit(eye, &ray).is_some_and(|t| {
+            let rays = rim.get_or_insert_with(|| {
+                let (a, b) = perpendiculars(&d);
+                std::array::from_fn(|k| {
+                    let turn = k as f64 * TAU / RING_RAYS as f64;
+                    (d + (a * turn.cos() + b * turn.sin()) * spread).normalize()
+                })
+            });
+            rays.iter().any(|ray| {
+                // under a tenth of the footprint the blur mixes the box in as the centre sees it
+                let across = (base - ray * base.dot(ray)).norm();
+                s.hit(eye, ray).is_some_and(|t| {
                     t < nearer && across * (1.0 / t - 1.0 / length) > radius / 10.0
                 })
             })

@@ -3,7 +3,7 @@
 
 use super::proxy::{Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
-use crate::camera::CameraModel;
+use crate::camera::{perpendiculars, CameraModel};
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
 use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
@@ -20,18 +20,6 @@ const SCALE_PROBE: f64 = 1e-4;
 fn smoothstep(t: f64) -> f64 {
     let t = t.clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
-}
-
-/// Two unit vectors perpendicular to `q` and to each other.
-fn perpendiculars(q: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-    let n = q.normalize();
-    let helper = if n.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let a = n.cross(&helper).normalize();
-    (a, n.cross(&a))
 }
 
 /// Camera i's angular margin m_i at camera point `q` (step 3 of the model), None without an
@@ -64,8 +52,8 @@ fn margin_capped(
         .min(size.width as f64 - 0.5 - p.x)
         .min(p.y + 0.5)
         .min(size.height as f64 - 0.5 - p.y);
-    let (a, b) = perpendiculars(q);
     let n = q.normalize();
+    let (a, b) = perpendiculars(&n);
     let mut scale: f64 = 0.0;
     for axis in [a, b] {
         let turned =
