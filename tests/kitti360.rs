@@ -79,10 +79,12 @@ fn shipped_fixture_is_regenerated_byte_for_byte_on_one_thread() {
 fn the_readers_geometry_re_renders_the_shipped_images() {
     let seq = open(&fixture());
     assert_eq!(seq.frames(), vec![250, 251, 252]);
-    for frame_number in [250, 252] {
+    // every camera in one of the two frames, each frame with a pinhole and a fisheye: a
+    // camera's calibration and a frame's pose are each checked (a whole render is ~1 CPU-s)
+    for (frame_number, cameras) in [(250, [0, 3]), (252, [1, 2])] {
         let frame = seq.frame(frame_number).unwrap();
         assert_eq!(frame.id, format!("{frame_number:06}"));
-        for k in 0..4 {
+        for k in cameras {
             let camera = match k {
                 0 | 1 => RenderCamera::Perspective(&seq.calibration.perspective[k].model),
                 _ => RenderCamera::Fisheye(&seq.calibration.fisheye[k - 2]),

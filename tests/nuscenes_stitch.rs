@@ -123,7 +123,12 @@ fn a_zero_baseline_six_camera_stitch_matches_the_direct_panorama_render() {
                 origin: Point2::new(u0 as f64, lo.1 as f64),
                 size: ImageSize::new(u1 + 1 - u0, hi.1 + 1 - lo.1),
             };
-            let direct = scene.render_with(&window, &centre, sigma, 16);
+            // only the strip's pixels of this region are traced (a region's bounding box
+            // holds others' pixels, and across the panorama's seam the whole width)
+            let (su, sv) = (u0, lo.1);
+            let direct = common::render_where(&scene, &window, &centre, sigma, 16, |u, v| {
+                in_region(u + su, v + sv)
+            });
             for v in lo.1..=hi.1 {
                 for u in u0..=u1 {
                     if in_region(u, v) {

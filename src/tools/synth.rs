@@ -73,6 +73,19 @@ impl SceneBox {
     /// Ray (origin o, unit direction d) against the box: distance and colour of the first hit.
     fn intersect(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<(f64, [f64; 3])> {
         let [h, w, l] = self.dimensions;
+        // Most rays miss most boxes: rejected against the sphere about the bottom centre
+        // through the farthest corners (the tilt turns about that point too), before the
+        // transforms. Widened by a relative 1e-9, so that no ray the slabs below would hit is
+        // rejected: a render is the same to the bit, only faster.
+        let oc = self.location - o;
+        let (along, dd) = (oc.dot(d), d.norm_squared());
+        // the squared radius, widened; the tests multiplied through by |d|²
+        let reach2 = (l * l / 4.0 + h * h + w * w / 4.0) * (1.0 + 4e-9) + 1e-12;
+        if (along < 0.0 && along * along > reach2 * dd)
+            || oc.norm_squared() * dd - along * along > reach2 * dd
+        {
+            return None;
+        }
         let (s, c) = self.rotation_y.sin_cos();
         // world = R(ry)·local + location; local = R(ry)ᵀ·(world - location)
         let yawed = |v: &Vector3<f64>| Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z);

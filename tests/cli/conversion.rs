@@ -165,17 +165,13 @@ fn help_shows_examples_and_exit_codes() {
 }
 
 #[test]
-fn synth_writes_the_cached_dataset_and_refuses_non_empty_output() {
+fn synth_refuses_a_non_empty_output_and_leaves_it_alone() {
+    // what `panoconv synth --output DIR` writes is checked by tests/sample.rs (the shared
+    // `synth_source()` against the shipped sample) and the README block (a second run)
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("synth");
-    let run = panoconv([
-        std::ffi::OsStr::new("synth"),
-        "--output".as_ref(),
-        out.as_os_str(),
-    ]);
-    assert_success(&run);
-    // deterministic: the same bytes as the cached copy the other tests use
-    assert_eq!(tree_hashes(&out), tree_hashes(synth_source()));
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
     let run = panoconv([
         std::ffi::OsStr::new("synth"),
         "--output".as_ref(),
@@ -183,4 +179,9 @@ fn synth_writes_the_cached_dataset_and_refuses_non_empty_output() {
     ]);
     assert_eq!(run.code, 2, "{}", run.stderr);
     assert!(run.stderr.contains("is not empty"), "{}", run.stderr);
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
 }
