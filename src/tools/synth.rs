@@ -232,32 +232,85 @@ impl Scene {
         let size = camera.size();
         let mut img = RgbImage::new(size.width, size.height);
         let w = size.width as usize;
+        if w == 0 {
+            return img;
+        }
+        let dus: Vec<f64> = offsets[..n_samples].iter().map(|o| o.0).collect();
+        let dvs: Vec<f64> = offsets
+            .iter()
+            .step_by(n_samples.max(1))
+            .map(|o| o.1)
+            .collect();
+        let columns = Lattice::new(0..w, &dus);
+        // bands of rows whose positions fit LATTICE_POINTS (one row where no pixel shares)
+        let band_rows = (LATTICE_POINTS / (columns.values.len() * n_samples).max(1)).clamp(1, 16);
         img.as_raw_mut()
-            .par_chunks_mut(w * 3)
+            .par_chunks_mut(w * 3 * band_rows)
             .enumerate()
-            .for_each(|(v, row)| {
-                for u in 0..w {
-                    let mut acc = [0.0; 3];
-                    let mut total = 0.0;
-                    for &(du, dv, wt) in &offsets {
-                        let Ok(d) = camera.unproject(&Point2::new(u as f64 + du, v as f64 + dv))
-                        else {
-                            continue;
-                        };
-                        let c = self.trace(centre, &d);
-                        for k in 0..3 {
-                            acc[k] += wt * c[k];
+            .for_each(|(band, rows)| {
+                let v0 = band * band_rows;
+                let lines = Lattice::new(v0..v0 + rows.len() / (w * 3), &dvs);
+                // each distinct sample position traced once: neighbouring pixels' footprints
+                // share them where the grid's step divides a pixel (the default footprint's
+                // 0.5 px), and a position is the same f64 pair whichever pixel names it
+                let colours: Vec<Option<[f64; 3]>> = (lines.values.iter())
+                    .flat_map(|&y| columns.values.iter().map(move |&x| (x, y)))
+                    .map(|(x, y)| {
+                        let d = camera.unproject(&Point2::new(x, y)).ok()?;
+                        Some(self.trace(centre, &d))
+                    })
+                    .collect();
+                for (r, row) in rows.chunks_mut(w * 3).enumerate() {
+                    for u in 0..w {
+                        let mut acc = [0.0; 3];
+                        let mut total = 0.0;
+                        for (k, &(_, _, wt)) in offsets.iter().enumerate() {
+                            let y = lines.index[r * n_samples + k / n_samples];
+                            let x = columns.index[u * n_samples + k % n_samples];
+                            let Some(c) = colours[y * columns.values.len() + x] else {
+                                continue;
+                            };
+                            for k in 0..3 {
+                                acc[k] += wt * c[k];
+                            }
+                            total += wt;
                         }
-                        total += wt;
-                    }
-                    if total > 0.0 {
-                        for k in 0..3 {
-                            row[u * 3 + k] = (acc[k] / total).round().clamp(0.0, 255.0) as u8;
+                        if total > 0.0 {
+                            for k in 0..3 {
+                                row[u * 3 + k] = (acc[k] / total).round().clamp(0.0, 255.0) as u8;
+                            }
                         }
                     }
                 }
             });
         img
+    }
+}
+
+/// Most sample positions a render band traces at once (a colour each: 16 MiB).
+const LATTICE_POINTS: usize = 1 << 19;
+
+/// The distinct sample coordinates of a run of pixels along one axis (pixel p's offsets `d`
+/// at `p as f64 + d`), and for each (pixel, offset) its coordinate's place among them.
+struct Lattice {
+    values: Vec<f64>,
+    /// `index[(p - first) * d.len() + i]`.
+    index: Vec<usize>,
+}
+
+impl Lattice {
+    fn new(pixels: std::ops::Range<usize>, d: &[f64]) -> Self {
+        let all: Vec<f64> = pixels
+            .flat_map(|p| d.iter().map(move |o| p as f64 + o))
+            .collect();
+        let mut values = all.clone();
+        values.sort_by(f64::total_cmp);
+        values.dedup();
+        let index = all
+            .iter()
+            .map(|x| values.partition_point(|v| v < x))
+            .collect();
+        Lattice { values, index }
     }
 }
 
