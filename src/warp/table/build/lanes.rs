@@ -177,18 +177,19 @@ impl Builder<'_> {
                 fx * fy,
             ]);
             inside[l] = ok;
-            offset[l] = if ok {
-                y0 as u32 * size.width + x0 as u32
-            } else {
-                0
-            };
+            // (wrapping operations that cannot wrap, the offset being below the source's pixel
+            // count: no overflow checks, which would keep the loop from vectorising, in
+            // debug builds)
+            let at = (y0 as u32).wrapping_mul(size.width).wrapping_add(x0 as u32);
+            offset[l] = if ok { at } else { 0 };
             for k in 0..4 {
                 w[k][l] = if ok { q[k] } else { 0 };
             }
         }
         let mut round = Round::default();
         for l in 0..LANES {
-            round.offset[l] = offset[l] * 3;
+            // (three times an offset fits a u32: `plain_table` checks the source's size)
+            round.offset[l] = offset[l].wrapping_mul(3);
             round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
         }
         (round, inside, offset.into_iter().max().unwrap_or(0))
@@ -224,12 +225,17 @@ fn quantize(weights: [f64; 4]) -> [i32; 4] {
     let (big, top) = if y1 > top { (1, y1) } else { (big, top) };
     let (big, top) = if y2 > top { (2, y2) } else { (big, top) };
     let big = if y3 > top { 3 } else { big };
-    let fix = WEIGHT_ONE - (q[0] + q[1] + q[2] + q[3]);
+    // (small numbers: wrapping operations that cannot wrap, without overflow checks)
+    let sum = q[0]
+        .wrapping_add(q[1])
+        .wrapping_add(q[2])
+        .wrapping_add(q[3]);
+    let fix = WEIGHT_ONE.wrapping_sub(sum);
     [
-        q[0] + if big == 0 { fix } else { 0 },
-        q[1] + if big == 1 { fix } else { 0 },
-        q[2] + if big == 2 { fix } else { 0 },
-        q[3] + if big == 3 { fix } else { 0 },
+        q[0].wrapping_add(if big == 0 { fix } else { 0 }),
+        q[1].wrapping_add(if big == 1 { fix } else { 0 }),
+        q[2].wrapping_add(if big == 2 { fix } else { 0 }),
+        q[3].wrapping_add(if big == 3 { fix } else { 0 }),
     ]
 }
 
