@@ -3,6 +3,7 @@
 //! image. The cylinder axis is the camera's y axis; rays along it have no image.
 
 use super::linear::{Linear, Mapping};
+use super::separable::Share;
 use super::{Projection, ProjectionReject};
 use nalgebra::Vector3;
 
@@ -49,6 +50,23 @@ impl Mapping for CylindricalMapping {
             return Err(ProjectionReject::OutsideDomain);
         }
         Ok(Vector3::new(s, h, c).normalize())
+    }
+
+    #[inline]
+    fn join_lanes(columns: &[Share], [h, _]: [f64; 2], [x, y, z]: [&mut [f64]; 3]) {
+        if !h.is_finite() {
+            for out in [x, y, z] {
+                out.fill(f64::NAN);
+            }
+            return;
+        }
+        for (((col, x), y), z) in columns.iter().zip(x).zip(y).zip(z) {
+            // `join`'s normalize, operation for operation: the sum of squares in order, its
+            // root, each coordinate divided by it (a NaN sine, no azimuth, gives NaN)
+            let [s, c] = col.0;
+            let n = (s * s + h * h + c * c).sqrt();
+            (*x, *y, *z) = (s / n, h / n, c / n);
+        }
     }
 
     fn distance(p: &Vector3<f64>) -> f64 {

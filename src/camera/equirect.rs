@@ -3,6 +3,7 @@
 //! the domain (clamped, never wrapped); longitude is periodic.
 
 use super::linear::{Linear, Mapping};
+use super::separable::Share;
 use super::{Projection, ProjectionReject};
 use nalgebra::Vector3;
 use std::f64::consts::FRAC_PI_2;
@@ -76,6 +77,21 @@ impl Mapping for EquirectMapping {
             return Err(ProjectionReject::OutsideDomain);
         }
         Ok(Vector3::new(cl * so, sl, cl * co))
+    }
+
+    #[inline]
+    fn join_lanes(columns: &[Share], [sl, cl]: [f64; 2], [x, y, z]: [&mut [f64]; 3]) {
+        if sl.is_nan() {
+            for out in [x, y, z] {
+                out.fill(f64::NAN);
+            }
+            return;
+        }
+        for (((col, x), y), z) in columns.iter().zip(x).zip(y).zip(z) {
+            // (a NaN sine of the longitude, outside the domain, gives a NaN x)
+            let [so, co] = col.0;
+            (*x, *y, *z) = (cl * so, sl, cl * co);
+        }
     }
 
     fn distance(p: &Vector3<f64>) -> f64 {

@@ -46,6 +46,16 @@ pub trait Mapping: Send + Sync + std::fmt::Debug + 'static {
     fn split_b(b: f64) -> [f64; 2];
     /// Unit bearing of the shares of `a` and `b`.
     fn join(a: [f64; 2], b: [f64; 2]) -> Result<Vector3<f64>, ProjectionReject>;
+    /// [`Mapping::join`] of each column share of `columns` with the row share `row`, written
+    /// coordinate by coordinate into `x`, `y`, `z` (as long as `columns`), NaN x where `join`
+    /// rejects. Overridden by a loop without branches (it vectorises) giving the same values.
+    #[inline]
+    fn join_lanes(columns: &[Share], row: [f64; 2], [x, y, z]: [&mut [f64]; 3]) {
+        for (i, c) in columns.iter().enumerate() {
+            let d = Self::join(c.0, row).unwrap_or(Vector3::repeat(f64::NAN));
+            (x[i], y[i], z[i]) = (d.x, d.y, d.z);
+        }
+    }
     /// The distance this projection pairs with, for a point relative to the centre.
     fn distance(p: &Vector3<f64>) -> f64;
 }
@@ -136,6 +146,10 @@ impl<M: Mapping> CameraModel for Linear<M> {
     fn separable(&self) -> Option<&dyn Separable> {
         Some(self)
     }
+
+    fn pinhole(&self) -> Option<Intrinsics> {
+        (M::PROJECTION == Projection::Perspective).then_some(self.k)
+    }
 }
 
 impl<M: Mapping> Separable for Linear<M> {
@@ -150,6 +164,23 @@ impl<M: Mapping> Separable for Linear<M> {
     fn bearings(&self, columns: &[Share], row: Share, out: &mut Vec<Option<Vector3<f64>>>) {
         out.extend(columns.iter().map(|c| M::join(c.0, row.0).ok()));
     }
+
+    fn bearing_lanes(&self, columns: &[Share], row: Share, out: [&mut [f64]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked just above).
+            return unsafe { join_lanes_avx2::<M>(columns, row.0, out) };
+        }
+        M::join_lanes(columns, row.0, out);
+    }
+}
+
+/// [`Mapping::join_lanes`] compiled for AVX2 (four lanes of f64 an instruction; the same IEEE
+/// operations, so the same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn join_lanes_avx2<M: Mapping>(columns: &[Share], row: [f64; 2], out: [&mut [f64]; 3]) {
+    M::join_lanes(columns, row, out);
 }
 
 impl<M: Mapping> OutputCamera for Linear<M> {
@@ -278,5 +309,75 @@ mod tests {
             }
         }
         assert!(checked > 5000, "{checked}");
+    }
+
+    #[test]
+    fn lanes_are_the_per_pixel_bearings_and_pixels_bit_for_bit() {
+        let bits = |d: Option<Vector3<f64>>| d.map(|d| [d.x, d.y, d.z].map(f64::to_bits));
+        let k = Intrinsics::new(160.0, 150.0, 503.5, 180.5);
+        let size = ImageSize::new(1008, 362);
+        let separable: Vec<Box<dyn CameraModel>> = vec![
+            Box::new(Equirect::new(k, size)),
+            Box::new(Cylindrical::new(k, size)),
+            Box::new(Perspective::new(k, size)),
+            // rows beyond the poles, a column without an azimuth: rejected pixels
+            Box::new(Equirect::new(Intrinsics::new(1e-310, 40.0, 0.5, 1.5), size)),
+            Box::new(Cylindrical::new(
+                Intrinsics::new(1e-310, 0.0, 0.5, 1.5),
+                size,
+            )),
+        ];
+        let (mut some, mut none) = (0, 0);
+        for camera in &separable {
+            let sep = camera.separable().expect("a linear camera separates");
+            let columns: Vec<Share> = (-3..1012).map(|u| sep.column(u as f64 * 0.999)).collect();
+            for v in [-400.0, -5.0, 0.0, 77.25, 180.5, 361.0, 900.0] {
+                let row = sep.row(v);
+                let mut want = Vec::new();
+                sep.bearings(&columns, row, &mut want);
+                let mut got = [(); 3].map(|_| vec![0.0; columns.len()]);
+                let [x, y, z] = &mut got;
+                sep.bearing_lanes(&columns, row, [x, y, z]);
+                for (i, want) in want.into_iter().enumerate() {
+                    let lane = Vector3::new(got[0][i], got[1][i], got[2][i]);
+                    if want.is_some() {
+                        assert_eq!(bits(Some(lane)), bits(want), "{camera:?} {v} {i}");
+                        some += 1;
+                    } else {
+                        assert!(lane.x.is_nan(), "{camera:?} {v} {i}: {lane}");
+                        none += 1;
+                    }
+                }
+            }
+        }
+        assert!(some > 10000 && none > 1000, "{some} {none}");
+        // a pinhole's pixels of bearings in every direction, in lanes of 4
+        let pinhole = Perspective::new(k, size);
+        let bearings: Vec<Vector3<f64>> = points()
+            .iter()
+            .map(|p| p.normalize())
+            .chain([Vector3::new(0.3, 0.2, 1e-12), Vector3::new(0.3, 0.2, 1e-8)])
+            .collect();
+        let (mut projected, mut rejected) = (0, 0);
+        for four in bearings.chunks_exact(4) {
+            let lanes = [0, 1, 2].map(|c| std::array::from_fn::<f64, 4, _>(|l| four[l][c]));
+            let [u, v] = crate::camera::pinhole_lanes(&k, lanes);
+            for (l, d) in four.iter().enumerate() {
+                match pinhole.project(d) {
+                    Ok(p) => {
+                        assert_eq!([u[l], v[l]].map(f64::to_bits), [p.x, p.y].map(f64::to_bits));
+                        projected += 1;
+                    }
+                    Err(_) => {
+                        assert!(u[l].is_nan(), "{d:?}");
+                        rejected += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            projected > 1000 && rejected > 1000,
+            "{projected} {rejected}"
+        );
     }
 }

@@ -43,6 +43,7 @@ pub use lens_domain::FisheyeError;
 pub use lens_model::{BoxedLensModel, LensModel, ReadLensModel};
 pub use linear::{Linear, Mapping};
 pub use output::{FisheyeCamera, OutputCamera};
+pub(crate) use perspective::pinhole_lanes;
 pub use perspective::Perspective;
 pub use projection::{OutputProjection, Projection};
 pub use rotated::{perpendiculars, rotation_ypr, Rotated};
@@ -112,6 +113,14 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
     /// [`Mapping`]; the others keep this default, None (each pixel unprojected alone), and so
     /// does a camera wrapping another with other bearings (a turned one, [`Rotated`]).
     fn separable(&self) -> Option<&dyn Separable> {
+        None
+    }
+
+    /// `Some(K)` where this camera is a pinhole of intrinsics K in its own axes: its
+    /// [`CameraModel::project`] is exactly [`Perspective`]'s (the front test, then K · (x/z,
+    /// y/z)), so that a remap table may project many bearings in batches of its own. None
+    /// otherwise, and for a camera wrapping another ([`Rotated`]).
+    fn pinhole(&self) -> Option<Intrinsics> {
         None
     }
 

@@ -1,7 +1,8 @@
 //! Pinhole camera: (a, b) = (x/z, y/z); distance z.
 
 use super::linear::{Linear, Mapping};
-use super::{Projection, ProjectionReject};
+use super::separable::Share;
+use super::{Intrinsics, Projection, ProjectionReject};
 use nalgebra::Vector3;
 
 /// Rays closer than this to the image plane's horizon (z/|b| below it) have no image.
@@ -45,7 +46,45 @@ impl Mapping for PinholeMapping {
         Ok(Vector3::new(a, b, 1.0).normalize())
     }
 
+    #[inline]
+    fn join_lanes(columns: &[Share], [b, _]: [f64; 2], [x, y, z]: [&mut [f64]; 3]) {
+        if !b.is_finite() {
+            for out in [x, y, z] {
+                out.fill(f64::NAN);
+            }
+            return;
+        }
+        for (((col, x), y), z) in columns.iter().zip(x).zip(y).zip(z) {
+            // `join`'s normalize, operation for operation; NaN where `a` is not finite
+            let a = col.0[0];
+            let n = (a * a + b * b + 1.0).sqrt();
+            let xn = if a.is_finite() { a / n } else { f64::NAN };
+            (*x, *y, *z) = (xn, b / n, 1.0 / n);
+        }
+    }
+
     fn distance(p: &Vector3<f64>) -> f64 {
         p.z
     }
+}
+
+/// [`crate::camera::CameraModel::project`] of a pinhole of intrinsics `k` ([`Perspective`]),
+/// lane by lane: the pixels (u, v) of bearings (x, y, z), with the very operations of
+/// `project` (the norm's sum of squares in order, the front test, the divisions, K), NaN u
+/// where `project` rejects. Written as loops over lanes, without branches, so that it
+/// vectorises.
+#[inline(always)]
+pub(crate) fn pinhole_lanes<const N: usize>(
+    k: &Intrinsics,
+    [x, y, z]: [[f64; N]; 3],
+) -> [[f64; N]; 2] {
+    let mut out = [[0.0; N]; 2];
+    for i in 0..N {
+        let norm = (x[i] * x[i] + y[i] * y[i] + z[i] * z[i]).sqrt();
+        let front = z[i] > MIN_FORWARD * norm;
+        let (u, v) = k.to_pixel(x[i] / z[i], y[i] / z[i]);
+        out[0][i] = if front { u } else { f64::NAN };
+        out[1][i] = v;
+    }
+    out
 }

@@ -4,13 +4,14 @@
 //! integer weights ([`Quad`]s), band by band of rows, serially or on rayon's pool.
 
 use super::{Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
-use crate::camera::{CameraModel, ImageSize, Separable, Share};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, Separable, Share};
 use crate::warp::footprint::Footprint;
 use crate::warp::kernel::{Quad, LANES, WEIGHT_ONE};
 use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+mod lanes;
 mod plain;
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
@@ -84,6 +85,8 @@ struct Builder<'a> {
     by_parts: Option<&'a dyn Separable>,
     /// With `by_parts`: the column shares of the pixel centres, columns -1..=width.
     centre_columns: Vec<Share>,
+    /// The source's intrinsics where it is a pinhole ([`CameraModel::pinhole`]).
+    pinhole: Option<Intrinsics>,
     /// With `by_parts`: at index n, the column shares of the n taps of an n-wide supersampled
     /// pixel, n per column (column-major), made by the first band that needs them.
     tap_columns: [OnceLock<Vec<Share>>; MAX_SUPERSAMPLE as usize + 1],
@@ -142,6 +145,7 @@ impl<'a> Builder<'a> {
             seen,
             by_parts,
             centre_columns,
+            pinhole: src.pinhole(),
             tap_columns: Default::default(),
         }
     }

@@ -17,6 +17,12 @@ impl Builder<'_> {
 
     /// The table, row by row, on the calling thread (see the module's notes).
     pub(super) fn plain_table(&self) -> RemapTable {
+        // (block offsets times 3 fit a u32 there: the lanes' rounds do not check them)
+        let small =
+            self.source_size.width as u64 * self.source_size.height as u64 * 3 <= u32::MAX as u64;
+        if let (Some(sep), Some(k), true) = (self.by_parts, &self.pinhole, small) {
+            return self.lanes_table(sep, k);
+        }
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES);

@@ -1,0 +1,337 @@
+//! The plain build (one tap a pixel, see `plain`) of a separable output from a pinhole source,
+//! a group of [`LANES`] pixels at a time: each row's bearings come coordinate by coordinate
+//! ([`Separable::bearing_lanes`]), then each group is turned into the source, projected
+//! ([`pinhole_lanes`]) and made into its round, lane by lane, with the very operations of the
+//! per-pixel path (the rotation's products and sums in nalgebra's order, [`Builder::block`],
+//! [`quantize_block`](super::quantize_block)): the same table, in loops without branches that
+//! the compiler vectorises (with AVX2 where the processor has it). A turned equirect or
+//! cylindrical view drawn per training sample spends most of its table here.
+
+use super::Builder;
+use crate::camera::{pinhole_lanes, Intrinsics, Separable};
+use crate::warp::kernel::{Round, LANES, WEIGHT_ONE};
+use crate::warp::table::{Cover, RemapTable};
+
+/// One coordinate of a group's pixels, a lane each.
+type Lanes = [f64; LANES];
+
+/// A row's bearing coordinates (x, y, z) of the columns the footprint keeps.
+#[derive(Default)]
+struct Bearings([Vec<f64>; 3]);
+
+impl Builder<'_> {
+    /// [`Builder::plain_table`] of a separable output (`sep`) from a pinhole source of
+    /// intrinsics `k`.
+    pub(super) fn lanes_table(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked just above).
+            return unsafe { self.lanes_table_avx2(sep, k) };
+        }
+        self.lanes_table_any(sep, k)
+    }
+
+    /// [`Builder::lanes_table`] compiled for AVX2 (four lanes of f64 an instruction; the same
+    /// IEEE operations, so the same bits).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn lanes_table_avx2(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+        self.lanes_table_any(sep, k)
+    }
+
+    #[inline(always)]
+    fn lanes_table_any(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+        let size = self.dst.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let groups = w.div_ceil(LANES);
+        let mut t = RemapTable {
+            size,
+            source_size: self.source_size,
+            rounds: Vec::with_capacity(groups * h),
+            // one block a pixel: one round a group
+            depth: vec![1; groups * h],
+            row_starts: Vec::with_capacity(h + 1),
+            row_reach: Vec::with_capacity(h),
+            cover: vec![Cover::None; w * h],
+        };
+        t.row_starts.push(0);
+        let mut bearings = Bearings::default();
+        for v in 0..h {
+            let (lo, hi) = self.seen.map_or((0, w as isize - 1), |seen| {
+                seen.columns(v as isize, 0, w as isize - 1)
+            });
+            let reach = if lo > hi {
+                // (the row is blank: every pixel the all-zero block at offset 0)
+                t.rounds.resize(t.rounds.len() + groups, Round::default());
+                0
+            } else {
+                let (lo, hi) = (lo as usize, hi as usize);
+                // centre_columns holds columns -1..=w
+                let columns = &self.centre_columns[lo + 1..=hi + 1];
+                for c in &mut bearings.0 {
+                    c.resize(columns.len(), 0.0);
+                }
+                let [x, y, z] = &mut bearings.0;
+                sep.bearing_lanes(columns, sep.row(v as f64), [x, y, z]);
+                let cover = &mut t.cover[v * w..(v + 1) * w];
+                self.lanes_row(k, &bearings, lo..=hi, &mut t.rounds, cover)
+            };
+            t.row_reach.push(reach);
+            t.row_starts.push(t.rounds.len() as u32);
+        }
+        t
+    }
+
+    /// Appends a row's rounds from the bearings of its columns `kept` (the others take
+    /// nothing) and marks the pixels they cover; gives the row's largest block offset.
+    #[inline(always)]
+    fn lanes_row(
+        &self,
+        k: &Intrinsics,
+        bearings: &Bearings,
+        kept: std::ops::RangeInclusive<usize>,
+        rounds: &mut Vec<Round>,
+        cover: &mut [Cover],
+    ) -> u32 {
+        let w = cover.len();
+        let (lo, hi) = (*kept.start(), *kept.end());
+        let mut reach = 0;
+        for (g, cover) in cover.chunks_mut(LANES).enumerate() {
+            let first = g * LANES;
+            if first + LANES <= lo || first > hi {
+                // (most groups of a wide view: outside the footprint)
+                rounds.push(Round::default());
+                continue;
+            }
+            let mut d = [[f64::NAN; LANES]; 3];
+            if first >= lo && first + LANES <= hi + 1 {
+                for (d, b) in d.iter_mut().zip(&bearings.0) {
+                    d.copy_from_slice(&b[first - lo..first - lo + LANES]);
+                }
+            } else {
+                for (lane, u) in (first..first + LANES).enumerate() {
+                    if (lo..=hi).contains(&u) {
+                        for (d, b) in d.iter_mut().zip(&bearings.0) {
+                            d[lane] = b[u - lo];
+                        }
+                    }
+                }
+            }
+            let (round, inside, far) = self.group(k, d);
+            reach = reach.max(far);
+            for (c, &inside) in cover.iter_mut().zip(&inside) {
+                if inside {
+                    *c = Cover::Full;
+                }
+            }
+            rounds.push(tail(round, w - first));
+        }
+        reach
+    }
+
+    /// The round of a group's bearings `d` (x, y, z lanes in the output's axes, NaN x for a
+    /// pixel without one), which lanes have a block inside the source, and the largest block
+    /// offset: each lane what [`Builder::block`] and `quantize_block` give its centre, stage
+    /// by stage over the lanes.
+    #[inline(always)]
+    fn group(&self, k: &Intrinsics, d: [Lanes; 3]) -> (Round, [bool; LANES], u32) {
+        let r = self.src_from_dst;
+        let mut turned = [[0.0; LANES]; 3];
+        for (i, t) in turned.iter_mut().enumerate() {
+            let (r0, r1, r2) = (r[(i, 0)], r[(i, 1)], r[(i, 2)]);
+            for l in 0..LANES {
+                // nalgebra's product: (r0·x + r1·y) + r2·z
+                t[l] = r0 * d[0][l] + r1 * d[1][l] + r2 * d[2][l];
+            }
+        }
+        let [px, py] = pinhole_lanes(k, turned);
+        let size = self.source_size;
+        let (sw, sh) = (size.width as f64, size.height as f64);
+        let (x_last, y_last) = (
+            (size.width - 2) as i32,
+            size.height.saturating_sub(2) as i32,
+        );
+        let tall = size.height > 1;
+        let mut inside = [false; LANES];
+        let mut offset = [0u32; LANES];
+        let mut w = [[0i32; LANES]; 4];
+        // one loop of scalar operations and selects (no inner loop): it vectorises
+        for l in 0..LANES {
+            let (x, y) = (px[l], py[l]);
+            // `block`'s tests (NaN, a pixel without a centre, fails them)
+            let ok = x >= -0.5 && x < sw - 0.5 && y >= -0.5 && y <= sh - 0.5;
+            // outside lanes computed on (0, 0), then dropped: no NaN reaches a conversion
+            let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
+            let y = clamp(y, sh - 1.0);
+            // SAFETY: 0 <= y < 2^31 (clamped to the source); truncation is floor here
+            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(y_last);
+            let fy = if tall { y - y0 as f64 } else { 0.0 };
+            let x = clamp(x, sw - 1.0);
+            // SAFETY: as y
+            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(x_last);
+            let fx = x - x0 as f64;
+            let q = quantize([
+                (1.0 - fx) * (1.0 - fy),
+                (1.0 - fx) * fy,
+                fx * (1.0 - fy),
+                fx * fy,
+            ]);
+            inside[l] = ok;
+            // (wrapping operations that cannot wrap, the offset being below the source's pixel
+            // count: no overflow checks, which would keep the loop from vectorising, in
+            // debug builds)
+            let at = (y0 as u32).wrapping_mul(size.width).wrapping_add(x0 as u32);
+            offset[l] = if ok { at } else { 0 };
+            for k in 0..4 {
+                w[k][l] = if ok { q[k] } else { 0 };
+            }
+        }
+        let mut round = Round::default();
+        for l in 0..LANES {
+            // (three times an offset fits a u32: `plain_table` checks the source's size)
+            round.offset[l] = offset[l].wrapping_mul(3);
+            round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
+        }
+        (round, inside, offset.into_iter().max().unwrap_or(0))
+    }
+}
+
+/// `f64::clamp(x, 0.0, max)` for `max >= 0`, as selects.
+#[inline(always)]
+fn clamp(x: f64, max: f64) -> f64 {
+    let x = if x < 0.0 { 0.0 } else { x };
+    if x > max {
+        max
+    } else {
+        x
+    }
+}
+
+/// `quantize_block(_, weights, WEIGHT_ONE, WEIGHT_ONE)`'s integer weights, as selects: each
+/// weight rounded, the largest (the first on ties) taking up the rounding error so that they
+/// sum to `WEIGHT_ONE`.
+#[inline(always)]
+fn quantize(weights: [f64; 4]) -> [i32; 4] {
+    let scale = WEIGHT_ONE as f64;
+    let [y0, y1, y2, y3] = [
+        weights[0] * scale,
+        weights[1] * scale,
+        weights[2] * scale,
+        weights[3] * scale,
+    ];
+    // SAFETY: 0 <= y + 0.5 <= WEIGHT_ONE + 0.5 (the weights of a point inside the source)
+    let q = [y0, y1, y2, y3].map(|y| unsafe { (y + 0.5).to_int_unchecked::<i32>() });
+    let (big, top) = (0, y0);
+    let (big, top) = if y1 > top { (1, y1) } else { (big, top) };
+    let (big, top) = if y2 > top { (2, y2) } else { (big, top) };
+    let big = if y3 > top { 3 } else { big };
+    // (small numbers: wrapping operations that cannot wrap, without overflow checks)
+    let sum = q[0]
+        .wrapping_add(q[1])
+        .wrapping_add(q[2])
+        .wrapping_add(q[3]);
+    let fix = WEIGHT_ONE.wrapping_sub(sum);
+    [
+        q[0].wrapping_add(if big == 0 { fix } else { 0 }),
+        q[1].wrapping_add(if big == 1 { fix } else { 0 }),
+        q[2].wrapping_add(if big == 2 { fix } else { 0 }),
+        q[3].wrapping_add(if big == 3 { fix } else { 0 }),
+    ]
+}
+
+/// `round` with the lanes past the row's end (its last `n` pixels are the group's first) as
+/// [`RemapTable::round`] fills them: copies of the group's first lane.
+#[inline(always)]
+fn tail(mut round: Round, n: usize) -> Round {
+    for lane in n.min(LANES)..LANES {
+        round.offset[lane] = round.offset[0];
+        round.w[lane] = round.w[0];
+    }
+    round
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::camera::{
+        rotation_ypr, CameraModel, ImageSize, Intrinsics, Perspective, Projection, ProjectionReject,
+    };
+    use crate::warp::{Footprint, RemapTable, Wrap};
+    use nalgebra::{Point2, Vector3};
+
+    /// `inner` through `project` and `unproject` alone: the builder's per-pixel path.
+    #[derive(Debug)]
+    struct PerPixel<'a>(&'a dyn CameraModel);
+
+    impl CameraModel for PerPixel<'_> {
+        fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+            self.0.project(d)
+        }
+        fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+            self.0.unproject(p)
+        }
+        fn distance(&self, p: &Vector3<f64>) -> f64 {
+            self.0.distance(p)
+        }
+        fn size(&self) -> ImageSize {
+            self.0.size()
+        }
+    }
+
+    #[test]
+    fn drawn_views_of_a_pinhole_equal_the_per_pixel_tables() {
+        // a small KITTI-like source; turned views drawn as the Python sampler draws them,
+        // with widths that leave a part group at each row's end and views wider than the
+        // source (blank rows and groups), within their footprint and without one
+        let src = Perspective::new(
+            Intrinsics::new(180.4, 180.4, 152.4, 43.2),
+            ImageSize::new(310, 94),
+        );
+        let mut s = 7u64;
+        let mut r = |lo: f64, hi: f64| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let mut covered = 0.0;
+        for i in 0..36 {
+            let projection = [
+                Projection::Cylindrical,
+                Projection::Equirect,
+                Projection::Perspective,
+            ][i % 3];
+            let (w, h) = (100 + (i as u32 * 37) % 61, 60 + (i as u32 * 11) % 41);
+            let fov = r(0.8, 2.2);
+            let fu = if projection == Projection::Perspective {
+                w as f64 / 2.0 / (fov / 2.0).tan()
+            } else {
+                w as f64 / fov
+            };
+            let k = Intrinsics::new(
+                fu,
+                fu * r(0.9, 1.1),
+                w as f64 / 2.0 + r(-8.0, 8.0),
+                h as f64 / 2.0 + r(-8.0, 8.0),
+            );
+            let dst = projection.camera(k, ImageSize::new(w, h));
+            let rot = rotation_ypr(r(-0.3, 0.3), r(-0.2, 0.2), r(-0.1, 0.1));
+            let want = RemapTable::build_within(
+                &PerPixel(dst.as_ref()),
+                &PerPixel(&src),
+                &rot,
+                Wrap::None,
+                1,
+                None,
+                false,
+            );
+            let seen = Footprint::new(dst.as_ref(), &src, &rot, &-Vector3::z());
+            for seen in [None, seen.as_ref()] {
+                let got =
+                    RemapTable::build_within(dst.as_ref(), &src, &rot, Wrap::None, 1, seen, false);
+                assert!(got == want, "{projection} {i}: the tables differ");
+            }
+            covered += want.coverage();
+        }
+        assert!(covered > 36.0 * 0.1 && covered < 36.0 * 0.95, "{covered}");
+    }
+}
