@@ -44,17 +44,7 @@ impl Builder<'_> {
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES);
-        let mut t = RemapTable {
-            size,
-            source_size: self.source_size,
-            rounds: Vec::with_capacity(groups * h),
-            // one block a pixel: one round a group
-            depth: vec![1; groups * h],
-            row_starts: Vec::with_capacity(h + 1),
-            row_reach: Vec::with_capacity(h),
-            cover: vec![Cover::None; w * h],
-        };
-        t.row_starts.push(0);
+        let mut t = self.one_round_a_group();
         let mut bearings = Bearings::default();
         for v in 0..h {
             let (lo, hi) = self.seen.map_or((0, w as isize - 1), |seen| {

@@ -15,6 +15,25 @@ impl Builder<'_> {
         self.cap == 1 && self.one_block
     }
 
+    /// An empty table of one block a pixel (so one round a group of [`LANES`]), its rows to be
+    /// pushed.
+    pub(super) fn one_round_a_group(&self) -> RemapTable {
+        let size = self.dst.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let groups = w.div_ceil(LANES);
+        let mut t = RemapTable {
+            size,
+            source_size: self.source_size,
+            rounds: Vec::with_capacity(groups * h),
+            depth: vec![1; groups * h],
+            row_starts: Vec::with_capacity(h + 1),
+            row_reach: Vec::with_capacity(h),
+            cover: vec![Cover::None; w * h],
+        };
+        t.row_starts.push(0);
+        t
+    }
+
     /// The table, row by row, on the calling thread (see the module's notes).
     pub(super) fn plain_table(&self) -> RemapTable {
         // (block offsets times 3 fit a u32 there: the lanes' rounds do not check them)
@@ -26,17 +45,7 @@ impl Builder<'_> {
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES);
-        let mut t = RemapTable {
-            size,
-            source_size: self.source_size,
-            rounds: Vec::with_capacity(groups * h),
-            // one block a pixel: one round a group
-            depth: vec![1; groups * h],
-            row_starts: Vec::with_capacity(h + 1),
-            row_reach: Vec::with_capacity(h),
-            cover: vec![Cover::None; w * h],
-        };
-        t.row_starts.push(0);
+        let mut t = self.one_round_a_group();
         let mut parts = Parts::default();
         let mut centres = Vec::new();
         for v in 0..h {
