@@ -21,12 +21,15 @@
 //! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
 //! need no further move; a reader with per-camera times would move them here.
 
+mod grid;
+
 use super::ground::{Ground, GROUND_FIT};
 use crate::camera::{perpendiculars, CameraModel};
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::{Frame, SourceBox};
 use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
+use grid::BoxGrid;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use std::f64::consts::{PI, TAU};
@@ -96,6 +99,21 @@ pub fn distance_map(stitch: &Stitch) -> Option<DepthMap> {
         height: size.height,
         values,
     })
+}
+
+/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there).
+#[inline]
+fn floor(x: f64) -> f64 {
+    if (0.0..4_503_599_627_370_496.0).contains(&x) {
+        (x as u64) as f64
+    } else {
+        x.floor()
+    }
+}
+
+/// The longitude (about the reference frame's y axis, from +z) and latitude of `d`.
+fn angles(d: &Vector3<f64>) -> (f64, f64) {
+    (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin())
 }
 
 /// A box as rays meet it.
@@ -183,8 +201,12 @@ struct Splats {
 
 impl Splats {
     fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
-        let lon = d.x.atan2(d.z);
-        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
+        let (lon, lat) = angles(d);
+        self.cell_at(lon, lat)
+    }
+
+    /// The cell position of the bearing at longitude `lon`, latitude `lat` ([`angles`]).
+    fn cell_at(&self, lon: f64, lat: f64) -> (f64, f64) {
         (
             (lon + PI) / TAU * self.width as f64,
             (lat + PI / 2.0) / PI * self.height as f64,
@@ -260,11 +282,12 @@ impl Splats {
         t as f64
     }
 
-    /// The nearest splat's range along unit `d` from the origin (infinite: none).
-    fn range(&self, d: &Vector3<f64>) -> f64 {
-        let (x, y) = self.cell_of(d);
-        let cx = (x.floor() as i64).rem_euclid(self.width as i64) as usize;
-        let cy = (y.floor().max(0.0) as usize).min(self.height - 1);
+    /// The nearest splat's range along the bearing at longitude `lon`, latitude `lat`
+    /// ([`angles`]) from the origin (infinite: none).
+    fn range(&self, lon: f64, lat: f64) -> f64 {
+        let (x, y) = self.cell_at(lon, lat);
+        let cx = (floor(x) as i64).rem_euclid(self.width as i64) as usize;
+        let cy = (floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
 }
@@ -278,6 +301,8 @@ pub struct SceneDepth {
     ground: Option<Ground>,
     /// The residual points' buffers seen from the centre, then from each eye (empty: none).
     splats: Vec<Splats>,
+    /// The boxes' grids seen from the centre, then from each eye.
+    grids: Vec<BoxGrid>,
     nearest: f64,
 }
 
@@ -300,6 +325,11 @@ impl SceneDepth {
                 .map(|o| Splats::new(*o, &residual))
                 .collect()
         };
+        let spheres: Vec<_> = solids.iter().map(|s| (s.centre, s.radius)).collect();
+        let grids = std::iter::once(&centre)
+            .chain(&eyes)
+            .map(|o| BoxGrid::new(o, &spheres))
+            .collect();
         let mut nearest = FAR;
         for s in &solids {
             nearest = nearest.min((s.centre - centre).norm() - s.radius);
@@ -316,6 +346,7 @@ impl SceneDepth {
             solids,
             ground,
             splats,
+            grids,
             nearest: nearest.max(0.0),
         }
     }
@@ -325,59 +356,41 @@ impl SceneDepth {
         self.ground
     }
 
-    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none.
-    fn exact_hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
+    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none:
+    /// `view` the index of o's grid (0 the centre, 1 + i eye i).
+    fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
         let mut t = self
             .ground
             .and_then(|g| g.hit(o, d))
             .unwrap_or(f64::INFINITY);
-        for s in &self.solids {
-            if let Some(h) = s.hit(o, d) {
+        self.grids[view].any(d, self.solids.len(), |k| {
+            if let Some(h) = self.solids[k].hit(o, d) {
                 t = t.min(h);
             }
-        }
+            false
+        });
         t
     }
-}
 
-impl StitchDepth for SceneDepth {
-    fn distance(&self, d: &Vector3<f64>) -> f64 {
-        let t = self.exact_hit(&self.centre, d);
-        match self.splats.first() {
-            Some(s) => t.min(s.range(d)),
-            None => t,
-        }
-        .min(FAR)
-    }
-
-    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
-        let Some(eye) = self.eyes.get(camera) else {
-            return false;
-        };
+    /// The unit ray from camera `camera`'s eye to `x`: the eye, the direction and its length
+    /// (None without such a camera or for `x` at the eye).
+    fn eye_ray(&self, camera: usize, x: &Vector3<f64>) -> Option<EyeRay> {
+        let eye = *self.eyes.get(camera)?;
         let v = x - eye;
         let length = v.norm();
         if !(length > 0.0) {
-            return false;
+            return None;
         }
         let d = v / length;
-        if self.exact_hit(eye, &d) < length - SURFACE_TOLERANCE - 1e-9 * length {
-            return false;
-        }
-        self.splats
-            .get(camera + 1)
-            .is_none_or(|s| s.range(&d) >= length * 0.95 - SCAN_TOLERANCE)
+        Some(EyeRay { eye, d, length })
     }
 
-    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
-        let Some(eye) = self.eyes.get(camera) else {
-            return false;
-        };
-        let v = x - eye;
-        let length = v.norm();
-        if !(length > 0.0 && radius > 0.0) {
+    /// [`StitchDepth::hidden_near`] along `ray` ([`SceneDepth::eye_ray`]).
+    fn hidden_along(&self, camera: usize, x: &Vector3<f64>, ray: &EyeRay, radius: f64) -> bool {
+        let EyeRay { eye, d, length } = *ray;
+        if !(radius > 0.0) {
             return false;
         }
-        let d = v / length;
         let spread = radius.tan();
         let nearer = length * 0.95 - SURFACE_TOLERANCE;
         // the box's outline moves by the parallax across the eye's offset from the centre
@@ -385,7 +398,8 @@ impl StitchDepth for SceneDepth {
         // the rim's rays, made for the first box that passes the sphere test (most samples
         // have none near)
         let mut rim: Option<[Vector3<f64>; RING_RAYS]> = None;
-        self.solids.iter().any(|s| {
+        let hides = |k: usize| {
+            let s = &self.solids[k];
             if s.contains(x, SURFACE_TOLERANCE) {
                 return false;
             }
@@ -405,13 +419,65 @@ impl StitchDepth for SceneDepth {
             rays.iter().any(|ray| {
                 // under a tenth of the footprint the blur mixes the box in as the centre sees it
                 let across = (base - ray * base.dot(ray)).norm();
-                s.hit(eye, ray).is_some_and(|t| {
+                s.hit(&eye, ray).is_some_and(|t| {
                     t < nearer && across * (1.0 / t - 1.0 / length) > radius / 10.0
                 })
             })
-        })
+        };
+        // the grid lists every box a rim ray within its reach may meet
+        if radius <= grid::REACH {
+            self.grids[camera + 1].any(&d, self.solids.len(), hides)
+        } else {
+            (0..self.solids.len()).any(hides)
+        }
     }
 
+    /// [`StitchDepth::sees`] along `ray` ([`SceneDepth::eye_ray`]).
+    fn sees_along(&self, camera: usize, ray: &EyeRay) -> bool {
+        let EyeRay { eye, d, length } = ray;
+        if self.exact_hit(camera + 1, eye, d) < length - SURFACE_TOLERANCE - 1e-9 * length {
+            return false;
+        }
+        self.splats.get(camera + 1).is_none_or(|s| {
+            let (lon, lat) = angles(d);
+            s.range(lon, lat) >= length * 0.95 - SCAN_TOLERANCE
+        })
+    }
+}
+
+/// A ray from an eye to a point ([`SceneDepth::eye_ray`]).
+struct EyeRay {
+    eye: Vector3<f64>,
+    d: Vector3<f64>,
+    length: f64,
+}
+
+impl StitchDepth for SceneDepth {
+    fn distance(&self, d: &Vector3<f64>) -> f64 {
+        let (lon, lat) = angles(d);
+        let t = self.exact_hit(0, &self.centre, d);
+        match self.splats.first() {
+            Some(s) => t.min(s.range(lon, lat)),
+            None => t,
+        }
+        .min(FAR)
+    }
+
+    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
+        self.eye_ray(camera, x)
+            .is_some_and(|ray| self.sees_along(camera, &ray))
+    }
+
+    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        self.eye_ray(camera, x)
+            .is_some_and(|ray| self.hidden_along(camera, x, &ray, radius))
+    }
+
+    fn sees_clean(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        self.eye_ray(camera, x).is_some_and(|ray| {
+            self.sees_along(camera, &ray) && !self.hidden_along(camera, x, &ray, radius)
+        })
+    }
     fn nearest(&self) -> f64 {
         self.nearest
     }
