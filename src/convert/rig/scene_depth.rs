@@ -22,6 +22,7 @@
 //! need no further move; a reader with per-camera times would move them here.
 
 mod grid;
+mod splats;
 
 use super::ground::{Ground, GROUND_FIT};
 use crate::camera::{perpendiculars, CameraModel};
@@ -32,7 +33,8 @@ use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
 use grid::BoxGrid;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
-use std::f64::consts::{PI, TAU};
+use splats::{angles, Splats};
+use std::f64::consts::TAU;
 
 /// The distance of a ray that meets nothing (the sky), metres: 1 m of baseline is 0.1 mrad of
 /// parallax there.
@@ -99,21 +101,6 @@ pub fn distance_map(stitch: &Stitch) -> Option<DepthMap> {
         height: size.height,
         values,
     })
-}
-
-/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there).
-#[inline]
-fn floor(x: f64) -> f64 {
-    if (0.0..4_503_599_627_370_496.0).contains(&x) {
-        (x as u64) as f64
-    } else {
-        x.floor()
-    }
-}
-
-/// The longitude (about the reference frame's y axis, from +z) and latitude of `d`.
-fn angles(d: &Vector3<f64>) -> (f64, f64) {
-    (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin())
 }
 
 /// A box as rays meet it.
@@ -187,108 +174,6 @@ impl Solid {
         }
         let l = self.box_from_reference * (p - self.centre);
         (0..3).all(|a| l[a].abs() <= self.half[a] + margin)
-    }
-}
-
-/// A spherical depth buffer around a viewpoint: per cell of longitude × latitude (about the
-/// reference frame's y axis), the range of the nearest splat.
-#[derive(Debug, Clone)]
-struct Splats {
-    width: usize,
-    height: usize,
-    range: Vec<f32>,
-}
-
-impl Splats {
-    fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
-        let (lon, lat) = angles(d);
-        self.cell_at(lon, lat)
-    }
-
-    /// The cell position of the bearing at longitude `lon`, latitude `lat` ([`angles`]).
-    fn cell_at(&self, lon: f64, lat: f64) -> (f64, f64) {
-        (
-            (lon + PI) / TAU * self.width as f64,
-            (lat + PI / 2.0) / PI * self.height as f64,
-        )
-    }
-
-    fn new(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
-        let width = (360.0 * CELLS_PER_DEG) as usize;
-        let height = (180.0 * CELLS_PER_DEG) as usize;
-        let mut splats = Splats {
-            width,
-            height,
-            range: vec![f32::INFINITY; width * height],
-        };
-        let radius = SPLAT_DEG * CELLS_PER_DEG;
-        for p in points {
-            let v = p - origin;
-            let range = v.norm();
-            if !(range > 0.0) {
-                continue;
-            }
-            let (x, y) = splats.cell_of(&v);
-            let lat = (y / height as f64) * PI - PI / 2.0;
-            // a disc on the sphere: wider in cells of longitude away from the equator
-            let stretch = 1.0 / lat.cos().max(0.05);
-            let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
-            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
-            for cy in y0..y1.min(height) {
-                let dy = (cy as f64 + 0.5 - y) / ry;
-                let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
-                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
-                for cx in x0..x1 {
-                    let cx = cx.rem_euclid(width as i64) as usize;
-                    let cell = &mut splats.range[cy * width + cx];
-                    *cell = cell.min(range as f32);
-                }
-            }
-        }
-        splats
-    }
-
-    /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
-    /// `d`, one cell wider on every side (a lower bound of [`Splats::range`] there). Such a
-    /// bearing's latitude is within `radius` of d's, and its longitude within
-    /// 2·asin(sin(radius/2) / cos φ) (haversines; φ the largest |latitude| in reach).
-    fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
-        let (x, y) = self.cell_of(d);
-        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
-        let rows = radius / PI * self.height as f64;
-        let y0 = ((y - rows).floor() - 1.0).max(0.0) as usize;
-        let y1 = ((y + rows).floor() + 1.0).min(self.height as f64 - 1.0) as usize;
-        let widest = (lat.abs() + radius).min(PI / 2.0).cos();
-        let s = (radius / 2.0).sin() / widest;
-        let columns = if s < 1.0 {
-            2.0 * s.asin() / TAU * self.width as f64
-        } else {
-            f64::INFINITY
-        };
-        let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
-        let mut t = f32::INFINITY;
-        if !(x1 - x0 + 1.0 < self.width as f64) {
-            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
-                t = row.iter().fold(t, |a, b| a.min(*b));
-            }
-        } else {
-            for cy in y0..=y1 {
-                let row = &self.range[cy * self.width..(cy + 1) * self.width];
-                for cx in x0 as i64..=x1 as i64 {
-                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
-                }
-            }
-        }
-        t as f64
-    }
-
-    /// The nearest splat's range along the bearing at longitude `lon`, latitude `lat`
-    /// ([`angles`]) from the origin (infinite: none).
-    fn range(&self, lon: f64, lat: f64) -> f64 {
-        let (x, y) = self.cell_at(lon, lat);
-        let cx = (floor(x) as i64).rem_euclid(self.width as i64) as usize;
-        let cy = (floor(y).max(0.0) as usize).min(self.height - 1);
-        self.range[cy * self.width + cx] as f64
     }
 }
 
@@ -409,13 +294,7 @@ impl SceneDepth {
             if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
                 return false;
             }
-            let rays = rim.get_or_insert_with(|| {
-                let (a, b) = perpendiculars(&d);
-                std::array::from_fn(|k| {
-                    let turn = k as f64 * TAU / RING_RAYS as f64;
-                    (d + (a * turn.cos() + b * turn.sin()) * spread).normalize()
-                })
-            });
+            let rays = rim.get_or_insert_with(|| ring(&d, spread));
             rays.iter().any(|ray| {
                 // under a tenth of the footprint the blur mixes the box in as the centre sees it
                 let across = (base - ray * base.dot(ray)).norm();
@@ -425,11 +304,45 @@ impl SceneDepth {
             })
         };
         // the grid lists every box a rim ray within its reach may meet
-        if radius <= grid::REACH {
+        let nearer_box = if radius <= grid::REACH {
             self.grids[camera + 1].any(&d, self.solids.len(), hides)
         } else {
             (0..self.solids.len()).any(hides)
-        }
+        };
+        nearer_box || self.beyond_edge(camera, x, ray, radius)
+    }
+
+    /// Whether `x` lies on a box whose outline, seen from camera `camera`, crosses the rim of
+    /// its sample's footprint (`radius`) with the surface beyond the outline moved against it
+    /// by the parallax between the camera and the centre by more than a tenth of the
+    /// footprint: the camera's blur would mix into x's pixel the background it sees beside the
+    /// edge, which the centre sees elsewhere.
+    fn beyond_edge(&self, camera: usize, x: &Vector3<f64>, ray: &EyeRay, radius: f64) -> bool {
+        let EyeRay { eye, d, length } = *ray;
+        // x's own box is listed in its ray's cell
+        let mut own = None;
+        self.grids[camera + 1].any(&d, self.solids.len(), |k| {
+            let on = self.solids[k].contains(x, SURFACE_TOLERANCE);
+            own = own.or(on.then_some(k));
+            on
+        });
+        let Some(own) = own else {
+            return false;
+        };
+        let base = eye - self.centre;
+        ring(&d, radius.tan()).iter().any(|r| {
+            let across = (base - r * base.dot(r)).norm();
+            // the parallax is below across / length whatever lies beyond
+            if !(across / length > radius / 10.0) || self.solids[own].hit(&eye, r).is_some() {
+                return false;
+            }
+            let mut far = self.exact_hit(camera + 1, &eye, r).min(FAR);
+            if let Some(s) = self.splats.get(camera + 1) {
+                let (lon, lat) = angles(r);
+                far = far.min(s.range(lon, lat));
+            }
+            far > length && across * (1.0 / length - 1.0 / far) > radius / 10.0
+        })
     }
 
     /// [`StitchDepth::sees`] along `ray` ([`SceneDepth::eye_ray`]).
@@ -443,6 +356,19 @@ impl SceneDepth {
             s.range(lon, lat) >= length * 0.95 - SCAN_TOLERANCE
         })
     }
+}
+
+/// The [`RING_RAYS`] unit rays at angle atan(`spread`) around unit `d`.
+fn ring(d: &Vector3<f64>, spread: f64) -> [Vector3<f64>; RING_RAYS] {
+    static TURNS: std::sync::OnceLock<[(f64, f64); RING_RAYS]> = std::sync::OnceLock::new();
+    let turns = TURNS.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let turn = k as f64 * TAU / RING_RAYS as f64;
+            (turn.cos(), turn.sin())
+        })
+    });
+    let (a, b) = perpendiculars(d);
+    std::array::from_fn(|k| (d + (a * turns[k].0 + b * turns[k].1) * spread).normalize())
 }
 
 /// A ray from an eye to a point ([`SceneDepth::eye_ray`]).
@@ -631,7 +557,7 @@ mod tests {
     }
 
     #[test]
-    fn a_nearer_box_within_a_samples_footprint_hides_it_and_the_points_own_box_does_not() {
+    fn a_nearer_box_or_its_own_boxs_outline_within_a_samples_footprint_hides_a_point() {
         // a car across the view 10 m ahead (1.8 m deep: its faces at 9.1 and 10.9 m, its roof
         // at 0.1 m below the eye)
         let car = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(0.0, 1.6, 10.0), 0.0);
@@ -655,6 +581,13 @@ mod tests {
         // a point of the car's own rear face beside its edge is not hidden by the car
         let on_car = Vector3::new(0.0, top + 0.01, 9.1);
         assert!(scene.sees(0, &on_car) && !scene.hidden_near(0, &on_car, 2e-3));
+        // a point of the car's rear face 1 cm from its right end (4 m long across the view):
+        // the footprint of 2 mrad (18 mm) reaches the ground beyond, which the parallax moves
+        // against the edge; one of 0.5 mrad does not, nor does an eye at the centre
+        let by_edge = Vector3::new(2.0 - 0.01, 1.0, 9.1);
+        assert!(scene.sees(0, &by_edge) && scene.hidden_near(0, &by_edge, 2e-3));
+        assert!(!scene.hidden_near(0, &by_edge, 0.5e-3));
+        assert!(!centred.hidden_near(0, &by_edge, 2e-3));
         // a camera that is not in the scene hides nothing
         assert!(!scene.hidden_near(3, &above(1.0), 2e-3));
     }
