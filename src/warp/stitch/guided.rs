@@ -23,10 +23,9 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
 
     /// Whether a surface other than `x`'s own lies nearer than `x` on a ray from camera
     /// `camera`'s centre within `radius` radians of its ray to `x`, its outline moved by the
-    /// parallax between the camera and the output centre by more than a tenth of `radius`, or
-    /// `x`'s own object ends within that cone with the surface beyond its outline so moved:
-    /// the camera's sample of `x` (its blur, its bilinear taps) would mix in a surface the
-    /// output centre sees elsewhere. By default none.
+    /// parallax between the camera and the output centre by more than a tenth of `radius`: the
+    /// camera's sample of `x` (its blur, its bilinear taps) would mix that surface in where the
+    /// output centre does not see it. By default none.
     fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
         let _ = (camera, x, radius);
         false
