@@ -21,15 +21,20 @@
 //! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
 //! need no further move; a reader with per-camera times would move them here.
 
+mod grid;
+mod splats;
+
 use super::ground::{Ground, GROUND_FIT};
 use crate::camera::{perpendiculars, CameraModel};
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::{Frame, SourceBox};
 use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
+use grid::BoxGrid;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
-use std::f64::consts::{PI, TAU};
+use splats::{angles, Splats};
+use std::f64::consts::TAU;
 
 /// The distance of a ray that meets nothing (the sky), metres: 1 m of baseline is 0.1 mrad of
 /// parallax there.
@@ -172,103 +177,6 @@ impl Solid {
     }
 }
 
-/// A spherical depth buffer around a viewpoint: per cell of longitude × latitude (about the
-/// reference frame's y axis), the range of the nearest splat.
-#[derive(Debug, Clone)]
-struct Splats {
-    width: usize,
-    height: usize,
-    range: Vec<f32>,
-}
-
-impl Splats {
-    fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
-        let lon = d.x.atan2(d.z);
-        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
-        (
-            (lon + PI) / TAU * self.width as f64,
-            (lat + PI / 2.0) / PI * self.height as f64,
-        )
-    }
-
-    fn new(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
-        let width = (360.0 * CELLS_PER_DEG) as usize;
-        let height = (180.0 * CELLS_PER_DEG) as usize;
-        let mut splats = Splats {
-            width,
-            height,
-            range: vec![f32::INFINITY; width * height],
-        };
-        let radius = SPLAT_DEG * CELLS_PER_DEG;
-        for p in points {
-            let v = p - origin;
-            let range = v.norm();
-            if !(range > 0.0) {
-                continue;
-            }
-            let (x, y) = splats.cell_of(&v);
-            let lat = (y / height as f64) * PI - PI / 2.0;
-            // a disc on the sphere: wider in cells of longitude away from the equator
-            let stretch = 1.0 / lat.cos().max(0.05);
-            let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
-            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
-            for cy in y0..y1.min(height) {
-                let dy = (cy as f64 + 0.5 - y) / ry;
-                let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
-                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
-                for cx in x0..x1 {
-                    let cx = cx.rem_euclid(width as i64) as usize;
-                    let cell = &mut splats.range[cy * width + cx];
-                    *cell = cell.min(range as f32);
-                }
-            }
-        }
-        splats
-    }
-
-    /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
-    /// `d`, one cell wider on every side (a lower bound of [`Splats::range`] there). Such a
-    /// bearing's latitude is within `radius` of d's, and its longitude within
-    /// 2·asin(sin(radius/2) / cos φ) (haversines; φ the largest |latitude| in reach).
-    fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
-        let (x, y) = self.cell_of(d);
-        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
-        let rows = radius / PI * self.height as f64;
-        let y0 = ((y - rows).floor() - 1.0).max(0.0) as usize;
-        let y1 = ((y + rows).floor() + 1.0).min(self.height as f64 - 1.0) as usize;
-        let widest = (lat.abs() + radius).min(PI / 2.0).cos();
-        let s = (radius / 2.0).sin() / widest;
-        let columns = if s < 1.0 {
-            2.0 * s.asin() / TAU * self.width as f64
-        } else {
-            f64::INFINITY
-        };
-        let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
-        let mut t = f32::INFINITY;
-        if !(x1 - x0 + 1.0 < self.width as f64) {
-            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
-                t = row.iter().fold(t, |a, b| a.min(*b));
-            }
-        } else {
-            for cy in y0..=y1 {
-                let row = &self.range[cy * self.width..(cy + 1) * self.width];
-                for cx in x0 as i64..=x1 as i64 {
-                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
-                }
-            }
-        }
-        t as f64
-    }
-
-    /// The nearest splat's range along unit `d` from the origin (infinite: none).
-    fn range(&self, d: &Vector3<f64>) -> f64 {
-        let (x, y) = self.cell_of(d);
-        let cx = (x.floor() as i64).rem_euclid(self.width as i64) as usize;
-        let cy = (y.floor().max(0.0) as usize).min(self.height - 1);
-        self.range[cy * self.width + cx] as f64
-    }
-}
-
 /// A frame's scene for a depth-guided stitch from `centre`, its cameras at `eyes`.
 #[derive(Debug, Clone)]
 pub struct SceneDepth {
@@ -278,6 +186,8 @@ pub struct SceneDepth {
     ground: Option<Ground>,
     /// The residual points' buffers seen from the centre, then from each eye (empty: none).
     splats: Vec<Splats>,
+    /// The boxes' grids seen from the centre, then from each eye.
+    grids: Vec<BoxGrid>,
     nearest: f64,
 }
 
@@ -300,6 +210,11 @@ impl SceneDepth {
                 .map(|o| Splats::new(*o, &residual))
                 .collect()
         };
+        let spheres: Vec<_> = solids.iter().map(|s| (s.centre, s.radius)).collect();
+        let grids = std::iter::once(&centre)
+            .chain(&eyes)
+            .map(|o| BoxGrid::new(o, &spheres))
+            .collect();
         let mut nearest = FAR;
         for s in &solids {
             nearest = nearest.min((s.centre - centre).norm() - s.radius);
@@ -316,6 +231,7 @@ impl SceneDepth {
             solids,
             ground,
             splats,
+            grids,
             nearest: nearest.max(0.0),
         }
     }
@@ -325,59 +241,41 @@ impl SceneDepth {
         self.ground
     }
 
-    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none.
-    fn exact_hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
+    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none:
+    /// `view` the index of o's grid (0 the centre, 1 + i eye i).
+    fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
         let mut t = self
             .ground
             .and_then(|g| g.hit(o, d))
             .unwrap_or(f64::INFINITY);
-        for s in &self.solids {
-            if let Some(h) = s.hit(o, d) {
+        self.grids[view].any(d, self.solids.len(), |k| {
+            if let Some(h) = self.solids[k].hit(o, d) {
                 t = t.min(h);
             }
-        }
+            false
+        });
         t
     }
-}
 
-impl StitchDepth for SceneDepth {
-    fn distance(&self, d: &Vector3<f64>) -> f64 {
-        let t = self.exact_hit(&self.centre, d);
-        match self.splats.first() {
-            Some(s) => t.min(s.range(d)),
-            None => t,
-        }
-        .min(FAR)
-    }
-
-    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
-        let Some(eye) = self.eyes.get(camera) else {
-            return false;
-        };
+    /// The unit ray from camera `camera`'s eye to `x`: the eye, the direction and its length
+    /// (None without such a camera or for `x` at the eye).
+    fn eye_ray(&self, camera: usize, x: &Vector3<f64>) -> Option<EyeRay> {
+        let eye = *self.eyes.get(camera)?;
         let v = x - eye;
         let length = v.norm();
         if !(length > 0.0) {
-            return false;
+            return None;
         }
         let d = v / length;
-        if self.exact_hit(eye, &d) < length - SURFACE_TOLERANCE - 1e-9 * length {
-            return false;
-        }
-        self.splats
-            .get(camera + 1)
-            .is_none_or(|s| s.range(&d) >= length * 0.95 - SCAN_TOLERANCE)
+        Some(EyeRay { eye, d, length })
     }
 
-    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
-        let Some(eye) = self.eyes.get(camera) else {
-            return false;
-        };
-        let v = x - eye;
-        let length = v.norm();
-        if !(length > 0.0 && radius > 0.0) {
+    /// [`StitchDepth::hidden_near`] along `ray` ([`SceneDepth::eye_ray`]).
+    fn hidden_along(&self, camera: usize, x: &Vector3<f64>, ray: &EyeRay, radius: f64) -> bool {
+        let EyeRay { eye, d, length } = *ray;
+        if !(radius > 0.0) {
             return false;
         }
-        let d = v / length;
         let spread = radius.tan();
         let nearer = length * 0.95 - SURFACE_TOLERANCE;
         // the box's outline moves by the parallax across the eye's offset from the centre
@@ -385,7 +283,8 @@ impl StitchDepth for SceneDepth {
         // the rim's rays, made for the first box that passes the sphere test (most samples
         // have none near)
         let mut rim: Option<[Vector3<f64>; RING_RAYS]> = None;
-        self.solids.iter().any(|s| {
+        let hides = |k: usize| {
+            let s = &self.solids[k];
             if s.contains(x, SURFACE_TOLERANCE) {
                 return false;
             }
@@ -395,23 +294,82 @@ impl StitchDepth for SceneDepth {
             if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
                 return false;
             }
-            let rays = rim.get_or_insert_with(|| {
-                let (a, b) = perpendiculars(&d);
-                std::array::from_fn(|k| {
-                    let turn = k as f64 * TAU / RING_RAYS as f64;
-                    (d + (a * turn.cos() + b * turn.sin()) * spread).normalize()
-                })
-            });
+            let rays = rim.get_or_insert_with(|| ring(&d, spread));
             rays.iter().any(|ray| {
                 // under a tenth of the footprint the blur mixes the box in as the centre sees it
                 let across = (base - ray * base.dot(ray)).norm();
-                s.hit(eye, ray).is_some_and(|t| {
+                s.hit(&eye, ray).is_some_and(|t| {
                     t < nearer && across * (1.0 / t - 1.0 / length) > radius / 10.0
                 })
             })
-        })
+        };
+        // the grid lists every box a rim ray within its reach may meet
+        if radius <= grid::REACH {
+            self.grids[camera + 1].any(&d, self.solids.len(), hides)
+        } else {
+            (0..self.solids.len()).any(hides)
+        }
     }
 
+    /// [`StitchDepth::sees`] along `ray` ([`SceneDepth::eye_ray`]).
+    fn sees_along(&self, camera: usize, ray: &EyeRay) -> bool {
+        let EyeRay { eye, d, length } = ray;
+        if self.exact_hit(camera + 1, eye, d) < length - SURFACE_TOLERANCE - 1e-9 * length {
+            return false;
+        }
+        self.splats.get(camera + 1).is_none_or(|s| {
+            let (lon, lat) = angles(d);
+            s.range(lon, lat) >= length * 0.95 - SCAN_TOLERANCE
+        })
+    }
+}
+
+/// The [`RING_RAYS`] unit rays at angle atan(`spread`) around unit `d`.
+fn ring(d: &Vector3<f64>, spread: f64) -> [Vector3<f64>; RING_RAYS] {
+    static TURNS: std::sync::OnceLock<[(f64, f64); RING_RAYS]> = std::sync::OnceLock::new();
+    let turns = TURNS.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let turn = k as f64 * TAU / RING_RAYS as f64;
+            (turn.cos(), turn.sin())
+        })
+    });
+    let (a, b) = perpendiculars(d);
+    std::array::from_fn(|k| (d + (a * turns[k].0 + b * turns[k].1) * spread).normalize())
+}
+
+/// A ray from an eye to a point ([`SceneDepth::eye_ray`]).
+struct EyeRay {
+    eye: Vector3<f64>,
+    d: Vector3<f64>,
+    length: f64,
+}
+
+impl StitchDepth for SceneDepth {
+    fn distance(&self, d: &Vector3<f64>) -> f64 {
+        let (lon, lat) = angles(d);
+        let t = self.exact_hit(0, &self.centre, d);
+        match self.splats.first() {
+            Some(s) => t.min(s.range(lon, lat)),
+            None => t,
+        }
+        .min(FAR)
+    }
+
+    fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
+        self.eye_ray(camera, x)
+            .is_some_and(|ray| self.sees_along(camera, &ray))
+    }
+
+    fn hidden_near(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        self.eye_ray(camera, x)
+            .is_some_and(|ray| self.hidden_along(camera, x, &ray, radius))
+    }
+
+    fn sees_clean(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        self.eye_ray(camera, x).is_some_and(|ray| {
+            self.sees_along(camera, &ray) && !self.hidden_along(camera, x, &ray, radius)
+        })
+    }
     fn nearest(&self) -> f64 {
         self.nearest
     }

@@ -31,6 +31,12 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
         false
     }
 
+    /// [`StitchDepth::sees`] and not [`StitchDepth::hidden_near`], in one call (a scene may
+    /// share their work).
+    fn sees_clean(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
+        self.sees(camera, x) && !self.hidden_near(camera, x, radius)
+    }
+
     /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
     fn nearest(&self) -> f64;
 

@@ -3,11 +3,12 @@
 
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
+use crate::warp::reach::Reach;
 use nalgebra::{Point2, Vector3};
 
 /// The mapping from output bearings to one camera's pixels through the proxy point, as a
 /// camera model for [`RemapTable`] (which asks the source model for `project` only).
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 pub(super) struct Proxy<'a> {
     pub(super) camera: StitchCamera<'a>,
     centre: Vector3<f64>,
@@ -19,6 +20,18 @@ pub(super) struct Proxy<'a> {
     /// cosine from the axis lies outside that interval is decided without `atan2` (None:
     /// no lens bound, or one too near 0 or π for the shortcut).
     fov_cos: Option<(f64, f64)>,
+    /// The scene's distances at the output's pixel centres, computed once for the distance
+    /// map: a table's centres take them instead of casting their rays again.
+    centres: Option<Centres<'a>>,
+}
+
+/// The distances of a depth-guided stitch's output pixel centres.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Centres<'a> {
+    pub(super) output: &'a dyn CameraModel,
+    pub(super) reach: &'a Reach,
+    /// Row-major, as [`super::guided::pixel_distances`] gives them.
+    pub(super) distances: &'a [f64],
 }
 
 /// Radians between the half field of view and the angles the shortcut of [`Proxy::within`]
@@ -49,7 +62,58 @@ impl<'a> Proxy<'a> {
             distance,
             depth,
             fov_cos,
+            centres: None,
         }
+    }
+
+    /// This proxy, taking the distances of the output's pixel centres from `centres`.
+    pub(super) fn with_centres(mut self, centres: Centres<'a>) -> Self {
+        self.centres = Some(centres);
+        self
+    }
+
+    /// The distance map's entries for bearings `ds` when they are the centres of one output
+    /// row, columns -1..=width, as the output's bound gave them (a table's row of centres),
+    /// per bearing: None for another bearing. The row is the one the output projects the
+    /// first bearing to, and each bearing must equal the bound's to the bit: its distance is
+    /// then the same call's result.
+    fn centre_distances<'c>(
+        &'c self,
+        ds: &'c [Option<Vector3<f64>>],
+    ) -> Option<impl Iterator<Item = Option<f64>> + 'c> {
+        let c = self.centres?;
+        let size = c.output.size();
+        let w = size.width as usize;
+        if ds.len() != w + 2 {
+            return None;
+        }
+        let first = ds[1..=w].iter().flatten().next()?;
+        let y = c.output.project(first).ok()?.y.round();
+        if !(y >= 0.0 && y < size.height as f64) {
+            return None;
+        }
+        let v = y as usize;
+        let same = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        Some(ds.iter().enumerate().map(move |(k, d)| {
+            let u = k.checked_sub(1).filter(|u| *u < w)?;
+            let stored = c.reach.bearing(u, v)?;
+            same(d.as_ref()?, &stored).then(|| c.distances[v * w + u])
+        }))
+    }
+
+    /// [`CameraModel::project`] of bearing `d` through the scene's point at `distance`.
+    fn project_at(
+        &self,
+        d: &Vector3<f64>,
+        distance: f64,
+    ) -> std::result::Result<Point2<f64>, ProjectionReject> {
+        let q = self.local_at(&d.normalize(), distance);
+        if !self.within(&q) {
+            return Err(ProjectionReject::OutsideDomain);
+        }
+        self.camera.model.project_point(&q)
     }
 
     /// The camera point of output bearing `d`: its proxy point, or with a depth the scene's
@@ -104,6 +168,20 @@ impl CameraModel for Proxy<'_> {
             return Err(ProjectionReject::OutsideDomain);
         }
         self.camera.model.project_point(&q)
+    }
+
+    fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        match self.centre_distances(bearings) {
+            Some(known) => out.extend(bearings.iter().zip(known).map(|(d, t)| {
+                let d = d.as_ref()?;
+                match t {
+                    Some(t) => self.project_at(d, t),
+                    None => self.project(d),
+                }
+                .ok()
+            })),
+            None => out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok())),
+        }
     }
 
     /// The output bearing whose proxy point the pixel sees: the camera's ray met with the

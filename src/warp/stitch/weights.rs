@@ -1,7 +1,7 @@
 //! A stitch's remap tables and blend weights (steps 2, 3 and 6 of the stitch's model): each
 //! camera's angular margin, smoothed over the blend width, zero where its ego mask is touched.
 
-use super::proxy::{Proxy, FOV_SLACK};
+use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel};
 use crate::warp::mask::EgoMask;
@@ -162,9 +162,18 @@ impl Stitch {
                 reach: &reach,
                 camera: i,
             };
+            // the table's pixel centres at the distances already cast for the map
+            let centred = match &distances {
+                Some(distances) => proxy.with_centres(Centres {
+                    output,
+                    reach: &reach,
+                    distances,
+                }),
+                None => *proxy,
+            };
             let table = RemapTable::build_parallel(
                 &gated,
-                proxy,
+                &centred,
                 &Matrix3::identity(),
                 Wrap::None,
                 MAX_SUPERSAMPLE,
@@ -209,7 +218,7 @@ impl Stitch {
                                 // step 2 of the guided model: a camera that does not see
                                 // the scene's point gives nothing there
                                 let x = proxy.point_at(&n, t);
-                                if !depth.sees(i, &x) || depth.hidden_near(i, &x, footprint) {
+                                if !depth.sees_clean(i, &x, footprint) {
                                     continue;
                                 }
                                 proxy.local_at(&n, t)

@@ -1,0 +1,123 @@
+//! The residual scan points of a frame's scene as spherical depth buffers: the nearest splat
+//! per cell around a viewpoint (see the parent module).
+
+use super::{CELLS_PER_DEG, SPLAT_DEG};
+use nalgebra::Vector3;
+use std::f64::consts::{PI, TAU};
+
+/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there).
+#[inline]
+fn floor(x: f64) -> f64 {
+    if (0.0..4_503_599_627_370_496.0).contains(&x) {
+        (x as u64) as f64
+    } else {
+        x.floor()
+    }
+}
+
+/// The longitude (about the reference frame's y axis, from +z) and latitude of `d`.
+pub(super) fn angles(d: &Vector3<f64>) -> (f64, f64) {
+    (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin())
+}
+
+/// A spherical depth buffer around a viewpoint: per cell of longitude × latitude (about the
+/// reference frame's y axis), the range of the nearest splat.
+#[derive(Debug, Clone)]
+pub(super) struct Splats {
+    width: usize,
+    height: usize,
+    range: Vec<f32>,
+}
+
+impl Splats {
+    fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
+        let (lon, lat) = angles(d);
+        self.cell_at(lon, lat)
+    }
+
+    /// The cell position of the bearing at longitude `lon`, latitude `lat` ([`angles`]).
+    fn cell_at(&self, lon: f64, lat: f64) -> (f64, f64) {
+        (
+            (lon + PI) / TAU * self.width as f64,
+            (lat + PI / 2.0) / PI * self.height as f64,
+        )
+    }
+
+    pub(super) fn new(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
+        let width = (360.0 * CELLS_PER_DEG) as usize;
+        let height = (180.0 * CELLS_PER_DEG) as usize;
+        let mut splats = Splats {
+            width,
+            height,
+            range: vec![f32::INFINITY; width * height],
+        };
+        let radius = SPLAT_DEG * CELLS_PER_DEG;
+        for p in points {
+            let v = p - origin;
+            let range = v.norm();
+            if !(range > 0.0) {
+                continue;
+            }
+            let (x, y) = splats.cell_of(&v);
+            let lat = (y / height as f64) * PI - PI / 2.0;
+            // a disc on the sphere: wider in cells of longitude away from the equator
+            let stretch = 1.0 / lat.cos().max(0.05);
+            let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
+            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
+            for cy in y0..y1.min(height) {
+                let dy = (cy as f64 + 0.5 - y) / ry;
+                let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
+                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
+                for cx in x0..x1 {
+                    let cx = cx.rem_euclid(width as i64) as usize;
+                    let cell = &mut splats.range[cy * width + cx];
+                    *cell = cell.min(range as f32);
+                }
+            }
+        }
+        splats
+    }
+
+    /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
+    /// `d`, one cell wider on every side (a lower bound of [`Splats::range`] there). Such a
+    /// bearing's latitude is within `radius` of d's, and its longitude within
+    /// 2·asin(sin(radius/2) / cos φ) (haversines; φ the largest |latitude| in reach).
+    pub(super) fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
+        let (x, y) = self.cell_of(d);
+        let lat = (d.y / d.norm()).clamp(-1.0, 1.0).asin();
+        let rows = radius / PI * self.height as f64;
+        let y0 = ((y - rows).floor() - 1.0).max(0.0) as usize;
+        let y1 = ((y + rows).floor() + 1.0).min(self.height as f64 - 1.0) as usize;
+        let widest = (lat.abs() + radius).min(PI / 2.0).cos();
+        let s = (radius / 2.0).sin() / widest;
+        let columns = if s < 1.0 {
+            2.0 * s.asin() / TAU * self.width as f64
+        } else {
+            f64::INFINITY
+        };
+        let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
+        let mut t = f32::INFINITY;
+        if !(x1 - x0 + 1.0 < self.width as f64) {
+            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
+                t = row.iter().fold(t, |a, b| a.min(*b));
+            }
+        } else {
+            for cy in y0..=y1 {
+                let row = &self.range[cy * self.width..(cy + 1) * self.width];
+                for cx in x0 as i64..=x1 as i64 {
+                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
+                }
+            }
+        }
+        t as f64
+    }
+
+    /// The nearest splat's range along the bearing at longitude `lon`, latitude `lat`
+    /// ([`angles`]) from the origin (infinite: none).
+    pub(super) fn range(&self, lon: f64, lat: f64) -> f64 {
+        let (x, y) = self.cell_at(lon, lat);
+        let cx = (floor(x) as i64).rem_euclid(self.width as i64) as usize;
+        let cy = (floor(y).max(0.0) as usize).min(self.height - 1);
+        self.range[cy * self.width + cx] as f64
+    }
+}
