@@ -3,7 +3,7 @@
 # `pip install .` builds it: cargo's release profile. The module goes into
 # target/bench-python/panoconv/ beside a copy of python/panoconv/'s Python files, so the Python
 # tests' module (scripts/install_python_package.sh's dev-profile build) is left alone. The
-# Python that runs it is $PYTHON, else benches/.venv (opencv-python-headless, numpy; set up on
+# Python that runs it is $PYTHON, else benches/.venv (opencv-python-headless and numpy, pinned; set up on
 # first use as benches/run.sh does).
 #   benches/random_cameras.sh [--kitti DIR] [--samples N] [--workers N]
 set -euo pipefail
@@ -13,7 +13,7 @@ if [ -z "${PYTHON:-}" ]; then
     venv="$here/.venv"
     if ! "$venv/bin/python" -c 'import cv2, numpy' 2>/dev/null; then
         python3 -m venv "$venv"
-        "$venv/bin/pip" install --quiet opencv-python-headless numpy
+        "$venv/bin/pip" install --quiet opencv-python-headless==5.0.0.93 numpy==2.4.6
     fi
     PYTHON="$venv/bin/python"
 fi

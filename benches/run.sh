@@ -11,7 +11,7 @@ root="$(dirname "$here")"
 venv="$here/.venv"
 if ! "$venv/bin/python" -c 'import cv2, numpy' 2>/dev/null; then
     python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet opencv-python-headless numpy
+    "$venv/bin/pip" install --quiet opencv-python-headless==5.0.0.93 numpy==2.4.6
 fi
 (cd "$root" && cargo build --release --quiet --bin panoconv --example codec_floor)
 target="${CARGO_TARGET_DIR:-$root/target}"

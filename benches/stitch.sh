@@ -43,7 +43,7 @@ while [ $# -gt 0 ]; do
 done
 if ! "$venv/bin/python" -c 'import cv2, numpy' 2>/dev/null; then
     python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet opencv-python-headless numpy
+    "$venv/bin/pip" install --quiet opencv-python-headless==5.0.0.93 numpy==2.4.6
 fi
 if [ -z "$bin" ]; then
     (cd "$root" && cargo build --release --quiet --bin panoconv)
