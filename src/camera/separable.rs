@@ -28,8 +28,9 @@ pub trait Separable: Sync {
     /// [`crate::camera::CameraModel::unproject`] gives for that pixel (`None` for its errors).
     fn bearings(&self, columns: &[Share], row: Share, out: &mut Vec<Option<Vector3<f64>>>);
     /// [`Separable::bearings`] coordinate by coordinate: the bearing of `columns[i]` on the row
-    /// of `row` in `x[i]`, `y[i]`, `z[i]` (each as long as `columns`), NaN in all three where
-    /// `bearings` gives `None`. For batch kernels that take coordinates in lanes.
+    /// of `row` in `x[i]`, `y[i]`, `z[i]` (each as long as `columns`), a NaN `x[i]` where
+    /// `bearings` gives `None` (the others may be NaN too). For batch kernels that take
+    /// coordinates in lanes.
     fn bearing_lanes(&self, columns: &[Share], row: Share, [x, y, z]: [&mut [f64]; 3]) {
         let mut one = Vec::with_capacity(columns.len());
         self.bearings(columns, row, &mut one);

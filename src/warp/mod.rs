@@ -18,3 +18,14 @@ pub use mask::EgoMask;
 pub use stitch::{Stitch, StitchCamera, StitchDepth, StitchOptions, Stitched};
 pub use stream::{warp_encode, PngSource};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+
+/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there): a pixel or cell
+/// index on a per-tap path.
+#[inline]
+pub(crate) fn floor(x: f64) -> f64 {
+    if (0.0..4_503_599_627_370_496.0).contains(&x) {
+        (x as u64) as f64
+    } else {
+        x.floor()
+    }
+}

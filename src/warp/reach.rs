@@ -46,16 +46,6 @@ pub(super) struct Reach {
     reach: Vec<Option<Vec<bool>>>,
 }
 
-/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there).
-#[inline]
-fn floor(x: f64) -> f64 {
-    if (0.0..4_503_599_627_370_496.0).contains(&x) {
-        (x as u64) as f64
-    } else {
-        x.floor()
-    }
-}
-
 /// One camera as the bound sees it.
 pub(super) struct Cone<'a> {
     /// The proxy point of an output bearing, in the camera's coordinates.
@@ -252,7 +242,7 @@ impl Reach {
             return true;
         };
         let gw = self.size.width as usize + 2;
-        let (x, y) = (floor(p.x + 0.5) + 1.0, floor(p.y + 0.5) + 1.0);
+        let (x, y) = (super::floor(p.x + 0.5) + 1.0, super::floor(p.y + 0.5) + 1.0);
         if !(x >= 0.0 && y >= 0.0 && x < gw as f64 && y < (self.size.height + 2) as f64) {
             return true;
         }

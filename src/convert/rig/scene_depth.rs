@@ -346,10 +346,12 @@ struct EyeRay {
 
 impl StitchDepth for SceneDepth {
     fn distance(&self, d: &Vector3<f64>) -> f64 {
-        let (lon, lat) = angles(d);
         let t = self.exact_hit(0, &self.centre, d);
         match self.splats.first() {
-            Some(s) => t.min(s.range(lon, lat)),
+            Some(s) => {
+                let (lon, lat) = angles(d);
+                t.min(s.range(lon, lat))
+            }
             None => t,
         }
         .min(FAR)

@@ -5,16 +5,6 @@ use super::{CELLS_PER_DEG, SPLAT_DEG};
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
 
-/// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there).
-#[inline]
-fn floor(x: f64) -> f64 {
-    if (0.0..4_503_599_627_370_496.0).contains(&x) {
-        (x as u64) as f64
-    } else {
-        x.floor()
-    }
-}
-
 /// The longitude (about the reference frame's y axis, from +z) and latitude of `d`.
 pub(super) fn angles(d: &Vector3<f64>) -> (f64, f64) {
     (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin())
@@ -116,8 +106,8 @@ impl Splats {
     /// ([`angles`]) from the origin (infinite: none).
     pub(super) fn range(&self, lon: f64, lat: f64) -> f64 {
         let (x, y) = self.cell_at(lon, lat);
-        let cx = (floor(x) as i64).rem_euclid(self.width as i64) as usize;
-        let cy = (floor(y).max(0.0) as usize).min(self.height - 1);
+        let cx = (crate::warp::floor(x) as i64).rem_euclid(self.width as i64) as usize;
+        let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
 }
