@@ -141,6 +141,21 @@ impl<'a> Proxy<'a> {
         self.camera.rotation * self.point_at(n, distance) + self.camera.translation
     }
 
+    /// [`CameraModel::project_all`] without the image bound.
+    fn project_each(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        match self.centre_distances(bearings) {
+            Some(known) => out.extend(bearings.iter().zip(known).map(|(d, t)| {
+                let d = d.as_ref()?;
+                match t {
+                    Some(t) => self.project_at(d, t),
+                    None => self.project(d),
+                }
+                .ok()
+            })),
+            None => out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok())),
+        }
+    }
+
     /// Whether camera point `q` lies within the lens's field of view: θ(q) ≤ θ_max, θ the
     /// angle from the optical axis (`atan2` only within [`FOV_SLACK`] of the edge).
     #[inline]
@@ -161,6 +176,12 @@ impl<'a> Proxy<'a> {
     }
 }
 
+/// Whether source position `p` lies within a `w`×`h` image (its edges at -0.5 and size - 0.5,
+/// the bottom edge included, as a remap table's taps are): the positions a table can sample.
+fn in_image(p: &Point2<f64>, w: f64, h: f64) -> bool {
+    p.x >= -0.5 && p.x < w - 0.5 && p.y >= -0.5 && p.y <= h - 0.5
+}
+
 impl CameraModel for Proxy<'_> {
     fn project(&self, d: &Vector3<f64>) -> std::result::Result<Point2<f64>, ProjectionReject> {
         let q = self.local(d);
@@ -170,17 +191,18 @@ impl CameraModel for Proxy<'_> {
         self.camera.model.project_point(&q)
     }
 
+    /// With a depth, only positions within the camera's image (its edges at -0.5 and
+    /// size - 0.5): a pixel whose centre lands outside has no position, so a table spends no
+    /// taps on it (a camera gives a stitch nothing where its image does not cover a pixel's
+    /// whole footprint).
     fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
-        match self.centre_distances(bearings) {
-            Some(known) => out.extend(bearings.iter().zip(known).map(|(d, t)| {
-                let d = d.as_ref()?;
-                match t {
-                    Some(t) => self.project_at(d, t),
-                    None => self.project(d),
-                }
-                .ok()
-            })),
-            None => out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok())),
+        let start = out.len();
+        self.project_each(bearings, out);
+        if self.depth.is_some() {
+            let (w, h) = (self.size().width as f64, self.size().height as f64);
+            for p in &mut out[start..] {
+                *p = p.filter(|p| in_image(p, w, h));
+            }
         }
     }
 
@@ -215,5 +237,124 @@ impl CameraModel for Proxy<'_> {
 
     fn size(&self) -> ImageSize {
         self.camera.model.size()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Equirect, Intrinsics, Perspective};
+    use crate::image::RgbImage;
+    use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+    use nalgebra::Matrix3;
+
+    /// A scene at one distance everywhere, seen by every camera.
+    #[derive(Debug)]
+    struct Sphere(f64);
+
+    impl StitchDepth for Sphere {
+        fn distance(&self, _: &Vector3<f64>) -> f64 {
+            self.0
+        }
+        fn sees(&self, _: usize, _: &Vector3<f64>) -> bool {
+            true
+        }
+        fn nearest(&self) -> f64 {
+            self.0
+        }
+    }
+
+    #[test]
+    fn a_guided_proxy_maps_only_into_the_image_and_its_table_spends_nothing_beyond() {
+        let model = Perspective::new(
+            Intrinsics::new(80.0, 80.0, 59.5, 39.5),
+            ImageSize::new(120, 80),
+        );
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::new(-0.4, 0.1, 0.0),
+            max_theta: None,
+        };
+        let centre = Vector3::new(0.05, 0.0, 0.0);
+        let sphere = Sphere(3.0);
+        let guided = Proxy::guided(camera, centre, 10.0, Some(&sphere));
+        let fixed = Proxy::new(camera, centre, 3.0);
+        let output = Equirect::new(
+            Intrinsics::new(
+                60.0 / std::f64::consts::PI,
+                60.0 / std::f64::consts::PI,
+                59.5,
+                29.5,
+            ),
+            ImageSize::new(120, 60),
+        );
+        // the same positions inside the image, none outside
+        let (mut inside, mut outside) = (0, 0);
+        for v in 0..60 {
+            for u in 0..120 {
+                let d = output.unproject(&Point2::new(u as f64, v as f64)).unwrap();
+                let mut got = Vec::new();
+                guided.project_all(&[Some(d)], &mut got);
+                match fixed.project(&d).ok().filter(|p| in_image(p, 120.0, 80.0)) {
+                    Some(p) => {
+                        assert_eq!(got[0], Some(p), "({u}, {v})");
+                        inside += 1;
+                    }
+                    None => {
+                        assert_eq!(got[0], None, "({u}, {v})");
+                        outside += 1;
+                    }
+                }
+            }
+        }
+        assert!(inside > 300 && outside > 2000, "{inside} {outside}");
+        // the tables: a pixel the fixed one covers wholly is covered by the guided one, with the
+        // same value where its neighbours' centres are inside too (the same scale estimate)
+        let build = |p: &Proxy| {
+            RemapTable::build_parallel(
+                &output,
+                p,
+                &Matrix3::identity(),
+                Wrap::None,
+                MAX_SUPERSAMPLE,
+            )
+        };
+        let (g, f) = (build(&guided), build(&fixed));
+        let mut src = RgbImage::new(120, 80);
+        for (y, x) in (0..80).flat_map(|y| (0..120).map(move |x| (y, x))) {
+            src.put_pixel(x, y, [(x * 2) as u8, (y * 3) as u8, (x ^ y) as u8]);
+        }
+        let (gi, fi) = (g.apply(&src), f.apply(&src));
+        let centre_inside = |u: i64, v: i64| {
+            (0..120).contains(&u)
+                && (0..60).contains(&v)
+                && fixed
+                    .project(&output.unproject(&Point2::new(u as f64, v as f64)).unwrap())
+                    .is_ok_and(|p| in_image(&p, 120.0, 80.0))
+        };
+        let mut same = 0;
+        for v in 0..60u32 {
+            for u in 0..120u32 {
+                if f.is_inside(u, v) {
+                    assert!(g.is_inside(u, v), "({u}, {v})");
+                }
+                let (a, b) = (u as i64, v as i64);
+                let interior = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)]
+                    .iter()
+                    .all(|(du, dv)| centre_inside(a + du, b + dv));
+                if interior && f.is_inside(u, v) {
+                    assert_eq!(gi.pixel(u, v), fi.pixel(u, v), "({u}, {v})");
+                    same += 1;
+                }
+                if !centre_inside(a, b) {
+                    assert!(
+                        !g.is_inside(u, v) && gi.pixel(u, v) == [0, 0, 0],
+                        "({u}, {v})"
+                    );
+                }
+            }
+        }
+        assert!(same > 250, "{same}");
     }
 }
