@@ -181,6 +181,10 @@ fn the_depth_guided_stitch_of_the_offset_rig_matches_the_render_from_c2() {
         at_depth.objects.iter().all(|o| o.inner_db >= MIN_OBJECT_DB),
         "{text}"
     );
+    // no object appears twice: two pixels or more from every outline the stitch shows the
+    // surface C2 sees, within resampling
+    assert_eq!(at_depth.ghost_px, 0, "{text}");
+    assert!(at_depth.interior > 200_000, "{text}");
     // the fixed distance is what the depth replaces: far from the render where objects are
     // near the rig
     assert!(proxy_mrad > 2.0 * MAX_P95_MRAD, "{text}");

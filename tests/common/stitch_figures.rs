@@ -41,7 +41,17 @@ pub struct Figures {
     pub objects: Vec<ObjectFigures>,
     pub p95_mrad: f64,
     pub covered: usize,
+    /// Covered pixels whose 5×5 neighbourhood shows one surface from C2 (two pixels or more
+    /// from every outline), and how many of them are off by more than [`GHOST_LEVELS`] in a
+    /// channel: a surface shown where C2 sees another (an object appearing twice, a seam's
+    /// misplaced copy) is off by far more than resampling; the largest such error.
+    pub interior: usize,
+    pub ghost_px: usize,
+    pub interior_max_err: u8,
 }
+
+/// A channel error (levels) beyond any resampling error away from an outline.
+pub const GHOST_LEVELS: u8 = 20;
 
 /// One object's figures.
 #[derive(Debug)]
@@ -198,6 +208,17 @@ impl Truth<'_> {
                 && (v - 1..=v + 1)
                     .all(|y| (u - 1..=u + 1).all(|x| surfaces[y * w + x] == surfaces[i]))
         };
+        // two pixels or more from every outline: the 5×5 neighbourhood shows one surface
+        let interior = |i: usize| {
+            let (u, v) = (i % w, i / w);
+            u >= 2
+                && v >= 2
+                && u + 2 < w
+                && v + 2 < h
+                && (v - 2..=v + 2)
+                    .all(|y| (u - 2..=u + 2).all(|x| surfaces[y * w + x] == surfaces[i]))
+        };
+        let (mut interior_px, mut ghost_px, mut interior_max_err) = (0, 0, 0u8);
         let (mut se, mut n) = (0.0, 0);
         let mut region = vec![(0.0, 0usize); self.eyes.len()];
         // per box: (squared error, pixels) of all its pixels and of its inner ones
@@ -214,6 +235,12 @@ impl Truth<'_> {
                 .sum::<f64>();
             se += e;
             n += 1;
+            if interior(i) {
+                let worst = (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap_or(0);
+                interior_px += 1;
+                ghost_px += usize::from(worst > GHOST_LEVELS);
+                interior_max_err = interior_max_err.max(worst);
+            }
             region[s as usize].0 += e;
             region[s as usize].1 += 1;
             if let Some(Surface::Box(b)) = surfaces[i] {
@@ -244,6 +271,9 @@ impl Truth<'_> {
                 .collect(),
             p95_mrad: mrad[mrad.len() * 95 / 100],
             covered: n,
+            interior: interior_px,
+            ghost_px,
+            interior_max_err,
         }
     }
 
@@ -266,11 +296,15 @@ impl Truth<'_> {
             .collect();
         format!(
             "{name}: {:.2} dB over {} px, regions {:.2?} dB, misregistration p95 {:.3} mrad, \
+             {} of {} px away from outlines off by more than {GHOST_LEVELS} levels (worst {}), \
              objects [{}]",
             f.overall_db,
             f.covered,
             f.region_db,
             f.p95_mrad,
+            f.ghost_px,
+            f.interior,
+            f.interior_max_err,
             objects.join(", ")
         )
     }

@@ -20,8 +20,9 @@ const MIN_OVERALL_DB: f64 = 40.0;
 const MIN_REGION_DB: f64 = 35.0;
 const MIN_OBJECT_DB: f64 = 35.0;
 const MAX_P95_MRAD: f64 = 0.5;
-/// An object's pixels are reported when it covers at least this many, and held to
-/// [`MIN_OBJECT_DB`] from [`MIN_HELD_PX`]: on the smaller ones most pixels are silhouette,
+/// An object's pixels are reported when it covers at least this many; those more than a pixel
+/// from its silhouette are held to [`MIN_OBJECT_DB`], and all of them from [`MIN_HELD_PX`]: on
+/// the smaller ones most pixels are silhouette,
 /// where a camera's own blur mixes in the background it sees beside the edge, which C2 sees
 /// elsewhere, and a roof seen at a grazing angle is foreshortened differently by each camera
 /// (a far car of 131 px reads 34.0 dB, 54.3 dB more than a pixel inside its silhouette).
@@ -117,6 +118,14 @@ fn the_depth_guided_stitch_of_the_offset_rig_matches_the_render_from_c2() {
         .collect();
     assert!(held.len() >= 5, "{text}");
     assert!(held.iter().all(|o| o.db >= MIN_OBJECT_DB), "{text}");
+    assert!(
+        at_depth.objects.iter().all(|o| o.inner_db >= MIN_OBJECT_DB),
+        "{text}"
+    );
+    // no object appears twice: two pixels or more from every outline the stitch shows the
+    // surface C2 sees (within resampling), where the fixed distance shows misplaced copies
+    assert_eq!(at_depth.ghost_px, 0, "{text}");
+    assert!(at_proxy.ghost_px > 1000, "{text}");
     // the fixed distance is what the depth replaces: far from the render where objects are
     // near the rig
     assert!(at_proxy.p95_mrad > 2.0 * MAX_P95_MRAD, "{text}");
