@@ -21,6 +21,20 @@ mod build;
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
 
+/// Whether a tap at source column `x` lies within a source `w` pixels wide that does not wrap
+/// (its edges at -0.5 and w - 0.5; NaN does not).
+#[inline(always)]
+pub(crate) fn column_inside(x: f64, w: f64) -> bool {
+    x >= -0.5 && x < w - 0.5
+}
+
+/// Whether a tap at source row `y` lies within a source `h` pixels tall (its edges at -0.5 and
+/// h - 0.5, the bottom one included: a ray exactly at a panorama's south pole lands there).
+#[inline(always)]
+pub(crate) fn row_inside(y: f64, h: f64) -> bool {
+    y >= -0.5 && y <= h - 0.5
+}
+
 /// How source columns beyond the left and right edges are treated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Wrap {

@@ -199,24 +199,16 @@ impl Truth<'_> {
                 near_covered(i).then(|| self.surface(&(self.scene_from_level * self.bearing(i))))
             })
             .collect();
-        let inner = |i: usize| {
+        // whether pixel i's (2r + 1)² neighbourhood shows one surface from C2: it lies r pixels
+        // or more from every outline
+        let uniform = |i: usize, r: usize| {
             let (u, v) = (i % w, i / w);
-            u > 0
-                && v > 0
-                && u + 1 < w
-                && v + 1 < h
-                && (v - 1..=v + 1)
-                    .all(|y| (u - 1..=u + 1).all(|x| surfaces[y * w + x] == surfaces[i]))
-        };
-        // two pixels or more from every outline: the 5×5 neighbourhood shows one surface
-        let interior = |i: usize| {
-            let (u, v) = (i % w, i / w);
-            u >= 2
-                && v >= 2
-                && u + 2 < w
-                && v + 2 < h
-                && (v - 2..=v + 2)
-                    .all(|y| (u - 2..=u + 2).all(|x| surfaces[y * w + x] == surfaces[i]))
+            u >= r
+                && v >= r
+                && u + r < w
+                && v + r < h
+                && (v - r..=v + r)
+                    .all(|y| (u - r..=u + r).all(|x| surfaces[y * w + x] == surfaces[i]))
         };
         let (mut interior_px, mut ghost_px, mut interior_max_err) = (0, 0, 0u8);
         let (mut se, mut n) = (0.0, 0);
@@ -235,7 +227,7 @@ impl Truth<'_> {
                 .sum::<f64>();
             se += e;
             n += 1;
-            if interior(i) {
+            if uniform(i, 2) {
                 let worst = (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap_or(0);
                 interior_px += 1;
                 ghost_px += usize::from(worst > GHOST_LEVELS);
@@ -246,7 +238,7 @@ impl Truth<'_> {
             if let Some(Surface::Box(b)) = surfaces[i] {
                 objects[b][0].0 += e;
                 objects[b][0].1 += 1;
-                if inner(i) {
+                if uniform(i, 1) {
                     objects[b][1].0 += e;
                     objects[b][1].1 += 1;
                 }

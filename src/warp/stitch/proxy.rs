@@ -4,6 +4,7 @@
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use crate::warp::reach::Reach;
+use crate::warp::table::{column_inside, row_inside};
 use nalgebra::{Point2, Vector3};
 
 /// The mapping from output bearings to one camera's pixels through the proxy point, as a
@@ -176,10 +177,10 @@ impl<'a> Proxy<'a> {
     }
 }
 
-/// Whether source position `p` lies within a `w`×`h` image (its edges at -0.5 and size - 0.5,
-/// the bottom edge included, as a remap table's taps are): the positions a table can sample.
+/// Whether source position `p` lies within a `w`×`h` image as a remap table's taps do: the
+/// positions a table can sample.
 fn in_image(p: &Point2<f64>, w: f64, h: f64) -> bool {
-    p.x >= -0.5 && p.x < w - 0.5 && p.y >= -0.5 && p.y <= h - 0.5
+    column_inside(p.x, w) && row_inside(p.y, h)
 }
 
 impl CameraModel for Proxy<'_> {

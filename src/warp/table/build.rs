@@ -3,7 +3,7 @@
 //! needs from its neighbours' mapped centres, and its taps merged into 2×2 blocks with
 //! integer weights ([`Quad`]s), band by band of rows, serially or on rayon's pool.
 
-use super::{Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use super::{column_inside, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Separable, Share};
 use crate::warp::footprint::Footprint;
 use crate::warp::kernel::{Quad, LANES, WEIGHT_ONE};
@@ -351,11 +351,10 @@ impl<'a> Builder<'a> {
         let (mut x, y) = (p.x, p.y);
         if self.wrap == Wrap::Horizontal {
             x = x.rem_euclid(sw);
-        } else if !(x >= -0.5 && x < sw - 0.5) {
+        } else if !column_inside(x, sw) {
             return None;
         }
-        // inclusive at the bottom edge: a ray exactly at a panorama's south pole lands there
-        if !(y >= -0.5 && y <= sh - 0.5) {
+        if !row_inside(y, sh) {
             return None;
         }
         // Within half a pixel of the border the edge pixel is repeated (it covers that area).

@@ -10,7 +10,7 @@
 use super::Builder;
 use crate::camera::{pinhole_lanes, Intrinsics, Separable};
 use crate::warp::kernel::{Round, LANES, WEIGHT_ONE};
-use crate::warp::table::{Cover, RemapTable};
+use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
 
 /// One coordinate of a group's pixels, a lane each.
 type Lanes = [f64; LANES];
@@ -149,7 +149,7 @@ impl Builder<'_> {
         for l in 0..LANES {
             let (x, y) = (px[l], py[l]);
             // `block`'s tests (NaN, a pixel without a centre, fails them)
-            let ok = x >= -0.5 && x < sw - 0.5 && y >= -0.5 && y <= sh - 0.5;
+            let ok = column_inside(x, sw) && row_inside(y, sh);
             // outside lanes computed on (0, 0), then dropped: no NaN reaches a conversion
             let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
             let y = clamp(y, sh - 1.0);
