@@ -11,6 +11,7 @@ mod io;
 mod labels;
 mod manifest;
 mod models;
+mod rig;
 mod turned;
 mod warp;
 
@@ -39,5 +40,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;
+    m.add_function(wrap_pyfunction!(rig::_camera_wire, m)?)?;
     Ok(())
 }
