@@ -3,9 +3,10 @@
 
 use super::world::WorldFrame;
 use crate::error::{Error, Result};
-use crate::source::{record_value, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera};
+use crate::source::{
+    record_value, RigItem, RigItems, RigSource, SourceBox, SourceCamera, SourceFrame,
+};
 use serde_json::{Map, Value};
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -38,8 +39,6 @@ pub struct WorldRigSource<S> {
     rig: WorldRig,
     command: &'static str,
     peer: Mutex<S>,
-    /// Each read frame's record, for [`RigSource::record`].
-    records: Mutex<HashMap<String, Map<String, Value>>>,
     keep_unseen: bool,
 }
 
@@ -54,7 +53,6 @@ impl<S: WorldSource> WorldRigSource<S> {
             rig,
             command,
             peer: Mutex::new(peer),
-            records: Mutex::new(HashMap::new()),
             keep_unseen: false,
         })
     }
@@ -139,7 +137,7 @@ impl<S: WorldSource> RigSource for WorldRigSource<S> {
         Ok(RigItems { items, not_frames })
     }
 
-    fn read(&self, item: &RigItem) -> Result<Frame> {
+    fn read(&self, item: &RigItem) -> Result<SourceFrame> {
         let world = self
             .peer
             .lock()
@@ -157,11 +155,7 @@ impl<S: WorldSource> RigSource for WorldRigSource<S> {
         }
         let record = world.record.clone();
         let frame = world.into_frame(&item.id, &self.rig.root)?;
-        self.records
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .insert(item.id.clone(), record);
-        Ok(frame)
+        Ok(SourceFrame { frame, record })
     }
 
     fn keeps(&self, _object: &SourceBox) -> bool {
@@ -171,11 +165,6 @@ impl<S: WorldSource> RigSource for WorldRigSource<S> {
 
     fn drops_unseen(&self, object: &SourceBox) -> bool {
         !self.keep_unseen && object.sensor_points == Some(0)
-    }
-
-    fn record(&self, item: &RigItem) -> Map<String, Value> {
-        let records = self.records.lock().unwrap_or_else(|e| e.into_inner());
-        records.get(&item.id).cloned().unwrap_or_default()
     }
 
     fn parameters(&self) -> Map<String, Value> {
