@@ -1,8 +1,9 @@
-"""Training on a rig's output (the nuScenes fixture stitched by the command): the depth of
-`RandomCameraDataset` from `depth_2`, warped exactly (each source depth pixel's own 3D point,
-the nearest per target pixel, against numpy over the cameras' projections); its mask within the
-panorama's coverage (`source_2`), exactly the pixels every tap of which is covered; the
-command's `--min-visible` rule and `--min-objects` redraw; `supersample` 1 by default."""
+"""Training on a rig's output (the nuScenes and KITTI-360 fixtures stitched by the command):
+the depth of `RandomCameraDataset` from `depth_2`, warped exactly (each source depth pixel's
+own 3D point, the nearest per target pixel, against numpy over the cameras' projections); its
+mask within the panorama's coverage (`source_2`), exactly the pixels every tap of which is
+covered; the command's `--min-visible` rule and `--min-objects` redraw; `supersample` 1 by
+default."""
 
 from __future__ import annotations
 
@@ -61,8 +62,14 @@ def depth_by_points(src, dst, depth):
     return out, border
 
 
-def test_depth_comes_from_depth_2_exactly(nuscenes_equirect):
-    root = nuscenes_equirect
+@pytest.fixture(params=["nuscenes_equirect", "kitti360_equirect"])
+def rig(request):
+    """A rig's converted output: no velodyne/, depth_2 and source_2."""
+    return request.getfixturevalue(request.param)
+
+
+def test_depth_comes_from_depth_2_exactly(rig):
+    root = rig
     assert not (root / "training" / "velodyne").exists()
     ds = RandomCameraDataset(root, sampler(), seed=3)
     compared = 0
@@ -93,8 +100,8 @@ def test_depth_comes_from_depth_2_exactly(nuscenes_equirect):
     assert compared > 2000
 
 
-def test_the_mask_is_the_panorama_s_coverage(nuscenes_equirect):
-    ds = RandomCameraDataset(nuscenes_equirect, sampler(), seed=11)
+def test_the_mask_is_the_panorama_s_coverage(rig):
+    ds = RandomCameraDataset(rig, sampler(), seed=11)
     uncovered_seen = 0
     for i in range(len(ds)):
         frame = ds.frames[i]
