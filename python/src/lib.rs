@@ -11,8 +11,10 @@ mod io;
 mod labels;
 mod manifest;
 mod models;
+mod redraw;
 mod rig;
 mod turned;
+mod vectors;
 mod warp;
 
 #[pymodule]
@@ -37,6 +39,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(manifest::read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(manifest::verify, m)?)?;
     m.add_function(wrap_pyfunction!(models::read_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(redraw::best_draw, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;
