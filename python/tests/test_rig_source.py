@@ -91,6 +91,32 @@ def test_a_python_source_converts_and_verifies(tmp_path):
     assert panoconv.read_manifest(out)["command"] == "toy"
 
 
+def test_shards_merge_resume_and_the_tools_work_on_a_python_source_s_output(tmp_path):
+    from conftest import run
+
+    source = Toy(tmp_path / "in")
+    out = tmp_path / "out"
+    for shard in ("0/2", "1/2"):
+        args = ["--to", "equirect", "--pano-width", "256", "--quiet", "--shard", shard]
+        assert panoconv.convert_rig(source, out, args) == 0
+    r = run("merge", out)
+    assert r.returncode == 0, r.stderr
+    assert panoconv.verify(out).ok
+    whole = tmp_path / "whole"
+    assert panoconv.convert_rig(source, whole, ["--to", "equirect", "--pano-width", "256", "--quiet"]) == 0
+    for sub in ("image_2", "label_2", "calib", "objects"):
+        for f in (whole / "training" / sub).iterdir():
+            assert f.read_bytes() == (out / "training" / sub / f.name).read_bytes(), f
+    code = panoconv.convert_rig(source, whole, ["--to", "equirect", "--pano-width", "256", "--resume"])
+    assert code == 0
+    for tool in (["inspect", whole], ["preview", whole, "--frame", "0", "--output", tmp_path / "p.png"]):
+        r = run(*tool)
+        assert r.returncode == 0, (tool, r.stderr)
+    exported = tmp_path / "exported"
+    assert panoconv.convert_rig(source, exported, ["--to", "equirect", "--pano-width", "256", "--quiet", "--export", "coco"]) == 0
+    assert list((exported / "annotations").glob("*.json")), sorted(p.name for p in exported.iterdir())
+
+
 def boom(frame):
     raise ValueError("boom")
 

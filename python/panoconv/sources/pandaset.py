@@ -123,10 +123,11 @@ class PandaSet(RigSource):
         self.times = {c: _json(self._camera_file(c, "timestamps.json")) for c in CAMERAS}
         self.lidar_poses = _json(os.path.join(self.root, "lidar", "poses.json"))
         self._cameras = []
+        frames = self.frames()
         for c in CAMERAS:
             k = _json(self._camera_file(c, "intrinsics.json"))
-            first = self._image(c, self.frames()[0]) if self.frames() else None
-            w, h = jpeg_size(first) if first else (1920, 1080)
+            # the image size from the first frame's JPEG (PandaSet's are 1920 x 1080)
+            w, h = jpeg_size(self._image(c, frames[0])) if frames else (1920, 1080)
             self._cameras.append((c, Camera.perspective(w, h, k["fx"], k["fy"], k["cx"], k["cy"])))
 
     def _camera_file(self, camera: str, name: str) -> str:
