@@ -49,9 +49,10 @@ class Toy(panoconv.RigSource):
 
     name = "toy"
 
-    def __init__(self, root: Path, spoil=None):
+    def __init__(self, root: Path, spoil=None, lens=None):
         self.root = root
         self.spoil = spoil
+        self.lens = lens or panoconv.Camera.perspective(*SIZE, 30.0, 30.0, 31.5, 23.5)
         root.mkdir(exist_ok=True)
         for frame in ("0", "1"):
             for name, colour in (("front", (200, 40, 40)), ("back", (40, 40, 200))):
@@ -61,9 +62,8 @@ class Toy(panoconv.RigSource):
         return ["0", "1"]
 
     def read(self, frame_id):
-        lens = panoconv.Camera.perspective(*SIZE, 30.0, 30.0, 31.5, 23.5)
         cameras = [
-            panoconv.RigCamera(name, self.root / f"{frame_id}_{name}.png", lens, camera_pose(yaw))
+            panoconv.RigCamera(name, self.root / f"{frame_id}_{name}.png", self.lens, camera_pose(yaw))
             for name, yaw in (("front", 0.0), ("back", math.pi))
         ]
         car = panoconv.Box3D("Car", (8.0, 0.5, 0.75), (4.0, 1.8, 1.5), yaw=0.2, points=30)
@@ -115,6 +115,19 @@ def test_shards_merge_resume_and_the_tools_work_on_a_python_source_s_output(tmp_
     exported = tmp_path / "exported"
     assert panoconv.convert_rig(source, exported, ["--to", "equirect", "--pano-width", "256", "--quiet", "--export", "coco"]) == 0
     assert list((exported / "annotations").glob("*.json")), sorted(p.name for p in exported.iterdir())
+
+
+def test_fisheye_cameras_serve_and_a_turned_one_is_refused(tmp_path, capfd):
+    fisheye = panoconv.Camera.kannala_brandt(*SIZE, 20.0, 20.0, 31.5, 23.5, [0.01, 0.0, 0.0, 0.0], max_fov_deg=190.0)
+    code, out = convert(tmp_path, Toy(tmp_path / "in", lens=fisheye))
+    assert code == 0, capfd.readouterr().err
+    assert panoconv.verify(out).ok
+    assert [l.type for l in panoconv.read_labels(out / "training" / "label_2" / "0.txt")] == ["Car"]
+    turned = panoconv.Camera.perspective(*SIZE, 30.0, 30.0, 31.5, 23.5, yaw_deg=10.0)
+    code, out = convert(tmp_path / "t", Toy(tmp_path / "in", lens=turned))
+    err = capfd.readouterr().err
+    assert code == 2 and "cameras[0].camera: a rig camera is in its own axes" in err, err
+    assert not out.exists()
 
 
 def boom(frame):
