@@ -10,12 +10,14 @@ use panoconv::stream::{StreamPeer, WorldRigSource};
 use std::io::BufReader;
 use std::process::ExitCode;
 
-pub(super) const RIG_STREAM_EXAMPLES: &str = "Examples (from Python; docs/python.md):
-  panoconv.convert_rig(MySource(\"/data/rig\"), \"/tmp/rig_equi\", [\"--to\", \"equirect\", \"--pano-width\", \"2048\", \"--depth\"])
+pub(super) const RIG_STREAM_EXAMPLES: &str = "Examples:
+  panoconv rig-stream --to equirect --pano-width 2048 --depth --output /tmp/rig_equi
+  python acme.py /data/acme /tmp/acme_equi --to equirect  # docs/python.md: convert_rig(AcmeRig(..))
   python -m panoconv pandaset --input /data/pandaset/002 --to equirect --output /tmp/pandaset_equi
 
-The peer on stdin/stdout answers `open` (name, root, frames, cameras) and `read` (a frame in its
-world frame: cameras with world_from_camera, boxes, LiDAR). Output: as nuscenes:
+The peer (panoconv.convert_rig serving a Python RigSource; docs/python.md) answers `open` (name,
+root, frames, cameras) and `read` (a frame in its world frame: cameras with world_from_camera,
+boxes, LiDAR) on stdin, one JSON line each and then its raw LiDAR bytes. Output: as nuscenes:
 OUT/training/{image_2,label_2,calib,source_2,objects}/ID.* and OUT/panoconv.json; the rect is the
 level frame of the rig's first camera; calib has Tr_rect_to_world: (to the source's world).";
 
