@@ -86,7 +86,10 @@ def main() -> int:
     if not os.path.isfile(exe):
         sys.stderr.write(f"panoconv: the command is not installed at {exe}\n")
         return 2
-    return subprocess.call([exe, *sys.argv[1:]])
+    code = subprocess.call([exe, *sys.argv[1:]])
+    if sys.argv[1:] in (["-h"], ["--help"]):
+        print("\nFrom Python also: python -m panoconv pandaset --help (a PandaSet sequence through its adapter)")
+    return code
 
 
 if __name__ == "__main__":

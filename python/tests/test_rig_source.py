@@ -184,6 +184,8 @@ def test_options_help_and_usage_errors_are_the_command_s(tmp_path, capfd):
     assert r.returncode == 0, r.stderr
     for option in ("--input", "--lidar", "--pano-width", "--depth", "--shard", "--resume"):
         assert option in r.stdout, option
+    r = subprocess.run([sys.executable, "-m", "panoconv", "--help"], capture_output=True, text=True)
+    assert r.returncode == 0 and "python -m panoconv pandaset --help" in r.stdout, r.stdout
 
 
 # ------------------------------------------------------------------------------------------
