@@ -11,7 +11,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSummary, StitchMode};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSpec, RigSummary, StitchMode};
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
 use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
@@ -244,26 +244,15 @@ impl RigArgs {
         })
     }
 
-    /// The rig job of these options and the dataset's choice, its rules checked.
+    /// The rig job of these options and the dataset's choice: flags mapped to a
+    /// [`RigSpec`], whose rules [`RigJob::new`] checks (the CLI adds none of its own).
     pub(super) fn job(&self, choice: RigChoice) -> Result<RigJob> {
         self.refuse_unsupported(choice.command)?;
         let target = self.target(choice.cameras.len())?;
         let azimuth_step = self
             .lidar_azimuth_step
             .unwrap_or(choice.lidar_azimuth_step_deg);
-        if !(azimuth_step > 0.0 && azimuth_step.is_finite()) {
-            bail!(setup("--lidar-azimuth-step must be positive".into()));
-        }
-        for (v, flag) in [
-            (self.stitch_distance, "--stitch-distance"),
-            (self.blend_width, "--blend-width"),
-            (self.max_distance, "--max-distance"),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                bail!(setup(format!("{flag} must be positive")));
-            }
-        }
-        let job = RigJob {
+        let spec = RigSpec {
             run: RunOptions {
                 output: self.output.clone(),
                 mode: OutputMode::from_flags(self.run.overwrite, self.resume),
@@ -299,8 +288,7 @@ impl RigArgs {
             },
             ego_masks: choice.ego_masks,
         };
-        job.validate()?;
-        Ok(job)
+        Ok(RigJob::new(spec)?)
     }
 }
 

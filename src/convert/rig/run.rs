@@ -403,7 +403,8 @@ impl FrameWork for Ctx<'_> {
     }
 }
 
-/// Runs a rig conversion of `source`. Set-up problems return `Err` before anything is
+/// Runs a rig conversion of `source` (the job's own rules were checked when it was made).
+/// Set-up problems return `Err` before anything is
 /// written; a broken frame is reported through `progress`, recorded in the manifest and
 /// counted in the summary. `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside
 /// the caller's rayon pool.
@@ -414,7 +415,6 @@ pub fn run_rig(
     stop: &AtomicBool,
 ) -> Result<RigSummary> {
     let started = std::time::Instant::now();
-    job.validate()?;
     check_cameras(job, source)?;
     let RigItems {
         mut items,
