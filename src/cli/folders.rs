@@ -1,6 +1,7 @@
 //! `fisheye` and `pano`: folders of fisheye images or panoramas.
 
-use super::{scale_of, with_pool, Bar, RunArgs};
+use super::shared::run::{with_pool, Bar, RunArgs};
+use super::shared::target::scale_of;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use panoconv::camera::Projection;
@@ -133,9 +134,9 @@ pub(super) fn run_folder_job(
         panoconv::convert::folder::run_folder(&job, plan, &bar)
     })??;
     if !common.run.quiet {
-        super::outcome::report(&summary, "image", &job.output);
+        super::shared::outcome::report(&summary, "image", &job.output);
     }
-    Ok(super::outcome::exit_code(&summary).unwrap_or(ExitCode::SUCCESS))
+    Ok(super::shared::outcome::exit_code(&summary).unwrap_or(ExitCode::SUCCESS))
 }
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {

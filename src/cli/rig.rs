@@ -2,11 +2,13 @@
 //! objects, the depth maps and the run options ([`RigArgs`]), turned into one
 //! [`RigJob`] and run on any [`RigSource`] through one path ([`run_rig_command`]).
 
-use super::convert::{install_stop_handler, parse_crop, parse_shard, AugmentArgs, STOP};
-use super::export::{export_after_kitti, FormatArg};
-use super::outcome::exit_code;
-use super::style::StyleArgs;
-use super::{count, projection_of, scale_of, with_pool, Bar, RunArgs, To};
+use super::shared::augment::AugmentArgs;
+use super::shared::export_after::{export_after_kitti, FormatArg};
+use super::shared::outcome::{count, exit_code};
+use super::shared::parse::{parse_crop, parse_shard, parse_size};
+use super::shared::run::{install_stop_handler, with_pool, Bar, RunArgs, STOP};
+use super::shared::style::StyleArgs;
+use super::shared::target::{projection_of, scale_of, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
@@ -99,7 +101,7 @@ pub(super) struct RigArgs {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<Crop>,
     /// Resize the (cropped) output to this size.
-    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
     resize: Option<ImageSize>,
     /// Continue a killed or interrupted run.
     #[arg(long)]
@@ -329,7 +331,7 @@ pub(super) fn run_rig_command<S: RigSource>(
 
 /// The run's summary: frames, objects written and dropped, thin views, the style pass.
 fn report(summary: &RigSummary, job: &RigJob) {
-    super::outcome::report(&summary.run, "frame", &job.run.output);
+    super::shared::outcome::report(&summary.run, "frame", &job.run.output);
     let o = &summary.objects;
     let unseen = match job.objects.min_points {
         0 => format!("{} seen by no sensor", o.unseen),
@@ -380,5 +382,5 @@ fn report(summary: &RigSummary, job: &RigJob) {
             panoconv::geometry::augment::MAX_ATTEMPTS
         );
     }
-    super::outcome::report_style(summary.style_runs);
+    super::shared::outcome::report_style(summary.style_runs);
 }
