@@ -8,7 +8,7 @@ use crate::common::{self, tree_bytes, BIN};
 use nalgebra::{Matrix4, Vector3};
 use panoconv::camera::{ImageSize, Intrinsics, Perspective, Projection};
 use panoconv::codec::png::PngCompression;
-use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, StitchMode};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSpec, StitchMode};
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Result;
 use panoconv::geometry::{Canvas, OutputSpec, Scale, Target};
@@ -253,7 +253,7 @@ impl WorldSource for ToyWorld {
 
 /// What `rig-stream` makes of [`ARGS`].
 fn job(output: &Path) -> RigJob {
-    RigJob {
+    RigJob::new(RigSpec {
         run: RunOptions {
             output: output.to_owned(),
             mode: OutputMode::New,
@@ -291,7 +291,8 @@ fn job(output: &Path) -> RigJob {
             visibility: Visibility::OFF,
         },
         ego_masks: Vec::new(),
-    }
+    })
+    .unwrap()
 }
 
 fn rust_route(root: &Path, out: &Path) {

@@ -25,7 +25,7 @@ mod scene_depth;
 mod setup;
 
 pub use ground::Ground;
-pub use job::{ObjectCounts, RigJob, RigSummary, SPLIT};
+pub use job::{ObjectCounts, RigJob, RigSpec, RigSummary, SPLIT};
 pub use objects::{
     DropReason, ObjectOutcome, ObjectRule, PlacedObject, GROUND_MARGIN, TILT_TOLERANCE,
 };
