@@ -20,6 +20,8 @@ REQUIREMENTS=(
     "maturin==1.16.0"
     "numpy==2.2.6"
     "pytest==9.2.0"
+    # the PandaSet adapter's optional extra (panoconv[pandaset]): its pickles
+    "pandas==2.2.3"
 )
 STAMP="$VENV/.panoconv-requirements"
 WANT="$(printf '%s\n' "${REQUIREMENTS[@]}")"

@@ -7,7 +7,10 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 ORT_DYLIB_PATH="$(scripts/install_ort.sh | tail -n 1)"
 PANOCONV_TEST_PYTHON="$(scripts/install_test_python.sh | tail -n 1)"
-export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON
+# The Python package before the Rust tests: tests/rig_stream.rs converts through a Python
+# adapter (its build makes the test binaries that `cargo test` below then reuses).
+PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
+export ORT_DYLIB_PATH PANOCONV_TEST_PYTHON PANOCONV_PYTHON
 # --tests: the library's unit tests and the integration crate (tests/tests.rs); the examples
 # (benches/*.rs measurement tools) are compiled by clippy --all-targets in CI instead.
 # --workspace: the features of the Python module's dependencies too (pyo3's macros ask syn
@@ -39,9 +42,8 @@ for made in "$figures"/*.png; do
         exit 1
     }
 done
-# The Python package: the module built by `maturin develop` (sharing target/), the command the
-# test build made; pytest runs against both.
-PANOCONV_PYTHON="$(scripts/install_python_package.sh | tail -n 1)"
+# The Python package (built above): the module built by `maturin develop` (sharing target/),
+# the command the test build made; pytest runs against both.
 # -rs: a test skipped for want of ../shared is named with its reason
 "$PANOCONV_PYTHON" -m pytest -q -rs --no-fold-skipped -p no:cacheprovider python/tests
 # the skipped tests last, where they are seen

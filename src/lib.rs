@@ -20,6 +20,7 @@ pub mod nuscenes;
 pub mod reproject;
 pub mod run;
 pub mod source;
+pub mod stream;
 pub mod style;
 pub mod tools;
 pub mod warp;

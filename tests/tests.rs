@@ -49,6 +49,7 @@ mod preview;
 mod raw;
 mod resume;
 mod rig_plugin;
+mod rig_stream;
 mod sample;
 mod scale;
 mod style;

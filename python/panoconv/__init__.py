@@ -3,7 +3,9 @@
 The `panoconv` command converts datasets; this module reads what it wrote with the exact
 camera maths of the conversion (compiled from the same Rust code): cameras that project rect
 points and unproject pixels, KITTI labels, the exact 2D box of a 3D box in any camera, crop
-and resize of a camera, the manifest and its check, and a frame iterator. docs/python.md.
+and resize of a camera, the manifest and its check, and a frame iterator. Rig sources written
+in Python (`RigSource`, `convert_rig`, `panoconv.sources.pandaset`) convert any dataset with a
+Python reader. docs/python.md.
 """
 
 from ._native import (
@@ -30,9 +32,15 @@ from ._native import (
     read_velodyne,
     verify,
 )
+from .rig import Box3D, RigCamera, RigFrame, RigSource, convert_rig
 from .random_cameras import CameraSampler, RandomCameraDataset, SplitMix64, sample_seed
 
 __all__ = [
+    "Box3D",
+    "RigCamera",
+    "RigFrame",
+    "RigSource",
+    "convert_rig",
     "Calib",
     "CameraSampler",
     "RandomCameraDataset",

@@ -1,18 +1,95 @@
-"""`python -m panoconv ARGS`: runs the `panoconv` command installed with this package."""
+"""`python -m panoconv ARGS`: runs the `panoconv` command installed with this package;
+`python -m panoconv pandaset --input SEQ ...` converts a PandaSet sequence through its
+Python adapter (panoconv.sources.pandaset) with the options of `panoconv nuscenes`."""
 
 import os
 import subprocess
 import sys
-import sysconfig
+
+PANDASET_HELP = """Convert a PandaSet sequence (a folder in PandaSet's layout: camera/, lidar/,
+annotations/cuboids/, meta/): its six cameras stitched into a panorama (or the cameras of
+--cameras converted), with its cuboids as KITTI labels and LiDAR depth. Needs pandas
+(pip install panoconv[pandaset]).
+
+Usage: python -m panoconv pandaset --input SEQ --to PROJECTION --output OUT [OPTIONS]
+
+PandaSet's options:
+  -i, --input <SEQ>      The sequence folder (e.g. /data/pandaset/002)
+      --lidar <WHICH>    both (default), pandar64 (360°) or pandargt (forward), or none
+
+Examples:
+  python -m panoconv pandaset --input /data/pandaset/002 --to equirect --output /tmp/pandaset_equi --pano-width 2048 --depth
+  python -m panoconv pandaset --input /data/pandaset/002 --to cylindrical --cameras front_left_camera,front_camera,front_right_camera --output O
+
+The other options are those of every rig command (panoconv nuscenes):
+"""
+
+
+def _take(args: list, names: tuple) -> tuple:
+    """The value of the first of `names` in `args` (`--x V` or `--x=V`), and the rest."""
+    value, rest, i = None, [], 0
+    while i < len(args):
+        a = args[i]
+        flag, eq, given = a.partition("=")
+        if flag in names:
+            if eq:
+                value = given
+            elif i + 1 < len(args):
+                value, i = args[i + 1], i + 1
+            else:
+                value = ""
+        else:
+            rest.append(a)
+        i += 1
+    return value, rest
+
+
+def pandaset(args: list) -> int:
+    from .rig import command, convert_rig
+
+    if any(a in ("-h", "--help") for a in args):
+        sys.stdout.write(PANDASET_HELP)
+        sys.stdout.flush()
+        return subprocess.call([command(), "rig-stream", "--help"])
+    given, rest = _take(args, ("--input", "-i"))
+    lidar, rest = _take(rest, ("--lidar",))
+    output, rest = _take(rest, ("--output", "-o"))
+    missing = [n for n, v in (("--input", given), ("--output", output)) if not v]
+    if missing:
+        sys.stderr.write(f"panoconv: error: pandaset needs {' and '.join(missing)} (see --help)\n")
+        return 2
+    if lidar not in (None, "both", "pandar64", "pandargt", "none"):
+        sys.stderr.write(f"panoconv: error: --lidar {lidar!r}: both, pandar64, pandargt or none\n")
+        return 2
+    if not os.path.isdir(os.path.join(given, "camera")):
+        sys.stderr.write(f"panoconv: error: --input {given}: not a PandaSet sequence (no camera/)\n")
+        return 2
+    try:
+        from .sources.pandaset import PandaSet
+
+        source = PandaSet(given, lidar=None if lidar == "none" else (lidar or "both"))
+    except ImportError as e:
+        sys.stderr.write(f"panoconv: error: {e}: pip install panoconv[pandaset]\n")
+        return 2
+    except (OSError, ValueError, KeyError, IndexError) as e:
+        sys.stderr.write(f"panoconv: error: {given}: {e}\n")
+        return 2
+    return convert_rig(source, output, rest)
 
 
 def main() -> int:
-    exe = "panoconv.exe" if os.name == "nt" else "panoconv"
-    command = os.path.join(sysconfig.get_path("scripts"), exe)
-    if not os.path.isfile(command):
-        sys.stderr.write(f"panoconv: the command is not installed at {command}\n")
+    if sys.argv[1:2] == ["pandaset"]:
+        return pandaset(sys.argv[2:])
+    from .rig import command
+
+    exe = command()
+    if not os.path.isfile(exe):
+        sys.stderr.write(f"panoconv: the command is not installed at {exe}\n")
         return 2
-    return subprocess.call([command, *sys.argv[1:]])
+    code = subprocess.call([exe, *sys.argv[1:]])
+    if sys.argv[1:] in (["-h"], ["--help"]):
+        print("\nFrom Python also: python -m panoconv pandaset --help (a PandaSet sequence through its adapter)")
+    return code
 
 
 if __name__ == "__main__":

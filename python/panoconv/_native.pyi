@@ -313,3 +313,5 @@ def best_draw(
 ) -> Tuple[T, int]:
     """--min-objects' redraw: draw(0), draw(1), ... (up to 16) until count(drawn) reaches
     min_objects; (drawn, count) of that draw, else of the first draw that counted most."""
+def _camera_wire(camera: Camera) -> str:
+    """The camera as `panoconv rig-stream` reads it (JSON): a pinhole or a camera description."""

@@ -12,6 +12,7 @@ mod labels;
 mod manifest;
 mod models;
 mod redraw;
+mod rig;
 mod turned;
 mod vectors;
 mod warp;
@@ -42,5 +43,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;
+    m.add_function(wrap_pyfunction!(rig::_camera_wire, m)?)?;
     Ok(())
 }

@@ -16,6 +16,7 @@ mod folders;
 mod kitti360;
 mod nuscenes;
 mod rig;
+mod rig_stream;
 mod shared;
 mod tools;
 
@@ -27,6 +28,7 @@ use export::{ExportArgs, EXPORT_EXAMPLES};
 use folders::{fisheye, pano, FisheyeArgs, PanoArgs, FISHEYE_EXAMPLES, PANO_EXAMPLES};
 use kitti360::{kitti360, Kitti360Args, KITTI360_EXAMPLES};
 use nuscenes::{nuscenes, NuScenesArgs, NUSCENES_EXAMPLES};
+use rig_stream::{rig_stream, RigStreamArgs, RIG_STREAM_EXAMPLES};
 use tools::{
     completions, eval_depth, inspect, labels_to_pixels, man, preview, synth, unproject, verify,
     CompletionsArgs, EvalDepthArgs, InspectArgs, LabelsToPixelsArgs, ManArgs, PreviewArgs,
@@ -64,6 +66,10 @@ enum Command {
     /// one camera converted), every sensor at its own time, with 3D boxes and LiDAR depth.
     #[command(after_help = NUSCENES_EXAMPLES)]
     Nuscenes(Box<NuScenesArgs>),
+    /// Convert a rig whose frames another process serves on stdin/stdout (a Python adapter:
+    /// `panoconv.convert_rig`), with the options of `nuscenes`.
+    #[command(after_help = RIG_STREAM_EXAMPLES)]
+    RigStream(Box<RigStreamArgs>),
     /// Draw a converted frame's labels (3D boxes as curves, 2D boxes) using only its written calib.
     #[command(after_help = PREVIEW_EXAMPLES)]
     Preview(PreviewArgs),
@@ -129,6 +135,7 @@ fn run() -> Result<ExitCode> {
         Command::KittiRaw(a) => kitti_raw(*a),
         Command::Kitti360(a) => kitti360(*a),
         Command::Nuscenes(a) => nuscenes(*a),
+        Command::RigStream(a) => rig_stream(*a),
         Command::Preview(a) => preview(a),
         Command::LabelsToPixels(a) => labels_to_pixels(a),
         Command::Unproject(a) => unproject(a),

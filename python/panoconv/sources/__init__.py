@@ -1,0 +1,1 @@
+"""Rig sources (`panoconv.RigSource` adapters) of public datasets: `pandaset`."""

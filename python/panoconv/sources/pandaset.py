@@ -1,0 +1,222 @@
+"""PandaSet as a `panoconv.RigSource`: a sequence folder in PandaSet's layout (camera/,
+lidar/, annotations/cuboids/, meta/), its six cameras, one or both LiDARs and its cuboids,
+every frame whose files are on disk. Needs pandas (`pip install panoconv[pandaset]`).
+
+PandaSet's conventions (its devkit, `pandaset.geometry`): poses are a position and a heading
+quaternion (w, x, y, z) in the world frame, camera axes x right, y down, z forward; a cuboid's
+`yaw` turns its local x (its width, `dimensions.x`) about z, its length (`dimensions.y`) runs
+along local y towards its front; positions are box centres. Attribution: PandaSet, Hesai and
+Scale AI (CC BY 4.0).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+from typing import Optional
+
+import numpy as np
+
+from ..rig import Box3D, RigCamera, RigFrame, RigSource
+from .._native import Camera
+
+# Clockwise from the front camera, as nuScenes orders its rig; the first is the level frame's.
+CAMERAS = (
+    "front_camera",
+    "front_right_camera",
+    "right_camera",
+    "back_camera",
+    "left_camera",
+    "front_left_camera",
+)
+
+# PandaSet's classes with a KITTI type (the others are not written). A cycle is a Cyclist with
+# its rider (`attributes.rider_status`), as nuScenes' classes map it.
+KITTI_TYPES = {
+    "Car": "Car",
+    "Pickup Truck": "Car",
+    "Medium-sized Truck": "Truck",
+    "Semi-truck": "Truck",
+    "Bus": "Truck",
+    "Other Vehicle - Construction Vehicle": "Truck",
+    "Towed Object": "Van",
+    "Emergency Vehicle": "Van",
+    "Other Vehicle - Uncommon": "Misc",
+    "Other Vehicle - Pedicab": "Misc",
+    "Tram / Subway": "Tram",
+    "Train": "Tram",
+    "Trolley": "Tram",
+    "Pedestrian": "Pedestrian",
+    "Pedestrian with Object": "Pedestrian",
+}
+CYCLES = ("Bicycle", "Motorcycle", "Motorized Scooter", "Personal Mobility Device")
+
+# The Pandar64's azimuth step at 10 Hz, degrees.
+PANDAR64_AZIMUTH_STEP_DEG = 0.2
+
+
+def kitti_type(label: str, rider_status) -> Optional[str]:
+    """The KITTI type of a PandaSet cuboid, or None (not written)."""
+    if label in CYCLES:
+        return "Cyclist" if rider_status == "With Rider" else None
+    return KITTI_TYPES.get(label)
+
+
+def pose_matrix(pose: dict) -> np.ndarray:
+    """world_from_sensor (4 x 4) of a PandaSet pose: position and heading quaternion."""
+    q = pose["heading"]
+    w, x, y, z = q["w"], q["x"], q["y"], q["z"]
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / n, x / n, y / n, z / n
+    m = np.eye(4)
+    m[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    p = pose["position"]
+    m[:3, 3] = [p["x"], p["y"], p["z"]]
+    return m
+
+
+def jpeg_size(path: str) -> tuple:
+    """(width, height) of a JPEG from its frame header."""
+    with open(path, "rb") as f:
+        data = f.read(1 << 16)
+    at = 2
+    while at + 9 < len(data):
+        if data[at] != 0xFF:
+            break
+        marker, length = data[at + 1], struct.unpack(">H", data[at + 2 : at + 4])[0]
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            h, w = struct.unpack(">HH", data[at + 5 : at + 9])
+            return w, h
+        at += 2 + length
+    raise ValueError(f"{path}: no JPEG frame header in its first 64 KiB")
+
+
+def _json(path: str):
+    with open(path) as f:
+        return json.load(f)
+
+
+class PandaSet(RigSource):
+    """A PandaSet sequence folder (`.../002`). `lidar`: "both" (default), "pandar64" (the
+    360° one, `d` = 0) or "pandargt" (the forward one, `d` = 1); None reads no scan."""
+
+    name = "pandaset"
+    lidar_azimuth_step_deg = PANDAR64_AZIMUTH_STEP_DEG
+
+    def __init__(self, sequence, lidar: Optional[str] = "both"):
+        import pandas  # noqa: F401  (the optional extra: fail here, naming it)
+
+        self.root = os.path.abspath(os.fspath(sequence))
+        if lidar not in ("both", "pandar64", "pandargt", None):
+            raise ValueError(f"lidar {lidar!r}: both, pandar64, pandargt or None")
+        self.lidar = lidar
+        self.sequence = os.path.basename(self.root)
+        meta = os.path.join(self.root, "meta", "timestamps.json")
+        self.timestamps = _json(meta)
+        self.poses = {c: _json(self._camera_file(c, "poses.json")) for c in CAMERAS}
+        self.times = {c: _json(self._camera_file(c, "timestamps.json")) for c in CAMERAS}
+        self.lidar_poses = _json(os.path.join(self.root, "lidar", "poses.json"))
+        self._cameras = []
+        frames = self.frames()
+        for c in CAMERAS:
+            k = _json(self._camera_file(c, "intrinsics.json"))
+            # the image size from the first frame's JPEG (PandaSet's are 1920 x 1080)
+            w, h = jpeg_size(self._image(c, frames[0])) if frames else (1920, 1080)
+            self._cameras.append((c, Camera.perspective(w, h, k["fx"], k["fy"], k["cx"], k["cy"])))
+
+    def _camera_file(self, camera: str, name: str) -> str:
+        return os.path.join(self.root, "camera", camera, name)
+
+    def _image(self, camera: str, frame: str) -> str:
+        return self._camera_file(camera, f"{frame}.jpg")
+
+    def _files(self, frame: str) -> list:
+        files = [self._image(c, frame) for c in CAMERAS]
+        files.append(os.path.join(self.root, "annotations", "cuboids", f"{frame}.pkl.gz"))
+        if self.lidar is not None:
+            files.append(os.path.join(self.root, "lidar", f"{frame}.pkl.gz"))
+        return files
+
+    def _listed(self) -> list:
+        return [f"{k:02d}" for k in range(len(self.timestamps))]
+
+    def frames(self) -> list:
+        return [f for f in self._listed() if all(os.path.isfile(p) for p in self._files(f))]
+
+    def not_frames(self) -> list:
+        return [f for f in self._listed() if not all(os.path.isfile(p) for p in self._files(f))]
+
+    def cameras(self) -> list:
+        return list(self._cameras)
+
+    def read(self, frame_id: str) -> RigFrame:
+        import pandas as pd
+
+        k = int(frame_id)
+        cameras = [
+            RigCamera(name, self._image(name, frame_id), camera, pose_matrix(self.poses[name][k]))
+            for name, camera in self._cameras
+        ]
+        cuboids_file = os.path.join(self.root, "annotations", "cuboids", f"{frame_id}.pkl.gz")
+        boxes = self.boxes(pd.read_pickle(cuboids_file))
+        inputs = [cuboids_file]
+        lidar = None
+        if self.lidar is not None:
+            lidar_file = os.path.join(self.root, "lidar", f"{frame_id}.pkl.gz")
+            scan = pd.read_pickle(lidar_file)
+            if self.lidar != "both":
+                scan = scan[scan["d"] == (0 if self.lidar == "pandar64" else 1)]
+            lidar = scan[["x", "y", "z", "i"]].to_numpy(dtype=np.float64)
+            inputs.append(lidar_file)
+        record = {
+            "sequence": self.sequence,
+            "frame": k,
+            "timestamp": self.timestamps[k],
+            "camera_timestamps": {c: self.times[c][k] for c in CAMERAS},
+        }
+        return RigFrame(
+            cameras,
+            boxes,
+            lidar=lidar,
+            world_from_lidar=pose_matrix(self.lidar_poses[k]),
+            record=record,
+            inputs=inputs,
+        )
+
+    def boxes(self, cuboids) -> list:
+        """The cuboids with a KITTI type, an object annotated once per LiDAR (siblings) once:
+        the chosen LiDAR's annotation (the Pandar64's for both)."""
+        prefer = 1 if self.lidar == "pandargt" else 0
+        sensor = cuboids["cuboids.sensor_id"].to_numpy()
+        uuid = cuboids["uuid"].to_numpy()
+        sibling = cuboids["cuboids.sibling_id"].to_numpy()
+        preferred = set(uuid[sensor == prefer]) | set(sibling[sensor == prefer])
+        labels = cuboids["label"].to_numpy()
+        riders = cuboids["attributes.rider_status"].to_numpy()
+        out = []
+        for i in range(len(cuboids)):
+            if sensor[i] not in (-1, prefer) and (uuid[i] in preferred or sibling[i] in preferred):
+                continue
+            label = labels[i]
+            kind = kitti_type(label, riders[i])
+            if kind is None:
+                continue
+            c = cuboids.iloc[i]
+            out.append(
+                Box3D(
+                    kind,
+                    (c["position.x"], c["position.y"], c["position.z"]),
+                    (c["dimensions.y"], c["dimensions.x"], c["dimensions.z"]),
+                    # the front along local +y: a quarter turn from PandaSet's yaw
+                    yaw=float(c["yaw"]) + math.pi / 2,
+                    label=label,
+                    instance=str(uuid[i]),
+                )
+            )
+        return out
