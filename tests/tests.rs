@@ -42,6 +42,7 @@ mod nuscenes_command;
 mod nuscenes_depth_stitch;
 mod nuscenes_devkit;
 mod nuscenes_stitch;
+mod pandaset;
 mod pano;
 mod png;
 mod png_rows;

@@ -211,24 +211,22 @@ impl Stitch {
                         let Some(d) = reach.bearing(u, v) else {
                             continue;
                         };
-                        let q = match (&distances, depth) {
+                        let (q, seen) = match (&distances, depth) {
                             (Some(t), Some(depth)) => {
                                 let n = d.normalize();
                                 let t = t[v * w + u];
                                 // step 2 of the guided model: a camera that does not see
-                                // the scene's point gives nothing there
+                                // the scene's point gives only a fallback there
                                 let x = proxy.point_at(&n, t);
-                                if !depth.sees_clean(i, &x, footprint) {
-                                    continue;
-                                }
-                                proxy.local_at(&n, t)
+                                (proxy.local_at(&n, t), depth.sees_clean(i, &x, footprint))
                             }
-                            _ => proxy.local(&d),
+                            _ => (proxy.local(&d), true),
                         };
                         if let Some(m) = margin_capped(camera, &q, deep) {
-                            *out = smoothstep(m / options.blend_width) as f32;
+                            let wm = smoothstep(m / options.blend_width) as f32;
+                            *out = if seen { wm } else { -wm };
                         }
-                        if let Some(mask) = mask.filter(|_| *out > 0.0) {
+                        if let Some(mask) = mask.filter(|_| *out != 0.0) {
                             if touches_mask(output, proxy, mask, u, v, &q) {
                                 *out = 0.0;
                             }
@@ -238,10 +236,12 @@ impl Stitch {
             tables.push(table);
             weights.push(wi);
         }
+        let fallback = depth.map(|_| super::fallback::resolve(&mut weights));
         TablesAndWeights {
             tables,
             weights,
             distances,
+            fallback,
         }
     }
 }
@@ -252,6 +252,8 @@ pub(super) struct TablesAndWeights {
     pub(super) tables: Vec<RemapTable>,
     pub(super) weights: Vec<Vec<f32>>,
     pub(super) distances: Option<Vec<f64>>,
+    /// With a depth, the pixels filled by the fallback rule ([`super::fallback`]).
+    pub(super) fallback: Option<Vec<bool>>,
 }
 
 #[cfg(test)]
