@@ -59,5 +59,6 @@ mod table_parts;
 mod tidy;
 mod trust;
 mod unproject;
+mod vehicle_box;
 mod verify;
 mod warp;

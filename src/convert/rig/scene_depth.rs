@@ -21,6 +21,8 @@
 //! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
 //! need no further move; a reader with per-camera times would move them here.
 
+#[cfg(test)]
+mod faults;
 mod grid;
 mod splats;
 
