@@ -55,7 +55,7 @@ pub(super) struct NuScenesArgs {
     keep_unseen: bool,
     /// The LiDAR returns dropped as the vehicle's own, in LIDAR_TOP's frame (x right, y
     /// forward, z up): a box X0,Y0,Z0,X1,Y1,Z1, a range R, or none (metres) [default: the
-    /// devkit's 1 m square lengthened to the car's bonnet and boot: -1,-2,-2,1,2.7,0.3].
+    /// devkit's 1 m square lengthened to the car's bonnet and boot: -1,-2,-1.5,1,2.7,0.3].
     #[arg(long, value_name = "BOX", allow_hyphen_values = true, value_parser = VehicleBox::parse)]
     vehicle_box: Option<VehicleBox>,
     #[command(flatten)]

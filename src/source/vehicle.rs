@@ -31,9 +31,10 @@ pub enum VehicleBox {
 impl VehicleBox {
     /// nuScenes' LIDAR_TOP (x right, y forward, z up, 1.84 m above the ground): the devkit's
     /// square (|x|, |y| < 1 m) lengthened to the Renault Zoe's bonnet and boot (its body spans
-    /// 2.5 m ahead of the sensor and 1.6 m behind it) and kept below the sensor's top.
+    /// 2.5 m ahead of the sensor and 1.6 m behind it), from 0.34 m above the road (the road's
+    /// own returns stay) to 0.3 m above the sensor.
     pub const NUSCENES: VehicleBox = VehicleBox::Box {
-        min: [-1.0, -2.0, -2.0],
+        min: [-1.0, -2.0, -1.5],
         max: [1.0, 2.7, 0.3],
     };
     /// KITTI-360's Velodyne: the scripts' 3 m.
