@@ -91,7 +91,7 @@ fn figures(mode: StitchMode) -> Vec<StitchFigures> {
     items
         .iter()
         .map(|item| {
-            let frame = source.read(item).unwrap();
+            let frame = source.read(item).unwrap().frame;
             let camera = output_camera(&frame, &info, &target, 0).unwrap();
             let images = read_images(&frame, &options).unwrap();
             let refs: Vec<&RgbImage> = images.iter().collect();

@@ -9,10 +9,12 @@
 //! - `objects.rs`: which objects a frame's labels hold (range, LiDAR support, image) and why
 //!   the others were dropped;
 //! - `scene_depth.rs`: a frame's scene (boxes, ground, scan) as a depth-guided stitch sees it;
+//! - `frame_cache.rs`: what a frame's views share (its scan's positions, its scene);
 //! - `gray.rs`: the 8-bit PNG of the source map;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
 //!   written, its frames, files and manifest, for any dataset.
 
+mod frame_cache;
 mod gray;
 mod ground;
 mod job;
@@ -23,7 +25,7 @@ mod scene_depth;
 mod setup;
 
 pub use ground::Ground;
-pub use job::{ObjectCounts, RigJob, RigSummary, SPLIT};
+pub use job::{ObjectCounts, RigJob, RigSpec, RigSummary, SPLIT};
 pub use objects::{
     DropReason, ObjectOutcome, ObjectRule, PlacedObject, GROUND_MARGIN, TILT_TOLERANCE,
 };

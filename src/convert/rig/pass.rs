@@ -9,8 +9,9 @@
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
 //! tables are built per frame.
 
+use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
-use super::scene_depth::{distance_map, frame_stitch, StitchMode};
+use super::scene_depth::{distance_map, frame_stitch_in, SceneDepth, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -28,7 +29,7 @@ use crate::warp::{
     EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, FALLBACK_SOURCE, NO_SOURCE,
 };
 use nalgebra::{Matrix3, Point2, Vector3};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 pub use crate::source::CameraInfo;
 
@@ -255,6 +256,19 @@ pub fn convert_into(
     options: &RigOptions,
     keep_class: ClassFilter,
 ) -> Result<RigFrame> {
+    let cache = FrameCache::default();
+    convert_view((frame, &cache), info, camera, images, options, keep_class)
+}
+
+/// [`convert_into`] for one of a frame's views, with what its views share in `cache`.
+pub(super) fn convert_view(
+    (frame, cache): (&Frame, &FrameCache),
+    info: &[CameraInfo],
+    camera: Box<dyn OutputCamera>,
+    images: &[RgbImage],
+    options: &RigOptions,
+    keep_class: ClassFilter,
+) -> Result<RigFrame> {
     let chosen = chosen_cameras(frame, options)?;
     if images.len() != chosen.len() {
         return Err(Error::Setup(format!(
@@ -267,7 +281,7 @@ pub fn convert_into(
         stitch,
         mode: stitch_mode,
         centre,
-    } = rig_stitch(frame, info, camera.as_ref(), options)?;
+    } = rig_stitch_in((frame, &cache.scene), info, camera.as_ref(), options)?;
     let distances = options
         .stitch_depth
         .then(|| distance_map(&stitch))
@@ -298,9 +312,8 @@ pub fn convert_into(
         placed.index = frame_index[placed.index];
     }
     let depth = options.depth.map(|filter| {
-        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let lidar = ViewLidar {
-            points: &points,
+            points: cache.points(frame),
             non_finite: 0,
             filter: filter.as_ref(),
         };
@@ -343,6 +356,17 @@ pub fn rig_stitch(
     camera: &dyn CameraModel,
     options: &RigOptions,
 ) -> Result<RigStitch> {
+    rig_stitch_in((frame, &OnceLock::new()), info, camera, options)
+}
+
+/// [`rig_stitch`] with the frame's depth-guided scene built once in `scene` (a frame's views
+/// share it).
+fn rig_stitch_in(
+    (frame, scene): (&Frame, &OnceLock<SceneDepth>),
+    info: &[CameraInfo],
+    camera: &dyn CameraModel,
+    options: &RigOptions,
+) -> Result<RigStitch> {
     let chosen = chosen_cameras(frame, options)?;
     let centre = output_centre(&chosen, options);
     let mut inverses = Vec::with_capacity(chosen.len());
@@ -370,8 +394,8 @@ pub fn rig_stitch(
         .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
         .collect();
     let eyes = chosen.iter().map(|c| c.centre()).collect();
-    let (stitch, stitch_mode) = frame_stitch(
-        frame,
+    let (stitch, stitch_mode) = frame_stitch_in(
+        (frame, scene),
         camera,
         &centre,
         (&cameras, eyes),
