@@ -68,7 +68,11 @@ pub fn run_kitti(
     let unusable = unusable_frames(job, &dataset);
     // what the dataset holds that is no frame: listed once, by an unsharded run or shard 0
     let listed = job.frames.is_none() && folder.writes_shared_files();
-    let not_frames = (listed.then(|| crate::kitti::not_frames::list(&dataset))).unwrap_or_default();
+    let not_frames = if listed {
+        crate::kitti::not_frames::list(&dataset)
+    } else {
+        Vec::new()
+    };
     let mut run = folder.start(
         job.source.command(),
         parameters,
