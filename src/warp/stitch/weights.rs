@@ -135,8 +135,14 @@ impl Stitch {
         let distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
+        let pass = WeightPass {
+            output,
+            reach: &reach,
+            distances: distances.as_deref(),
+            depth,
+            options,
+        };
         for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
-            let mask = masks.get(i).copied().flatten();
             let gated = Gated {
                 output,
                 reach: &reach,
@@ -158,16 +164,9 @@ impl Stitch {
                 Wrap::None,
                 MAX_SUPERSAMPLE,
             );
-            let wi = WeightPass {
-                output,
-                reach: &reach,
-                distances: distances.as_deref(),
-                depth,
-                options,
-            }
-            .weights(i, camera, proxy, &table, mask);
+            let mask = masks.get(i).copied().flatten();
+            weights.push(pass.weights(i, camera, proxy, &table, mask));
             tables.push(table);
-            weights.push(wi);
         }
         let fallback = depth.map(|_| super::fallback::resolve(&mut weights));
         TablesAndWeights {
