@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Python packages that the tests use as independent references (pycocotools for
 # the COCO export, OpenCV's fisheye and omnidir modules for the camera models, kitti360scripts
-# for the KITTI-360 readers, nuscenes-devkit for the nuScenes tables) into a virtual
+# for the KITTI-360 readers, nuscenes-devkit for the nuScenes tables, pandas for the PandaSet
+# pickles that tests/pandaset_nuscenes.py rebuilds as nuScenes tables) into a virtual
 # environment of their own, `<repo>/.venv-test/`, from PyPI.
 #
 # kitti360scripts is installed without its declared dependencies: the loaders the tests use
@@ -28,6 +29,7 @@ REQUIREMENTS=(
     "pycocotools==2.0.11"
     "opencv-contrib-python-headless==4.11.0.86"
     "PyYAML==6.0.2"
+    "pandas==2.2.3"
 )
 NO_DEPS=(
     "kitti360Scripts==1.0.0"

@@ -2,17 +2,18 @@
 # The tests of tests/needs_shared.txt whose data is absent: one `--skip NAME` pair of lines per
 # test on stdout (the arguments scripts/test.sh gives the test binaries), and on stderr one line
 # per skipped test and the count. The data: the real KITTI frames ($PANOCONV_KITTI, else
-# $PANOCONV_SHARED/kitti) and the panoramas ($PANOCONV_SHARED/pano); $PANOCONV_SHARED defaults to
+# $PANOCONV_SHARED/kitti), the panoramas ($PANOCONV_SHARED/pano) and the PandaSet frames
+# ($PANOCONV_SHARED/pandaset/002); $PANOCONV_SHARED defaults to
 # ../shared beside the repository. When the data must be there (CI=true or
 # PANOCONV_REQUIRE_SHARED=1), absent data is an error instead (exit 1, naming what is missing).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 shared="${PANOCONV_SHARED:-../shared}"
-declare -A where=([kitti]="${PANOCONV_KITTI:-$shared/kitti}" [pano]="$shared/pano")
+declare -A where=([kitti]="${PANOCONV_KITTI:-$shared/kitti}" [pano]="$shared/pano" [pandaset]="$shared/pandaset/002")
 required=0
 [[ "${CI:-}" == true || "${PANOCONV_REQUIRE_SHARED:-}" == 1 ]] && required=1
 absent=()
-for data in kitti pano; do
+for data in kitti pano pandaset; do
     [[ -d "${where[$data]}" ]] || absent+=("$data")
 done
 if ((${#absent[@]} > 0 && required)); then

@@ -264,7 +264,10 @@ fn every_test_listed_as_needing_shared_data_is_a_test() {
     let listed = needs_shared();
     assert!(listed.len() >= 20, "{listed:?}");
     for (name, data) in &listed {
-        assert!(["kitti", "pano"].contains(&data.as_str()), "{name}: {data}");
+        assert!(
+            ["kitti", "pano", "pandaset"].contains(&data.as_str()),
+            "{name}: {data}"
+        );
         let parts: Vec<&str> = name.split("::").collect();
         let (test, module) = parts.split_last().unwrap();
         let file = repo().join("tests").join(module.join("/") + ".rs");
@@ -312,10 +315,10 @@ fn without_shared_data_its_tests_are_skipped_by_name_and_required_in_ci() {
     // Only the data that is absent skips its tests.
     std::fs::create_dir_all(tmp.path().join("half/kitti")).unwrap();
     let half = shared_skips(&tmp.path().join("half"), &[]);
-    let pano_tests = listed.iter().filter(|(_, d)| d == "pano").count();
+    let other_tests = listed.iter().filter(|(_, d)| d != "kitti").count();
     assert_eq!(
         String::from_utf8(half.stdout).unwrap().lines().count(),
-        2 * pano_tests
+        2 * other_tests
     );
 
     for vars in [[("CI", "true")], [("PANOCONV_REQUIRE_SHARED", "1")]] {
@@ -330,6 +333,7 @@ fn without_shared_data_its_tests_are_skipped_by_name_and_required_in_ci() {
     }
 
     std::fs::create_dir_all(tmp.path().join("half/pano")).unwrap();
+    std::fs::create_dir_all(tmp.path().join("half/pandaset/002")).unwrap();
     let present = shared_skips(&tmp.path().join("half"), &[("CI", "true")]);
     assert!(present.status.success());
     assert!(present.stdout.is_empty() && present.stderr.is_empty());

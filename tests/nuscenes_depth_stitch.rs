@@ -47,6 +47,7 @@ fn the_depth_guided_stitch_of_the_offset_rig_matches_the_render_from_c2() {
                 lidar: true,
                 all_classes: true,
                 keep_unseen: true,
+                ..Options::default()
             },
         )
         .unwrap();

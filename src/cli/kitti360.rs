@@ -7,6 +7,7 @@ use clap::Args;
 use panoconv::kitti360::{
     Kitti360Classes, Kitti360Selection, Kitti360Source, DEFAULT_FISHEYE_FOV_DEG,
 };
+use panoconv::source::VehicleBox;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -57,6 +58,11 @@ pub(super) struct Kitti360Args {
     /// Field of view of the fisheyes image_02 and image_03, degrees (one value, or two).
     #[arg(long, value_delimiter = ',', value_name = "DEG[,DEG]")]
     fisheye_fov: Option<Vec<f64>>,
+    /// The Velodyne returns dropped as the vehicle's own, in the Velodyne's frame: a range R,
+    /// a box X0,Y0,Z0,X1,Y1,Z1, or none (metres) [default: 3, the range the KITTI-360 scripts
+    /// crop].
+    #[arg(long, value_name = "BOX", allow_hyphen_values = true, value_parser = VehicleBox::parse)]
+    vehicle_box: Option<VehicleBox>,
     #[command(flatten)]
     rig: RigArgs,
 }
@@ -155,5 +161,6 @@ fn selection(args: &Kitti360Args, lidar: bool, scenery: bool) -> Result<Kitti360
         fisheye_fov_deg,
         lidar,
         scenery,
+        vehicle_box: args.vehicle_box.unwrap_or(VehicleBox::KITTI360),
     })
 }

@@ -5,7 +5,7 @@ use super::rig::{ego_masks, run_rig_command, setup, RigArgs, RigChoice};
 use anyhow::{bail, Result};
 use clap::Args;
 use panoconv::nuscenes::{NuScenesClasses, NuScenesSelection, NuScenesSource};
-use panoconv::source::RigSource;
+use panoconv::source::{RigSource, VehicleBox};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -53,6 +53,11 @@ pub(super) struct NuScenesArgs {
     /// detection evaluation does).
     #[arg(long)]
     keep_unseen: bool,
+    /// The LiDAR returns dropped as the vehicle's own, in LIDAR_TOP's frame (x right, y
+    /// forward, z up): a box X0,Y0,Z0,X1,Y1,Z1, a range R, or none (metres) [default: the
+    /// devkit's 1 m square lengthened to the car's bonnet and boot: -1,-2,-1.5,1,2.7,0.3].
+    #[arg(long, value_name = "BOX", allow_hyphen_values = true, value_parser = VehicleBox::parse)]
+    vehicle_box: Option<VehicleBox>,
     #[command(flatten)]
     rig: RigArgs,
 }
@@ -73,6 +78,9 @@ pub(super) fn nuscenes(args: NuScenesArgs) -> Result<ExitCode> {
         .map(|s| s.iter().map(|n| n.trim().to_owned()).collect());
     selection.classes = classes;
     selection.keep_unseen = args.keep_unseen;
+    if let Some(b) = args.vehicle_box {
+        selection.vehicle_box = b;
+    }
     run_rig_command(&args.rig, || {
         // the tables name the cameras (and so the job's) when --cameras does not
         let source = NuScenesSource::open(selection)?;

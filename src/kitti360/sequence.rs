@@ -22,7 +22,7 @@ use super::velodyne::{parse_scan, SweepMotion};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::world_from_level;
-use crate::source::{Frame, LidarPoint, Pose, RigCamera};
+use crate::source::{Frame, LidarPoint, Pose, RigCamera, VehicleBox};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -39,6 +39,8 @@ pub struct Options {
     /// Motion-compensate each Velodyne sweep ([`Sequence::sweep_motion`]); off, the points are
     /// read as the scanner measured them.
     pub compensate_sweep: bool,
+    /// The Velodyne returns dropped as the vehicle's own (the Velodyne's frame, as measured).
+    pub vehicle_box: VehicleBox,
 }
 
 impl Default for Options {
@@ -48,6 +50,7 @@ impl Default for Options {
             lidar: true,
             all_classes: false,
             compensate_sweep: true,
+            vehicle_box: VehicleBox::KITTI360,
         }
     }
 }
@@ -282,6 +285,7 @@ impl Sequence {
             };
             lidar = parse_scan(&bytes, &path)?
                 .into_iter()
+                .filter(|(p, _)| !self.options.vehicle_box.holds(p))
                 .map(|(p, intensity)| {
                     let p = motion.map_or(p, |m| m.compensate(&p));
                     LidarPoint {

@@ -12,6 +12,7 @@ use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{
     record_value, CameraInfo, RigItem, RigItems, RigSource, SourceBox, SourceCamera, SourceFrame,
+    VehicleBox,
 };
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -62,6 +63,8 @@ pub struct Kitti360Selection {
     /// Read the boxes of every class: those of classes not asked for are scenery for a
     /// depth-guided stitch, neither labelled nor listed ([`RigSource::listed`]).
     pub scenery: bool,
+    /// The Velodyne returns dropped as the vehicle's own.
+    pub vehicle_box: VehicleBox,
 }
 
 impl Kitti360Selection {
@@ -76,6 +79,7 @@ impl Kitti360Selection {
             fisheye_fov_deg: [DEFAULT_FISHEYE_FOV_DEG; 2],
             lidar: true,
             scenery: false,
+            vehicle_box: VehicleBox::KITTI360,
         }
     }
 }
@@ -124,6 +128,7 @@ const PARAMETER_ORDER: &[&str] = &[
     "classes",
     "depth",
     "fisheye_fov_deg",
+    "vehicle_box",
     "shard",
     "png_compression",
     "ego_masks",
@@ -148,6 +153,7 @@ impl Kitti360Source {
             fisheye_fov_deg: selection.fisheye_fov_deg,
             lidar: selection.lidar,
             all_classes: selection.classes != Kitti360Classes::Kitti || selection.scenery,
+            vehicle_box: selection.vehicle_box,
             // the reader's default (motion-compensated sweeps) until the command has an option
             ..Options::default()
         };
@@ -336,6 +342,10 @@ impl RigSource for Kitti360Source {
         m.insert("frames".into(), record_value(s.frames.as_deref()));
         m.insert("classes".into(), record_value(&s.classes));
         m.insert("fisheye_fov_deg".into(), record_value(s.fisheye_fov_deg));
+        // recorded when not the default, so that default runs keep their manifests
+        if s.vehicle_box != VehicleBox::KITTI360 {
+            m.insert("vehicle_box".into(), record_value(s.vehicle_box));
+        }
         m
     }
 

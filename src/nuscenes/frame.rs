@@ -15,7 +15,7 @@ use super::token::Token;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Perspective};
 use crate::error::{Error, Result};
 use crate::source::world_from_level;
-use crate::source::{Frame, LidarPoint, Pose, RigCamera, SourceBox};
+use crate::source::{Frame, LidarPoint, Pose, RigCamera, SourceBox, VehicleBox};
 use nalgebra::Matrix3;
 use std::sync::Arc;
 
@@ -28,6 +28,8 @@ pub struct Options {
     pub all_classes: bool,
     /// Keep objects with no LiDAR and no radar point (the nuScenes evaluation leaves them out).
     pub keep_unseen: bool,
+    /// The LiDAR returns dropped as the vehicle's own (LIDAR_TOP's frame).
+    pub vehicle_box: VehicleBox,
 }
 
 impl Default for Options {
@@ -36,6 +38,7 @@ impl Default for Options {
             lidar: true,
             all_classes: false,
             keep_unseen: false,
+            vehicle_box: VehicleBox::NUSCENES,
         }
     }
 }
@@ -244,6 +247,7 @@ impl NuScenes {
             input_hashes.push((path.clone(), crate::fs::hash_hex(&bytes)));
             lidar = parse_points(&bytes, &path)?
                 .into_iter()
+                .filter(|(p, _)| !options.vehicle_box.holds(p))
                 .map(|(p, intensity)| LidarPoint {
                     position: reference_from_lidar.apply(&p),
                     intensity,

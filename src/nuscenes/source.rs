@@ -12,6 +12,7 @@ use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{
     record_value, CameraInfo, RigItem, RigItems, RigSource, SourceBox, SourceCamera, SourceFrame,
+    VehicleBox,
 };
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -58,6 +59,8 @@ pub struct NuScenesSelection {
     pub lidar: bool,
     /// Keep the objects with no LiDAR and no radar point.
     pub keep_unseen: bool,
+    /// The LiDAR returns dropped as the vehicle's own.
+    pub vehicle_box: VehicleBox,
 }
 
 impl NuScenesSelection {
@@ -71,6 +74,7 @@ impl NuScenesSelection {
             classes: NuScenesClasses::Kitti,
             lidar: true,
             keep_unseen: false,
+            vehicle_box: VehicleBox::NUSCENES,
         }
     }
 }
@@ -150,6 +154,7 @@ impl NuScenesSource {
             lidar: self.selection.lidar,
             all_classes: true,
             keep_unseen: true,
+            vehicle_box: self.selection.vehicle_box,
         }
     }
 
@@ -177,6 +182,7 @@ const PARAMETER_ORDER: &[&str] = &[
     "objects",
     "classes",
     "keep_unseen",
+    "vehicle_box",
     "depth",
     "shard",
     "png_compression",
@@ -253,6 +259,10 @@ impl RigSource for NuScenesSource {
         m.insert("frame_ids".into(), record_value("scene_sample"));
         m.insert("classes".into(), record_value(&s.classes));
         m.insert("keep_unseen".into(), record_value(s.keep_unseen));
+        // recorded when not the default, so that default runs keep their manifests
+        if s.vehicle_box != VehicleBox::NUSCENES {
+            m.insert("vehicle_box".into(), record_value(s.vehicle_box));
+        }
         m
     }
 

@@ -15,6 +15,7 @@ mod pose;
 mod region;
 mod rig;
 mod rig_source;
+mod vehicle;
 
 pub use level::world_from_level;
 pub use object::SourceBox;
@@ -24,6 +25,7 @@ pub use rig::RigCamera;
 pub use rig_source::{
     record_value, CameraInfo, RigItem, RigItems, RigSource, SourceCamera, SourceFrame,
 };
+pub use vehicle::VehicleBox;
 
 use nalgebra::Vector3;
 use std::path::PathBuf;

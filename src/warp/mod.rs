@@ -15,7 +15,9 @@ pub use footprint::Footprint;
 pub use kernel::Kernel;
 pub use mapping::{ImageMapping, NO_SOURCE};
 pub use mask::EgoMask;
-pub use stitch::{Stitch, StitchCamera, StitchDepth, StitchOptions, Stitched};
+pub use stitch::{
+    Stitch, StitchCamera, StitchDepth, StitchFigures, StitchOptions, Stitched, FALLBACK_SOURCE,
+};
 pub use stream::{warp_encode, PngSource};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 

@@ -44,11 +44,15 @@
 //! the exposure gains (step 5), `apply.rs` a frame's blend (step 4).
 
 mod apply;
+mod fallback;
+mod figures;
 mod gains;
 mod guided;
 mod proxy;
 mod weights;
 
+pub use fallback::FALLBACK_SOURCE;
+pub use figures::StitchFigures;
 pub use guided::StitchDepth;
 
 use super::mask::EgoMask;
@@ -104,6 +108,8 @@ pub struct Stitch {
     even_exposure: bool,
     /// A depth-guided stitch's distance at each output pixel centre.
     distances: Option<Vec<f64>>,
+    /// A depth-guided stitch's pixels filled by the fallback rule ([`FALLBACK_SOURCE`]).
+    fallback: Option<Vec<bool>>,
 }
 
 /// One frame's stitch.
@@ -141,6 +147,7 @@ impl Stitch {
             weights: built.weights,
             even_exposure: options.even_exposure,
             distances: built.distances,
+            fallback: built.fallback,
         }
     }
 
@@ -191,6 +198,13 @@ impl Stitch {
     /// How many cameras it blends.
     pub fn cameras(&self) -> usize {
         self.tables.len()
+    }
+
+    /// Whether a depth-guided stitch's fallback rule filled output pixel (u, v): no camera
+    /// was shown to see its point ([`FALLBACK_SOURCE`]).
+    pub fn fell_back(&self, u: u32, v: u32) -> bool {
+        let i = v as usize * self.size.width as usize + u as usize;
+        self.fallback.as_ref().is_some_and(|f| f[i])
     }
 
     /// Camera i's weight at output pixel (u, v).

@@ -36,6 +36,16 @@ pub fn real_panos() -> PathBuf {
     )
 }
 
+/// The real PandaSet sequence of `../shared/pandaset/002` (read only; never copied).
+#[track_caller]
+pub fn real_pandaset() -> PathBuf {
+    require_dir(
+        repo().join(shared()).join("pandaset/002"),
+        "the real PandaSet frames",
+        "put the project's shared/ folder beside the repository",
+    )
+}
+
 /// The ONNX Runtime library the style tests load: `$ORT_DYLIB_PATH`, else what
 /// `scripts/install_ort.sh` installs into `<repo>/.ort/`.
 #[track_caller]

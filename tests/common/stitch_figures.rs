@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::CameraModel;
 use panoconv::image::RgbImage;
 use panoconv::tools::synth::Scene;
-use panoconv::warp::Stitch;
+use panoconv::warp::{Stitch, FALLBACK_SOURCE};
 use rayon::prelude::*;
 
 /// The scene a stitch is measured against, and how the reference is rendered.
@@ -135,8 +135,9 @@ impl Truth<'_> {
         let mut mrad: Vec<f64> = (0..n)
             .filter(|&i| {
                 let w = self.output.size().width as usize;
-                (0..self.eyes.len())
-                    .any(|cam| stitch.weight(cam, (i % w) as u32, (i / w) as u32) > 0.0)
+                let (u, v) = ((i % w) as u32, (i / w) as u32);
+                !stitch.fell_back(u, v)
+                    && (0..self.eyes.len()).any(|cam| stitch.weight(cam, u, v) > 0.0)
             })
             .map(|i| self.misregistration(stitch, i, distances(i)))
             .collect();
@@ -156,7 +157,12 @@ impl Truth<'_> {
         let size = self.output.size();
         let w = size.width as usize;
         let stitched = stitch.apply(images);
-        let source = &stitched.source;
+        // the fallback's pixels are not claimed to be right: measured as uncovered
+        let source: &Vec<u8> = &stitched
+            .source
+            .iter()
+            .map(|&s| if s & FALLBACK_SOURCE != 0 { 255 } else { s })
+            .collect();
         // the reference, each camera's region with its blur
         let mut direct = RgbImage::new(size.width, size.height);
         for cam in 0..self.eyes.len() as u8 {

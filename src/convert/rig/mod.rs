@@ -30,7 +30,8 @@ pub use objects::{
     DropReason, ObjectOutcome, ObjectRule, PlacedObject, GROUND_MARGIN, TILT_TOLERANCE,
 };
 pub use pass::{
-    convert_frame, convert_into, count_objects, read_images, CameraInfo, RigFrame, RigOptions,
+    convert_frame, convert_into, count_objects, output_camera, read_images, rig_stitch, CameraInfo,
+    RigFrame, RigOptions, RigStitch,
 };
 pub use run::run_rig;
 pub use scene_depth::{frame_stitch, SceneDepth, StitchMode, FAR};

@@ -11,7 +11,7 @@
 
 use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
-use super::scene_depth::{distance_map, frame_stitch_in, StitchMode};
+use super::scene_depth::{distance_map, frame_stitch_in, SceneDepth, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -25,9 +25,11 @@ use crate::style::StyleModel;
 /// The dataset's own verdict on a box before any geometry: None to go on, or why it is
 /// dropped (its class, or the dataset's count of the sensor returns in it).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> Option<DropReason> + Sync);
-use crate::warp::{EgoMask, ImageMapping, StitchCamera, StitchOptions, NO_SOURCE};
+use crate::warp::{
+    EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, FALLBACK_SOURCE, NO_SOURCE,
+};
 use nalgebra::{Matrix3, Point2, Vector3};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 pub use crate::source::CameraInfo;
 
@@ -275,41 +277,11 @@ pub(super) fn convert_view(
             chosen.len()
         )));
     }
-    let centre = output_centre(&chosen, options);
-    let mut inverses = Vec::with_capacity(chosen.len());
-    for c in &chosen {
-        inverses.push(
-            c.reference_from_camera
-                .inverse()
-                .ok_or_else(|| Error::file(&c.image, format!("{}: singular pose", c.name)))?,
-        );
-    }
-    let cameras: Vec<StitchCamera> = chosen
-        .iter()
-        .zip(&inverses)
-        .zip(&options.cameras)
-        .map(|((c, inv), &i)| StitchCamera {
-            model: c.model.as_ref(),
-            rotation: inv.rotation,
-            translation: inv.translation,
-            max_theta: info[i].max_theta,
-        })
-        .collect();
-    let masks: Vec<Option<&EgoMask>> = options
-        .cameras
-        .iter()
-        .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
-        .collect();
-    let eyes = chosen.iter().map(|c| c.centre()).collect();
-    let (stitch, stitch_mode) = frame_stitch_in(
-        (frame, &cache.scene),
-        camera.as_ref(),
-        &centre,
-        (&cameras, eyes),
-        &masks,
-        options.stitch,
-        options.stitch_mode,
-    )?;
+    let RigStitch {
+        stitch,
+        mode: stitch_mode,
+        centre,
+    } = rig_stitch_in((frame, &cache.scene), info, camera.as_ref(), options)?;
     let distances = options
         .stitch_depth
         .then(|| distance_map(&stitch))
@@ -319,9 +291,12 @@ pub(super) fn convert_view(
     let source: Vec<u8> = stitched
         .source
         .iter()
-        .map(|&s| match options.cameras.get(s as usize) {
-            Some(&i) => u8::try_from(i).unwrap_or(254),
-            None => NO_SOURCE,
+        .map(|&s| {
+            let rule = s & FALLBACK_SOURCE;
+            match options.cameras.get((s & !FALLBACK_SOURCE) as usize) {
+                Some(&i) if s != NO_SOURCE => u8::try_from(i).map_or(254, |i| i | rule),
+                _ => NO_SOURCE,
+            }
         })
         .collect();
     let (listed, frame_index) = listed_objects(frame, options);
@@ -360,5 +335,77 @@ pub(super) fn convert_view(
         depth,
         stitch_mode,
         distances,
+    })
+}
+
+/// A frame's stitch as [`convert_into`] builds it, with the mode it was built in and the output
+/// centre C2.
+pub struct RigStitch {
+    /// The stitch.
+    pub stitch: Stitch,
+    /// Depth-guided, or at the proxy distance.
+    pub mode: StitchMode,
+    /// C2 in the reference frame.
+    pub centre: Vector3<f64>,
+}
+
+/// The stitch of `frame`'s chosen cameras into `camera` (its axes the reference frame's).
+pub fn rig_stitch(
+    frame: &Frame,
+    info: &[CameraInfo],
+    camera: &dyn CameraModel,
+    options: &RigOptions,
+) -> Result<RigStitch> {
+    rig_stitch_in((frame, &OnceLock::new()), info, camera, options)
+}
+
+/// [`rig_stitch`] with the frame's depth-guided scene built once in `scene` (a frame's views
+/// share it).
+fn rig_stitch_in(
+    (frame, scene): (&Frame, &OnceLock<SceneDepth>),
+    info: &[CameraInfo],
+    camera: &dyn CameraModel,
+    options: &RigOptions,
+) -> Result<RigStitch> {
+    let chosen = chosen_cameras(frame, options)?;
+    let centre = output_centre(&chosen, options);
+    let mut inverses = Vec::with_capacity(chosen.len());
+    for c in &chosen {
+        inverses.push(
+            c.reference_from_camera
+                .inverse()
+                .ok_or_else(|| Error::file(&c.image, format!("{}: singular pose", c.name)))?,
+        );
+    }
+    let cameras: Vec<StitchCamera> = chosen
+        .iter()
+        .zip(&inverses)
+        .zip(&options.cameras)
+        .map(|((c, inv), &i)| StitchCamera {
+            model: c.model.as_ref(),
+            rotation: inv.rotation,
+            translation: inv.translation,
+            max_theta: info[i].max_theta,
+        })
+        .collect();
+    let masks: Vec<Option<&EgoMask>> = options
+        .cameras
+        .iter()
+        .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
+        .collect();
+    let eyes = chosen.iter().map(|c| c.centre()).collect();
+    let (stitch, stitch_mode) = frame_stitch_in(
+        (frame, scene),
+        camera,
+        &centre,
+        (&cameras, eyes),
+        &masks,
+        options.stitch,
+        options.stitch_mode,
+    )?;
+    Ok(RigStitch {
+        stitch,
+        mode: stitch_mode,
+        centre,
     })
 }

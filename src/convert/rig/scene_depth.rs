@@ -21,6 +21,8 @@
 //! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
 //! need no further move; a reader with per-camera times would move them here.
 
+#[cfg(test)]
+mod faults;
 mod grid;
 mod splats;
 
@@ -44,6 +46,13 @@ pub const FAR: f64 = 10_000.0;
 pub const BOX_MARGIN: f64 = 0.1;
 /// Angular radius of a residual point's splat, degrees.
 pub const SPLAT_DEG: f64 = 0.5;
+/// The longest gap between splats that is closed ([`splats`]), degrees: wider than the ring
+/// spacing of the scanners read (1.33° for nuScenes' HDL-32E, up to 1° for PandaSet's
+/// Pandar64), narrower than the sky above a roof.
+pub const GAP_DEG: f64 = 3.0;
+/// Two splats across a gap agree (it lies on one surface) within this share of the farther's
+/// range.
+pub const GAP_AGREE: f64 = 0.1;
 /// Cells per degree of the residual points' spherical depth buffers.
 const CELLS_PER_DEG: f64 = 4.0;
 /// An exact surface (box, ground) nearer than the point by more than this hides it, metres.

@@ -1,7 +1,7 @@
 //! A frame's stitch: each camera's image remapped, then blended by the weights and the exposure
 //! gains (step 4 of the stitch's model).
 
-use super::{Stitch, Stitched};
+use super::{Stitch, Stitched, FALLBACK_SOURCE};
 use crate::image::RgbImage;
 use rayon::prelude::*;
 
@@ -46,7 +46,12 @@ impl Stitch {
                             row[u * 3 + c] = (acc[c] / total).round().clamp(0.0, 255.0) as u8;
                         }
                     }
-                    src_row[u] = best.1;
+                    let fell_back = self.fallback.as_ref().is_some_and(|f| f[i]);
+                    src_row[u] = if fell_back {
+                        best.1 | FALLBACK_SOURCE
+                    } else {
+                        best.1
+                    };
                 }
             });
         Stitched {

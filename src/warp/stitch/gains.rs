@@ -18,6 +18,10 @@ impl Stitch {
         let (count, sum) = (0..pixels)
             .into_par_iter()
             .fold(zero, |(mut count, mut sum), p| {
+                // the fallback's samples do not show one point in every camera
+                if self.fallback.as_ref().is_some_and(|f| f[p]) {
+                    return (count, sum);
+                }
                 for i in 0..n {
                     if !(self.weights[i][p] > 0.0) {
                         continue;

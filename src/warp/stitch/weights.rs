@@ -106,7 +106,6 @@ impl Stitch {
         depth: Option<&dyn StitchDepth>,
     ) -> TablesAndWeights {
         let size = output.size();
-        let (w, h) = (size.width as usize, size.height as usize);
         let proxies: Vec<Proxy> = cameras
             .iter()
             .map(|camera| Proxy::guided(*camera, *centre, options.distance, depth))
@@ -124,26 +123,7 @@ impl Stitch {
         let cones: Vec<Cone> = proxies
             .iter()
             .zip(&locals)
-            .map(|(proxy, local)| {
-                let camera = &proxy.camera;
-                let inverse = camera.rotation.try_inverse();
-                let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
-                if depth.is_some() {
-                    return super::guided::guided_cone(camera, local, baseline, bounded);
-                }
-                Cone {
-                    local,
-                    // unbounded: every pixel mapped (the tests' reference)
-                    half_angle: camera
-                        .max_theta
-                        .or_else(|| border_cone(camera.model))
-                        .filter(|_| bounded),
-                    parallax: baseline
-                        .filter(|b| b.is_finite() && *b < options.distance)
-                        .map(|b| options.distance / (options.distance - b)),
-                    baseline: None,
-                }
-            })
+            .map(|(proxy, local)| cone_of(proxy, local, centre, options, bounded, depth.is_some()))
             .collect();
         // a tile's lower bound is at least the scene's nearest distance
         let near = |d: &Vector3<f64>, radius: f64| {
@@ -155,8 +135,14 @@ impl Stitch {
         let distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
+        let pass = WeightPass {
+            output,
+            reach: &reach,
+            distances: distances.as_deref(),
+            depth,
+            options,
+        };
         for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
-            let mask = masks.get(i).copied().flatten();
             let gated = Gated {
                 output,
                 reach: &reach,
@@ -178,71 +164,132 @@ impl Stitch {
                 Wrap::None,
                 MAX_SUPERSAMPLE,
             );
-            // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
-            // the pixels beyond the bound keep w_i = 0
-            // where the field of view's margin exceeds the blend width the weight is set by
-            // the border's margin alone (or saturates): its angle is not needed there
-            let b = options.blend_width;
-            let deep = camera
-                .max_theta
-                .map(|t| t - b - FOV_SLACK)
-                .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
-                .map(|a| (a.cos(), b));
-            // the angle of a sample's footprint in camera i (FOOTPRINT_PX of its pixels at its
-            // axis): nothing nearer than the point may lie within it
-            let footprint = {
-                let axis = camera.model.project_point(&Vector3::z());
-                let off = camera.model.project_point(&Vector3::new(1e-3, 0.0, 1.0));
-                match (axis, off) {
-                    (Ok(p), Ok(q)) => FOOTPRINT_PX / ((q - p).norm() / 1e-3),
-                    _ => 0.0,
-                }
-            };
-            let mut wi = vec![0f32; w * h];
-            wi.par_chunks_mut(w.max(1))
-                .enumerate()
-                .for_each(|(v, row)| {
-                    for (u, out) in row.iter_mut().enumerate() {
-                        // a sample partly beyond the image (a supersampled pixel at its
-                        // edge) is darkened by the taps outside: the camera gives nothing there
-                        if !reach.may_reach_pixel(i, u, v) || !table.is_inside(u as u32, v as u32) {
-                            continue;
-                        }
-                        let Some(d) = reach.bearing(u, v) else {
-                            continue;
-                        };
-                        let q = match (&distances, depth) {
-                            (Some(t), Some(depth)) => {
-                                let n = d.normalize();
-                                let t = t[v * w + u];
-                                // step 2 of the guided model: a camera that does not see
-                                // the scene's point gives nothing there
-                                let x = proxy.point_at(&n, t);
-                                if !depth.sees_clean(i, &x, footprint) {
-                                    continue;
-                                }
-                                proxy.local_at(&n, t)
-                            }
-                            _ => proxy.local(&d),
-                        };
-                        if let Some(m) = margin_capped(camera, &q, deep) {
-                            *out = smoothstep(m / options.blend_width) as f32;
-                        }
-                        if let Some(mask) = mask.filter(|_| *out > 0.0) {
-                            if touches_mask(output, proxy, mask, u, v, &q) {
-                                *out = 0.0;
-                            }
-                        }
-                    }
-                });
+            let mask = masks.get(i).copied().flatten();
+            weights.push(pass.weights(i, camera, proxy, &table, mask));
             tables.push(table);
-            weights.push(wi);
         }
+        let fallback = depth.map(|_| super::fallback::resolve(&mut weights));
         TablesAndWeights {
             tables,
             weights,
             distances,
+            fallback,
         }
+    }
+}
+
+/// Camera `proxy`'s reach cone (`local` its bearings' map): with a depth (`guided`) the guided
+/// cone on the bearings' directions, else the proxy's with its parallax.
+fn cone_of<'a>(
+    proxy: &Proxy,
+    local: &'a (dyn Fn(&Vector3<f64>) -> Vector3<f64> + Sync),
+    centre: &Vector3<f64>,
+    options: StitchOptions,
+    bounded: bool,
+    guided: bool,
+) -> Cone<'a> {
+    let camera = &proxy.camera;
+    let inverse = camera.rotation.try_inverse();
+    let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
+    if guided {
+        return super::guided::guided_cone(camera, local, baseline, bounded);
+    }
+    Cone {
+        local,
+        // unbounded: every pixel mapped (the tests' reference)
+        half_angle: camera
+            .max_theta
+            .or_else(|| border_cone(camera.model))
+            .filter(|_| bounded),
+        parallax: baseline
+            .filter(|b| b.is_finite() && *b < options.distance)
+            .map(|b| options.distance / (options.distance - b)),
+        baseline: None,
+    }
+}
+
+/// The angle of a sample's footprint in `camera` ([`FOOTPRINT_PX`] of its pixels at its axis):
+/// nothing nearer than the point may lie within it.
+fn footprint_angle(camera: &StitchCamera) -> f64 {
+    let axis = camera.model.project_point(&Vector3::z());
+    let off = camera.model.project_point(&Vector3::new(1e-3, 0.0, 1.0));
+    match (axis, off) {
+        (Ok(p), Ok(q)) => FOOTPRINT_PX / ((q - p).norm() / 1e-3),
+        _ => 0.0,
+    }
+}
+
+/// What every camera's weights are computed with (steps 3 and 6, and step 2 of the guided
+/// model).
+struct WeightPass<'a> {
+    output: &'a dyn CameraModel,
+    reach: &'a Reach,
+    distances: Option<&'a [f64]>,
+    depth: Option<&'a dyn StitchDepth>,
+    options: StitchOptions,
+}
+
+impl WeightPass<'_> {
+    /// Camera `i`'s weight at every output pixel (negative: a fallback weight, where the
+    /// camera does not see the scene's point; [`super::fallback`]).
+    fn weights(
+        &self,
+        i: usize,
+        camera: &StitchCamera,
+        proxy: &Proxy,
+        table: &RemapTable,
+        mask: Option<&EgoMask>,
+    ) -> Vec<f32> {
+        let size = self.output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let (reach, options, output) = (self.reach, self.options, self.output);
+        // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
+        // the pixels beyond the bound keep w_i = 0
+        // where the field of view's margin exceeds the blend width the weight is set by
+        // the border's margin alone (or saturates): its angle is not needed there
+        let b = options.blend_width;
+        let deep = camera
+            .max_theta
+            .map(|t| t - b - FOV_SLACK)
+            .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
+            .map(|a| (a.cos(), b));
+        let footprint = footprint_angle(camera);
+        let mut wi = vec![0f32; w * h];
+        wi.par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(v, row)| {
+                for (u, out) in row.iter_mut().enumerate() {
+                    // a sample partly beyond the image (a supersampled pixel at its
+                    // edge) is darkened by the taps outside: the camera gives nothing there
+                    if !reach.may_reach_pixel(i, u, v) || !table.is_inside(u as u32, v as u32) {
+                        continue;
+                    }
+                    let Some(d) = reach.bearing(u, v) else {
+                        continue;
+                    };
+                    let (q, seen) = match (self.distances, self.depth) {
+                        (Some(t), Some(depth)) => {
+                            let n = d.normalize();
+                            let t = t[v * w + u];
+                            // step 2 of the guided model: a camera that does not see
+                            // the scene's point gives only a fallback there
+                            let x = proxy.point_at(&n, t);
+                            (proxy.local_at(&n, t), depth.sees_clean(i, &x, footprint))
+                        }
+                        _ => (proxy.local(&d), true),
+                    };
+                    if let Some(m) = margin_capped(camera, &q, deep) {
+                        let wm = smoothstep(m / options.blend_width) as f32;
+                        *out = if seen { wm } else { -wm };
+                    }
+                    if let Some(mask) = mask.filter(|_| *out != 0.0) {
+                        if touches_mask(output, proxy, mask, u, v, &q) {
+                            *out = 0.0;
+                        }
+                    }
+                }
+            });
+        wi
     }
 }
 
@@ -252,6 +299,8 @@ pub(super) struct TablesAndWeights {
     pub(super) tables: Vec<RemapTable>,
     pub(super) weights: Vec<Vec<f32>>,
     pub(super) distances: Option<Vec<f64>>,
+    /// With a depth, the pixels filled by the fallback rule ([`super::fallback`]).
+    pub(super) fallback: Option<Vec<bool>>,
 }
 
 #[cfg(test)]

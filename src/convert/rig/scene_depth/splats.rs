@@ -1,7 +1,7 @@
 //! The residual scan points of a frame's scene as spherical depth buffers: the nearest splat
 //! per cell around a viewpoint (see the parent module).
 
-use super::{CELLS_PER_DEG, SPLAT_DEG};
+use super::{CELLS_PER_DEG, GAP_AGREE, GAP_DEG, SPLAT_DEG};
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
 
@@ -65,7 +65,24 @@ impl Splats {
                 }
             }
         }
+        splats.fill_gaps();
         splats
+    }
+
+    /// Closes the gaps between a scan's rings and azimuth steps that the splats leave: a run
+    /// of empty cells of at most [`GAP_DEG`] between two splats, along a column then along a
+    /// row, takes the range interpolated between them where they agree (within
+    /// [`GAP_AGREE`] of the farther), else the farther one's: a gap across a depth
+    /// discontinuity is the background's, so a fill never makes an occluder.
+    fn fill_gaps(&mut self) {
+        let longest = (GAP_DEG * CELLS_PER_DEG).round() as usize;
+        let (w, h) = (self.width, self.height);
+        for x in 0..w {
+            fill_line(&mut self.range, (x, w), h, longest);
+        }
+        for y in 0..h {
+            fill_line(&mut self.range[y * w..(y + 1) * w], (0, 1), w, longest);
+        }
     }
 
     /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
@@ -109,5 +126,28 @@ impl Splats {
         let cx = (crate::warp::floor(x) as i64).rem_euclid(self.width as i64) as usize;
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
+    }
+}
+
+/// Fills the gaps of one line of `range` (`n` cells from `start`, `step` apart) of at most
+/// `longest` cells between two filled cells (see [`Splats::fill_gaps`]).
+fn fill_line(range: &mut [f32], (start, step): (usize, usize), n: usize, longest: usize) {
+    let at = |k: usize| start + k * step;
+    let mut last: Option<usize> = None;
+    for k in 0..n {
+        let r = range[at(k)];
+        if !r.is_finite() {
+            continue;
+        }
+        if let Some(j) = last.filter(|&j| k - j > 1 && k - j - 1 <= longest) {
+            let (a, b) = (range[at(j)], r);
+            let far = a.max(b);
+            let agree = (a - b).abs() <= GAP_AGREE as f32 * far;
+            for m in j + 1..k {
+                let t = (m - j) as f32 / (k - j) as f32;
+                range[at(m)] = if agree { a + (b - a) * t } else { far };
+            }
+        }
+        last = Some(k);
     }
 }
