@@ -56,6 +56,7 @@ mod style_batch;
 mod style_cli;
 mod table_parts;
 mod tidy;
+mod truncated_images;
 mod trust;
 mod unproject;
 mod verify;
