@@ -14,6 +14,7 @@ mod camera_files;
 mod camera_lens;
 mod camera_models;
 mod camera_models_random;
+mod choices;
 mod cli;
 mod completions;
 mod corpus;
