@@ -21,7 +21,7 @@ use panoconv::reproject::visibility::Visibility;
 use panoconv::run::{OutputMode, Silent};
 use panoconv::source::{
     record_value, CameraInfo, Frame, LidarPoint, Pose, RigCamera, RigItem, RigItems, RigSource,
-    SourceBox, SourceCamera,
+    SourceBox, SourceCamera, SourceFrame,
 };
 use panoconv::warp::StitchOptions;
 use serde_json::{Map, Value};
@@ -138,7 +138,7 @@ impl RigSource for ToyRig {
             not_frames: Vec::new(),
         })
     }
-    fn read(&self, item: &RigItem) -> Result<Frame> {
+    fn read(&self, item: &RigItem) -> Result<SourceFrame> {
         let dir = self.root.join(&item.id);
         let rig = (0..2)
             .map(|k| RigCamera {
@@ -148,7 +148,7 @@ impl RigSource for ToyRig {
                 image: dir.join(format!("{}.png", NAMES[k])),
             })
             .collect();
-        Ok(Frame {
+        let frame = Frame {
             id: item.id.clone(),
             provenance: vec![dir.join("boxes.txt")],
             rig,
@@ -159,15 +159,13 @@ impl RigSource for ToyRig {
             reference_from_lidar: None,
             lidar_from_imu: None,
             input_hashes: Vec::new(),
-        })
+        };
+        let mut record = Map::new();
+        record.insert("toy_frame".into(), Value::from(item.id.clone()));
+        Ok(SourceFrame { frame, record })
     }
     fn keeps(&self, object: &SourceBox) -> bool {
         object.class != "Tree"
-    }
-    fn record(&self, item: &RigItem) -> Map<String, Value> {
-        let mut m = Map::new();
-        m.insert("toy_frame".into(), Value::from(item.id.clone()));
-        m
     }
     fn parameters(&self) -> Map<String, Value> {
         let mut m = Map::new();

@@ -11,7 +11,7 @@ use super::sequence::{Options, Sequence};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{
-    record_value, CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera,
+    record_value, CameraInfo, RigItem, RigItems, RigSource, SourceBox, SourceCamera, SourceFrame,
 };
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -300,11 +300,17 @@ impl RigSource for Kitti360Source {
         Ok(RigItems { items, not_frames })
     }
 
-    fn read(&self, item: &RigItem) -> Result<Frame> {
+    fn read(&self, item: &RigItem) -> Result<SourceFrame> {
         let seq = &self.sequences[item.part].0;
         let frame = u32::try_from(item.index)
             .map_err(|_| Error::Setup(format!("frame {}: not a frame number", item.index)))?;
-        seq.frame(frame)
+        let mut record = Map::new();
+        record.insert("sequence".into(), Value::from(seq.name.clone()));
+        record.insert("frame".into(), Value::from(item.index));
+        Ok(SourceFrame {
+            frame: seq.frame(frame)?,
+            record,
+        })
     }
 
     fn listed(&self) -> Option<fn(&SourceBox) -> bool> {
@@ -314,16 +320,6 @@ impl RigSource for Kitti360Source {
 
     fn keeps(&self, b: &SourceBox) -> bool {
         self.selection.classes.keeps(&b.class, &b.dataset_class)
-    }
-
-    fn record(&self, item: &RigItem) -> Map<String, Value> {
-        let mut m = Map::new();
-        m.insert(
-            "sequence".into(),
-            Value::from(self.sequences[item.part].0.name.clone()),
-        );
-        m.insert("frame".into(), Value::from(item.index));
-        m
     }
 
     fn parameters(&self) -> Map<String, Value> {

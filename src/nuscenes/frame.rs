@@ -277,15 +277,6 @@ impl NuScenes {
         })
     }
 
-    /// What nuScenes says of each object a frame of `sample` holds, in its order.
-    pub fn object_infos(&self, sample: &Token, options: &Options) -> Result<Vec<ObjectInfo>> {
-        let level_from_world = self
-            .world_from_level(sample)?
-            .inverse()
-            .expect("a rotation");
-        Ok(self.objects(sample, &level_from_world, options)?.1)
-    }
-
     fn objects(
         &self,
         sample: &Token,

@@ -11,7 +11,7 @@ use super::frame::{Item, Options};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{
-    record_value, CameraInfo, Frame, RigItem, RigItems, RigSource, SourceBox, SourceCamera,
+    record_value, CameraInfo, RigItem, RigItems, RigSource, SourceBox, SourceCamera, SourceFrame,
 };
 use serde::Serialize;
 use serde_json::{Map, Value};
@@ -223,8 +223,17 @@ impl RigSource for NuScenesSource {
         })
     }
 
-    fn read(&self, item: &RigItem) -> Result<Frame> {
-        Ok(self.dataset.frame(&self.item(item), &self.options())?.frame)
+    fn read(&self, item: &RigItem) -> Result<SourceFrame> {
+        let read = self.dataset.frame(&self.item(item), &self.options())?;
+        let mut record = Map::new();
+        record.insert("scene".into(), Value::from(read.scene));
+        record.insert("sample_token".into(), Value::from(read.sample_token));
+        // each object of the frame (in its order): what nuScenes says of it
+        record.insert("annotations".into(), record_value(read.objects));
+        Ok(SourceFrame {
+            frame: read.frame,
+            record,
+        })
     }
 
     fn keeps(&self, b: &SourceBox) -> bool {
@@ -233,19 +242,6 @@ impl RigSource for NuScenesSource {
 
     fn drops_unseen(&self, b: &SourceBox) -> bool {
         !self.selection.keep_unseen && b.sensor_points == Some(0)
-    }
-
-    fn record(&self, item: &RigItem) -> Map<String, Value> {
-        let scene = &self.dataset.scenes[item.part];
-        let sample = &scene.samples[item.index as usize];
-        let mut m = Map::new();
-        m.insert("scene".into(), Value::from(scene.name.clone()));
-        m.insert("sample_token".into(), Value::from(sample.to_string()));
-        // each object of the frame (in its order): what nuScenes says of it
-        if let Ok(infos) = self.dataset.object_infos(sample, &self.options()) {
-            m.insert("annotations".into(), record_value(infos));
-        }
-        m
     }
 
     fn parameters(&self) -> Map<String, Value> {

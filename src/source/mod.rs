@@ -21,7 +21,9 @@ pub use object::SourceBox;
 pub use pose::Pose;
 pub use region::SourceRegion;
 pub use rig::RigCamera;
-pub use rig_source::{record_value, CameraInfo, RigItem, RigItems, RigSource, SourceCamera};
+pub use rig_source::{
+    record_value, CameraInfo, RigItem, RigItems, RigSource, SourceCamera, SourceFrame,
+};
 
 use nalgebra::Vector3;
 use std::path::PathBuf;

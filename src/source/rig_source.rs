@@ -5,9 +5,12 @@
 //! frames, the per-camera options its cameras take) and then offers: its parts (a sequence, a
 //! scene), each part's camera set ([`SourceCamera`]: the name, the scale an output keeps by
 //! default, the lens's field of view, the image size), the frames under the selection as
-//! [`RigItem`]s with a stable output id each, and `read(item)`: one [`Frame`] holding
-//! everything a writer needs (the rig, the boxes, the LiDAR points, the sensor transforms,
-//! the hashes of the files that the read took). The generic rig run (`convert::rig::run_rig`)
+//! [`RigItem`]s with a stable output id each, and `read(item)`: one [`SourceFrame`], the
+//! [`Frame`] holding everything a writer needs (the rig, the boxes, the LiDAR points, the
+//! sensor transforms, the hashes of the files that the read took) with the dataset's fields of
+//! its objects record, made from the same read. The run reads each frame once and hands that
+//! read to every step that needs it (the output-camera check, each output view): an adapter
+//! rebuilds nothing per view, and an error in a read is the frame's error. The generic rig run (`convert::rig::run_rig`)
 //! does the rest (output folder, style, augment, stitch, labels, depth, manifest) for any
 //! dataset; what differs between datasets stays in its adapter, next to its reader.
 
@@ -61,6 +64,17 @@ pub struct RigItems {
     pub not_frames: Vec<String>,
 }
 
+/// One frame as a [`RigSource`] read it.
+#[derive(Debug, Clone)]
+pub struct SourceFrame {
+    /// The neutral frame.
+    pub frame: Frame,
+    /// The first fields of each of its views' `objects/ID.json` (which frame of the dataset it
+    /// is: `"sequence"` and `"frame"`, or `"scene"`, `"sample_token"` and what the dataset
+    /// says of each object, in `frame.objects`' order).
+    pub record: Map<String, Value>,
+}
+
 /// A rig dataset opened with its selection. `Sync`: frames are read on rayon's workers.
 pub trait RigSource: Sync {
     /// The command's name, as the manifest records it (`kitti360`).
@@ -84,8 +98,9 @@ pub trait RigSource: Sync {
     /// Reads one frame: its rig (image paths, not pixels: the run decodes the chosen cameras'
     /// images and hashes those bytes), its boxes in the reference frame, its LiDAR points
     /// when the source was opened to read them, its sensor transforms and the hashes of the
-    /// per-frame files it read (`Frame::input_hashes`).
-    fn read(&self, item: &RigItem) -> Result<Frame>;
+    /// per-frame files it read (`Frame::input_hashes`), with its objects record's fields.
+    /// Called once per frame and run; any problem is the frame's error.
+    fn read(&self, item: &RigItem) -> Result<SourceFrame>;
 
     /// Which of a frame's boxes are the dataset's objects (labelled or dropped, and listed in
     /// `objects/ID.json`) when it also reads others as scenery for a depth-guided stitch; None:
@@ -104,10 +119,6 @@ pub trait RigSource: Sync {
     fn drops_unseen(&self, _object: &SourceBox) -> bool {
         false
     }
-
-    /// The first fields of a frame's `objects/ID.json` (which frame of the dataset it is:
-    /// `"sequence"` and `"frame"`, or `"scene"` and `"sample_token"`).
-    fn record(&self, item: &RigItem) -> Map<String, Value>;
 
     /// The dataset's fields of the manifest's `parameters` (input, selection, per-camera
     /// options): the run adds its own (output, stitch, objects, depth, style, ...).

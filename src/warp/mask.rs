@@ -5,6 +5,7 @@
 
 use crate::camera::ImageSize;
 use crate::error::{Error, Result};
+use crate::image::RgbImage;
 use nalgebra::Point2;
 use std::path::Path;
 
@@ -28,7 +29,12 @@ impl EgoMask {
     /// image size: another size is an error naming the file.
     pub fn read(path: &Path, size: ImageSize) -> Result<Self> {
         let bytes = crate::fs::read_file(path)?;
-        let image = crate::codec::decode_rgb8(&bytes, path)?;
+        Self::from_image(&crate::codec::decode_rgb8(&bytes, path)?, path, size)
+    }
+
+    /// [`Self::read`] of a mask image already decoded from `path` (a caller that also hashes
+    /// the file's bytes decodes them once).
+    pub fn from_image(image: &RgbImage, path: &Path, size: ImageSize) -> Result<Self> {
         if image.width() != size.width || image.height() != size.height {
             return Err(Error::file(
                 path,

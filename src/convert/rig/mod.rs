@@ -9,10 +9,12 @@
 //! - `objects.rs`: which objects a frame's labels hold (range, LiDAR support, image) and why
 //!   the others were dropped;
 //! - `scene_depth.rs`: a frame's scene (boxes, ground, scan) as a depth-guided stitch sees it;
+//! - `frame_cache.rs`: what a frame's views share (its scan's positions, its scene);
 //! - `gray.rs`: the 8-bit PNG of the source map;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
 //!   written, its frames, files and manifest, for any dataset.
 
+mod frame_cache;
 mod gray;
 mod ground;
 mod job;

@@ -9,8 +9,9 @@
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
 //! tables are built per frame.
 
+use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
-use super::scene_depth::{distance_map, frame_stitch, StitchMode};
+use super::scene_depth::{distance_map, frame_stitch_in, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -253,6 +254,19 @@ pub fn convert_into(
     options: &RigOptions,
     keep_class: ClassFilter,
 ) -> Result<RigFrame> {
+    let cache = FrameCache::default();
+    convert_view((frame, &cache), info, camera, images, options, keep_class)
+}
+
+/// [`convert_into`] for one of a frame's views, with what its views share in `cache`.
+pub(super) fn convert_view(
+    (frame, cache): (&Frame, &FrameCache),
+    info: &[CameraInfo],
+    camera: Box<dyn OutputCamera>,
+    images: &[RgbImage],
+    options: &RigOptions,
+    keep_class: ClassFilter,
+) -> Result<RigFrame> {
     let chosen = chosen_cameras(frame, options)?;
     if images.len() != chosen.len() {
         return Err(Error::Setup(format!(
@@ -287,8 +301,8 @@ pub fn convert_into(
         .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
         .collect();
     let eyes = chosen.iter().map(|c| c.centre()).collect();
-    let (stitch, stitch_mode) = frame_stitch(
-        frame,
+    let (stitch, stitch_mode) = frame_stitch_in(
+        (frame, &cache.scene),
         camera.as_ref(),
         &centre,
         (&cameras, eyes),
@@ -323,9 +337,8 @@ pub fn convert_into(
         placed.index = frame_index[placed.index];
     }
     let depth = options.depth.map(|filter| {
-        let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let lidar = ViewLidar {
-            points: &points,
+            points: cache.points(frame),
             non_finite: 0,
             filter: filter.as_ref(),
         };

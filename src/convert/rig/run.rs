@@ -6,11 +6,12 @@
 //! atomically and hashed for the manifest); a failed frame leaves no file. The KITTI files
 //! (label lines, calib) are `kitti::rig_output`'s.
 
+use super::frame_cache::FrameCache;
 use super::gray::encode_gray8;
 use super::job::{parameters, ObjectCounts, RigJob, RigSummary, SPLIT};
 use super::objects::{DropReason, ObjectOutcome};
 use super::pass::{
-    convert_into, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
+    convert_view, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
     RigOptions,
 };
 use super::scene_depth::StitchMode;
@@ -26,7 +27,7 @@ use crate::image::RgbImage;
 use crate::kitti::{Cam, OutputKind};
 use crate::run::manifest::FrameRecord;
 use crate::run::{Claim, FrameWork, OnceMap, OutputFolder, Progress};
-use crate::source::{Frame, RigItem, RigItems, RigSource, SourceBox};
+use crate::source::{Frame, RigItem, RigItems, RigSource, SourceBox, SourceFrame};
 use crate::style::{StyleError, StyleModel};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -49,7 +50,7 @@ type OutputView = (String, Option<View>, Box<dyn OutputCamera>);
 
 /// A frame read, its views drawn, waiting for the style pass and the stitch.
 struct Prepared {
-    frame: Frame,
+    read: SourceFrame,
     views: Vec<OutputView>,
     /// The chosen cameras' images, in `--cameras` order (styled in place by the style pass).
     images: Vec<RgbImage>,
@@ -88,6 +89,9 @@ struct Ctx<'a> {
     style_pass: Option<StylePass<'a>>,
     /// Augmented views holding fewer objects than asked.
     thin_views: AtomicUsize,
+    /// The first frame the run converts, as the set-up check read it: the loop takes it
+    /// instead of reading the frame again.
+    first: Mutex<Option<(String, Result<SourceFrame>)>>,
 }
 
 impl Ctx<'_> {
@@ -165,22 +169,36 @@ impl Ctx<'_> {
         Ok(views)
     }
 
+    /// The frame of `item`, read once per run: the set-up check's read when it is that frame.
+    fn read(&self, item: &RigItem) -> Result<SourceFrame> {
+        let mut first = self.first.lock().unwrap_or_else(|e| e.into_inner());
+        match first.take() {
+            Some((id, read)) if id == item.id => read,
+            other => {
+                *first = other;
+                drop(first);
+                self.source.read(item)
+            }
+        }
+    }
+
     /// Reads a frame and its chosen cameras' images, and draws its output views: everything
     /// before the style pass.
     fn prepare(&self, item: &RigItem) -> Result<Prepared> {
-        let frame = self.source.read(item)?;
+        let read = self.read(item)?;
+        let frame = &read.frame;
         let info = &self.infos[item.part];
         let options = &self.options;
         let keep = |b: &SourceBox| source_verdict(self.source, b);
-        let views = self.output_views(item, &frame, info, options, &keep)?;
-        let (images, image_hashes) = read_images_hashed(&frame, options)?;
+        let views = self.output_views(item, frame, info, options, &keep)?;
+        let (images, image_hashes) = read_images_hashed(frame, options)?;
         let image_paths = options
             .cameras
             .iter()
             .filter_map(|&k| frame.rig.get(k).map(|c| c.image.clone()))
             .collect();
         Ok(Prepared {
-            frame,
+            read,
             views,
             images,
             image_paths,
@@ -193,16 +211,18 @@ impl Ctx<'_> {
     fn finish(&self, item: &RigItem, prepared: Prepared) -> Result<FrameRecord> {
         let job = self.job;
         let Prepared {
-            frame,
+            read,
             views,
             images,
             image_paths,
             image_hashes,
         } = prepared;
+        let frame = &read.frame;
         let mut files = RigViewFiles {
             ctx: self,
-            item,
-            frame: &frame,
+            frame,
+            record: &read.record,
+            cache: FrameCache::default(),
             info: &self.infos[item.part],
             images: &images,
             options: &self.options,
@@ -215,7 +235,7 @@ impl Ctx<'_> {
         });
         let written = write_views(&job.run.output, job.run.png_compression, views, &mut files)?;
         let counts = files.counts;
-        let inputs = self.inputs(&frame, &image_paths, &image_hashes)?;
+        let inputs = self.inputs(frame, &image_paths, &image_hashes)?;
         self.objects
             .lock()
             .unwrap_or_else(|e| e.into_inner())
@@ -260,8 +280,11 @@ impl Ctx<'_> {
 /// objects record and depth.
 struct RigViewFiles<'a> {
     ctx: &'a Ctx<'a>,
-    item: &'a RigItem,
     frame: &'a Frame,
+    /// The source's fields of the frame's objects record.
+    record: &'a serde_json::Map<String, serde_json::Value>,
+    /// What the frame's views share.
+    cache: FrameCache,
     info: &'a [CameraInfo],
     /// The chosen cameras' (styled) images.
     images: &'a [RgbImage],
@@ -275,7 +298,7 @@ struct RigViewFiles<'a> {
 #[derive(serde::Serialize)]
 struct ObjectsFile<'a> {
     #[serde(flatten)]
-    frame: serde_json::Map<String, serde_json::Value>,
+    frame: &'a serde_json::Map<String, serde_json::Value>,
     stitch: StitchMode,
     gains: &'a [f64],
     counts: ObjectCounts,
@@ -290,7 +313,8 @@ impl ViewFiles for RigViewFiles<'_> {
         let ctx = self.ctx;
         let keep = |b: &SourceBox| source_verdict(ctx.source, b);
         let frame = self.frame;
-        let out = convert_into(frame, self.info, camera, self.images, self.options, &keep)?;
+        let (info, images, options) = (self.info, self.images, self.options);
+        let out = convert_view((frame, &self.cache), info, camera, images, options, &keep)?;
         let calib = crate::kitti::rig_output::rig_calib_text(
             out.camera.as_ref(),
             &out.centre,
@@ -312,7 +336,7 @@ impl ViewFiles for RigViewFiles<'_> {
         let view_counts = ObjectCounts::of(&out.objects);
         self.counts.add(&view_counts);
         let objects = serde_json::to_vec_pretty(&ObjectsFile {
-            frame: ctx.source.record(self.item),
+            frame: self.record,
             stitch: out.stitch_mode,
             gains: &out.gains,
             counts: view_counts,
@@ -396,7 +420,6 @@ pub fn run_rig(
         mut items,
         not_frames,
     } = source.items(&job.cameras)?;
-    check_output_camera(job, source, &items)?;
     let style = crate::convert::run_options::load_style(job.run.style.as_ref())?;
     let folder = OutputFolder::claim(Claim {
         input: source.root(),
@@ -417,6 +440,15 @@ pub fn run_rig(
         style.as_ref().map(StyleModel::info),
     );
     let previous = folder.previous(&parameters)?;
+    // the first frame the loop converts (the first not recorded by the run resumed; those
+    // kept passed this check in that run), read once for the check and the loop
+    let first = items
+        .iter()
+        .find(|i| !previous.contains(SPLIT, &i.id))
+        .map(|item| (item, source.read(item)));
+    if let Some((item, read)) = &first {
+        check_output_camera(job, source, item, read)?;
+    }
     folder.prepare()?;
     for kind in OUTPUTS {
         if (kind == OutputKind::Depth && job.run.depth.is_none())
@@ -452,6 +484,7 @@ pub fn run_rig(
         },
         style_pass: style.as_ref().map(|m| StylePass::new(m, batch)),
         thin_views: AtomicUsize::new(0),
+        first: Mutex::new(first.map(|(item, read)| (item.id.clone(), read))),
     };
     let mut run = folder.start(
         source.command(),

@@ -35,6 +35,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use splats::{angles, Splats};
 use std::f64::consts::TAU;
+use std::sync::OnceLock;
 
 /// The distance of a ray that meets nothing (the sky), metres: 1 m of baseline is 0.1 mrad of
 /// parallax there.
@@ -78,12 +79,35 @@ pub fn frame_stitch(
     options: StitchOptions,
     mode: StitchMode,
 ) -> Result<(Stitch, StitchMode)> {
+    let scene = OnceLock::new();
+    frame_stitch_in(
+        (frame, &scene),
+        output,
+        centre,
+        (cameras, eyes),
+        masks,
+        options,
+        mode,
+    )
+}
+
+/// [`frame_stitch`] with the frame's scene built on first use into `scene`, so that the views
+/// of one frame (same centre, same eyes) share it.
+pub(super) fn frame_stitch_in(
+    (frame, scene): (&Frame, &OnceLock<SceneDepth>),
+    output: &dyn CameraModel,
+    centre: &Vector3<f64>,
+    (cameras, eyes): (&[StitchCamera], Vec<Vector3<f64>>),
+    masks: &[Option<&EgoMask>],
+    options: StitchOptions,
+    mode: StitchMode,
+) -> Result<(Stitch, StitchMode)> {
     if mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras.len() < 2 {
         let stitch = Stitch::build_masked(output, centre, cameras, masks, options)?;
         return Ok((stitch, StitchMode::Fixed));
     }
-    let scene = SceneDepth::new(frame, *centre, eyes);
-    let stitch = Stitch::build_guided(output, centre, cameras, masks, options, &scene)?;
+    let scene = scene.get_or_init(|| SceneDepth::new(frame, *centre, eyes));
+    let stitch = Stitch::build_guided(output, centre, cameras, masks, options, scene)?;
     Ok((stitch, StitchMode::Depth))
 }
 

@@ -1,12 +1,13 @@
 //! What a rig run checks before anything is written, whatever the dataset: the cameras chosen
-//! against the source's camera sets, the ego masks, the output camera (on the first frame).
+//! against the source's camera sets, the ego masks, the output camera (on the first frame the
+//! run converts).
 //! Every problem here is a set-up error.
 
 use super::job::{EgoMaskRecord, RigJob};
 use super::pass::output_camera;
 use crate::error::{Error, Result};
 use crate::fs;
-use crate::source::{RigItem, RigSource};
+use crate::source::{RigItem, RigSource, SourceFrame};
 use crate::warp::EgoMask;
 use std::sync::Arc;
 
@@ -58,19 +59,17 @@ pub(super) fn read_ego_masks(
         if masks[*k].is_some() {
             return Err(Error::file(path, format!("a second ego mask for {name}")));
         }
-        let mut mask = None;
+        // read once: the record's hash and the mask come from the same bytes
+        let bytes = fs::read_file(path)?;
+        let image = crate::codec::decode_rgb8(&bytes, path)?;
+        let mut mask: Option<EgoMask> = None;
         for part in 0..source.parts() {
             let size = source.cameras(part)[*k].size;
-            let m = EgoMask::read(path, size)?;
-            if mask.as_ref().is_some_and(|old| *old != m) {
-                return Err(Error::file(
-                    path,
-                    "the sequences' images differ in size".to_owned(),
-                ));
+            // a part of another image size fails here, naming the mask's size and the camera's
+            if mask.as_ref().is_none_or(|m| m.size() != size) {
+                mask = Some(EgoMask::from_image(&image, path, size)?);
             }
-            mask = Some(m);
         }
-        let bytes = fs::read_file(path)?;
         records.push(EgoMaskRecord {
             camera: name,
             path: path.clone(),
@@ -82,21 +81,19 @@ pub(super) fn read_ego_masks(
 }
 
 /// An output camera that cannot be made (a scale too large, a crop of no pixel) is a set-up
-/// error, not one error per frame: checked on the first frame that reads.
+/// error, not one error per frame: checked on `first`, the first frame the run converts, as it
+/// was read (a frame that does not read fails on its own, counted).
 pub(super) fn check_output_camera(
     job: &RigJob,
     source: &dyn RigSource,
-    items: &[RigItem],
+    item: &RigItem,
+    first: &Result<SourceFrame>,
 ) -> Result<()> {
-    let Some(item) = items.first() else {
-        return Ok(());
-    };
-    // (a frame that does not read fails on its own, counted)
-    let Ok(frame) = source.read(item) else {
+    let Ok(read) = first else {
         return Ok(());
     };
     let info: Vec<_> = source.cameras(item.part).iter().map(|c| c.info).collect();
-    output_camera(&frame, &info, &job.target, job.cameras[0])
+    output_camera(&read.frame, &info, &job.target, job.cameras[0])
         .map(|_| ())
         .map_err(|e| Error::Setup(format!("the output camera of frame {}: {e}", item.id)))
 }

@@ -1,0 +1,25 @@
+//! What the output views of one rig frame share, built by the first view that needs it: the
+//! scan's positions (each view's depth map) and the depth-guided stitch's scene (its boxes,
+//! ground and scan seen from the frame's centre and cameras). With `--augment` a frame has
+//! several views of the same centre and cameras: neither is rebuilt per view.
+
+use super::scene_depth::SceneDepth;
+use crate::source::Frame;
+use nalgebra::Vector3;
+use std::sync::OnceLock;
+
+/// A frame's shared parts; a fresh one for each frame.
+#[derive(Default)]
+pub(super) struct FrameCache {
+    points: OnceLock<Vec<Vector3<f64>>>,
+    /// The frame's scene as the depth-guided stitch sees it.
+    pub(super) scene: OnceLock<SceneDepth>,
+}
+
+impl FrameCache {
+    /// The positions of the frame's LiDAR points, copied once.
+    pub(super) fn points(&self, frame: &Frame) -> &[Vector3<f64>] {
+        self.points
+            .get_or_init(|| frame.lidar.iter().map(|p| p.position).collect())
+    }
+}
