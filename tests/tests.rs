@@ -23,6 +23,7 @@ mod dataset_truth;
 mod depth;
 mod eval_depth;
 mod export;
+mod export_classes;
 mod first_contact;
 mod first_run;
 mod fisheye;

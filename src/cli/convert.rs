@@ -397,6 +397,7 @@ fn convert(
             &job.input,
             &job.output,
             &args.export,
+            &[],
             augmented,
             overwrite,
             quiet,

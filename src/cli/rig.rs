@@ -313,10 +313,10 @@ pub(super) fn run_rig_command<S: RigSource>(
 ) -> Result<ExitCode> {
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
-    let (job, summary) = with_pool(args.run.jobs, || -> Result<_> {
+    let (job, summary, label_types) = with_pool(args.run.jobs, || -> Result<_> {
         let (job, source) = prepare()?;
         let summary = run_rig(&job, &source, &bar, &STOP)?;
-        Ok((job, summary))
+        Ok((job, summary, source.label_types()))
     })??;
     let job = &job;
     if !args.run.quiet {
@@ -331,6 +331,7 @@ pub(super) fn run_rig_command<S: RigSource>(
             &job.run.output,
             &job.run.output,
             &args.export,
+            &label_types,
             job.run.augment.is_some(),
             overwrite,
             args.run.quiet,

@@ -58,6 +58,12 @@ pub const CLASSES: [(i64, &str, Option<&str>); 37] = [
     (37, "unknown object", None),
 ];
 
+/// The label type a class without a KITTI type is written as: its name, spaces as
+/// underscores (a KITTI label line is split at spaces: `traffic light` is `traffic_light`).
+pub fn label_type(name: &str) -> String {
+    name.replace(' ', "_")
+}
+
 /// The KITTI-360 name of a kittiId, None for an id the dataset does not define.
 pub fn class_name(kitti_id: i64) -> Option<&'static str> {
     CLASSES
