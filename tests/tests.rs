@@ -50,6 +50,7 @@ mod png_rows;
 mod preview;
 mod raw;
 mod resume;
+mod rig_canvas;
 mod rig_plugin;
 mod sample;
 mod scale;
