@@ -30,6 +30,7 @@ mod fisheye;
 mod fisheye_target;
 mod footprint;
 mod fuzz_parsers;
+mod help_examples;
 mod inspect;
 mod kitti360;
 mod kitti360_command;

@@ -179,15 +179,7 @@ impl NuScenes {
 
 /// The folders of `dataroot` that hold a version's tables (a `sample.json`), sorted.
 pub fn versions(dataroot: &Path) -> Vec<String> {
-    let mut versions: Vec<String> = std::fs::read_dir(dataroot)
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter(|e| e.path().join("sample.json").is_file())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    versions.sort();
-    versions
+    crate::fs::folders_holding(dataroot, "sample.json")
 }
 
 /// The error of a missing version folder: the versions `dataroot` holds, or that it holds none.

@@ -88,14 +88,7 @@ fn nuscenes_parts(root: &Path) -> Result<Vec<RigPart>> {
 }
 
 fn kitti360_parts(root: &Path) -> Result<Vec<RigPart>> {
-    let mut names: Vec<String> = std::fs::read_dir(root.join("data_poses"))
-        .into_iter()
-        .flatten()
-        .flatten()
-        .filter(|e| e.path().join("poses.txt").is_file())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = crate::fs::folders_holding(&root.join("data_poses"), "poses.txt");
     let mut parts = Vec::new();
     for name in names {
         let options = Options {
