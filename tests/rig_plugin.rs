@@ -11,7 +11,7 @@ use crate::kitti360_command::{exact_box, Written};
 use nalgebra::{Matrix3, Vector3};
 use panoconv::camera::{ImageSize, Intrinsics, Perspective, Projection};
 use panoconv::codec::png::PngCompression;
-use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, StitchMode};
+use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSpec, StitchMode};
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::{Error, Result};
 use panoconv::geometry::{Canvas, OutputSpec, Scale, Target};
@@ -223,7 +223,7 @@ fn write_dataset(root: &Path) {
 }
 
 fn job(output: &Path) -> RigJob {
-    RigJob {
+    RigJob::new(RigSpec {
         run: RunOptions {
             output: output.to_owned(),
             mode: OutputMode::New,
@@ -261,7 +261,8 @@ fn job(output: &Path) -> RigJob {
             },
         },
         ego_masks: Vec::new(),
-    }
+    })
+    .unwrap()
 }
 
 /// A frame's output camera and labels (a dataset without a world frame writes no
@@ -364,4 +365,64 @@ fn a_dataset_adapter_outside_the_library_gets_the_whole_rig_run() {
     );
     let allowed = ["verify", "--allow-failed", out.to_str().unwrap()];
     common::assert_success(&common::panoconv(allowed));
+}
+
+#[test]
+fn a_library_job_gets_the_rules_and_errors_of_the_command_line() {
+    // each rule, broken by a library caller, refused by RigJob::new with the message the
+    // command line prints for the same value (one check, in one place)
+    let tmp = tempfile::tempdir().unwrap();
+    let k360 = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/kitti360");
+    type Break = fn(&mut RigSpec);
+    let cases: [(Break, &[&str], &str); 4] = [
+        (
+            |s| s.stitch.distance = 0.0,
+            &["--stitch-distance", "0"],
+            "--stitch-distance must be positive",
+        ),
+        (
+            |s| s.stitch.blend_width = -1.0,
+            &["--blend-width=-1"],
+            "--blend-width must be positive",
+        ),
+        (
+            |s| s.objects.max_distance = f64::INFINITY,
+            &["--max-distance", "inf"],
+            "--max-distance must be positive",
+        ),
+        (
+            |s| {
+                let f = OcclusionFilter {
+                    azimuth_spacing: 0.0,
+                    ..OcclusionFilter::default()
+                };
+                s.run.depth = Some(DepthJob {
+                    occlusion_filter: Some(f),
+                });
+            },
+            &["--depth", "--lidar-azimuth-step", "0"],
+            "--lidar-azimuth-step must be positive",
+        ),
+    ];
+    for (i, (broken, flags, message)) in cases.into_iter().enumerate() {
+        let mut spec = job(&tmp.path().join("lib")).spec().clone();
+        broken(&mut spec);
+        match RigJob::new(spec) {
+            Err(Error::Setup(m)) => assert_eq!(m, message),
+            other => panic!("{message}: got {other:?}"),
+        }
+        let out = tmp.path().join(format!("cli{i}"));
+        let mut args = vec!["kitti360", "--to", "equirect", "--input"];
+        args.extend([
+            k360.to_str().unwrap(),
+            "--sequence",
+            "2013_05_28_drive_0000_sync",
+        ]);
+        args.extend(["--output", out.to_str().unwrap()]);
+        args.extend(flags);
+        let run = common::panoconv(&args);
+        assert_eq!(run.code, 2, "{}", run.stderr);
+        assert_eq!(run.stderr.trim(), format!("panoconv: error: {message}"));
+        assert!(!out.exists(), "a refused job writes nothing");
+    }
 }

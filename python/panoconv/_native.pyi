@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Iterator, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Iterator, Optional, Sequence, Tuple, TypeVar, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,12 @@ __version__: str
 PathLike = Union[str, os.PathLike[str]]
 Box = Tuple[float, float, float, float]
 ArrayLike = npt.ArrayLike
+# A vector argument: a tuple, a list or a 1-D numpy array (any float dtype, any layout; numbers
+# of another dtype are converted), e.g. `camera.C`.
+Floats = Union[Sequence[float], npt.NDArray[np.floating[Any]], npt.NDArray[np.integer[Any]]]
+# Integers likewise: a tuple, a list or a 1-D numpy integer array (floats are refused).
+Ints = Union[Sequence[int], npt.NDArray[np.integer[Any]]]
+T = TypeVar("T")
 
 class PanoconvError(Exception):
     """An error of panoconv: str(e) is the text the command line prints after
@@ -72,45 +78,48 @@ class Camera:
     @staticmethod
     def perspective(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
                     yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
-                    centre: Optional[Sequence[float]] = None) -> Camera: ...
+                    centre: Optional[Floats] = None) -> Camera: ...
     @staticmethod
     def equirect(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
                  yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
-                 centre: Optional[Sequence[float]] = None) -> Camera: ...
+                 centre: Optional[Floats] = None) -> Camera: ...
     @staticmethod
     def cylindrical(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
                     yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
-                    centre: Optional[Sequence[float]] = None) -> Camera: ...
+                    centre: Optional[Floats] = None) -> Camera: ...
     @staticmethod
     def kannala_brandt(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
-                       k: Sequence[float], yaw_deg: float = 0.0, pitch_deg: float = 0.0,
-                       roll_deg: float = 0.0, centre: Optional[Sequence[float]] = None,
+                       k: Floats, yaw_deg: float = 0.0, pitch_deg: float = 0.0,
+                       roll_deg: float = 0.0, centre: Optional[Floats] = None,
                        max_fov_deg: float = 180.0) -> Camera: ...
     @staticmethod
     def radial(model: str, width: int, height: int, fx: float, fy: float, cx: float, cy: float,
                yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
-               centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera:
+               centre: Optional[Floats] = None, max_fov_deg: float = 180.0) -> Camera:
         """`equidistant`, `equisolid`, `stereographic` or `orthographic`."""
     @staticmethod
     def mei(width: int, height: int, fx: float, fy: float, cx: float, cy: float, xi: float,
-            k: Sequence[float] = (), p: Sequence[float] = (), yaw_deg: float = 0.0,
+            k: Optional[Floats] = None, p: Optional[Floats] = None, yaw_deg: float = 0.0,
             pitch_deg: float = 0.0, roll_deg: float = 0.0,
-            centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera: ...
+            centre: Optional[Floats] = None, max_fov_deg: float = 180.0) -> Camera: ...
     @staticmethod
     def eucm(width: int, height: int, fx: float, fy: float, cx: float, cy: float, alpha: float,
              beta: float, yaw_deg: float = 0.0, pitch_deg: float = 0.0, roll_deg: float = 0.0,
-             centre: Optional[Sequence[float]] = None, max_fov_deg: float = 180.0) -> Camera: ...
+             centre: Optional[Floats] = None, max_fov_deg: float = 180.0) -> Camera: ...
     @staticmethod
     def double_sphere(width: int, height: int, fx: float, fy: float, cx: float, cy: float,
                       xi: float, alpha: float, yaw_deg: float = 0.0, pitch_deg: float = 0.0,
-                      roll_deg: float = 0.0, centre: Optional[Sequence[float]] = None,
+                      roll_deg: float = 0.0, centre: Optional[Floats] = None,
                       max_fov_deg: float = 180.0) -> Camera: ...
 
 class Warp:
     """A source camera's image, labels and LiDAR in a target camera placed at the source's
     optical centre, as `panoconv kitti` writes them; the table is built once and kept."""
 
-    def __init__(self, src: Camera, dst: Camera, supersample: int = 8) -> None: ...
+    def __init__(self, src: Camera, dst: Camera, supersample: int = 1) -> None:
+        """supersample: 1 plain bilinear (fast), up to 8 the command's antialiasing."""
+    @property
+    def supersample(self) -> int: ...
     def build(self) -> Warp: ...
     @property
     def src(self) -> Camera: ...
@@ -126,10 +135,22 @@ class Warp:
     def coverage(self) -> float: ...
     def image(self, array: npt.NDArray) -> npt.NDArray:
         """HxW, HxWx3 or HxWx4 uint8/uint16/float32 in the target; HxWx3 uint8: the command's bytes."""
-    def labels(self, labels: Sequence[Label]) -> list[Label]:
-        """The label lines the command writes, for the labels with an image in the target."""
+    def labels(
+        self, labels: Sequence[Label], min_visible: Optional[Floats] = None
+    ) -> list[Label]:
+        """The label lines the command writes, for the labels with an image in the target;
+        min_visible=(px, share): --min-visible (refused objects become DontCare regions)."""
+    def count_objects(
+        self, labels: Sequence[Label], min_visible: Optional[Floats] = None
+    ) -> int:
+        """The objects `labels(labels, min_visible)` writes as objects (--min-objects' count)."""
     def depth(self, points_rect: ArrayLike, occlusion: bool = True) -> npt.NDArray[np.float64]:
         """HxW metres (0: none) of rect points (N, 3): the command's depth_2 is round(d·256)."""
+    def depth_map(self, depth: ArrayLike) -> npt.NDArray[np.float64]:
+        """The source's depth map (HxW metres, 0: none) in the target: each source pixel's 3D
+        point, the nearest per target pixel."""
+    def mask_within(self, coverage: ArrayLike) -> npt.NDArray[np.bool_]:
+        """`mask` where every tap also falls on a source pixel that `coverage` (HxW) marks."""
 
 class Calib:
     """A calib file (plain KITTI or written by panoconv): its matrices and cameras."""
@@ -207,6 +228,7 @@ class Frame:
     image_3: Optional[str]
     depth: Optional[str]
     mask: Optional[str]
+    source_map: Optional[str]
     labels: list[Label]
     calib: Calib
     @property
@@ -250,7 +272,7 @@ class VerifyReport:
 
 def read_calib(
     path: PathLike,
-    size: Optional[Tuple[int, int]] = None,
+    size: Optional[Ints] = None,
     image: Optional[PathLike] = None,
 ) -> Calib:
     """Reads a calib file; camera sizes from `size`, else `image`, else ../image_2/<id>.png."""
@@ -267,8 +289,8 @@ def box_2d(obj: Label, camera: Camera, clip: bool = True) -> Optional[Box]:
 
 def crop_resize(
     camera: Camera,
-    crop: Optional[Tuple[int, int, int, int]] = None,
-    size: Optional[Tuple[int, int]] = None,
+    crop: Optional[Ints] = None,
+    size: Optional[Ints] = None,
 ) -> Camera:
     """The camera after cropping (x, y, width, height) then resizing to (width, height)."""
 
@@ -278,7 +300,7 @@ def read_manifest(path: PathLike) -> dict:
 def verify(path: PathLike) -> VerifyReport:
     """`panoconv verify PATH` as a report."""
 
-def read_camera(path: PathLike, centre: Optional[Sequence[float]] = None) -> Camera:
+def read_camera(path: PathLike, centre: Optional[Floats] = None) -> Camera:
     """A camera file (description or native calibration) in rect axes, at `centre` or the origin."""
 def read_image(path: PathLike) -> npt.NDArray[np.uint8]:
     """An image file as HxWx3 uint8 RGB."""
@@ -286,3 +308,8 @@ def read_depth(path: PathLike) -> npt.NDArray[np.float64]:
     """A 16-bit depth PNG as HxW metres (value / 256), 0 where none."""
 def read_velodyne(path: PathLike, calib: Calib) -> npt.NDArray[np.float64]:
     """A Velodyne scan's finite points in rect (N, 3), as the command's --depth takes them."""
+def best_draw(
+    min_objects: int, draw: Callable[[int], T], count: Callable[[T], int]
+) -> Tuple[T, int]:
+    """--min-objects' redraw: draw(0), draw(1), ... (up to 16) until count(drawn) reaches
+    min_objects; (drawn, count) of that draw, else of the first draw that counted most."""

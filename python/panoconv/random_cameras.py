@@ -14,7 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from ._native import Camera, Dataset, Warp, box_corners, read_image, read_velodyne
+from ._native import (
+    Camera,
+    Dataset,
+    Warp,
+    best_draw,
+    box_corners,
+    read_depth,
+    read_image,
+    read_velodyne,
+)
 
 _MASK = (1 << 64) - 1
 _PI = 3.141592653589793
@@ -244,18 +253,29 @@ def camera_of(drawn: dict) -> Camera:
 
 
 class RandomCameraDataset:
-    """The frames of a KITTI (or converted) `root`, each in a camera drawn for it.
+    """The frames of a KITTI (or converted: `kitti`, `kitti360`, `nuscenes`) `root`, each in a
+    camera drawn for it.
 
     `ds[i]` is a dict of numpy arrays: `image` (HxWx3 uint8), `mask` (HxW bool: where the
-    source gives the pixel), `depth` (HxW float32 metres, 0: none; all 0 without velodyne/),
-    `boxes_2d` (N, 4) and `classes` (N,) and `truncated` (N,) of the objects with a 3D box,
-    `boxes_3d` (N, 7: x, y, z, h, w, l, rotation_y in rect, as label_2), `corners_3d` (N, 8, 3:
-    the box corners in the target camera's axes about its centre, R^T·(X − C)),
-    `ignore_boxes` (M, 4: DontCare regions), `K`, `R`, `C` and `camera` (the drawn
-    parameters), `id`, `index`, `epoch`. The camera of sample `i` is drawn from
+    source gives the pixel from its own data: within the source image and, for a source with
+    `mask_2/` or `source_2/`, within the area its cameras cover), `depth` (HxW float32 metres,
+    0: none; from `velodyne/` where the frame's scan is kept, else from `depth_2/`; all 0
+    without either), `boxes_2d` (N, 4) and `classes` (N,) and `truncated` (N,) of the objects
+    with a 3D box, `boxes_3d` (N, 7: x, y, z, h, w, l, rotation_y in rect, as label_2),
+    `corners_3d` (N, 8, 3: the box corners in the target camera's axes about its centre,
+    R^T·(X − C)), `ignore_boxes` (M, 4: DontCare regions, and the objects `min_visible`
+    refuses), `K`, `R`, `C` and `camera` (the drawn parameters), `attempt` (which draw of the
+    sample: `min_objects`), `id`, `index`, `epoch`. The camera of sample `i` is drawn from
     `sample_seed(seed, epoch, i)`: the same whatever the number of workers. `set_epoch`
     changes the epoch. Picklable (it holds paths and the sampler; each process opens the
     frames itself).
+
+    `min_visible` and `min_objects` are the command's `--min-visible` and `--min-objects` of
+    `--augment`, by the same code: an object whose 2D box is narrower than `px` pixels or has
+    less than `share` of its full box in the image is a DontCare region, and a camera holding
+    fewer than `min_objects` objects is drawn again (up to 16 draws, the next ones from the
+    same generator), else the draw holding most is kept. `supersample`: the largest n of the
+    n×n antialiasing grid (1: plain bilinear, the fast one; 8: the command's antialiasing).
     """
 
     def __init__(
@@ -265,7 +285,9 @@ class RandomCameraDataset:
         seed: int = 0,
         split: str = "training",
         depth: bool = True,
-        supersample: int = 8,
+        supersample: int = 1,
+        min_visible=(2.0, 0.1),
+        min_objects: int = 0,
     ):
         self.root = Path(os.fspath(root))
         self.sampler = sampler
@@ -273,6 +295,8 @@ class RandomCameraDataset:
         self.split = split
         self.depth = depth
         self.supersample = supersample
+        self.min_visible = None if min_visible is None else tuple(float(v) for v in min_visible)
+        self.min_objects = int(min_objects)
         self.epoch = 0
         self._frames = None
 
@@ -293,16 +317,33 @@ class RandomCameraDataset:
     def __len__(self) -> int:
         return len(self.frames)
 
+    def _draw(self, index, frame, labels):
+        """The drawn camera's parameters, its warp and its draw's number: `--min-objects`'s
+        redraw (`best_draw`), every draw from the sample's one generator."""
+        rng = SplitMix64(sample_seed(self.seed, self.epoch, index))
+        src = frame.camera
+
+        def draw(attempt):
+            drawn = self.sampler.draw(rng)
+            return drawn, Warp(src, camera_of(drawn), supersample=self.supersample), attempt
+
+        def count(drawn):
+            return drawn[1].count_objects(labels, self.min_visible)
+
+        if self.min_objects <= 0 or not labels:
+            return draw(0)
+        return best_draw(self.min_objects, draw, count)[0]
+
     def __getitem__(self, index: int) -> dict:
         if not -len(self) <= index < len(self):
             raise IndexError(f"index {index} out of range for {len(self)} frames")
         index %= len(self)
         frame = self.frames[index]
-        drawn = self.sampler.draw(sample_seed(self.seed, self.epoch, index))
-        warp = Warp(frame.camera, camera_of(drawn), supersample=self.supersample)
+        source_labels = frame.labels if frame.labels is not None else []
+        drawn, warp, attempt = self._draw(index, frame, source_labels)
         image = warp.image(read_image(frame.image))
         dst = warp.dst
-        labels = warp.labels(frame.labels) if frame.labels is not None else []
+        labels = warp.labels(source_labels, self.min_visible)
         objects = [o for o in labels if o.has_box_3d]
         regions = [o for o in labels if not o.has_box_3d]
         boxes_3d = np.array(
@@ -312,7 +353,7 @@ class RandomCameraDataset:
         corners_cam = (corners - dst.C) @ dst.R
         return {
             "image": image,
-            "mask": warp.mask,
+            "mask": self._mask(frame, warp),
             "depth": self._depth(frame, warp),
             "boxes_2d": np.array([o.bbox for o in objects], np.float64).reshape(-1, 4),
             "classes": np.array([o.type for o in objects], dtype=str),
@@ -324,14 +365,32 @@ class RandomCameraDataset:
             "R": dst.R,
             "C": dst.C,
             "camera": drawn,
+            "attempt": attempt,
             "id": frame.id,
             "index": index,
             "epoch": self.epoch,
         }
 
+    def _mask(self, frame, warp: Warp) -> np.ndarray:
+        coverage = source_coverage(frame)
+        return warp.mask if coverage is None else warp.mask_within(coverage)
+
     def _depth(self, frame, warp: Warp) -> np.ndarray:
         h, w = warp.dst.height, warp.dst.width
-        velodyne = self.root / self.split / "velodyne" / f"{frame.id}.bin"
-        if not (self.depth and velodyne.is_file() and frame.calib.rect_from_velo is not None):
-            return np.zeros((h, w), np.float32)
-        return warp.depth(read_velodyne(velodyne, frame.calib)).astype(np.float32)
+        if self.depth:
+            velodyne = self.root / self.split / "velodyne" / f"{frame.id}.bin"
+            if velodyne.is_file() and frame.calib.rect_from_velo is not None:
+                return warp.depth(read_velodyne(velodyne, frame.calib)).astype(np.float32)
+            if frame.depth is not None:
+                return warp.depth_map(read_depth(frame.depth)).astype(np.float32)
+        return np.zeros((h, w), np.float32)
+
+
+def source_coverage(frame):
+    """Where a frame's image holds source data (HxW bool), or None where all of it does:
+    `mask_2` (white), else a rig's `source_2` (not 255)."""
+    if frame.mask is not None:
+        return read_image(frame.mask)[..., 0] > 0
+    if frame.source_map is not None:
+        return read_image(frame.source_map)[..., 0] != 255
+    return None

@@ -233,13 +233,17 @@ impl Calib {
 pub fn read_calib(
     py: Python<'_>,
     path: PathBuf,
-    size: Option<(u32, u32)>,
+    size: Option<&Bound<'_, PyAny>>,
     image: Option<PathBuf>,
 ) -> PyResult<Calib> {
+    let size = size
+        .filter(|s| !s.is_none())
+        .map(|s| crate::vectors::size_array::<2>(s, "size"))
+        .transpose()?;
     Calib::load(
         py,
         &path,
-        size.map(|(w, h)| ImageSize::new(w, h)),
+        size.map(|[w, h]| ImageSize::new(w, h)),
         image.as_deref(),
     )
 }

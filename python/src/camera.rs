@@ -4,6 +4,7 @@
 
 use crate::errors::usage;
 use crate::models;
+use crate::vectors::{floats, int_array, size_array, vector3};
 use nalgebra::Matrix3;
 use nalgebra::{Point2, Vector3};
 use ndarray::{Array1, Array2, ArrayView2};
@@ -243,7 +244,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Camera> {
         let angles = ypr(yaw_deg, pitch_deg, roll_deg);
         models::linear(
@@ -251,7 +252,7 @@ impl Camera {
             (width, height),
             (fx, fy, cx, cy),
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -270,7 +271,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Camera> {
         let angles = ypr(yaw_deg, pitch_deg, roll_deg);
         models::linear(
@@ -278,7 +279,7 @@ impl Camera {
             (width, height),
             (fx, fy, cx, cy),
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -296,7 +297,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Camera> {
         let angles = ypr(yaw_deg, pitch_deg, roll_deg);
         models::linear(
@@ -304,7 +305,7 @@ impl Camera {
             (width, height),
             (fx, fy, cx, cy),
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -320,15 +321,15 @@ impl Camera {
         fy: f64,
         cx: f64,
         cy: f64,
-        k: Vec<f64>,
+        k: &Bound<'_, PyAny>,
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
         max_fov_deg: f64,
     ) -> PyResult<Camera> {
         let mut fields = Map::new();
-        fields.insert("k".into(), models::numbers(&k, "k")?);
+        fields.insert("k".into(), models::numbers(&floats(k, "k")?, "k")?);
         let angles = ypr(yaw_deg, pitch_deg, roll_deg);
         models::lens(
             "kannala_brandt",
@@ -337,7 +338,7 @@ impl Camera {
             fields,
             max_fov_deg,
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -357,7 +358,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
         max_fov_deg: f64,
     ) -> PyResult<Camera> {
         if !["equidistant", "equisolid", "stereographic", "orthographic"].contains(&model) {
@@ -373,14 +374,14 @@ impl Camera {
             Map::new(),
             max_fov_deg,
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
     /// A MEI (unified) lens: mirror parameter `xi`, radial `k = (k1, k2)`, tangential
     /// `p = (p1, p2)`.
     #[staticmethod]
-    #[pyo3(signature = (width, height, fx, fy, cx, cy, xi, k=vec![], p=vec![], yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
+    #[pyo3(signature = (width, height, fx, fy, cx, cy, xi, k=None, p=None, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0, centre=None, max_fov_deg=180.0))]
     #[allow(clippy::too_many_arguments)]
     fn mei(
         width: u32,
@@ -390,18 +391,20 @@ impl Camera {
         cx: f64,
         cy: f64,
         xi: f64,
-        k: Vec<f64>,
-        p: Vec<f64>,
+        k: Option<&Bound<'_, PyAny>>,
+        p: Option<&Bound<'_, PyAny>>,
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
         max_fov_deg: f64,
     ) -> PyResult<Camera> {
         let mut fields = Map::new();
         fields.insert("xi".into(), models::number(xi, "xi")?);
-        fields.insert("k".into(), models::numbers(&k, "k")?);
-        fields.insert("p".into(), models::numbers(&p, "p")?);
+        for (name, value) in [("k", k), ("p", p)] {
+            let v = value.map_or(Ok(Vec::new()), |v| floats(v, name))?;
+            fields.insert(name.into(), models::numbers(&v, name)?);
+        }
         let angles = ypr(yaw_deg, pitch_deg, roll_deg);
         models::lens(
             "mei",
@@ -410,7 +413,7 @@ impl Camera {
             fields,
             max_fov_deg,
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -430,7 +433,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
         max_fov_deg: f64,
     ) -> PyResult<Camera> {
         let fields = json!({"alpha": models::number(alpha, "alpha")?, "beta": models::number(beta, "beta")?});
@@ -443,7 +446,7 @@ impl Camera {
             fields,
             max_fov_deg,
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -463,7 +466,7 @@ impl Camera {
         yaw_deg: f64,
         pitch_deg: f64,
         roll_deg: f64,
-        centre: Option<(f64, f64, f64)>,
+        centre: Option<&Bound<'_, PyAny>>,
         max_fov_deg: f64,
     ) -> PyResult<Camera> {
         let fields =
@@ -477,7 +480,7 @@ impl Camera {
             fields,
             max_fov_deg,
             angles,
-            centre,
+            vector3(centre, "centre")?,
         )
     }
 
@@ -555,15 +558,17 @@ impl Camera {
 #[pyo3(signature = (camera, crop=None, size=None))]
 pub fn crop_resize(
     camera: &Camera,
-    crop: Option<(i64, i64, u32, u32)>,
-    size: Option<(u32, u32)>,
+    crop: Option<&Bound<'_, PyAny>>,
+    size: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Camera> {
     let mut k = camera.camera.intrinsics();
     let mut image = camera.camera.size();
-    if let Some((x, y, width, height)) = crop {
-        if width == 0 || height == 0 {
-            return Err(usage("crop width and height must be positive"));
-        }
+    if let Some(crop) = crop.filter(|c| !c.is_none()) {
+        let [x, y, width, height] = int_array::<4>(crop, "crop")?;
+        let (width, height) = match (u32::try_from(width), u32::try_from(height)) {
+            (Ok(w), Ok(h)) if w > 0 && h > 0 => (w, h),
+            _ => return Err(usage("crop width and height must be positive")),
+        };
         (k, image) = crop_intrinsics(
             k,
             &Crop {
@@ -574,7 +579,8 @@ pub fn crop_resize(
             },
         );
     }
-    if let Some((width, height)) = size {
+    if let Some(size) = size.filter(|s| !s.is_none()) {
+        let [width, height] = size_array::<2>(size, "size")?;
         if width == 0 || height == 0 {
             return Err(usage("resize width and height must be positive"));
         }

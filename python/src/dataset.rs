@@ -35,9 +35,13 @@ pub struct Frame {
     /// `depth_2/<id>.png` when present (16-bit, round(d·256), 0 = none).
     #[pyo3(get)]
     depth: Option<String>,
-    /// `mask_2/<id>.png` when present.
+    /// `mask_2/<id>.png` when present (white where the image holds source data).
     #[pyo3(get)]
     mask: Option<String>,
+    /// `source_2/<id>.png` when present (a rig's output: the camera of each pixel, 255 where
+    /// no camera sees it).
+    #[pyo3(get)]
+    source_map: Option<String>,
     /// The objects of `label_2/<id>.txt` (empty for a split without labels).
     #[pyo3(get)]
     labels: Vec<Py<Label>>,
@@ -101,6 +105,7 @@ impl Dataset {
             image_3: existing(s.image_path(Cam::C3, id)),
             depth: existing(s.dir.join("depth_2").join(format!("{id}.png"))),
             mask: existing(s.dir.join("mask_2").join(format!("{id}.png"))),
+            source_map: existing(s.dir.join("source_2").join(format!("{id}.png"))),
             labels,
             calib: Py::new(py, Calib::from_parts(py, calib, cameras)?)?,
         })

@@ -11,7 +11,9 @@ mod io;
 mod labels;
 mod manifest;
 mod models;
+mod redraw;
 mod turned;
+mod vectors;
 mod warp;
 
 #[pymodule]
@@ -36,6 +38,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(manifest::read_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(manifest::verify, m)?)?;
     m.add_function(wrap_pyfunction!(models::read_camera, m)?)?;
+    m.add_function(wrap_pyfunction!(redraw::best_draw, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_image, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_depth, m)?)?;
     m.add_function(wrap_pyfunction!(io::read_velodyne, m)?)?;

@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 pub type Angles = (f64, f64, f64);
 
 /// A camera's optical centre in rect: the one given, or the origin.
-pub fn centre_of(centre: Option<(f64, f64, f64)>) -> Vector3<f64> {
-    centre.map_or_else(Vector3::zeros, |(x, y, z)| Vector3::new(x, y, z))
+pub fn centre_of(centre: Option<Vector3<f64>>) -> Vector3<f64> {
+    centre.unwrap_or_else(Vector3::zeros)
 }
 
 /// A linear projection with intrinsics (fx, fy, cx, cy) and an image `size`, turned by
@@ -30,7 +30,7 @@ pub fn linear(
     size: (u32, u32),
     k: (f64, f64, f64, f64),
     angles: Angles,
-    centre: Option<(f64, f64, f64)>,
+    centre: Option<Vector3<f64>>,
 ) -> PyResult<Camera> {
     let (fx, fy, cx, cy) = k;
     if size.0 == 0 || size.1 == 0 {
@@ -79,7 +79,7 @@ pub fn lens(
     fields: Map<String, Value>,
     max_fov_deg: f64,
     angles: Angles,
-    centre: Option<(f64, f64, f64)>,
+    centre: Option<Vector3<f64>>,
 ) -> PyResult<Camera> {
     let (fx, fy, cx, cy) = k;
     let mut d = Map::new();
@@ -139,8 +139,9 @@ fn described(desc: CameraDescription, centre: Vector3<f64>) -> Camera {
 pub fn read_camera(
     py: Python<'_>,
     path: PathBuf,
-    centre: Option<(f64, f64, f64)>,
+    centre: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Camera> {
+    let centre = crate::vectors::vector3(centre, "centre")?;
     let desc = py
         .detach(|| CameraDescription::read(Path::new(&path)))
         .py()?;

@@ -6,16 +6,17 @@
 
 use crate::camera::Camera;
 use crate::labels::Label;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Point2, Vector3};
 use ndarray::{Array2, ArrayD, ArrayViewD, IxDyn};
 use numpy::{
     AllowTypeChange, Element, PyArray2, PyArrayDyn, PyArrayLike2, PyReadonlyArrayDyn,
     PyUntypedArrayMethods,
 };
 use panoconv::camera::{CameraModel, OutputProjection, Perspective, Projection};
-use panoconv::convert::kitti::transform_label;
+use panoconv::convert::kitti::{move_label, MovedLabel};
 use panoconv::kitti::Label as KittiLabel;
 use panoconv::reproject::depth::{depth_map, OcclusionFilter};
+use panoconv::reproject::visibility::Visibility;
 use panoconv::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -43,6 +44,48 @@ impl Warp {
         // (two threads may build it at once: the same table, the first one kept)
         let _ = self.table.set(built);
         self.table.get().expect("set above")
+    }
+
+    /// A ValueError unless `shape` is the source camera's HxW.
+    fn check_source_pixels(&self, shape: &[usize], name: &str) -> PyResult<()> {
+        let s = self.source.camera.size();
+        if shape != [s.height as usize, s.width as usize] {
+            return Err(PyValueError::new_err(format!(
+                "{name}: expected the source camera's {}x{} pixels as HxW, got shape {shape:?}",
+                s.width, s.height
+            )));
+        }
+        Ok(())
+    }
+
+    /// `labels` moved into the target with their line numbers, under the visibility rule
+    /// `min_visible` (`(px, share)`; None: off).
+    fn moved(
+        &self,
+        py: Python<'_>,
+        labels: &[PyRef<'_, Label>],
+        min_visible: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Vec<(MovedLabel, usize)>> {
+        let visibility = match min_visible.filter(|v| !v.is_none()) {
+            None => Visibility::OFF,
+            Some(v) => {
+                let [px, share] = crate::vectors::float_array::<2>(v, "min_visible")?;
+                Visibility::parse(&format!("{px},{share}"))
+                    .map_err(|e| PyValueError::new_err(format!("min_visible: {e}")))?
+            }
+        };
+        let items: Vec<(KittiLabel, usize)> =
+            labels.iter().map(|l| (l.label.clone(), l.line)).collect();
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        let centre = self.source.centre;
+        Ok(py.detach(|| {
+            items
+                .iter()
+                .filter_map(|(label, line)| {
+                    move_label(label, &centre, src, dst, &visibility).map(|m| (m, *line))
+                })
+                .collect()
+        }))
     }
 
     /// The command's table for these cameras (`convert::kitti`'s `table`): a fisheye target
@@ -180,6 +223,26 @@ fn resample<T: Pixel>(table: &RemapTable, src: &[T], channels: usize) -> Vec<T> 
     out
 }
 
+/// The table's inside pixels whose every tap of non-zero weight falls on a `covered` source
+/// pixel (row-major over the source).
+fn within(table: &RemapTable, covered: &[bool]) -> Vec<bool> {
+    let sw = table.source_size().width as usize;
+    let w = table.size().width as usize;
+    let mut mask = table.inside();
+    for (v, row) in mask.chunks_mut(w.max(1)).enumerate() {
+        table.row_blocks(v, |u, pixel, weights| {
+            // top-left, bottom-left, top-right, bottom-right, as `resample` takes them
+            let taps = [pixel, pixel + sw, pixel + 1, pixel + sw + 1];
+            for (&p, &wt) in taps.iter().zip(&weights) {
+                if wt != 0 && !covered.get(p).copied().unwrap_or(false) {
+                    row[u] = false;
+                }
+            }
+        });
+    }
+    mask
+}
+
 /// The image through the table: the 8-bit RGB kernels for `HxWx3` uint8 (the command's bytes),
 /// the same blocks in each format's arithmetic otherwise.
 fn warp_array<T: Pixel>(table: &RemapTable, src: ArrayViewD<'_, T>) -> ArrayD<T> {
@@ -209,10 +272,12 @@ fn image_of<'py, T: Pixel>(
 #[pymethods]
 impl Warp {
     /// The warp from camera `src` to camera `dst`, with `dst` placed at `src`'s optical
-    /// centre. `supersample`: the largest n of the n×n antialiasing grid (the command's 8;
-    /// 1 turns it off). The table is built on first use (`image`, `mask`, `build`) and kept.
+    /// centre. `supersample`: the largest n of the n×n antialiasing grid (1, the default: plain
+    /// bilinear, the fast one for a training loop; 8: the command's antialiasing, several
+    /// times slower to build). The table is built on first use (`image`, `mask`, `build`) and
+    /// kept.
     #[new]
-    #[pyo3(signature = (src, dst, supersample=MAX_SUPERSAMPLE))]
+    #[pyo3(signature = (src, dst, supersample=1))]
     fn new(src: &Camera, dst: &Camera, supersample: u32) -> PyResult<Self> {
         if !(1..=MAX_SUPERSAMPLE).contains(&supersample) {
             return Err(PyValueError::new_err(format!(
@@ -243,6 +308,12 @@ impl Warp {
     #[getter]
     fn dst(&self) -> Camera {
         self.target.at(self.target.centre)
+    }
+
+    /// The largest n of the n×n antialiasing grid.
+    #[getter]
+    fn supersample(&self) -> u32 {
+        self.supersample
     }
 
     /// Whether the table has been built.
@@ -311,27 +382,38 @@ impl Warp {
     /// object's exact 2D box (curved edges, the ±180° seam rule) and truncation, each DontCare
     /// region's box through the source camera; the labels with no image in the target are
     /// left out. 3D boxes keep their rect values (the target's axes are `dst.R`).
-    fn labels(&self, py: Python<'_>, labels: Vec<PyRef<'_, Label>>) -> PyResult<Vec<Label>> {
-        let items: Vec<(KittiLabel, usize)> =
-            labels.iter().map(|l| (l.label.clone(), l.line)).collect();
-        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
-        let centre = self.source.centre;
-        let lines = py.detach(|| {
-            items
-                .iter()
-                .filter_map(|(label, line)| {
-                    transform_label(label, &centre, src, dst).map(|text| (text, *line))
-                })
-                .collect::<Vec<_>>()
-        });
-        lines
+    /// `min_visible=(px, share)` is the command's `--min-visible`: an object whose box is
+    /// narrower than `px` or has less than `share` of its full box in the image is written as
+    /// a DontCare region (None: every object, `0,0`).
+    #[pyo3(signature = (labels, min_visible=None))]
+    fn labels(
+        &self,
+        py: Python<'_>,
+        labels: Vec<PyRef<'_, Label>>,
+        min_visible: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Vec<Label>> {
+        let moved = self.moved(py, &labels, min_visible)?;
+        moved
             .into_iter()
-            .map(|(text, line)| {
-                let parsed = KittiLabel::parse(Path::new("<Warp.labels>"), line, &text)
+            .map(|(m, line)| {
+                let parsed = KittiLabel::parse(Path::new("<Warp.labels>"), line, &m.line)
                     .map_err(crate::errors::to_py)?;
                 Ok(Label::new(parsed, line))
             })
             .collect()
+    }
+
+    /// How many of `labels` are objects in the target, as `--min-objects` counts them: the
+    /// objects `labels(labels, min_visible)` writes as objects (DontCare regions aside).
+    #[pyo3(signature = (labels, min_visible=None))]
+    fn count_objects(
+        &self,
+        py: Python<'_>,
+        labels: Vec<PyRef<'_, Label>>,
+        min_visible: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<usize> {
+        let moved = self.moved(py, &labels, min_visible)?;
+        Ok(moved.iter().filter(|(m, _)| m.object).count())
     }
 
     /// The LiDAR depth map of rect points `(N, 3)` in the target camera, `HxW` float64
@@ -368,6 +450,59 @@ impl Warp {
         let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
             .expect("shape");
         Ok(PyArray2::from_owned_array(py, values))
+    }
+
+    /// The source's own depth map in the target: `depth` (`HxW` metres over the source's
+    /// pixels, 0 where none: `read_depth` of a `depth_2`) taken as the 3D point of each pixel
+    /// that holds one (the pixel's ray at that distance, the one the source's projection pairs
+    /// with: z, range or ρ), each target pixel the nearest of the points landing on it by the
+    /// target's own distance (`depth`'s rule, without its occlusion filter: the cameras share
+    /// their optical centre, so no point hides another that the source kept). `HxW` float64
+    /// metres, 0 where no point lands.
+    fn depth_map<'py>(
+        &self,
+        py: Python<'py>,
+        depth: PyArrayLike2<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let depth = depth.as_array();
+        self.check_source_pixels(depth.shape(), "depth")?;
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        let centre = self.source.centre;
+        let map = py.detach(|| {
+            let points: Vec<Vector3<f64>> = depth
+                .indexed_iter()
+                .filter(|(_, d)| **d > 0.0 && d.is_finite())
+                .filter_map(|((v, u), &d)| {
+                    let ray = src.unproject(&Point2::new(u as f64, v as f64)).ok()?;
+                    let t = d / src.distance(&ray);
+                    (t > 0.0 && t.is_finite()).then(|| centre + ray * t)
+                })
+                .collect();
+            depth_map(&points, &centre, dst, src, None).0
+        });
+        let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
+            .expect("shape");
+        Ok(PyArray2::from_owned_array(py, values))
+    }
+
+    /// `mask` within the source's coverage: where every tap of the target's pixel lies inside
+    /// the source image on a pixel that `coverage` (`HxW` bool over the source's pixels: where
+    /// its image holds data, e.g. `source_2` != 255 of a rig's panorama, or `mask_2`) marks.
+    fn mask_within<'py>(
+        &self,
+        py: Python<'py>,
+        coverage: PyArrayLike2<'py, bool, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray2<bool>>> {
+        let coverage = coverage.as_array();
+        self.check_source_pixels(coverage.shape(), "coverage")?;
+        let table = self.table(py);
+        let covered = coverage.as_standard_layout();
+        let covered = covered.as_slice().expect("standard layout");
+        let mask = py.detach(|| within(table, covered));
+        let size = table.size();
+        let m = Array2::from_shape_vec((size.height as usize, size.width as usize), mask)
+            .expect("one value a pixel");
+        Ok(PyArray2::from_owned_array(py, m))
     }
 
     fn __repr__(&self) -> String {

@@ -13,6 +13,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SAMPLE = REPO / "fixtures" / "synthetic_kitti"
+NUSCENES = REPO / "fixtures" / "nuscenes"
+KITTI360 = REPO / "fixtures" / "kitti360"
 
 # The camera description of docs/fisheye.md: Kannala-Brandt, 190°, 10° nose down, 0.5° roll.
 FISHEYE = {
@@ -113,3 +115,28 @@ def real_equirect(conversions) -> Path:
     return conversions.get(
         "real_equirect", "--to", "equirect", "--split", "training", source=kitti_dir()
     )
+
+
+@pytest.fixture(scope="session")
+def nuscenes_equirect(tmp_path_factory) -> Path:
+    """The nuScenes fixture as the command stitches it: 512x256 panoramas with depth_2 and
+    source_2 (black where no camera sees), no velodyne/."""
+    out = tmp_path_factory.mktemp("nuscenes") / "equirect"
+    r = run(
+        "nuscenes", "--input", NUSCENES, "--version", "v1.0-mini", "--output", out,
+        "--to", "equirect", "--pano-width", "512", "--depth", "--quiet",
+    )
+    assert r.returncode == 0, f"panoconv nuscenes failed:\n{r.stderr}"
+    return out
+
+
+@pytest.fixture(scope="session")
+def kitti360_equirect(tmp_path_factory) -> Path:
+    """The KITTI-360 fixture as the command stitches it: 512x256, depth_2 and source_2."""
+    out = tmp_path_factory.mktemp("kitti360") / "equirect"
+    r = run(
+        "kitti360", "--input", KITTI360, "--sequence", "2013_05_28_drive_0000_sync",
+        "--output", out, "--to", "equirect", "--pano-width", "512", "--depth", "--quiet",
+    )
+    assert r.returncode == 0, f"panoconv kitti360 failed:\n{r.stderr}"
+    return out

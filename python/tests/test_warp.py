@@ -51,7 +51,7 @@ def source():
 
 def assert_same_as_the_command(out, dst):
     split, calib, src = source()
-    warp = panoconv.Warp(src, dst)
+    warp = panoconv.Warp(src, dst, supersample=8)  # the command's antialiasing
     written = panoconv.read_calib(out / "calib" / f"{FRAME}.txt").camera
     assert (dst.size, dst.projection, dst.model) == (written.size, written.projection, written.model)
     image = warp.image(panoconv.read_image(split / "image_2" / f"{FRAME}.png"))

@@ -151,31 +151,14 @@ impl CameraDescription {
 
     /// Parses the text of a camera description; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
-        let file: CameraFile = serde_json::from_str(text).map_err(|e| {
-            let (line, col) = (e.line(), e.column());
-            let message = e.to_string();
-            // serde_json names the field for missing/unknown ones; otherwise find the key the
-            // error position is in.
-            let field = ["missing field `", "unknown field `"]
-                .iter()
-                .find_map(|p| {
-                    message
-                        .strip_prefix(p)
-                        .and_then(|r| r.split('`').next())
-                        .map(str::to_owned)
-                })
-                .or_else(|| {
-                    matches!(e.classify(), serde_json::error::Category::Data)
-                        .then(|| field_before(text, offset_of(text, line, col)))
-                        .flatten()
-                })
-                .unwrap_or_else(|| "json".to_owned());
-            // serde_json's message ends with "at line L column C".
-            Error::parse(path, line, field, message)
-        })?;
-        let bad = |field: &str, message: String| {
-            Error::parse(path, line_of_key(text, field), field, message)
+        let file = read_json(text, path)?;
+        let fields = Fields {
+            file: &file,
+            text,
+            path,
         };
+        let bad = |field: &str, message: String| fields.bad(field, message);
+        let need = |v: Option<f64>, field: &str| fields.need(v, field);
         if file.version != VERSION {
             return Err(bad(
                 "version",
@@ -185,102 +168,22 @@ impl CameraDescription {
                 ),
             ));
         }
-        let need = |v: Option<f64>, field: &str| -> Result<f64> {
-            let v = v.ok_or_else(|| {
-                bad(
-                    "model",
-                    format!("model {:?} needs the field `{field}`", file.model),
-                )
-            })?;
-            if !v.is_finite() {
-                return Err(bad(field, "must be a finite number".into()));
-            }
-            Ok(v)
-        };
-        let forbid = |present: bool, field: &str| -> Result<()> {
-            if present {
-                return Err(bad(
-                    field,
-                    format!("not used by model {:?}: remove it", file.model),
-                ));
-            }
-            Ok(())
-        };
-        let coefficients = |field: &str| -> Result<[f64; 4]> {
-            let k = file.k.clone().unwrap_or_default();
-            if k.len() > 4 {
-                return Err(bad(
-                    field,
-                    format!("expected at most 4 coefficients, found {}", k.len()),
-                ));
-            }
-            Ok(std::array::from_fn(|i| k.get(i).copied().unwrap_or(0.0)))
-        };
         let size = ImageSize::new(file.width, file.height);
         if file.width == 0 || file.height == 0 {
             return Err(bad("width", format!("image size {size} must be positive")));
         }
         let (model, k) = match file.model {
-            ModelName::Woodscape => {
-                for (present, f) in [
-                    (file.fx.is_some(), "fx"),
-                    (file.fy.is_some(), "fy"),
-                    (file.cx.is_some(), "cx"),
-                    (file.cy.is_some(), "cy"),
-                ] {
-                    forbid(present, f)?;
-                }
-                forbid_unified_fields(&forbid, &file, &[])?;
-                if file.k.is_none() {
-                    return Err(bad("model", "model woodscape needs the field `k`".into()));
-                }
-                let k = coefficients("k")?;
-                let aspect = file.aspect_ratio.unwrap_or(1.0);
-                if !(aspect > 0.0 && aspect.is_finite()) {
-                    return Err(bad(
-                        "aspect_ratio",
-                        format!("must be positive, not {aspect}"),
-                    ));
-                }
-                // WoodScape: principal point = offset + image centre (pixel centres at integers).
-                let cu = file.width as f64 / 2.0 - 0.5 + file.cx_offset.unwrap_or(0.0);
-                let cv = file.height as f64 / 2.0 - 0.5 + file.cy_offset.unwrap_or(0.0);
-                (
-                    RadialModel::Polynomial(k),
-                    Intrinsics::new(1.0, aspect, cu, cv),
-                )
-            }
+            ModelName::Woodscape => woodscape(&fields)?,
             m => {
-                for (present, f) in [
-                    (file.aspect_ratio.is_some(), "aspect_ratio"),
-                    (file.cx_offset.is_some(), "cx_offset"),
-                    (file.cy_offset.is_some(), "cy_offset"),
-                ] {
-                    forbid(present, f)?;
-                }
-                let allowed: &[&str] = match m {
-                    ModelName::Mei => &["xi", "p", "skew"],
-                    ModelName::Eucm => &["alpha", "beta"],
-                    ModelName::DoubleSphere => &["xi", "alpha"],
-                    _ => &[],
-                };
-                forbid_unified_fields(&forbid, &file, allowed)?;
-                let fx = need(file.fx, "fx")?;
-                let fy = need(file.fy.or(file.fx), "fy")?;
-                let cx = need(file.cx, "cx")?;
-                let cy = need(file.cy, "cy")?;
-                for (v, f) in [(fx, "fx"), (fy, "fy")] {
-                    if !(v > 0.0) {
-                        return Err(bad(f, format!("focal length must be positive, not {v}")));
-                    }
-                }
-                let k = Intrinsics::new(fx, fy, cx, cy);
+                let k = focal_intrinsics(&fields, m)?;
                 let model = match m {
                     ModelName::Equidistant => RadialModel::Equidistant,
                     ModelName::Equisolid => RadialModel::Equisolid,
                     ModelName::Stereographic => RadialModel::Stereographic,
                     ModelName::Orthographic => RadialModel::Orthographic,
-                    ModelName::KannalaBrandt => RadialModel::KannalaBrandt(coefficients("k")?),
+                    ModelName::KannalaBrandt => {
+                        RadialModel::KannalaBrandt(fields.coefficients("k")?)
+                    }
                     ModelName::Woodscape => unreachable!("handled above"),
                     ModelName::Mei | ModelName::Eucm | ModelName::DoubleSphere => {
                         let camera = self::unified_family(&file, m, k, size, &bad, &need)?;
@@ -291,34 +194,179 @@ impl CameraDescription {
                     }
                 };
                 if !matches!(model, RadialModel::KannalaBrandt(_)) {
-                    forbid(file.k.is_some(), "k")?;
+                    fields.forbid(file.k.is_some(), "k")?;
                 }
                 (model, k)
             }
         };
-        let fov = file.max_fov_deg;
-        if !(fov > 0.0 && fov < 360.0) {
-            return Err(bad(
-                "max_fov_deg",
-                format!("must be in (0, 360) degrees, not {fov}"),
-            ));
-        }
-        let camera = Fisheye::new(model, k, size, fov.to_radians()).map_err(|e| {
-            let field = match (&e, file.model) {
-                (
-                    FisheyeError::NotMonotonic(_),
-                    ModelName::KannalaBrandt | ModelName::Woodscape,
-                ) => "k",
-                (FisheyeError::Intrinsics(_), _) => "model",
-                _ => "max_fov_deg",
-            };
-            bad(field, e.to_string())
-        })?;
         Ok(Self {
-            camera: camera.erased(),
+            camera: radial_fisheye(&file, model, k, size, &bad)?,
             output_from_camera: rotation_of(&file, &bad)?,
         })
     }
+}
+
+/// The description's JSON read into its fields: an error names the field it is in (serde_json
+/// names a missing or unknown one; otherwise the key the error position is in) and its line.
+fn read_json(text: &str, path: &Path) -> Result<CameraFile> {
+    serde_json::from_str(text).map_err(|e| {
+        let (line, col) = (e.line(), e.column());
+        let message = e.to_string();
+        let field = ["missing field `", "unknown field `"]
+            .iter()
+            .find_map(|p| {
+                message
+                    .strip_prefix(p)
+                    .and_then(|r| r.split('`').next())
+                    .map(str::to_owned)
+            })
+            .or_else(|| {
+                matches!(e.classify(), serde_json::error::Category::Data)
+                    .then(|| field_before(text, offset_of(text, line, col)))
+                    .flatten()
+            })
+            .unwrap_or_else(|| "json".to_owned());
+        // serde_json's message ends with "at line L column C".
+        Error::parse(path, line, field, message)
+    })
+}
+
+/// A description's fields with its text, for errors that name a field and its line.
+struct Fields<'a> {
+    file: &'a CameraFile,
+    text: &'a str,
+    path: &'a Path,
+}
+
+impl Fields<'_> {
+    /// An error at `field`'s line.
+    fn bad(&self, field: &str, message: String) -> Error {
+        Error::parse(self.path, line_of_key(self.text, field), field, message)
+    }
+
+    /// A field the model needs, finite.
+    fn need(&self, v: Option<f64>, field: &str) -> Result<f64> {
+        let v = v.ok_or_else(|| {
+            self.bad(
+                "model",
+                format!("model {:?} needs the field `{field}`", self.file.model),
+            )
+        })?;
+        if !v.is_finite() {
+            return Err(self.bad(field, "must be a finite number".into()));
+        }
+        Ok(v)
+    }
+
+    /// Refuses a field the model does not use.
+    fn forbid(&self, present: bool, field: &str) -> Result<()> {
+        if present {
+            return Err(self.bad(
+                field,
+                format!("not used by model {:?}: remove it", self.file.model),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The polynomial coefficients `k`, at most 4, zeros after those given.
+    fn coefficients(&self, field: &str) -> Result<[f64; 4]> {
+        let k = self.file.k.clone().unwrap_or_default();
+        if k.len() > 4 {
+            return Err(self.bad(
+                field,
+                format!("expected at most 4 coefficients, found {}", k.len()),
+            ));
+        }
+        Ok(std::array::from_fn(|i| k.get(i).copied().unwrap_or(0.0)))
+    }
+}
+
+/// A WoodScape lens: its polynomial and intrinsics (aspect ratio, principal point offset).
+fn woodscape(fields: &Fields) -> Result<(RadialModel, Intrinsics)> {
+    let file = fields.file;
+    let forbid = |present: bool, field: &str| fields.forbid(present, field);
+    for (present, f) in [
+        (file.fx.is_some(), "fx"),
+        (file.fy.is_some(), "fy"),
+        (file.cx.is_some(), "cx"),
+        (file.cy.is_some(), "cy"),
+    ] {
+        forbid(present, f)?;
+    }
+    forbid_unified_fields(&forbid, file, &[])?;
+    if file.k.is_none() {
+        return Err(fields.bad("model", "model woodscape needs the field `k`".into()));
+    }
+    let k = fields.coefficients("k")?;
+    let aspect = file.aspect_ratio.unwrap_or(1.0);
+    if !(aspect > 0.0 && aspect.is_finite()) {
+        return Err(fields.bad("aspect_ratio", format!("must be positive, not {aspect}")));
+    }
+    // WoodScape: principal point = offset + image centre (pixel centres at integers).
+    let cu = file.width as f64 / 2.0 - 0.5 + file.cx_offset.unwrap_or(0.0);
+    let cv = file.height as f64 / 2.0 - 0.5 + file.cy_offset.unwrap_or(0.0);
+    Ok((
+        RadialModel::Polynomial(k),
+        Intrinsics::new(1.0, aspect, cu, cv),
+    ))
+}
+
+/// The intrinsics of a model other than WoodScape's (fx, fy defaulting to fx, cx, cy), its
+/// fields checked against the model's.
+fn focal_intrinsics(fields: &Fields, m: ModelName) -> Result<Intrinsics> {
+    let file = fields.file;
+    let forbid = |present: bool, field: &str| fields.forbid(present, field);
+    for (present, f) in [
+        (file.aspect_ratio.is_some(), "aspect_ratio"),
+        (file.cx_offset.is_some(), "cx_offset"),
+        (file.cy_offset.is_some(), "cy_offset"),
+    ] {
+        forbid(present, f)?;
+    }
+    let allowed: &[&str] = match m {
+        ModelName::Mei => &["xi", "p", "skew"],
+        ModelName::Eucm => &["alpha", "beta"],
+        ModelName::DoubleSphere => &["xi", "alpha"],
+        _ => &[],
+    };
+    forbid_unified_fields(&forbid, file, allowed)?;
+    let fx = fields.need(file.fx, "fx")?;
+    let fy = fields.need(file.fy.or(file.fx), "fy")?;
+    let cx = fields.need(file.cx, "cx")?;
+    let cy = fields.need(file.cy, "cy")?;
+    for (v, f) in [(fx, "fx"), (fy, "fy")] {
+        if !(v > 0.0) {
+            return Err(fields.bad(f, format!("focal length must be positive, not {v}")));
+        }
+    }
+    Ok(Intrinsics::new(fx, fy, cx, cy))
+}
+
+/// A radial fisheye of `model` and `k` with the description's field of view.
+fn radial_fisheye(
+    file: &CameraFile,
+    model: RadialModel,
+    k: Intrinsics,
+    size: ImageSize,
+    bad: &dyn Fn(&str, String) -> Error,
+) -> Result<Lens> {
+    let fov = file.max_fov_deg;
+    if !(fov > 0.0 && fov < 360.0) {
+        return Err(bad(
+            "max_fov_deg",
+            format!("must be in (0, 360) degrees, not {fov}"),
+        ));
+    }
+    let camera = Fisheye::new(model, k, size, fov.to_radians()).map_err(|e| {
+        let field = match (&e, file.model) {
+            (FisheyeError::NotMonotonic(_), ModelName::KannalaBrandt | ModelName::Woodscape) => "k",
+            (FisheyeError::Intrinsics(_), _) => "model",
+            _ => "max_fov_deg",
+        };
+        bad(field, e.to_string())
+    })?;
+    Ok(camera.erased())
 }
 
 /// Refuses the fields of the MEI, EUCM and double sphere models that `allowed` does not list.

@@ -233,6 +233,13 @@ type CostFn<'a> = dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)> + 'a;
 
 /// Levenberg-Marquardt from `params` on a sum of squares `cost_of` (None: infeasible):
 /// (parameters, cost, iterations), or None when the start itself is infeasible.
+///
+/// Hand-written rather than the `levenberg-marquardt` crate (MINPACK's): a lens model's
+/// parameters have a feasible range (a field of view the model must reach, a positive
+/// focal length), and here an infeasible trial step is only a rejected step (damping up) and
+/// the Jacobian takes a backward difference at the range's edge, where that crate's problem
+/// must give residuals for every point it tries and stops at the first it cannot; the loop is
+/// 70 lines over nalgebra, which the crate depends on anyway.
 fn levenberg_marquardt(mut params: Vec<f64>, cost_of: &CostFn) -> Option<(Vec<f64>, f64, usize)> {
     let (mut cost, mut r) = cost_of(&params)?;
     let n = params.len();

@@ -177,6 +177,12 @@ impl<M: Mapping> Separable for Linear<M> {
 
 /// [`Mapping::join_lanes`] compiled for AVX2 (four lanes of f64 an instruction; the same IEEE
 /// operations, so the same bits).
+///
+/// # Safety
+///
+/// The processor must have AVX2 (`is_x86_feature_detected!("avx2")`): the function is compiled
+/// with its instructions, which fault on a processor without them. It reads and writes only
+/// through safe slices.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn join_lanes_avx2<M: Mapping>(columns: &[Share], row: [f64; 2], out: [&mut [f64]; 3]) {

@@ -45,7 +45,7 @@ pub use linear::{Linear, Mapping};
 pub use output::{FisheyeCamera, OutputCamera};
 pub(crate) use perspective::pinhole_lanes;
 pub use perspective::Perspective;
-pub use projection::{OutputProjection, Projection};
+pub use projection::{OutputProjection, Projection, PROJECTIONS};
 pub use rotated::{perpendiculars, rotation_ypr, Rotated};
 pub use separable::{Separable, Share};
 pub use unified::{MeiDistortion, MeiModel, Unified};

@@ -22,6 +22,14 @@ pub enum Projection {
     Cylindrical,
 }
 
+/// Every linear projection, in the order the command line lists them: the one list a new
+/// projection joins (the `--to` values of every command are read from it).
+pub const PROJECTIONS: [Projection; 3] = [
+    Projection::Equirect,
+    Projection::Cylindrical,
+    Projection::Perspective,
+];
+
 impl Projection {
     /// The lowercase name written in calib `projection:` lines and exports.
     pub fn name(self) -> &'static str {
@@ -161,5 +169,29 @@ impl std::fmt::Debug for OutputProjection {
 impl std::fmt::Display for OutputProjection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_list_holds_every_projection_once() {
+        for p in PROJECTIONS {
+            // a new variant stops this match compiling until it is listed here and in
+            // PROJECTIONS, which the assertions then check
+            let listed = match p {
+                Projection::Perspective | Projection::Equirect | Projection::Cylindrical => true,
+            };
+            assert!(listed);
+        }
+        for p in [
+            Projection::Perspective,
+            Projection::Equirect,
+            Projection::Cylindrical,
+        ] {
+            assert_eq!(PROJECTIONS.iter().filter(|&&q| q == p).count(), 1, "{p:?}");
+        }
     }
 }

@@ -3,6 +3,12 @@
 //! scalars, flow sequences `[a, b, ...]` that may span lines, and OpenCV's `!!opencv-matrix` tag
 //! (kept as the node's tag). Anchors, block sequences, multi-line scalars and flow mappings are
 //! not part of these files and are refused. Every node keeps its 1-based line for errors.
+//!
+//! Why no YAML crate: these files are not YAML a parser accepts. OpenCV writes the directive as
+//! `%YAML:1.0` (YAML's own is `%YAML 1.0`), which YAML scanners (yaml-rust's, libyaml's) refuse
+//! at the first line, and its `!!opencv-matrix` tag is not one of YAML's schemas; serde_yaml is
+//! no longer maintained; and an error must name the line of a field found wrong after parsing,
+//! which a serde value does not keep. The subset these files use fits in this file.
 
 /// A parsed node.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,10 +1,12 @@
-//! `kitti`, `kitti-raw` and `merge`: dataset conversion, its options and its signals.
+//! `kitti`, `kitti-raw` and `merge`: the KITTI conversions and their options.
 
-use super::export::{export_after_kitti, FormatArg};
-use super::outcome::exit_code;
-use super::style::StyleArgs;
-use super::EXIT_INTERRUPTED;
-use super::{count, parse_size, projection_of, with_pool, Bar, RunArgs, To};
+use super::shared::augment::AugmentArgs;
+use super::shared::export_after::{export_after_kitti, FormatArg};
+use super::shared::outcome::{count, exit_code};
+use super::shared::parse::{parse_crop, parse_shard, parse_size};
+use super::shared::run::{install_stop_handler, with_pool, Bar, RunArgs, STOP};
+use super::shared::style::StyleArgs;
+use super::shared::target::{projection_of, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use panoconv::camera::ImageSize;
@@ -20,7 +22,6 @@ use panoconv::reproject::visibility::Visibility;
 use panoconv::run::{OutputMode, Shard};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 pub(super) const RAW_EXAMPLES: &str = "Examples:
   panoconv kitti-raw --to equirect --cameras 2,3 --depth --input /data/raw/2011_09_26 --output /data/raw_equi
@@ -68,57 +69,6 @@ pub(super) struct KittiArgs {
     common: ConvertArgs,
     #[command(flatten)]
     augment: AugmentArgs,
-}
-
-/// `--augment` and its options, and the labels' visibility rule, for `kitti` and `kitti360`.
-#[derive(Args)]
-pub(super) struct AugmentArgs {
-    /// Write N random scale-and-crop views of each frame's output (ids frame×N+k) instead of
-    /// the frame.
-    #[arg(long, value_name = "N", conflicts_with_all = ["crop", "resize"], requires = "crop_size")]
-    augment: Option<u32>,
-    /// Seed of --augment (same seed, same views, whatever --jobs).
-    #[arg(long, default_value_t = 0, requires = "augment")]
-    seed: u64,
-    /// Range of the --augment scale factor, drawn uniformly.
-    #[arg(long, value_name = "MIN,MAX", default_value = "1,1", value_parser = parse_range, requires = "augment")]
-    scale_range: (f64, f64),
-    /// Size of every --augment view.
-    #[arg(long, value_name = "WxH", value_parser = parse_size, requires = "augment")]
-    crop_size: Option<ImageSize>,
-    /// Redraw an --augment view (up to 16 times) until it holds at least N objects (DontCare
-    /// regions do not count); the summary says how many views still hold fewer.
-    #[arg(long, value_name = "N", requires = "augment")]
-    min_objects: Option<u32>,
-    /// Write an object as an object only when its 2D box is at least PX pixels on each side
-    /// and at least SHARE of its full projected box is in the image; the others become DontCare
-    /// regions [default: 2,0.1 with --augment, else 0,0: every object the source labels]
-    #[arg(long, value_name = "PX,SHARE", value_parser = Visibility::parse)]
-    min_visible: Option<Visibility>,
-}
-
-impl AugmentArgs {
-    /// The visibility rule of `--min-visible`.
-    pub(super) fn visibility(&self) -> Visibility {
-        self.min_visible.unwrap_or(if self.augment.is_some() {
-            Visibility::default()
-        } else {
-            Visibility::OFF
-        })
-    }
-
-    /// The views `--augment` asks for, if given.
-    pub(super) fn views(&self) -> Option<Augment> {
-        self.augment.map(|count| Augment {
-            count,
-            seed: self.seed,
-            scale_range: self.scale_range,
-            crop_size: self
-                .crop_size
-                .expect("clap requires --crop-size with --augment"),
-            min_objects: self.min_objects.unwrap_or(0),
-        })
-    }
 }
 
 /// `panoconv kitti-raw`: a KITTI raw date folder.
@@ -220,24 +170,6 @@ pub(super) struct MergeArgs {
     output: PathBuf,
 }
 
-pub(super) fn parse_shard(s: &str) -> std::result::Result<Shard, String> {
-    let (k, n) = s
-        .split_once('/')
-        .ok_or("expected K/N, e.g. 3/16 (K from 0)")?;
-    let k: u32 = k
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad shard index {k:?}"))?;
-    let n: u32 = n
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad shard count {n:?}"))?;
-    if n == 0 || k >= n {
-        return Err(format!("shard {k}/{n}: need 0 <= K < N"));
-    }
-    Ok(Shard { index: k, count: n })
-}
-
 pub(super) fn parse_camera(s: &str) -> std::result::Result<Cam, String> {
     match s.trim() {
         "2" => Ok(Cam::C2),
@@ -246,41 +178,6 @@ pub(super) fn parse_camera(s: &str) -> std::result::Result<Cam, String> {
             "camera {other:?}: expected 2 or 3 (KITTI's colour cameras)"
         )),
     }
-}
-
-pub(super) fn parse_crop(s: &str) -> std::result::Result<Crop, String> {
-    let v: Vec<&str> = s.split(',').map(str::trim).collect();
-    let [x, y, w, h] = v[..] else {
-        return Err("expected X,Y,WIDTH,HEIGHT, e.g. 0,20,469,128".into());
-    };
-    let int = |t: &str| {
-        t.parse::<i64>()
-            .map_err(|_| format!("{t:?} is not an integer"))
-    };
-    let (width, height) = (int(w)?, int(h)?);
-    if width <= 0 || height <= 0 || width > 65535 || height > 65535 {
-        return Err("crop width and height must be between 1 and 65535".into());
-    }
-    Ok(Crop {
-        x: int(x)?,
-        y: int(y)?,
-        width: width as u32,
-        height: height as u32,
-    })
-}
-
-pub(super) fn parse_range(s: &str) -> std::result::Result<(f64, f64), String> {
-    let (a, b) = s.split_once(',').ok_or("expected MIN,MAX, e.g. 0.8,1.25")?;
-    let num = |t: &str| {
-        t.trim()
-            .parse::<f64>()
-            .map_err(|_| format!("{t:?} is not a number"))
-    };
-    let (a, b) = (num(a)?, num(b)?);
-    if !(a > 0.0 && b >= a && b.is_finite()) {
-        return Err("expected 0 < MIN <= MAX".into());
-    }
-    Ok((a, b))
 }
 
 pub(super) fn kitti(args: KittiArgs) -> Result<ExitCode> {
@@ -408,7 +305,7 @@ fn convert(
 
 /// A KITTI run's summary: frames, the files that are not frames, thin views, the style pass.
 fn report(summary: &KittiSummary, output: &std::path::Path) {
-    super::outcome::report(&summary.run, "frame", output);
+    super::shared::outcome::report(&summary.run, "frame", output);
     if !summary.not_frames.is_empty() {
         // The run succeeds without them, but a dataset smaller than its folder is named.
         const SHOWN: usize = 20;
@@ -430,20 +327,7 @@ fn report(summary: &KittiSummary, output: &std::path::Path) {
             count(min, "object")
         );
     }
-    super::outcome::report_style(summary.style_runs);
-}
-
-/// Set by SIGINT/SIGTERM: the conversion takes no new frame, finishes those in flight and
-/// writes its manifest.
-pub(super) static STOP: AtomicBool = AtomicBool::new(false);
-
-pub(super) fn install_stop_handler() {
-    // ctrlc replaces the default handlers, so a second signal while stopping exits at once.
-    let _ = ctrlc::set_handler(|| {
-        if STOP.swap(true, Ordering::SeqCst) {
-            std::process::exit(EXIT_INTERRUPTED as i32);
-        }
-    });
+    super::shared::outcome::report_style(summary.style_runs);
 }
 
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {

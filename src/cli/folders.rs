@@ -1,9 +1,9 @@
 //! `fisheye` and `pano`: folders of fisheye images or panoramas.
 
-use super::{scale_of, with_pool, Bar, RunArgs};
+use super::shared::run::{with_pool, Bar, RunArgs};
+use super::shared::target::{scale_of, FolderTo};
 use anyhow::{bail, Result};
-use clap::{Args, ValueEnum};
-use panoconv::camera::Projection;
+use clap::Args;
 use panoconv::error::Error;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -91,23 +91,6 @@ pub(super) struct PanoArgs {
     common: FolderArgs,
 }
 
-/// The targets of a folder conversion: what `--help` lists is what it accepts.
-#[derive(Clone, Copy, ValueEnum)]
-pub(super) enum FolderTo {
-    Equirect,
-    Cylindrical,
-    Perspective,
-}
-
-/// The projection of a folder conversion's `--to`.
-fn folder_projection(to: FolderTo) -> Result<Projection> {
-    Ok(match to {
-        FolderTo::Equirect => Projection::Equirect,
-        FolderTo::Cylindrical => Projection::Cylindrical,
-        FolderTo::Perspective => Projection::Perspective,
-    })
-}
-
 pub(super) fn degrees(v: Option<f64>, flag: &str) -> Result<Option<f64>> {
     match v {
         Some(d) if !(d > 0.0 && d <= 360.0) => {
@@ -133,9 +116,9 @@ pub(super) fn run_folder_job(
         panoconv::convert::folder::run_folder(&job, plan, &bar)
     })??;
     if !common.run.quiet {
-        super::outcome::report(&summary, "image", &job.output);
+        super::shared::outcome::report(&summary, "image", &job.output);
     }
-    Ok(super::outcome::exit_code(&summary).unwrap_or(ExitCode::SUCCESS))
+    Ok(super::shared::outcome::exit_code(&summary).unwrap_or(ExitCode::SUCCESS))
 }
 
 pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
@@ -144,7 +127,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
     let a = &args.common;
     let desc = CameraDescription::read(&args.camera)?;
     let spec = FisheyeView {
-        projection: folder_projection(a.to)?,
+        projection: a.to.0,
         hfov: degrees(a.fov, "--fov")?,
         vfov: degrees(a.vfov, "--vfov")?,
         scale: scale_of(a.pano_width, a.px_per_deg)?,
@@ -157,7 +140,7 @@ pub(super) fn fisheye(args: FisheyeArgs) -> Result<ExitCode> {
 pub(super) fn pano(args: PanoArgs) -> Result<ExitCode> {
     use panoconv::convert::pano::PanoViews;
     let a = &args.common;
-    let projection = folder_projection(a.to)?;
+    let projection = a.to.0;
     let yaws: Vec<f64> = args
         .yaw
         .clone()

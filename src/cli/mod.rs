@@ -3,15 +3,10 @@
 //! Exit codes: 0 all frames converted; 1 some frames failed (each reported); 2 usage or set-up
 //! error, nothing written.
 
-use anyhow::{bail, Context as _, Result};
-use clap::{Args, Parser, Subcommand, ValueEnum};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::codec::png::PngCompression;
+use anyhow::Result;
+use clap::{CommandFactory, Parser, Subcommand};
 use panoconv::error::Error;
-use panoconv::geometry::Scale;
-use panoconv::run::Progress;
-use std::io::IsTerminal;
+use shared::outcome::{EXIT_FRAMES_FAILED, EXIT_SETUP};
 use std::process::ExitCode;
 
 mod camera;
@@ -20,9 +15,8 @@ mod export;
 mod folders;
 mod kitti360;
 mod nuscenes;
-mod outcome;
 mod rig;
-mod style;
+mod shared;
 mod tools;
 
 use camera::{CameraArgs, CAMERA_EXAMPLES};
@@ -39,10 +33,6 @@ use tools::{
     SynthArgs, UnprojectArgs, VerifyArgs, COMPLETIONS_EXAMPLES, INSPECT_EXAMPLES, MAN_EXAMPLES,
     PREVIEW_EXAMPLES,
 };
-
-const EXIT_FRAMES_FAILED: u8 = 1;
-const EXIT_SETUP: u8 = 2;
-const EXIT_INTERRUPTED: u8 = 130;
 
 #[derive(Parser)]
 #[command(
@@ -133,172 +123,6 @@ enum Command {
     Man(ManArgs),
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum To {
-    Equirect,
-    Cylindrical,
-    Perspective,
-    /// A real fisheye camera, described by --camera FILE.
-    Fisheye,
-}
-
-/// What `--to` names: a linear projection or a fisheye camera.
-fn projection_of(to: To) -> OutputProjection {
-    match to {
-        To::Equirect => Projection::Equirect.into(),
-        To::Cylindrical => Projection::Cylindrical.into(),
-        To::Perspective => Projection::Perspective.into(),
-        To::Fisheye => OutputProjection::Fisheye,
-    }
-}
-
-/// The output scale `--pano-width` or `--px-per-deg` asks for (default: the source's own).
-fn scale_of(pano_width: Option<u32>, px_per_deg: Option<f64>) -> Result<Scale> {
-    Ok(Scale::from_flags(pano_width, px_per_deg)?)
-}
-
-/// `1 frame`, `2 frames`.
-fn count(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
-}
-
-fn parse_size(s: &str) -> std::result::Result<ImageSize, String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or("expected WIDTHxHEIGHT, e.g. 2048x512")?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("bad width {w:?}"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("bad height {h:?}"))?;
-    if w == 0 || h == 0 {
-        return Err("width and height must be positive".into());
-    }
-    Ok(ImageSize::new(w, h))
-}
-
-/// How a run is carried out, shared by every converting subcommand.
-#[derive(Args)]
-struct RunArgs {
-    /// Worker threads (default: all cores).
-    #[arg(long, short = 'j', value_name = "N")]
-    pub(super) jobs: Option<usize>,
-    /// Replace a previous run's output: the files its manifest or journal lists are removed
-    /// first (the result is what a run into an empty folder leaves); any other file there is
-    /// named and refused.
-    #[arg(long)]
-    pub(super) overwrite: bool,
-    /// PNG compression effort.
-    #[arg(long, value_enum, default_value_t = CompressionArg::Default)]
-    png_compression: CompressionArg,
-    /// No progress bar and no summary line.
-    #[arg(long, short = 'q')]
-    pub(super) quiet: bool,
-}
-
-impl RunArgs {
-    /// The encoder setting `--png-compression` names.
-    fn png_compression(&self) -> PngCompression {
-        match self.png_compression {
-            CompressionArg::Fast => PngCompression::Fast,
-            CompressionArg::Default => PngCompression::Default,
-            CompressionArg::Best => PngCompression::Best,
-        }
-    }
-}
-
-/// `--png-compression`'s values (the library's `PngCompression` knows nothing of clap).
-#[derive(Clone, Copy, ValueEnum)]
-enum CompressionArg {
-    Fast,
-    Default,
-    Best,
-}
-
-/// An indicatif bar on a terminal; nothing at all otherwise (logs stay clean), unless
-/// `PANOCONV_PROGRESS=lines` asks for the notes of long steps as lines (for logs and tests).
-struct Bar {
-    bar: ProgressBar,
-    /// What an item is called in messages: `frame`, or `image` for folder conversions.
-    noun: &'static str,
-    lines: bool,
-}
-
-impl Bar {
-    fn new(quiet: bool) -> Self {
-        Self::counting(quiet, "frame")
-    }
-
-    /// A bar whose items are called `noun` (`image`: a folder conversion's).
-    fn counting(quiet: bool, noun: &'static str) -> Self {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-        let terminal = std::io::stderr().is_terminal();
-        if quiet || !terminal {
-            bar.set_draw_target(ProgressDrawTarget::hidden());
-        }
-        let lines = !quiet
-            && !terminal
-            && std::env::var_os("PANOCONV_PROGRESS").is_some_and(|v| v == "lines");
-        bar.set_style(
-            ProgressStyle::with_template(
-                &format!("{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {noun}s ({{rate}}, eta {{eta}}) {{msg}}"),
-            )
-            .expect("valid template")
-            .with_key(
-                "rate",
-                |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
-                    let _ = write!(w, "{:.1}/s", state.per_sec());
-                },
-            ),
-        );
-        Self { bar, noun, lines }
-    }
-}
-
-impl Progress for Bar {
-    fn start(&self, total: usize) {
-        self.bar.set_length(total as u64);
-    }
-    fn frame_done(&self) {
-        self.bar.inc(1);
-    }
-    fn note(&self, message: &str) {
-        // a spinner that moves while the step runs, so the bar does not sit still at 0/N
-        if message.is_empty() {
-            self.bar.disable_steady_tick();
-        } else if !self.bar.is_hidden() {
-            self.bar
-                .enable_steady_tick(std::time::Duration::from_millis(120));
-        }
-        self.bar.set_message(message.to_owned());
-        if self.lines && !message.is_empty() {
-            eprintln!("panoconv: {message}");
-        }
-    }
-    fn frame_failed(&self, item: &str, error: &Error) {
-        self.bar
-            .suspend(|| eprintln!("panoconv: {} {item} failed: {error}", self.noun));
-        self.bar.inc(1);
-    }
-    fn finish(&self) {
-        self.bar.finish_and_clear();
-    }
-}
-
-/// Runs `body` on a pool of `jobs` threads: the one place threads are made.
-fn with_pool<T: Send>(jobs: Option<usize>, body: impl FnOnce() -> T + Send) -> Result<T> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = jobs {
-        if n == 0 {
-            bail!(Error::Setup("--jobs must be at least 1".into()));
-        }
-        builder = builder.num_threads(n);
-    }
-    let pool = builder.build().context("cannot start worker threads")?;
-    Ok(pool.install(body))
-}
-
 fn run() -> Result<ExitCode> {
     let cli = Cli::parse();
     match cli.command {
@@ -318,8 +142,8 @@ fn run() -> Result<ExitCode> {
         Command::Camera(a) => camera::camera(a),
         Command::Inspect(a) => inspect(a),
         Command::Export(a) => export::export(a),
-        Command::Completions(a) => completions(a),
-        Command::Man(a) => man(a),
+        Command::Completions(a) => completions(a, Cli::command()),
+        Command::Man(a) => man(a, Cli::command()),
     }
 }
 

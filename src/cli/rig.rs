@@ -2,18 +2,20 @@
 //! objects, the depth maps and the run options ([`RigArgs`]), turned into one
 //! [`RigJob`] and run on any [`RigSource`] through one path ([`run_rig_command`]).
 
-use super::convert::{install_stop_handler, parse_crop, parse_shard, AugmentArgs, STOP};
-use super::export::{export_after_kitti, FormatArg};
-use super::outcome::exit_code;
-use super::style::StyleArgs;
-use super::{count, projection_of, with_pool, Bar, RunArgs, To};
+use super::shared::augment::AugmentArgs;
+use super::shared::export_after::{export_after_kitti, FormatArg};
+use super::shared::outcome::{count, exit_code};
+use super::shared::parse::{parse_crop, parse_shard, parse_size};
+use super::shared::run::{install_stop_handler, with_pool, Bar, RunArgs, STOP};
+use super::shared::style::StyleArgs;
+use super::shared::target::{projection_of, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection};
 use panoconv::convert::rig::{
-    rig_output_spec, run_rig, uncovered_share, CanvasFlags, ObjectRule, RigJob, RigSummary,
-    StitchMode,
+    rig_output_spec, run_rig, uncovered_share, CanvasFlags, ObjectRule, RigJob, RigSpec,
+    RigSummary, StitchMode,
 };
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
@@ -104,13 +106,13 @@ pub(super) struct RigArgs {
     #[arg(long, conflicts_with = "size")]
     full_360: bool,
     /// Explicit output size, centred on the first camera's field of view.
-    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
     size: Option<ImageSize>,
     /// Crop the output canvas to this window (canvas pixels).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<Crop>,
     /// Resize the (cropped) output to this size.
-    #[arg(long, value_name = "WxH", value_parser = super::parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
     resize: Option<ImageSize>,
     /// Continue a killed or interrupted run.
     #[arg(long)]
@@ -256,26 +258,15 @@ impl RigArgs {
         })
     }
 
-    /// The rig job of these options and the dataset's choice, its rules checked.
+    /// The rig job of these options and the dataset's choice: flags mapped to a
+    /// [`RigSpec`], whose rules [`RigJob::new`] checks (the CLI adds none of its own).
     pub(super) fn job(&self, choice: RigChoice) -> Result<RigJob> {
         self.refuse_unsupported(choice.command)?;
         let target = self.target(choice.cameras.len())?;
         let azimuth_step = self
             .lidar_azimuth_step
             .unwrap_or(choice.lidar_azimuth_step_deg);
-        if !(azimuth_step > 0.0 && azimuth_step.is_finite()) {
-            bail!(setup("--lidar-azimuth-step must be positive".into()));
-        }
-        for (v, flag) in [
-            (self.stitch_distance, "--stitch-distance"),
-            (self.blend_width, "--blend-width"),
-            (self.max_distance, "--max-distance"),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                bail!(setup(format!("{flag} must be positive")));
-            }
-        }
-        let job = RigJob {
+        let spec = RigSpec {
             run: RunOptions {
                 output: self.output.clone(),
                 mode: OutputMode::from_flags(self.run.overwrite, self.resume),
@@ -311,8 +302,7 @@ impl RigArgs {
             },
             ego_masks: choice.ego_masks,
         };
-        job.validate()?;
-        Ok(job)
+        Ok(RigJob::new(spec)?)
     }
 }
 
@@ -354,7 +344,7 @@ pub(super) fn run_rig_command<S: RigSource>(
 
 /// The run's summary: frames, objects written and dropped, thin views, the style pass.
 fn report(summary: &RigSummary, job: &RigJob) {
-    super::outcome::report(&summary.run, "frame", &job.run.output);
+    super::shared::outcome::report(&summary.run, "frame", &job.run.output);
     let o = &summary.objects;
     let unseen = match job.objects.min_points {
         0 => format!("{} seen by no sensor", o.unseen),
@@ -405,7 +395,7 @@ fn report(summary: &RigSummary, job: &RigJob) {
             panoconv::geometry::augment::MAX_ATTEMPTS
         );
     }
-    super::outcome::report_style(summary.style_runs);
+    super::shared::outcome::report_style(summary.style_runs);
     warn_uncovered(job);
 }
 

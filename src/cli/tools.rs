@@ -1,9 +1,12 @@
 //! The tools around a conversion: preview, inspect, verify, predictions, depth metrics,
 //! completions, man pages and the synthetic sample.
 
-use super::{count, parse_size, Bar, Cli, EXIT_FRAMES_FAILED};
+use super::shared::derived::record_derived;
+use super::shared::outcome::{count, EXIT_FRAMES_FAILED};
+use super::shared::parse::parse_size;
+use super::shared::run::Bar;
 use anyhow::{bail, Context as _, Result};
-use clap::{Args, CommandFactory, ValueEnum};
+use clap::{Args, ValueEnum};
 use panoconv::camera::ImageSize;
 use panoconv::codec::png::PngCompression;
 use panoconv::error::Error;
@@ -345,22 +348,6 @@ pub(super) fn folder_exit(
     }
 }
 
-/// Records files a tool wrote inside a converted dataset in its manifest, so that `verify`
-/// checks them (see `panoconv::run::derived`), and says so.
-pub(super) fn record_derived(
-    command: &str,
-    target: &std::path::Path,
-    files: &[PathBuf],
-) -> Result<()> {
-    if let Some(root) = panoconv::run::derived::record_if_inside(command, target, files)? {
-        eprintln!(
-            "panoconv: recorded in {} (checked by `panoconv verify`)",
-            root.join(panoconv::run::manifest::MANIFEST).display()
-        );
-    }
-    Ok(())
-}
-
 pub(super) fn labels_to_pixels(a: LabelsToPixelsArgs) -> Result<ExitCode> {
     let summary =
         panoconv::tools::predictions::labels_to_pixels(&a.input.join(&a.split), &a.output)?;
@@ -448,14 +435,14 @@ pub(super) fn inspect(args: InspectArgs) -> Result<ExitCode> {
     })
 }
 
-pub(super) fn completions(args: CompletionsArgs) -> Result<ExitCode> {
-    let mut cmd = Cli::command();
+/// `cmd`: the whole command line (the parent's `Cli`), which this file does not import.
+pub(super) fn completions(args: CompletionsArgs, mut cmd: clap::Command) -> Result<ExitCode> {
     clap_complete::generate(args.shell, &mut cmd, "panoconv", &mut std::io::stdout());
     Ok(ExitCode::SUCCESS)
 }
 
-pub(super) fn man(args: ManArgs) -> Result<ExitCode> {
-    let cmd = Cli::command();
+/// `cmd`: the whole command line, as for [`completions`].
+pub(super) fn man(args: ManArgs, cmd: clap::Command) -> Result<ExitCode> {
     match args.output {
         Some(dir) => {
             std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;

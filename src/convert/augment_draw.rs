@@ -39,19 +39,40 @@ pub(super) fn draw_view(
             objects: None,
         });
     };
-    let mut best: Option<Drawn> = None;
-    for attempt in 0..MAX_ATTEMPTS.max(1) {
-        let view = aug.view(split, frame, index, attempt, size);
-        let drawn = camera(&view)?;
-        let n = count(drawn.as_ref())?;
-        if best.as_ref().is_none_or(|b| Some(n) > b.objects) {
-            best = Some(Drawn {
+    let (drawn, _) = best_draw(
+        aug.min_objects,
+        |attempt| -> Result<Drawn> {
+            let view = aug.view(split, frame, index, attempt, size);
+            let drawn = camera(&view)?;
+            let objects = Some(count(drawn.as_ref())?);
+            Ok(Drawn {
                 view,
                 camera: drawn,
-                objects: Some(n),
-            });
+                objects,
+            })
+        },
+        |drawn| Ok(drawn.objects.unwrap_or(0)),
+    )?;
+    Ok(drawn)
+}
+
+/// The first of up to `MAX_ATTEMPTS` draws (`draw(attempt)`, attempts 0, 1, ... in order)
+/// whose `count` of objects reaches `min_objects`, else the draw holding most (the first of
+/// those), with its count: the redraw rule of `--min-objects`, which the Python package's
+/// `RandomCameraDataset` takes too.
+pub fn best_draw<T, E>(
+    min_objects: u32,
+    mut draw: impl FnMut(u32) -> std::result::Result<T, E>,
+    mut count: impl FnMut(&T) -> std::result::Result<usize, E>,
+) -> std::result::Result<(T, usize), E> {
+    let mut best: Option<(T, usize)> = None;
+    for attempt in 0..MAX_ATTEMPTS.max(1) {
+        let drawn = draw(attempt)?;
+        let n = count(&drawn)?;
+        if best.as_ref().is_none_or(|b| n > b.1) {
+            best = Some((drawn, n));
         }
-        if n >= aug.min_objects as usize {
+        if n >= min_objects as usize {
             break;
         }
     }

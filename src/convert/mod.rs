@@ -11,3 +11,5 @@ pub mod run_options;
 mod style_pass;
 mod view_depth;
 mod view_pass;
+
+pub use augment_draw::best_draw;

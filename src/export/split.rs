@@ -121,29 +121,7 @@ pub fn assign(
             out.extend(ids.iter().map(|id| (id.clone(), ExportSplit::Train)));
         }
         SplitRule::ImageSets(dir) => {
-            let mut listed: BTreeMap<String, ExportSplit> = BTreeMap::new();
-            for (name, split) in [
-                ("train.txt", ExportSplit::Train),
-                ("val.txt", ExportSplit::Val),
-            ] {
-                let file = dir.join(name);
-                if !file.is_file() {
-                    return Err(Error::Setup(format!(
-                        "{}: missing (image sets need train.txt and val.txt)",
-                        file.display()
-                    )));
-                }
-                for id in read_id_list(&file)? {
-                    if let Some(other) = listed.insert(id.clone(), split) {
-                        if other != split {
-                            return Err(Error::Setup(format!(
-                                "{}: frame {id} is in both train.txt and val.txt",
-                                dir.display()
-                            )));
-                        }
-                    }
-                }
-            }
+            let listed = image_sets(dir)?;
             for id in ids {
                 // A view is listed by its own id, or else by its source frame's.
                 if let Some(&split) = listed.get(id).or_else(|| listed.get(&source(id))) {
@@ -189,6 +167,35 @@ pub fn assign(
         }
     }
     Ok(out)
+}
+
+/// The split of each id an image sets folder lists (`train.txt`, `val.txt`, both needed; an
+/// id in both is refused).
+fn image_sets(dir: &Path) -> Result<BTreeMap<String, ExportSplit>> {
+    let mut listed: BTreeMap<String, ExportSplit> = BTreeMap::new();
+    for (name, split) in [
+        ("train.txt", ExportSplit::Train),
+        ("val.txt", ExportSplit::Val),
+    ] {
+        let file = dir.join(name);
+        if !file.is_file() {
+            return Err(Error::Setup(format!(
+                "{}: missing (image sets need train.txt and val.txt)",
+                file.display()
+            )));
+        }
+        for id in read_id_list(&file)? {
+            if let Some(other) = listed.insert(id.clone(), split) {
+                if other != split {
+                    return Err(Error::Setup(format!(
+                        "{}: frame {id} is in both train.txt and val.txt",
+                        dir.display()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(listed)
 }
 
 #[cfg(test)]

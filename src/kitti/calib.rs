@@ -170,68 +170,77 @@ impl Calib {
                 None => (trimmed, ""),
             };
             let rest = rest.trim_start_matches(':');
-            if name == "projection" {
-                let other = rest.trim();
-                calib.projection = Some(OutputProjection::parse(other).ok_or_else(|| {
-                    Error::parse(
-                        path,
-                        line_no,
-                        "projection",
-                        format!("unknown projection {other:?}"),
-                    )
-                })?);
-                continue;
-            }
-            if let Some(n) = output_key(name, 'K') {
-                let v = parse_numbers(path, line_no, name, rest, 9)?;
-                calib.k_out[n] = Some(Intrinsics::new(v[0], v[4], v[2], v[5]));
-                continue;
-            }
-            if let Some(n) = output_key(name, 'C') {
-                let v = parse_numbers(path, line_no, name, rest, 3)?;
-                calib.c_out[n] = Some(Vector3::new(v[0], v[1], v[2]));
-                continue;
-            }
-            if let Some(n) = name.strip_prefix("model").and_then(camera_index) {
-                calib.lens_out[n].model = Some(rest.trim().to_owned());
-                continue;
-            }
-            if let Some(n) = output_key(name, 'D') {
-                let count = rest.split_whitespace().count();
-                calib.lens_out[n].parameters = parse_numbers(path, line_no, name, rest, count)?;
-                continue;
-            }
-            if let Some(n) = name.strip_prefix("fov").and_then(camera_index) {
-                calib.lens_out[n].fov_deg = Some(parse_numbers(path, line_no, name, rest, 1)?[0]);
-                continue;
-            }
-            if let Some(n) = output_key(name, 'R') {
-                let v = parse_numbers(path, line_no, name, rest, 9)?;
-                calib.lens_out[n].rect_from_camera = Some(Matrix3::from_row_slice(&v));
-                continue;
-            }
-            let Some(key) = known_key(name) else { continue };
-            match key {
-                Key::P(n) => {
-                    let v = parse_numbers(path, line_no, name, rest, 12)?;
-                    calib.p[n] = Some(Matrix3x4::from_row_slice(&v));
-                }
-                Key::R0Rect => {
-                    let v = parse_numbers(path, line_no, name, rest, 9)?;
-                    calib.r0_rect = Some(Matrix3::from_row_slice(&v));
-                }
-                Key::TrVeloToCam => {
-                    let v = parse_numbers(path, line_no, name, rest, 12)?;
-                    calib.tr_velo_to_cam = Some(Matrix3x4::from_row_slice(&v));
-                }
-                Key::TrImuToVelo => {
-                    let v = parse_numbers(path, line_no, name, rest, 12)?;
-                    calib.tr_imu_to_velo = Some(Matrix3x4::from_row_slice(&v));
-                }
-            }
+            calib.read_line(path, line_no, name, rest)?;
         }
         calib.lines = lines;
         Ok(calib)
+    }
+
+    /// One line's value, `name` its key and `rest` its value text (unknown keys are kept only
+    /// in the verbatim lines).
+    fn read_line(&mut self, path: &Path, line_no: usize, name: &str, rest: &str) -> Result<()> {
+        if name == "projection" {
+            let other = rest.trim();
+            self.projection = Some(OutputProjection::parse(other).ok_or_else(|| {
+                Error::parse(
+                    path,
+                    line_no,
+                    "projection",
+                    format!("unknown projection {other:?}"),
+                )
+            })?);
+            return Ok(());
+        }
+        if let Some(n) = output_key(name, 'K') {
+            let v = parse_numbers(path, line_no, name, rest, 9)?;
+            self.k_out[n] = Some(Intrinsics::new(v[0], v[4], v[2], v[5]));
+            return Ok(());
+        }
+        if let Some(n) = output_key(name, 'C') {
+            let v = parse_numbers(path, line_no, name, rest, 3)?;
+            self.c_out[n] = Some(Vector3::new(v[0], v[1], v[2]));
+            return Ok(());
+        }
+        if let Some(n) = name.strip_prefix("model").and_then(camera_index) {
+            self.lens_out[n].model = Some(rest.trim().to_owned());
+            return Ok(());
+        }
+        if let Some(n) = output_key(name, 'D') {
+            let count = rest.split_whitespace().count();
+            self.lens_out[n].parameters = parse_numbers(path, line_no, name, rest, count)?;
+            return Ok(());
+        }
+        if let Some(n) = name.strip_prefix("fov").and_then(camera_index) {
+            self.lens_out[n].fov_deg = Some(parse_numbers(path, line_no, name, rest, 1)?[0]);
+            return Ok(());
+        }
+        if let Some(n) = output_key(name, 'R') {
+            let v = parse_numbers(path, line_no, name, rest, 9)?;
+            self.lens_out[n].rect_from_camera = Some(Matrix3::from_row_slice(&v));
+            return Ok(());
+        }
+        let Some(key) = known_key(name) else {
+            return Ok(());
+        };
+        match key {
+            Key::P(n) => {
+                let v = parse_numbers(path, line_no, name, rest, 12)?;
+                self.p[n] = Some(Matrix3x4::from_row_slice(&v));
+            }
+            Key::R0Rect => {
+                let v = parse_numbers(path, line_no, name, rest, 9)?;
+                self.r0_rect = Some(Matrix3::from_row_slice(&v));
+            }
+            Key::TrVeloToCam => {
+                let v = parse_numbers(path, line_no, name, rest, 12)?;
+                self.tr_velo_to_cam = Some(Matrix3x4::from_row_slice(&v));
+            }
+            Key::TrImuToVelo => {
+                let v = parse_numbers(path, line_no, name, rest, 12)?;
+                self.tr_imu_to_velo = Some(Matrix3x4::from_row_slice(&v));
+            }
+        }
+        Ok(())
     }
 
     /// Camera `n` (2 = left colour, 3 = right colour) from `Pn = K [I | t]`.

@@ -15,7 +15,7 @@ use super::{velodyne, Calib, Cam, LabelFile};
 use crate::camera::{ImageSize, Intrinsics, Perspective};
 use crate::error::{Error, Result};
 use crate::fs::{self, read_file, split_lines};
-use crate::source::{Frame, LidarPoint, Pose, RigCamera};
+use crate::source::{Frame, LidarPoint, Pose, RigCamera, SourceBox, SourceRegion};
 use crate::warp::PngSource;
 use nalgebra::Matrix3;
 use std::path::{Path, PathBuf};
@@ -157,47 +157,13 @@ impl Split {
             images.push(image);
         }
 
-        let (mut lidar, mut dropped_non_finite) = (Vec::new(), 0);
-        if wants.lidar {
-            let path = self.velodyne_path(id);
-            let bytes = files.read(&path)?;
-            let scan = velodyne::parse(&bytes, &path)?;
-            let r0 = calib
-                .r0_rect
-                .ok_or_else(|| Error::file(&calib.path, "no R0_rect line (needed for --depth)"))?;
-            let tr = calib.tr_velo_to_cam.ok_or_else(|| {
-                Error::file(&calib.path, "no Tr_velo_to_cam line (needed for --depth)")
-            })?;
-            lidar = velodyne::rect_from_velo(&scan.points, &r0, &tr)
-                .into_iter()
-                .zip(scan.reflectance)
-                .map(|(position, intensity)| LidarPoint {
-                    position,
-                    intensity,
-                })
-                .collect();
-            dropped_non_finite = scan.dropped_non_finite;
-        }
-
+        let (lidar, dropped_non_finite) = if wants.lidar {
+            self.read_scan(id, &calib, &mut files)?
+        } else {
+            (Vec::new(), 0)
+        };
         let (mut objects, mut regions) = (Vec::new(), Vec::new());
-        let labels = labels.map(|file| {
-            let items = file
-                .labels
-                .iter()
-                .map(|label| match label.to_source_box() {
-                    Some(b) => {
-                        objects.push(b);
-                        LabelItem::Object(objects.len() - 1)
-                    }
-                    None => {
-                        // (in camera 2's pixels: rig camera 0)
-                        regions.push(label.to_region(0));
-                        LabelItem::Region(regions.len() - 1)
-                    }
-                })
-                .collect();
-            FrameLabels { file, items }
-        });
+        let labels = labels.map(|file| frame_labels(file, &mut objects, &mut regions));
         Ok(KittiFrame {
             frame: Frame {
                 id: id.to_owned(),
@@ -220,6 +186,59 @@ impl Split {
             dropped_non_finite,
         })
     }
+
+    /// Frame `id`'s scan in rect (the calib's R0_rect and Tr_velo_to_cam), and how many points
+    /// were dropped for a non-finite coordinate.
+    fn read_scan(
+        &self,
+        id: &str,
+        calib: &Calib,
+        files: &mut Files,
+    ) -> Result<(Vec<LidarPoint>, usize)> {
+        let path = self.velodyne_path(id);
+        let bytes = files.read(&path)?;
+        let scan = velodyne::parse(&bytes, &path)?;
+        let r0 = calib
+            .r0_rect
+            .ok_or_else(|| Error::file(&calib.path, "no R0_rect line (needed for --depth)"))?;
+        let tr = calib.tr_velo_to_cam.ok_or_else(|| {
+            Error::file(&calib.path, "no Tr_velo_to_cam line (needed for --depth)")
+        })?;
+        let lidar = velodyne::rect_from_velo(&scan.points, &r0, &tr)
+            .into_iter()
+            .zip(scan.reflectance)
+            .map(|(position, intensity)| LidarPoint {
+                position,
+                intensity,
+            })
+            .collect();
+        Ok((lidar, scan.dropped_non_finite))
+    }
+}
+
+/// A label file's lines as the frame's boxes (into `objects`) and DontCare regions (into
+/// `regions`), each line pointing at its item.
+fn frame_labels(
+    file: LabelFile,
+    objects: &mut Vec<SourceBox>,
+    regions: &mut Vec<SourceRegion>,
+) -> FrameLabels {
+    let items = file
+        .labels
+        .iter()
+        .map(|label| match label.to_source_box() {
+            Some(b) => {
+                objects.push(b);
+                LabelItem::Object(objects.len() - 1)
+            }
+            None => {
+                // (in camera 2's pixels: rig camera 0)
+                regions.push(label.to_region(0));
+                LabelItem::Region(regions.len() - 1)
+            }
+        })
+        .collect();
+    FrameLabels { file, items }
 }
 
 #[cfg(test)]

@@ -56,31 +56,7 @@ fn parse_npy(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<f64>), String> 
         }
     };
     let fortran = dict_value(header, "fortran_order").is_some_and(|v| v.starts_with("True"));
-    let shape_text = dict_value(header, "shape").ok_or("the .npy header has no 'shape'")?;
-    let shape: Vec<usize> = shape_text
-        .trim_start_matches('(')
-        .split(')')
-        .next()
-        .unwrap_or("")
-        .split(',')
-        .map(str::trim)
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            s.parse::<usize>()
-                .map_err(|_| format!("bad shape {shape_text}"))
-        })
-        .collect::<std::result::Result<_, _>>()?;
-    let plane: Vec<usize> = shape.iter().copied().filter(|&n| n != 1).collect();
-    let (h, w) = match (plane.as_slice(), shape.len()) {
-        ([h, w], _) => (*h, *w),
-        // A 1-pixel-wide or -high map keeps its ones: take the last two axes.
-        (_, n) if n >= 2 && plane.len() < 2 => (shape[n - 2], shape[n - 1]),
-        _ => {
-            return Err(format!(
-                "shape {shape:?} is not one depth map (H, W), with batch or channel axes of 1"
-            ))
-        }
-    };
+    let (h, w) = npy_plane(header)?;
     let data = &bytes[start + header_len..];
     let n = w * h;
     if data.len() < n * size {
@@ -113,6 +89,37 @@ fn parse_npy(bytes: &[u8]) -> std::result::Result<(u32, u32, Vec<f64>), String> 
         .collect();
     let dim = |n: usize| u32::try_from(n).map_err(|_| format!("{n} pixels is too large"));
     Ok((dim(w)?, dim(h)?, values))
+}
+
+/// The (height, width) of the one depth map an `.npy` header's shape holds (batch and
+/// channel axes of 1 aside).
+fn npy_plane(header: &str) -> std::result::Result<(usize, usize), String> {
+    let shape_text = dict_value(header, "shape").ok_or("the .npy header has no 'shape'")?;
+    let shape: Vec<usize> = shape_text
+        .trim_start_matches('(')
+        .split(')')
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.parse::<usize>()
+                .map_err(|_| format!("bad shape {shape_text}"))
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    let plane: Vec<usize> = shape.iter().copied().filter(|&n| n != 1).collect();
+    let (h, w) = match (plane.as_slice(), shape.len()) {
+        ([h, w], _) => (*h, *w),
+        // A 1-pixel-wide or -high map keeps its ones: take the last two axes.
+        (_, n) if n >= 2 && plane.len() < 2 => (shape[n - 2], shape[n - 1]),
+        _ => {
+            return Err(format!(
+                "shape {shape:?} is not one depth map (H, W), with batch or channel axes of 1"
+            ))
+        }
+    };
+    Ok((h, w))
 }
 
 /// The text after `'key':` in a .npy header dict, up to the end of the dict.

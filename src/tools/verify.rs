@@ -427,7 +427,33 @@ pub fn verify(root: &Path) -> Result<Report> {
     }
     report.listed = listed.len();
 
-    for (rel, expected) in &listed {
+    check_listed(root, &listed, &mut report);
+
+    let (present, _) = crate::fs::walk_tree(root)?;
+    for rel in present {
+        if !listed.contains_key(&rel) && !ignored(&rel, augmented) {
+            report.problems.push(Problem::Extra { path: rel });
+        }
+    }
+
+    let rank = |p: &Problem| match p {
+        Problem::BadPath { .. } => 0,
+        Problem::Conflict { .. } => 1,
+        Problem::Missing { .. } => 2,
+        Problem::Changed { .. } => 3,
+        Problem::Unreadable { .. } => 4,
+        Problem::Extra { .. } => 5,
+    };
+    report
+        .problems
+        .sort_by(|a, b| (rank(a), a.path()).cmp(&(rank(b), b.path())));
+    Ok(report)
+}
+
+/// Each listed file of `root` against its hash: matched, or a problem (missing, changed,
+/// unreadable).
+fn check_listed(root: &Path, listed: &BTreeMap<String, String>, report: &mut Report) {
+    for (rel, expected) in listed {
         let path: PathBuf = root.join(rel);
         match std::fs::symlink_metadata(&path) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -449,26 +475,6 @@ pub fn verify(root: &Path) -> Result<Report> {
             }),
         }
     }
-
-    let (present, _) = crate::fs::walk_tree(root)?;
-    for rel in present {
-        if !listed.contains_key(&rel) && !ignored(&rel, augmented) {
-            report.problems.push(Problem::Extra { path: rel });
-        }
-    }
-
-    let rank = |p: &Problem| match p {
-        Problem::BadPath { .. } => 0,
-        Problem::Conflict { .. } => 1,
-        Problem::Missing { .. } => 2,
-        Problem::Changed { .. } => 3,
-        Problem::Unreadable { .. } => 4,
-        Problem::Extra { .. } => 5,
-    };
-    report
-        .problems
-        .sort_by(|a, b| (rank(a), a.path()).cmp(&(rank(b), b.path())));
-    Ok(report)
 }
 
 #[cfg(test)]

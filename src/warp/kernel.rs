@@ -193,7 +193,9 @@ mod sse2 {
 
     /// The block's (r, g, b, junk) weighted sums.
     ///
-    /// SAFETY: `data + offset` and `data + offset + stride3` must have 8 readable bytes.
+    /// # Safety
+    ///
+    /// `data + offset` and `data + offset + stride3` must have 8 readable bytes.
     #[inline]
     #[target_feature(enable = "sse2")]
     pub(super) unsafe fn quad_sum(
@@ -235,7 +237,9 @@ mod sse2 {
         [v[0], v[1], v[2]]
     }
 
-    /// SAFETY: every block's reads (see [`quad_sum`]) must lie inside `data`.
+    /// # Safety
+    ///
+    /// Every block's reads (see [`quad_sum`]) must lie inside `data`.
     #[target_feature(enable = "sse2")]
     pub(super) unsafe fn apply_row(
         rounds: &[Round],
@@ -277,7 +281,9 @@ mod avx2 {
     /// (r r' g g' b b' 0 0) and the weights beside them (tl tr ... and bl br ...), so two
     /// `madd`s and one add give the sums.
     ///
-    /// SAFETY: `data + o` and `data + o + stride3` must have 16 readable bytes, for both
+    /// # Safety
+    ///
+    /// `data + o` and `data + o + stride3` must have 16 readable bytes, for both
     /// blocks.
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -328,7 +334,9 @@ mod avx2 {
 
     /// A round's sums: pixels (0, 2), (1, 3), (4, 6), (5, 7) of the group, low lane first.
     ///
-    /// SAFETY: as [`pair_sum`], for every block of the round.
+    /// # Safety
+    ///
+    /// As [`pair_sum`], for every block of the round.
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn round_sums(data: *const u8, stride3: usize, round: &Round) -> [__m256i; 4] {
@@ -370,7 +378,9 @@ mod avx2 {
         _mm256_shuffle_epi8(ordered, squeeze)
     }
 
-    /// SAFETY: every block's reads (see [`pair_sum`]) must lie inside `data`, and the CPU
+    /// # Safety
+    ///
+    /// Every block's reads (see [`pair_sum`]) must lie inside `data`, and the CPU
     /// must have AVX2.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn apply_row(
@@ -444,7 +454,9 @@ mod avx512 {
 
     /// 16 bytes at `data + o[i]` (+ `row`) in lane i.
     ///
-    /// SAFETY: each of those 16 bytes must be readable.
+    /// # Safety
+    ///
+    /// Each of those 16 bytes must be readable.
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn rows(data: *const u8, o: [u32; 4], row: usize) -> __m512i {
@@ -460,7 +472,9 @@ mod avx512 {
     /// `acc` plus the (r, g, b, junk) sums of the blocks at `o` (one a lane), whose weights
     /// are those of the low (`HIGH` false) or high quad of each lane of `w`.
     ///
-    /// SAFETY: `data + o[i]` and `data + o[i] + stride3` must have 16 readable bytes.
+    /// # Safety
+    ///
+    /// `data + o[i]` and `data + o[i] + stride3` must have 16 readable bytes.
     #[inline]
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
     unsafe fn four_sums<const HIGH: bool>(
@@ -499,7 +513,9 @@ mod avx512 {
         )
     }
 
-    /// SAFETY: every block's reads (see [`four_sums`]) must lie inside `data`, and the CPU
+    /// # Safety
+    ///
+    /// Every block's reads (see [`four_sums`]) must lie inside `data`, and the CPU
     /// must have what [`available`] checks.
     #[target_feature(enable = "avx512f,avx512bw,avx512vbmi,avx512vnni")]
     pub(super) unsafe fn apply_row(

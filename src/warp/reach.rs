@@ -98,112 +98,17 @@ impl Reach {
     ) -> Reach {
         let size = output.size();
         let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
-        let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
-        bearings
-            .par_chunks_mut(gw)
-            .enumerate()
-            .for_each(|(j, row)| {
-                for (i, out) in row.iter_mut().enumerate() {
-                    let p = Point2::new(i as f64 - 1.0, j as f64 - 1.0);
-                    if let Ok(d) = output.unproject(&p) {
-                        *out = d;
-                    }
-                }
-            });
-        // A: the largest turn between adjacent centres (across, down and both diagonals), the
-        // turn 2·asin(chord/2) of the longest chord (asin grows with its argument)
-        let turn = |a: &Vector3<f64>, b: &Vector3<f64>| {
-            let chord = (a.normalize() - b.normalize()).norm();
-            if chord.is_finite() {
-                chord
-            } else {
-                0.0
-            }
-        };
-        let step = (0..gh)
-            .into_par_iter()
-            .map(|j| {
-                let mut a: f64 = 0.0;
-                for i in 0..gw {
-                    let here = &bearings[j * gw + i];
-                    if i + 1 < gw {
-                        a = a.max(turn(here, &bearings[j * gw + i + 1]));
-                    }
-                    if j + 1 < gh {
-                        a = a.max(turn(here, &bearings[(j + 1) * gw + i]));
-                        if i + 1 < gw {
-                            a = a.max(turn(here, &bearings[(j + 1) * gw + i + 1]));
-                        }
-                        if i > 0 {
-                            a = a.max(turn(here, &bearings[(j + 1) * gw + i - 1]));
-                        }
-                    }
-                }
-                a
-            })
-            .reduce(|| 0.0, f64::max);
-        let step = 2.0 * (step / 2.0).min(1.0).asin();
+        let bearings = grid_bearings(output, gw, gh);
+        let step = largest_turn(&bearings, gw, gh);
         let tiles = near.map(|near| tile_nearest(&bearings, gw, gh, step, near));
-        let tiles_across = gw.div_ceil(TILE);
-        let reach = cameras
-            .iter()
-            .map(|cone| {
-                let (Some(c), Some(k)) = (cone.half_angle, cone.parallax) else {
-                    return None;
-                };
-                let limit = c + 2.0 * step * k + 1e-9;
-                // one limit for every position, or with a baseline one per tile
-                let limits: Vec<f64> = match (cone.baseline, &tiles) {
-                    (None, _) => vec![limit],
-                    (Some(b), Some(tiles)) => tiles
-                        .iter()
-                        .map(|&t| {
-                            if b.is_finite() && b < t {
-                                limit + (b / t).asin()
-                            } else {
-                                f64::INFINITY
-                            }
-                        })
-                        .collect(),
-                    (Some(_), None) => return None,
-                };
-                if !limits.iter().any(|l| *l < std::f64::consts::PI) {
-                    return None;
-                }
-                // θ(q) > limit + 1e-6 as cos θ < cos(limit + 1e-6): no atan2 per position, and
-                // the few positions within 1e-6 rad beyond the limit stay candidates (a larger
-                // set changes no value); near π a cosine no longer resolves the angle
-                let cos_limits: Vec<Option<f64>> = limits
-                    .iter()
-                    .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
-                    .collect();
-                let candidate: Vec<bool> = bearings
-                    .par_iter()
-                    .enumerate()
-                    .map(|(at, d)| {
-                        if !d.x.is_finite() {
-                            return true;
-                        }
-                        let tile = if limits.len() == 1 {
-                            0
-                        } else {
-                            (at / gw / TILE) * tiles_across + at % gw / TILE
-                        };
-                        let limit = limits[tile];
-                        if !(limit < std::f64::consts::PI) {
-                            return true;
-                        }
-                        let q = (cone.local)(d);
-                        // NaN compares false: such a point is a candidate too
-                        match cos_limits[tile] {
-                            Some(c) => !(q.z < c * q.norm()),
-                            None => !(q.x.hypot(q.y).atan2(q.z) > limit),
-                        }
-                    })
-                    .collect();
-                Some(widen(&candidate, gw, gh))
-            })
-            .collect();
+        let grid = Grid {
+            bearings: &bearings,
+            gw,
+            gh,
+            step,
+            tiles: tiles.as_deref(),
+        };
+        let reach = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
         Reach {
             size,
             bearings,
@@ -255,6 +160,139 @@ impl Reach {
             .as_ref()
             .is_none_or(|r| r[(v + 1) * (self.size.width as usize + 2) + u + 1])
     }
+}
+
+/// The bearings of `output`'s positions -1..=width × -1..=height (`gw` × `gh`), row-major,
+/// NaN where it has none.
+fn grid_bearings(output: &dyn CameraModel, gw: usize, gh: usize) -> Vec<Vector3<f64>> {
+    let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
+    bearings
+        .par_chunks_mut(gw)
+        .enumerate()
+        .for_each(|(j, row)| {
+            for (i, out) in row.iter_mut().enumerate() {
+                let p = Point2::new(i as f64 - 1.0, j as f64 - 1.0);
+                if let Ok(d) = output.unproject(&p) {
+                    *out = d;
+                }
+            }
+        });
+    bearings
+}
+
+/// A: the largest turn between adjacent centres of the grid (across, down and both
+/// diagonals), radians.
+fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f64 {
+    // the turn 2·asin(chord/2) of the longest chord (asin grows with its argument)
+    let turn = |a: &Vector3<f64>, b: &Vector3<f64>| {
+        let chord = (a.normalize() - b.normalize()).norm();
+        if chord.is_finite() {
+            chord
+        } else {
+            0.0
+        }
+    };
+    let step = (0..gh)
+        .into_par_iter()
+        .map(|j| {
+            let mut a: f64 = 0.0;
+            for i in 0..gw {
+                let here = &bearings[j * gw + i];
+                if i + 1 < gw {
+                    a = a.max(turn(here, &bearings[j * gw + i + 1]));
+                }
+                if j + 1 < gh {
+                    a = a.max(turn(here, &bearings[(j + 1) * gw + i]));
+                    if i + 1 < gw {
+                        a = a.max(turn(here, &bearings[(j + 1) * gw + i + 1]));
+                    }
+                    if i > 0 {
+                        a = a.max(turn(here, &bearings[(j + 1) * gw + i - 1]));
+                    }
+                }
+            }
+            a
+        })
+        .reduce(|| 0.0, f64::max);
+    2.0 * (step / 2.0).min(1.0).asin()
+}
+
+/// The output's grid as a cone's bound reads it.
+struct Grid<'a> {
+    bearings: &'a [Vector3<f64>],
+    gw: usize,
+    gh: usize,
+    /// The largest turn between adjacent positions.
+    step: f64,
+    /// The nearest scene distance per tile, when bounded.
+    tiles: Option<&'a [f64]>,
+}
+
+/// The positions of the grid where `cone`'s camera may give a sample (widened by one), None
+/// for every position.
+fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
+    let Grid {
+        bearings,
+        gw,
+        gh,
+        step,
+        tiles,
+    } = *grid;
+    let tiles_across = gw.div_ceil(TILE);
+    let (Some(c), Some(k)) = (cone.half_angle, cone.parallax) else {
+        return None;
+    };
+    let limit = c + 2.0 * step * k + 1e-9;
+    // one limit for every position, or with a baseline one per tile
+    let limits: Vec<f64> = match (cone.baseline, &tiles) {
+        (None, _) => vec![limit],
+        (Some(b), Some(tiles)) => tiles
+            .iter()
+            .map(|&t| {
+                if b.is_finite() && b < t {
+                    limit + (b / t).asin()
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .collect(),
+        (Some(_), None) => return None,
+    };
+    if !limits.iter().any(|l| *l < std::f64::consts::PI) {
+        return None;
+    }
+    // θ(q) > limit + 1e-6 as cos θ < cos(limit + 1e-6): no atan2 per position, and
+    // the few positions within 1e-6 rad beyond the limit stay candidates (a larger
+    // set changes no value); near π a cosine no longer resolves the angle
+    let cos_limits: Vec<Option<f64>> = limits
+        .iter()
+        .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
+        .collect();
+    let candidate: Vec<bool> = bearings
+        .par_iter()
+        .enumerate()
+        .map(|(at, d)| {
+            if !d.x.is_finite() {
+                return true;
+            }
+            let tile = if limits.len() == 1 {
+                0
+            } else {
+                (at / gw / TILE) * tiles_across + at % gw / TILE
+            };
+            let limit = limits[tile];
+            if !(limit < std::f64::consts::PI) {
+                return true;
+            }
+            let q = (cone.local)(d);
+            // NaN compares false: such a point is a candidate too
+            match cos_limits[tile] {
+                Some(c) => !(q.z < c * q.norm()),
+                None => !(q.x.hypot(q.y).atan2(q.z) > limit),
+            }
+        })
+        .collect();
+    Some(widen(&candidate, gw, gh))
 }
 
 /// Per tile of [`TILE`]×[`TILE`] positions (row-major), a lower bound of the scene's distance

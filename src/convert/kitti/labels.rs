@@ -75,6 +75,16 @@ pub(super) fn objects_in(
         .count() as u32
 }
 
+/// One label moved into an output camera ([`move_label`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MovedLabel {
+    /// Its line there.
+    pub line: String,
+    /// Whether it counts as an object (`--min-objects`): an object the visibility rule
+    /// accepts, or an object without a 3D box; not a DontCare region.
+    pub object: bool,
+}
+
 /// One label in the output camera `output` of the source camera `source` (both about
 /// `centre`, rect axes): its new line, or None when it left the image.
 pub fn transform_label(
@@ -83,9 +93,39 @@ pub fn transform_label(
     source: &dyn CameraModel,
     output: &dyn CameraModel,
 ) -> Option<String> {
-    let placed = match label.to_source_box() {
-        Some(b) => source_box_in_image(&b, centre, output),
-        None => region_in_image(&label.to_region(0), source, output),
-    }?;
-    Some(label.moved_line(placed.bounds, placed.truncation))
+    move_label(label, centre, source, output, &Visibility::OFF).map(|m| m.line)
+}
+
+/// One label in the output camera `output` of the source camera `source` (both about
+/// `centre`, rect axes), as [`label_text`] writes it (an object that fails `visibility` as a
+/// DontCare region) and [`objects_in`] counts it; None when it left the image.
+pub fn move_label(
+    label: &Label,
+    centre: &Vector3<f64>,
+    source: &dyn CameraModel,
+    output: &dyn CameraModel,
+    visibility: &Visibility,
+) -> Option<MovedLabel> {
+    let moved = |placed: BoxInImage, object| MovedLabel {
+        line: label.moved_line(placed.bounds, placed.truncation),
+        object,
+    };
+    match label.to_source_box() {
+        Some(b) => {
+            let placed = source_box_in_image(&b, centre, output)?;
+            Some(if visibility.sees(&placed) {
+                moved(placed, true)
+            } else {
+                MovedLabel {
+                    line: dont_care_line(placed.bounds),
+                    object: false,
+                }
+            })
+        }
+        None => {
+            let region = label.to_region(0);
+            let placed = region_in_image(&region, source, output)?;
+            Some(moved(placed, !region.is_ignore()))
+        }
+    }
 }

@@ -12,7 +12,7 @@ mod views;
 mod write;
 
 pub use crate::convert::run_options::{DepthJob, StyleJob, StyleOrder};
-pub use labels::transform_label;
+pub use labels::{move_label, transform_label, MovedLabel};
 pub use options::KittiOptions;
 pub use run::run_kitti;
 

@@ -13,7 +13,7 @@ use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
 use crate::run::journal::Journal;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::names::IMAGE_SETS;
-use crate::run::{Claim, FrameWork, OutputFolder, Progress};
+use crate::run::{Claim, FrameRun, FrameWork, OutputFolder, Progress};
 use crate::style::StyleModel;
 use std::collections::HashMap;
 use std::path::Path;
@@ -41,14 +41,7 @@ pub fn run_kitti(
         resumable: true,
         started,
     })?;
-    let ids = job.frames.as_ref().map(|ids| full_ids(&dataset, ids));
-    let (mut frames, missing) = dataset.select(ids.as_deref());
-    // Checked on the whole selection, before sharding: a shard may own no frame of a small set.
-    dataset.check_selection(&frames, &missing)?;
-    dataset.check_folders(&job.cameras, job.depth.is_some())?;
-    if let Some(shard) = job.shard {
-        frames.retain(|f| shard.owns(&f.split, &f.id));
-    }
+    let frames = selected_frames(job, &dataset)?;
     let style = crate::convert::run_options::load_style(job.style.as_ref())?;
     let parameters =
         serde_json::to_value(Parameters::new(job, style.as_ref())).expect("parameters serialise");
@@ -63,8 +56,7 @@ pub fn run_kitti(
         .map(|m| StylePass::new(m, job.style.as_ref().map_or(1, |s| s.batch)));
     if job.augment.is_none() {
         // (augmented views have tables of their own, built with the frame)
-        let todo: Vec<(&Split, &str)> = frames
-            .iter()
+        let todo: Vec<(&Split, &str)> = (frames.iter())
             .filter(|f| !previous.contains(&f.split, &f.id))
             .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
             .collect();
@@ -74,10 +66,12 @@ pub fn run_kitti(
         write_split_calib(&ctx, split)?;
     }
     let unusable = unusable_frames(job, &dataset);
-    let not_frames = if job.frames.is_none() && folder.writes_shared_files() {
+    // what the dataset holds that is no frame: listed once, by an unsharded run or shard 0
+    let listed = job.frames.is_none() && folder.writes_shared_files();
+    let not_frames = if listed {
         crate::kitti::not_frames::list(&dataset)
     } else {
-        Vec::new()
+        Default::default()
     };
     let mut run = folder.start(
         job.source.command(),
@@ -92,18 +86,9 @@ pub fn run_kitti(
         ctx: &ctx,
         style_pass: style_pass.as_ref(),
     };
-    run.run(
-        &frames,
-        style_pass.as_ref().map_or(1, |p| p.group_len()),
-        &work,
-    );
-    for &(split, name) in &unusable {
-        let e = Error::file(
-            &split.image_path(Cam::C2, "x").with_file_name(name),
-            "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
-        );
-        run.record_failed(&split.name, name, &e);
-    }
+    let group = style_pass.as_ref().map_or(1, |p| p.group_len());
+    run.run(&frames, group, &work);
+    record_unusable(&run, &unusable);
     let summary = run.finish(ctx.views.tables_built(), |journal| {
         if job.augment.is_some() && job.shard.is_none() {
             // augmented ids are new: list them so KITTI loaders find the views
@@ -119,6 +104,30 @@ pub fn run_kitti(
             .map(|a| (ctx.views.thin_views(), a.min_objects.max(1) as usize)),
         not_frames,
     })
+}
+
+/// The frames of the selection this process converts: checked on the whole selection, before
+/// sharding (a shard may own no frame of a small set), then the shard's.
+fn selected_frames(job: &KittiJob, dataset: &Dataset) -> Result<Vec<FrameRef>> {
+    let ids = job.frames.as_ref().map(|ids| full_ids(dataset, ids));
+    let (mut frames, missing) = dataset.select(ids.as_deref());
+    dataset.check_selection(&frames, &missing)?;
+    dataset.check_folders(&job.cameras, job.depth.is_some())?;
+    if let Some(shard) = job.shard {
+        frames.retain(|f| shard.owns(&f.split, &f.id));
+    }
+    Ok(frames)
+}
+
+/// The image files of the selection that are not frames, each recorded as a failure.
+fn record_unusable(run: &FrameRun, unusable: &[(&Split, &String)]) {
+    for &(split, name) in unusable {
+        let e = Error::file(
+            &split.image_path(Cam::C2, "x").with_file_name(name),
+            "not a KITTI frame name (frames are <id>.png, lower case, with a UTF-8 name): rename it to convert it",
+        );
+        run.record_failed(&split.name, name, &e);
+    }
 }
 
 /// Two inputs that look like a KITTI root but are not the one to give: a dataset panoconv

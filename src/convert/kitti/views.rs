@@ -147,39 +147,8 @@ impl<'a> Views<'a> {
                         "--augment needs numeric frame ids (e.g. 000123)",
                     )
                 })?;
-                let (view, output) = match draw {
-                    Draw::As(attempts) => {
-                        let view =
-                            aug.view(&split.name, id, i, attempts[i as usize], canvas.size());
-                        (view, view_camera(&view)?)
-                    }
-                    Draw::First => {
-                        let drawn =
-                            draw_view(aug, (&split.name, id), i, canvas.size(), view_camera, None)?;
-                        (drawn.view, drawn.camera)
-                    }
-                    Draw::Fewest(objects) => {
-                        let count = |output: &dyn OutputCamera| {
-                            Ok(objects(output as &dyn CameraModel) as usize)
-                        };
-                        let drawn = draw_view(
-                            aug,
-                            (&split.name, id),
-                            i,
-                            canvas.size(),
-                            view_camera,
-                            Some(&count),
-                        )?;
-                        // (counted with no minimum asked too: views holding no object)
-                        if drawn
-                            .objects
-                            .is_some_and(|n| n < aug.min_objects.max(1) as usize)
-                        {
-                            self.thin_views.fetch_add(1, Ordering::Relaxed);
-                        }
-                        (drawn.view, drawn.camera)
-                    }
-                };
+                let (view, output) =
+                    self.draw(aug, (split, id), i, canvas.size(), &view_camera, draw)?;
                 // Every view has its own camera, so its table is not shared.
                 let table = table(output.as_ref(), &source, false);
                 let mapping = CameraMapping {
@@ -193,6 +162,41 @@ impl<'a> Views<'a> {
                 })
             })
             .collect()
+    }
+
+    /// View `i` of frame `id` (on a canvas of `size`) and its camera, drawn as `draw` says.
+    fn draw(
+        &self,
+        aug: &Augment,
+        (split, id): (&Split, &str),
+        i: u32,
+        size: ImageSize,
+        view_camera: &dyn Fn(&View) -> Result<Box<dyn OutputCamera>>,
+        draw: Draw,
+    ) -> Result<(View, Box<dyn OutputCamera>)> {
+        Ok(match draw {
+            Draw::As(attempts) => {
+                let view = aug.view(&split.name, id, i, attempts[i as usize], size);
+                (view, view_camera(&view)?)
+            }
+            Draw::First => {
+                let drawn = draw_view(aug, (&split.name, id), i, size, view_camera, None)?;
+                (drawn.view, drawn.camera)
+            }
+            Draw::Fewest(objects) => {
+                let count =
+                    |output: &dyn OutputCamera| Ok(objects(output as &dyn CameraModel) as usize);
+                let drawn = draw_view(aug, (&split.name, id), i, size, view_camera, Some(&count))?;
+                // (counted with no minimum asked too: views holding no object)
+                if drawn
+                    .objects
+                    .is_some_and(|n| n < aug.min_objects.max(1) as usize)
+                {
+                    self.thin_views.fetch_add(1, Ordering::Relaxed);
+                }
+                (drawn.view, drawn.camera)
+            }
+        })
     }
 
     /// Augmented views of labelled frames holding fewer objects than asked (or none, when no

@@ -1,5 +1,8 @@
-//! A rig conversion's job ([`RigJob`]: the output camera, the cameras, the stitch, the
-//! objects, the options every run shares), its summary, and what the manifest records of it.
+//! A rig conversion's job: what it is asked ([`RigSpec`]: the output camera, the cameras, the
+//! stitch, the objects, the options every run shares), and [`RigJob`], made from it by the one
+//! check of its rules ([`RigJob::new`]), which a rig run takes: the CLI maps flags to a spec, a
+//! library caller (a plug-in adapter, the Python package) writes one, and both get the same
+//! errors from the same place. Then its summary, and what the manifest records of it.
 //!
 //! The output is a KITTI object dataset: `OUT/training/{image_2, label_2, calib, source_2,
 //! objects, depth_2}/ID.*` (docs/kitti360.md), ID the source's item id.
@@ -24,9 +27,10 @@ use std::path::PathBuf;
 /// The split every frame is written to (KITTI's loaders and panoconv's tools find it there).
 pub const SPLIT: &str = "training";
 
-/// A rig conversion: what any [`crate::source::RigSource`] is converted into, and how.
+/// What a rig conversion is asked: what any [`crate::source::RigSource`] is converted into,
+/// and how. Plain values: [`RigJob::new`] checks them.
 #[derive(Debug, Clone)]
-pub struct RigJob {
+pub struct RigSpec {
     /// The options every conversion shares: output, mode, shard, PNG effort, style (before
     /// the stitch only: the blend and the exposure gains work on styled images), augmented
     /// views, depth maps, export.
@@ -52,7 +56,63 @@ pub struct RigJob {
     pub ego_masks: Vec<(usize, PathBuf)>,
 }
 
+/// A rig conversion whose rules hold ([`RigJob::new`]); it reads as its [`RigSpec`].
+#[derive(Debug, Clone)]
+pub struct RigJob {
+    spec: RigSpec,
+}
+
 impl RigJob {
+    /// The job of `spec`, its rules checked once, before any file is read, the output folder
+    /// locked or a model loaded: the shared ones ([`RunOptions::validate`]), the cameras named
+    /// once each, the style before the stitch, the positive distances and LiDAR azimuth step.
+    /// Every refusal is a set-up error.
+    pub fn new(spec: RigSpec) -> Result<Self> {
+        spec.run.validate()?;
+        if spec.cameras.is_empty() {
+            return Err(Error::Setup("no camera chosen".into()));
+        }
+        if let Some(k) = (spec.cameras.iter().enumerate())
+            .find_map(|(i, k)| spec.cameras[..i].contains(k).then_some(k))
+        {
+            return Err(Error::Setup(format!("camera {k} is chosen twice")));
+        }
+        if (spec.run.style.as_ref()).is_some_and(|s| s.order == StyleOrder::AfterWarp) {
+            return Err(Error::Setup(
+                "--style-after-warp: each camera's image is styled before the stitch, so that \
+                 the blend and the exposure gains work on styled images"
+                    .into(),
+            ));
+        }
+        let azimuth_step = spec.depth().flatten().map(|f| f.azimuth_spacing);
+        for (v, flag) in [
+            (Some(spec.stitch.distance), "--stitch-distance"),
+            (Some(spec.stitch.blend_width), "--blend-width"),
+            (Some(spec.objects.max_distance), "--max-distance"),
+            (azimuth_step, "--lidar-azimuth-step"),
+        ] {
+            if v.is_some_and(|v| !(v > 0.0 && v.is_finite())) {
+                return Err(Error::Setup(format!("{flag} must be positive")));
+            }
+        }
+        Ok(Self { spec })
+    }
+
+    /// What the job was made of.
+    pub fn spec(&self) -> &RigSpec {
+        &self.spec
+    }
+}
+
+impl std::ops::Deref for RigJob {
+    type Target = RigSpec;
+
+    fn deref(&self) -> &RigSpec {
+        &self.spec
+    }
+}
+
+impl RigSpec {
     /// Whether LiDAR scans are read (depth maps, or the objects' LiDAR check): what a
     /// source is opened with.
     pub fn needs_lidar(&self) -> bool {
@@ -62,46 +122,6 @@ impl RigJob {
     /// Whether the frames are stitched by depth (two cameras or more, depth mode).
     pub fn depth_guided(&self) -> bool {
         self.stitch_mode == StitchMode::Depth && self.cameras.len() > 1
-    }
-
-    /// The rules of a rig job that need no file, checked before the output folder is locked
-    /// or a model loaded: the shared ones, the cameras named once each, the style before the
-    /// stitch, the positive distances.
-    pub fn validate(&self) -> Result<()> {
-        self.run.validate()?;
-        if self.cameras.is_empty() {
-            return Err(Error::Setup("no camera chosen".into()));
-        }
-        if let Some(k) = self
-            .cameras
-            .iter()
-            .enumerate()
-            .find_map(|(i, k)| self.cameras[..i].contains(k).then_some(k))
-        {
-            return Err(Error::Setup(format!("camera {k} is chosen twice")));
-        }
-        if self
-            .run
-            .style
-            .as_ref()
-            .is_some_and(|s| s.order == StyleOrder::AfterWarp)
-        {
-            return Err(Error::Setup(
-                "--style-after-warp: each camera's image is styled before the stitch, so that \
-                 the blend and the exposure gains work on styled images"
-                    .into(),
-            ));
-        }
-        for (v, what) in [
-            (self.stitch.distance, "the stitch distance"),
-            (self.stitch.blend_width, "the blend width"),
-            (self.objects.max_distance, "the objects' maximum distance"),
-        ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(Error::Setup(format!("{what} must be positive")));
-            }
-        }
-        Ok(())
     }
 
     /// The depth maps asked for: with the occlusion filter (Some(Some)), without it
@@ -280,8 +300,8 @@ mod tests {
     use crate::geometry::{Canvas, OutputSpec, Scale};
     use crate::run::OutputMode;
 
-    fn job() -> RigJob {
-        RigJob {
+    fn job() -> RigSpec {
+        RigSpec {
             run: RunOptions {
                 output: "out".into(),
                 mode: OutputMode::New,
@@ -317,8 +337,8 @@ mod tests {
         }
     }
 
-    fn refusal(job: RigJob) -> String {
-        match job.validate() {
+    fn refusal(spec: RigSpec) -> String {
+        match RigJob::new(spec) {
             Err(Error::Setup(m)) => m,
             other => panic!("expected a set-up error, got {other:?}"),
         }
@@ -326,35 +346,35 @@ mod tests {
 
     #[test]
     fn each_rule_of_a_rig_job_refuses_before_anything_is_read() {
-        assert!(job().validate().is_ok());
+        assert!(RigJob::new(job()).is_ok());
         assert!(!job().needs_lidar());
         // a depth-guided stitch of two cameras reads the scans; of one camera it is a warp
-        let depth = RigJob {
+        let depth = RigSpec {
             stitch_mode: StitchMode::Depth,
             ..job()
         };
         assert!(depth.depth_guided() && depth.needs_lidar());
-        assert!(!RigJob {
+        assert!(!RigSpec {
             cameras: vec![0],
             ..depth
         }
         .depth_guided());
-        let m = refusal(RigJob {
+        let m = refusal(RigSpec {
             cameras: vec![],
             ..job()
         });
         assert_eq!(m, "no camera chosen");
-        let m = refusal(RigJob {
+        let m = refusal(RigSpec {
             cameras: vec![2, 0, 2],
             ..job()
         });
         assert_eq!(m, "camera 2 is chosen twice");
         let mut j = job();
         j.stitch.distance = 0.0;
-        assert_eq!(refusal(j), "the stitch distance must be positive");
+        assert_eq!(refusal(j), "--stitch-distance must be positive");
         let mut j = job();
         j.objects.max_distance = f64::NAN;
-        assert_eq!(refusal(j), "the objects' maximum distance must be positive");
+        assert_eq!(refusal(j), "--max-distance must be positive");
         let mut j = job();
         j.run.shard = Some(Shard { index: 1, count: 2 });
         j.run.export = true;
@@ -364,5 +384,13 @@ mod tests {
             occlusion_filter: None,
         });
         assert!(j.needs_lidar() && matches!(j.depth(), Some(None)));
+        assert!(RigJob::new(j.clone()).is_ok());
+        j.run.depth = Some(crate::convert::run_options::DepthJob {
+            occlusion_filter: Some(OcclusionFilter {
+                azimuth_spacing: -0.1,
+                ..OcclusionFilter::default()
+            }),
+        });
+        assert_eq!(refusal(j), "--lidar-azimuth-step must be positive");
     }
 }

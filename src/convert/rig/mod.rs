@@ -28,7 +28,7 @@ mod setup;
 
 pub use canvas::{rig_output_spec, uncovered_share, CanvasFlags, DEFAULT_PANO_WIDTH};
 pub use ground::Ground;
-pub use job::{ObjectCounts, RigJob, RigSummary, SPLIT};
+pub use job::{ObjectCounts, RigJob, RigSpec, RigSummary, SPLIT};
 pub use objects::{
     DropReason, ObjectOutcome, ObjectRule, PlacedObject, GROUND_MARGIN, TILT_TOLERANCE,
 };

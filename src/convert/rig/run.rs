@@ -15,7 +15,7 @@ use super::pass::{
     RigOptions,
 };
 use super::scene_depth::StitchMode;
-use super::setup::{check_cameras, check_output_camera, read_ego_masks};
+use super::setup::{check_cameras, check_output_camera, read_ego_masks, Masks};
 use crate::camera::OutputCamera;
 use crate::convert::augment_draw::{draw_view, CountObjects};
 use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
@@ -403,8 +403,8 @@ impl FrameWork for Ctx<'_> {
     }
 }
 
-/// Runs a rig conversion of `source`. Set-up problems return `Err` before anything is
-/// written; a broken frame is reported through `progress`, recorded in the manifest and
+/// Runs a rig conversion of `source` (the job's own rules were checked when it was made).
+/// Set-up problems return `Err` before anything is written; a broken frame is reported through `progress`, recorded in the manifest and
 /// counted in the summary. `stop` (SIGINT, SIGTERM) ends the taking of frames. Must run inside
 /// the caller's rayon pool.
 pub fn run_rig(
@@ -414,7 +414,6 @@ pub fn run_rig(
     stop: &AtomicBool,
 ) -> Result<RigSummary> {
     let started = std::time::Instant::now();
-    job.validate()?;
     check_cameras(job, source)?;
     let RigItems {
         mut items,
@@ -450,42 +449,9 @@ pub fn run_rig(
         check_output_camera(job, source, item, read)?;
     }
     folder.prepare()?;
-    for kind in OUTPUTS {
-        if (kind == OutputKind::Depth && job.run.depth.is_none())
-            || (kind == OutputKind::StitchDepth && !(job.stitch_depth && job.depth_guided()))
-        {
-            continue;
-        }
-        let dir = folder.root().join(SPLIT).join(kind.folder());
-        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    }
-    let infos = (0..source.parts())
-        .map(|p| source.cameras(p).iter().map(|c| c.info).collect())
-        .collect();
-    let batch = job.run.style.as_ref().map_or(1, |s| s.batch);
-    let ctx = Ctx {
-        job,
-        source,
-        infos,
-        hashes: OnceMap::default(),
-        objects: Mutex::new(ObjectCounts::default()),
-        options: RigOptions {
-            cameras: job.cameras.clone(),
-            stitch: job.stitch,
-            stitch_mode: job.stitch_mode,
-            stitch_depth: job.stitch_depth,
-            listed: source.listed(),
-            centre: job.centre,
-            objects: job.objects,
-            depth: job.depth(),
-            ego_masks: masks,
-            // the style pass styles the images between `prepare` and `finish`
-            style: None,
-        },
-        style_pass: style.as_ref().map(|m| StylePass::new(m, batch)),
-        thin_views: AtomicUsize::new(0),
-        first: Mutex::new(first.map(|(item, read)| (item.id.clone(), read))),
-    };
+    create_output_folders(job, folder.root())?;
+    let mut ctx = Ctx::new(job, source, masks, style.as_ref());
+    ctx.first = Mutex::new(first.map(|(item, read)| (item.id.clone(), read)));
     let mut run = folder.start(
         source.command(),
         parameters,
@@ -508,6 +474,59 @@ pub fn run_rig(
             .map(|_| ctx.thin_views.load(Ordering::Relaxed)),
         not_frames,
     })
+}
+
+/// The folders of `OUT/training/` the job writes into.
+fn create_output_folders(job: &RigJob, root: &Path) -> Result<()> {
+    for kind in OUTPUTS {
+        if (kind == OutputKind::Depth && job.run.depth.is_none())
+            || (kind == OutputKind::StitchDepth && !(job.stitch_depth && job.depth_guided()))
+        {
+            continue;
+        }
+        let dir = root.join(SPLIT).join(kind.folder());
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    }
+    Ok(())
+}
+
+impl<'a> Ctx<'a> {
+    /// What the frames of a run share: the job's frame pass, its ego `masks`, the style pass
+    /// of `style`; no frame read yet.
+    fn new(
+        job: &'a RigJob,
+        source: &'a dyn RigSource,
+        masks: Masks,
+        style: Option<&'a StyleModel>,
+    ) -> Self {
+        let infos = (0..source.parts())
+            .map(|p| source.cameras(p).iter().map(|c| c.info).collect())
+            .collect();
+        let batch = job.run.style.as_ref().map_or(1, |s| s.batch);
+        Ctx {
+            job,
+            source,
+            infos,
+            hashes: OnceMap::default(),
+            objects: Mutex::new(ObjectCounts::default()),
+            options: RigOptions {
+                cameras: job.cameras.clone(),
+                stitch: job.stitch,
+                stitch_mode: job.stitch_mode,
+                stitch_depth: job.stitch_depth,
+                listed: source.listed(),
+                centre: job.centre,
+                objects: job.objects,
+                depth: job.depth(),
+                ego_masks: masks,
+                // the style pass styles the images between `prepare` and `finish`
+                style: None,
+            },
+            style_pass: style.map(|m| StylePass::new(m, batch)),
+            thin_views: AtomicUsize::new(0),
+            first: Mutex::new(None),
+        }
+    }
 }
 
 /// The dataset's own verdict on a box: its class, then its count of sensor returns.

@@ -12,7 +12,7 @@ use crate::warp::EgoMask;
 use std::sync::Arc;
 
 /// Ego masks by rig index (None: the camera has none).
-type Masks = Vec<Option<Arc<EgoMask>>>;
+pub(super) type Masks = Vec<Option<Arc<EgoMask>>>;
 
 /// Every chosen camera is in every part's camera set.
 pub(super) fn check_cameras(job: &RigJob, source: &dyn RigSource) -> Result<()> {

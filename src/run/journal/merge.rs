@@ -144,6 +144,65 @@ impl Drop for Remove {
 /// present once and finished, no frame twice. Removes the parts afterwards. Returns the number
 /// of frames.
 pub fn merge(output: &Path) -> Result<usize> {
+    let parts = shard_manifests(output)?;
+    let spool_path = output.join(spool_name("merge"));
+    let file = File::create(&spool_path).map_err(|e| Error::io(&spool_path, e))?;
+    let _remove = Remove(spool_path.clone());
+    let mut spool = Spool {
+        writer: BufWriter::with_capacity(1 << 20, file),
+        end: 0,
+        index: LineIndex::default(),
+        written: BTreeMap::new(),
+    };
+    let (mut header, parameters) = read_parts(&parts, &mut spool)?;
+    spool
+        .writer
+        .flush()
+        .map_err(|e| Error::io(&spool_path, e))?;
+    spool.index.sort();
+    if let Some((split, id, a, b)) = spool.index.duplicate() {
+        return Err(Error::Setup(format!(
+            "cannot merge: frame {split}/{id} is in shards {} and {}",
+            a.min(b),
+            a.max(b)
+        )));
+    }
+    let augmented = parameters.get("augment").is_some_and(|a| !a.is_null());
+    header.insert("parameters".into(), parameters);
+    let counts = spool.index.counts();
+    let lines = spool.index.lines(&spool_path)?;
+    let counts = pretty::Counts {
+        frames: counts.0,
+        failed: counts.1,
+        selected: None,
+    };
+    pretty::write_manifest(
+        &output.join(MANIFEST),
+        &header,
+        counts,
+        true,
+        lines,
+        &Map::new(),
+    )?;
+    if augmented {
+        // As the unsharded run: the view ids, so that KITTI loaders find the views.
+        let dir = output.join(IMAGE_SETS);
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        for (split, mut ids) in std::mem::take(&mut spool.written) {
+            ids.sort_unstable();
+            let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
+            crate::fs::write_atomic(&dir.join(format!("{split}.txt")), text.as_bytes())?;
+        }
+    }
+    for path in parts.values() {
+        let _ = std::fs::remove_file(path);
+    }
+    Ok(counts.frames)
+}
+
+/// The shard manifests of `output` by shard index: every shard of one count present, none
+/// still running (a journal).
+fn shard_manifests(output: &Path) -> Result<BTreeMap<u32, PathBuf>> {
     let entries = std::fs::read_dir(output)
         .map_err(|e| Error::Setup(format!("{}: {e}", output.display())))?;
     let mut parts: BTreeMap<u32, PathBuf> = BTreeMap::new();
@@ -193,33 +252,34 @@ pub fn merge(output: &Path) -> Result<usize> {
             missing.join(", ")
         )));
     }
+    Ok(parts)
+}
 
-    let spool_path = output.join(spool_name("merge"));
-    let file = File::create(&spool_path).map_err(|e| Error::io(&spool_path, e))?;
-    let _remove = Remove(spool_path.clone());
-    let mut spool = Spool {
-        writer: BufWriter::with_capacity(1 << 20, file),
-        end: 0,
-        index: LineIndex::default(),
-        written: BTreeMap::new(),
-    };
-    let strip_shard = |doc: &Map<String, Value>| -> Value {
-        let mut p = doc.get("parameters").cloned().unwrap_or(Value::Null);
-        if let Some(o) = p.as_object_mut() {
-            o.insert("shard".into(), Value::Null);
-        }
-        p
-    };
+/// A shard manifest's parameters without its shard: what every shard must share.
+fn strip_shard(doc: &Map<String, Value>) -> Value {
+    let mut p = doc.get("parameters").cloned().unwrap_or(Value::Null);
+    if let Some(o) = p.as_object_mut() {
+        o.insert("shard".into(), Value::Null);
+    }
+    p
+}
+
+/// Every shard's frame records into `spool`; the merged manifest's header (shard 0's tool,
+/// version and command) and parameters, every shard's the same and complete.
+fn read_parts(
+    parts: &BTreeMap<u32, PathBuf>,
+    spool: &mut Spool,
+) -> Result<(Map<String, Value>, Value)> {
     let mut header = Map::new();
     let mut parameters = Value::Null;
     let mut complete = true;
-    for (&k, path) in &parts {
+    for (&k, path) in parts {
         let file = File::open(path).map_err(|e| Error::io(path, e))?;
         let mut de = serde_json::Deserializer::from_reader(std::io::BufReader::new(file));
         let doc = de::Deserializer::deserialize_map(
             &mut de,
             PartVisitor {
-                spool: &mut spool,
+                spool: &mut *spool,
                 part: k,
             },
         )
@@ -243,49 +303,7 @@ pub fn merge(output: &Path) -> Result<usize> {
             "cannot merge: a shard did not finish (complete: false); resume it first".into(),
         ));
     }
-    spool
-        .writer
-        .flush()
-        .map_err(|e| Error::io(&spool_path, e))?;
-    spool.index.sort();
-    if let Some((split, id, a, b)) = spool.index.duplicate() {
-        return Err(Error::Setup(format!(
-            "cannot merge: frame {split}/{id} is in shards {} and {}",
-            a.min(b),
-            a.max(b)
-        )));
-    }
-    let augmented = parameters.get("augment").is_some_and(|a| !a.is_null());
-    header.insert("parameters".into(), parameters);
-    let counts = spool.index.counts();
-    let lines = spool.index.lines(&spool_path)?;
-    let counts = pretty::Counts {
-        frames: counts.0,
-        failed: counts.1,
-        selected: None,
-    };
-    pretty::write_manifest(
-        &output.join(MANIFEST),
-        &header,
-        counts,
-        true,
-        lines,
-        &Map::new(),
-    )?;
-    if augmented {
-        // As the unsharded run: the view ids, so that KITTI loaders find the views.
-        let dir = output.join(IMAGE_SETS);
-        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-        for (split, mut ids) in std::mem::take(&mut spool.written) {
-            ids.sort_unstable();
-            let text: String = ids.iter().map(|id| format!("{id}\n")).collect();
-            crate::fs::write_atomic(&dir.join(format!("{split}.txt")), text.as_bytes())?;
-        }
-    }
-    for path in parts.values() {
-        let _ = std::fs::remove_file(path);
-    }
-    Ok(counts.frames)
+    Ok((header, parameters))
 }
 
 #[cfg(test)]

@@ -33,6 +33,12 @@ impl Builder<'_> {
 
     /// [`Builder::lanes_table`] compiled for AVX2 (four lanes of f64 an instruction; the same
     /// IEEE operations, so the same bits).
+    ///
+    /// # Safety
+    ///
+    /// The processor must have AVX2 (`is_x86_feature_detected!("avx2")`): the function is
+    /// compiled with its instructions, which fault on a processor without them. It reads and
+    /// writes only through safe slices.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn lanes_table_avx2(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {

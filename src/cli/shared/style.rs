@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// `--style` and the options of its model runs.
 #[derive(Args)]
-pub(super) struct StyleArgs {
+pub(crate) struct StyleArgs {
     /// CycleGAN generator (ONNX) giving each source image the target domain's look, before the
     /// warp (a rig's cameras: before the stitch).
     #[arg(long, value_name = "MODEL.onnx")]
@@ -36,7 +36,7 @@ enum DeviceArg {
 impl StyleArgs {
     /// The style pass asked for (before the warp; `kitti` sets `--style-after-warp`'s order
     /// itself).
-    pub(super) fn job(&self) -> Option<StyleJob> {
+    pub(crate) fn job(&self) -> Option<StyleJob> {
         let model = self.style.clone()?;
         let device = match self.device {
             DeviceArg::Cpu => Device::Cpu,

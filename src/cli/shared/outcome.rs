@@ -1,13 +1,26 @@
 //! How a conversion's run ends on the command line, for every converting command: the summary
 //! line and the one mapping from a run's summary to its exit code.
 
-use super::{count, EXIT_FRAMES_FAILED, EXIT_INTERRUPTED};
 use panoconv::run::Summary;
 use std::path::Path;
 use std::process::ExitCode;
 
+/// Exit codes: some items failed (or the device filled), a set-up error, interrupted.
+pub(crate) const EXIT_FRAMES_FAILED: u8 = 1;
+pub(crate) const EXIT_SETUP: u8 = 2;
+pub(crate) const EXIT_INTERRUPTED: u8 = 130;
+
+/// `1 frame`, `2 frames`.
+pub(crate) fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// The summary line: items converted (kept from a previous run), failed, time, rate, output.
-pub(super) fn report(run: &Summary, noun: &str, output: &Path) {
+pub(crate) fn report(run: &Summary, noun: &str, output: &Path) {
     let resumed = if run.resumed > 0 {
         format!(" ({} kept from the previous run)", run.resumed)
     } else {
@@ -24,7 +37,7 @@ pub(super) fn report(run: &Summary, noun: &str, output: &Path) {
 }
 
 /// The style pass's line: images styled in how many model runs, if styled.
-pub(super) fn report_style(style_runs: Option<(usize, usize)>) {
+pub(crate) fn report_style(style_runs: Option<(usize, usize)>) {
     if let Some((runs, images)) = style_runs {
         eprintln!(
             "panoconv: style pass: {} in {}",
@@ -48,7 +61,7 @@ fn rate(items: usize, seconds: f64, noun: &str) -> String {
 /// The exit code of a run that stopped short or failed items (1: a full device or failed
 /// items, 130: interrupted), saying why; None when every item was converted (the caller may
 /// go on, e.g. to `--export`, and then exits 0).
-pub(super) fn exit_code(run: &Summary) -> Option<ExitCode> {
+pub(crate) fn exit_code(run: &Summary) -> Option<ExitCode> {
     if let Some(full) = &run.device_full {
         eprintln!("panoconv: {full}");
         return Some(ExitCode::from(EXIT_FRAMES_FAILED));
