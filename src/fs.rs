@@ -38,6 +38,20 @@ pub fn file_stems(dir: &Path, ext: &str) -> std::io::Result<Vec<String>> {
     Ok(stems)
 }
 
+/// The names of the folders in `dir` that hold a file `name`, sorted (none when `dir` cannot
+/// be read).
+pub fn folders_holding(dir: &Path, name: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.path().join(name).is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
 /// Reads a text file as lines (LF or CRLF), tagging a non-UTF-8 line with its number.
 pub fn read_lines(path: &Path) -> Result<Vec<String>> {
     split_lines(&read_file(path)?, path)

@@ -16,7 +16,7 @@ fn row(v: &[f64]) -> String {
 }
 
 /// The shipped synthetic training frames 000000 and 000002 (same calibration) as a raw date folder.
-fn raw_date_folder(root: &Path) -> std::path::PathBuf {
+pub(crate) fn raw_date_folder(root: &Path) -> std::path::PathBuf {
     let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/synthetic_kitti/training");
     let date = root.join("2011_09_26");
     let drive = date.join(DRIVE);

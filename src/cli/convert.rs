@@ -294,6 +294,7 @@ fn convert(
             &job.input,
             &job.output,
             &args.export,
+            &[],
             augmented,
             overwrite,
             quiet,

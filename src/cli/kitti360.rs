@@ -134,16 +134,7 @@ fn selection(args: &Kitti360Args, lidar: bool, scenery: bool) -> Result<Kitti360
         None => Kitti360Classes::Kitti,
         Some(list) if list.iter().any(|c| c == "all") => Kitti360Classes::All,
         Some(list) => {
-            for c in list {
-                if !panoconv::kitti360::classes::CLASSES
-                    .iter()
-                    .any(|(_, name, _)| name == c)
-                {
-                    bail!(setup(format!(
-                        "--classes {c:?}: not a KITTI-360 class (car, building, pole, ...)"
-                    )));
-                }
-            }
+            panoconv::kitti360::classes::check_named(list)?;
             Kitti360Classes::Also(list.clone())
         }
     };

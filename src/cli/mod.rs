@@ -114,7 +114,8 @@ enum Command {
     /// Camera files: fit another lens model to a camera (`camera convert`).
     #[command(after_help = CAMERA_EXAMPLES)]
     Camera(CameraArgs),
-    /// Report what a KITTI-layout dataset holds and what is missing or malformed in it.
+    /// Report what a KITTI-layout dataset holds and what is missing or malformed in it; describe
+    /// a nuScenes or KITTI-360 root.
     #[command(after_help = INSPECT_EXAMPLES)]
     Inspect(InspectArgs),
     /// Write COCO, YOLO or Omni3D annotations of a converted (or plain KITTI) dataset.

@@ -1,8 +1,8 @@
 //! `panoconv nuscenes`: the camera rigs of a nuScenes-format dataset into panoramas (or one
 //! camera converted), with their 3D boxes, LiDAR depth and the source map, as a KITTI dataset.
 
-use super::rig::{ego_masks, run_rig_command, setup, RigArgs, RigChoice};
-use anyhow::{bail, Result};
+use super::rig::{ego_masks, run_rig_command, RigArgs, RigChoice};
+use anyhow::Result;
 use clap::Args;
 use panoconv::nuscenes::{NuScenesClasses, NuScenesSelection, NuScenesSource};
 use panoconv::source::{RigSource, VehicleBox};
@@ -113,15 +113,11 @@ fn check_classes(source: &NuScenesSource, args: &NuScenesArgs) -> Result<()> {
     let Some(list) = &args.classes else {
         return Ok(());
     };
-    let known = source.dataset().category_names();
-    for c in list.iter().map(|c| c.trim()).filter(|c| *c != "all") {
-        if !known.iter().any(|k| k == c) {
-            bail!(setup(format!(
-                "--classes {c:?}: not a category of {} (e.g. {})",
-                source.dataset().table("category").display(),
-                known.first().map_or("vehicle.car", String::as_str)
-            )));
-        }
-    }
+    let dataset = source.dataset();
+    panoconv::nuscenes::classes::check_named(
+        list,
+        &dataset.category_names(),
+        &dataset.table("category"),
+    )?;
     Ok(())
 }

@@ -8,15 +8,18 @@ use super::shared::outcome::{count, exit_code};
 use super::shared::parse::{parse_crop, parse_shard, parse_size};
 use super::shared::run::{install_stop_handler, with_pool, Bar, RunArgs, STOP};
 use super::shared::style::StyleArgs;
-use super::shared::target::{projection_of, scale_of, To};
+use super::shared::target::{projection_of, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use nalgebra::Vector3;
-use panoconv::camera::{ImageSize, OutputProjection, Projection};
-use panoconv::convert::rig::{run_rig, ObjectRule, RigJob, RigSpec, RigSummary, StitchMode};
+use panoconv::camera::{ImageSize, OutputProjection};
+use panoconv::convert::rig::{
+    rig_output_spec, run_rig, uncovered_share, CanvasFlags, ObjectRule, RigJob, RigSpec,
+    RigSummary, StitchMode,
+};
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
-use panoconv::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Target};
+use panoconv::geometry::{Crop, FisheyeTarget, Target};
 use panoconv::reproject::depth::OcclusionFilter;
 use panoconv::run::journal::Shard;
 use panoconv::run::OutputMode;
@@ -90,13 +93,21 @@ pub(super) struct RigArgs {
     /// centres).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_centre, allow_hyphen_values = true)]
     centre: Option<Vector3<f64>>,
-    /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: the
-    /// first camera's focal length.
+    /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: 2048
+    /// for a panorama of several cameras, else the first camera's focal length.
     #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
     pano_width: Option<u32>,
     /// Scale in pixels per degree at the image centre.
     #[arg(long, value_name = "PX")]
     px_per_deg: Option<f64>,
+    /// Cover the whole 360° (equirect: and 180° of latitude). Default for a panorama of
+    /// several cameras: the band of elevations the cameras cover, unless a scale is given
+    /// (then the whole sphere).
+    #[arg(long, conflicts_with = "size")]
+    full_360: bool,
+    /// Explicit output size, centred on the first camera's field of view.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<ImageSize>,
     /// Crop the output canvas to this window (canvas pixels).
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<Crop>,
@@ -213,10 +224,11 @@ impl RigArgs {
     fn target(&self, cameras: usize) -> Result<Target> {
         Ok(match (projection_of(self.to), &self.camera) {
             (OutputProjection::Fisheye, Some(file)) => {
-                if self.pano_width.is_some() || self.px_per_deg.is_some() {
+                let sized = self.full_360 || self.size.is_some();
+                if self.pano_width.is_some() || self.px_per_deg.is_some() || sized {
                     bail!(setup(
-                        "--pano-width/--px-per-deg: a fisheye target has the scale of its \
-                         camera file"
+                        "--pano-width/--px-per-deg/--full-360/--size: a fisheye target has the \
+                         size and scale of its camera file"
                             .into()
                     ));
                 }
@@ -232,17 +244,17 @@ impl RigArgs {
             (OutputProjection::Linear(_), Some(_)) => bail!(setup(
                 "--camera describes the camera of --to fisheye".into()
             )),
-            (OutputProjection::Linear(projection), None) => Target::Linear(OutputSpec {
-                projection,
-                scale: scale_of(self.pano_width, self.px_per_deg)?,
-                canvas: if cameras > 1 && projection != Projection::Perspective {
-                    Canvas::Full360
-                } else {
-                    Canvas::Tight
-                },
-                crop: self.crop,
-                resize: self.resize,
-            }),
+            (OutputProjection::Linear(projection), None) => {
+                let flags = CanvasFlags {
+                    pano_width: self.pano_width,
+                    px_per_deg: self.px_per_deg,
+                    full_360: self.full_360,
+                    size: self.size,
+                    crop: self.crop,
+                    resize: self.resize,
+                };
+                Target::Linear(rig_output_spec(projection, cameras, &flags)?)
+            }
         })
     }
 
@@ -303,10 +315,10 @@ pub(super) fn run_rig_command<S: RigSource>(
 ) -> Result<ExitCode> {
     install_stop_handler();
     let bar = Bar::new(args.run.quiet);
-    let (job, summary) = with_pool(args.run.jobs, || -> Result<_> {
+    let (job, summary, label_types) = with_pool(args.run.jobs, || -> Result<_> {
         let (job, source) = prepare()?;
         let summary = run_rig(&job, &source, &bar, &STOP)?;
-        Ok((job, summary))
+        Ok((job, summary, source.label_types()))
     })??;
     let job = &job;
     if !args.run.quiet {
@@ -321,6 +333,7 @@ pub(super) fn run_rig_command<S: RigSource>(
             &job.run.output,
             &job.run.output,
             &args.export,
+            &label_types,
             job.run.augment.is_some(),
             overwrite,
             args.run.quiet,
@@ -383,4 +396,18 @@ fn report(summary: &RigSummary, job: &RigJob) {
         );
     }
     super::shared::outcome::report_style(summary.style_runs);
+    warn_uncovered(job);
+}
+
+/// Says so when most of a written frame has no camera (a whole sphere of a rig that covers a
+/// band).
+fn warn_uncovered(job: &RigJob) {
+    if let Some((share, file)) = uncovered_share(&job.run.output).filter(|(s, _)| *s > 0.5) {
+        eprintln!(
+            "panoconv: warning: {:.0} % of {} has no camera (source_2 = 255): without \
+             --full-360 or a scale a panorama covers the band its cameras see; --crop cuts one",
+            share * 100.0,
+            file.display()
+        );
+    }
 }

@@ -30,9 +30,11 @@ pub(super) const INSPECT_EXAMPLES: &str = "Examples:
   panoconv inspect /data/kitti
   panoconv inspect /data/kitti_equi --split training
   panoconv inspect /data/kitti --json > report.json
+  panoconv inspect fixtures/nuscenes             # a nuScenes or KITTI-360 root: described
 
 Exit codes: 0 the dataset is clean; 1 missing or malformed files were found (the report is still
-printed; each as file:line: field: message); 2 set-up error (no KITTI dataset there).";
+printed; each as file:line: field: message); 2 set-up error (no KITTI, nuScenes or KITTI-360
+dataset there).";
 
 pub(super) const COMPLETIONS_EXAMPLES: &str = "Examples:
   mkdir -p ~/.local/share/bash-completion/completions
@@ -77,7 +79,9 @@ pub(super) struct PreviewArgs {
 
 #[derive(Args)]
 pub(super) struct InspectArgs {
-    /// KITTI object root (training/ and/or testing/), original or written by panoconv.
+    /// KITTI object root (training/ and/or testing/), original or written by panoconv; or a
+    /// nuScenes or KITTI-360 root, described (versions or sequences, scenes, samples, cameras,
+    /// LiDAR, annotations, the frames a conversion writes).
     dataset: PathBuf,
     /// Inspect only this split (training or testing).
     #[arg(long)]
@@ -418,7 +422,7 @@ pub(super) fn eval_depth(a: EvalDepthArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn inspect(args: InspectArgs) -> Result<ExitCode> {
-    let report = panoconv::tools::inspect::inspect(&args.dataset, args.split.as_deref())?;
+    let report = panoconv::tools::inspect::inspect_root(&args.dataset, args.split.as_deref())?;
     if args.json {
         print!("{}", report.to_json());
     } else {

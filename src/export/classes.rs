@@ -59,6 +59,20 @@ impl ClassMap {
         }
     }
 
+    /// KITTI's eight classes, then each of `others` (the other label types a conversion
+    /// writes: the categories its `--classes` named) as a category of its own, ids 9 on in
+    /// the order given; a name already a KITTI class is not repeated.
+    pub fn kitti_and(others: &[String]) -> Self {
+        let mut map = Self::kitti();
+        for name in others {
+            if !map.categories.contains(name) {
+                map.rules.push((name.clone(), Some(map.categories.len())));
+                map.categories.push(name.clone());
+            }
+        }
+        map
+    }
+
     /// `FROM=TO,...`: `TO` empty or `-` drops the type, `*` as FROM stands for every type not
     /// named. Only the types named (or `*`) are known; categories are the distinct `TO` names
     /// in order of first appearance.
@@ -152,6 +166,15 @@ mod tests {
         assert_eq!(m.lookup("Person_sitting"), ClassLookup::Category(1));
         assert_eq!(m.lookup("Misc"), ClassLookup::Dropped);
         assert_eq!(m.lookup("Tram"), ClassLookup::Dropped);
+    }
+
+    #[test]
+    fn kitti_and_numbers_the_others_after_kitti() {
+        let m = ClassMap::kitti_and(&["movable_object.barrier".into(), "Car".into()]);
+        assert_eq!(m.categories().len(), 9);
+        assert_eq!(m.lookup("movable_object.barrier"), ClassLookup::Category(8));
+        assert_eq!(m.lookup("Car"), ClassLookup::Category(0));
+        assert_eq!(m.lookup("building"), ClassLookup::Unknown);
     }
 
     #[test]

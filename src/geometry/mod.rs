@@ -66,6 +66,9 @@ pub enum Canvas {
     Full360,
     /// An explicit size, centred on the source field of view.
     Size(ImageSize),
+    /// The whole 360° of azimuth and, vertically, the band the source cameras cover together
+    /// (a rig's panorama by default: no rows where no camera sees).
+    Band,
 }
 
 /// A window of the output canvas, in its pixels (before any resize).
@@ -318,6 +321,17 @@ impl Target {
         src_k: Intrinsics,
         source: &dyn CameraModel,
     ) -> Result<Box<dyn OutputCamera>> {
+        self.camera_over(src_k, source, &[])
+    }
+
+    /// As [`Target::camera`], with the other cameras whose fields of view a
+    /// [`Canvas::Band`] covers besides `source`'s.
+    pub fn camera_over(
+        &self,
+        src_k: Intrinsics,
+        source: &dyn CameraModel,
+        others: &[&dyn CameraModel],
+    ) -> Result<Box<dyn OutputCamera>> {
         match self {
             Target::Fisheye {
                 camera: f,
@@ -334,7 +348,7 @@ impl Target {
                     .with_intrinsics(k, size)
                     .map_err(|e| Error::Setup(format!("{}: {e}", f.camera.display())))
             }
-            Target::Linear(spec) => Ok(output_camera(spec, src_k, source)?),
+            Target::Linear(spec) => Ok(output_camera_over(spec, src_k, source, others)?),
         }
     }
 }
@@ -346,7 +360,17 @@ pub fn output_camera(
     src_k: Intrinsics,
     source: &dyn CameraModel,
 ) -> Result<Box<dyn LinearCamera>> {
-    let canvas = canvas_camera(spec, src_k, source)?;
+    output_camera_over(spec, src_k, source, &[])
+}
+
+/// As [`output_camera`], a [`Canvas::Band`] covering `others`' fields of view too.
+pub fn output_camera_over(
+    spec: &OutputSpec,
+    src_k: Intrinsics,
+    source: &dyn CameraModel,
+    others: &[&dyn CameraModel],
+) -> Result<Box<dyn LinearCamera>> {
+    let canvas = canvas_camera(spec, src_k, source, others)?;
     let (k, size) = crop_and_resize(spec.crop, spec.resize, canvas.intrinsics(), canvas.size())?;
     Ok(spec.projection.camera(k, size))
 }
@@ -389,6 +413,7 @@ fn canvas_camera(
     spec: &OutputSpec,
     src_k: Intrinsics,
     source: &dyn CameraModel,
+    others: &[&dyn CameraModel],
 ) -> Result<Box<dyn LinearCamera>> {
     let proj = spec.projection;
     if proj == Projection::Perspective
@@ -403,7 +428,13 @@ fn canvas_camera(
     }
     let fv = proj.fv(fu, src_k.fu, src_k.fv);
     let unit = proj.camera(Intrinsics::new(1.0, 1.0, 0.0, 0.0), ImageSize::new(1, 1));
-    let [a0, b0, a1, b1] = fov_bounds(unit.as_ref(), source)?;
+    let [a0, mut b0, a1, mut b1] = fov_bounds(unit.as_ref(), source)?;
+    if spec.canvas == Canvas::Band {
+        for other in others {
+            let [_, lo, _, hi] = fov_bounds(unit.as_ref(), *other)?;
+            (b0, b1) = (b0.min(lo), b1.max(hi));
+        }
+    }
     let tight = |f: f64, lo: f64, hi: f64| {
         let n = ceil_px(f * (hi - lo));
         // centre the rounding slack
@@ -421,7 +452,7 @@ fn canvas_camera(
             let cv = (s.height as f64 - 1.0) / 2.0 - fv * (b0 + b1) / 2.0;
             (s.width, s.height, Intrinsics::new(fu, fv, cu, cv))
         }
-        Canvas::Full360 => {
+        Canvas::Full360 | Canvas::Band => {
             if !proj.wraps() {
                 return Err(Error::Setup(format!("a {proj} image cannot cover 360°")));
             }
@@ -433,6 +464,11 @@ fn canvas_camera(
             let fu = w as f64 / (2.0 * PI);
             let cu = w as f64 / 2.0 - 0.5;
             match proj {
+                Projection::Equirect if spec.canvas == Canvas::Band => {
+                    let fv = fu;
+                    let (h, cv) = tight(fv, b0, b1);
+                    (w, h, Intrinsics::new(fu, fv, cu, cv))
+                }
                 Projection::Equirect => {
                     let h = w.div_ceil(2);
                     let fv = h as f64 / PI;

@@ -8,7 +8,7 @@
 //!
 //! Elements without a `<transform>` (none in the published files) are skipped, as there.
 
-use super::classes::{class_name, kitti_type};
+use super::classes::{class_name, kitti_type, label_type};
 use crate::error::{Error, Result};
 use crate::source::{Pose, SourceBox};
 use nalgebra::{Matrix3, Matrix4, Vector3};
@@ -101,8 +101,7 @@ impl WorldBox {
             ),
             rotation: reference_from_world.rotation * world_from_box,
             class: kitti_type(self.kitti_id)
-                .unwrap_or(self.class_name())
-                .to_owned(),
+                .map_or_else(|| label_type(self.class_name()), str::to_owned),
             dataset_class: self.class_name().to_owned(),
             instance: u64::try_from(self.instance_id).ok(),
             truncation: None,

@@ -15,6 +15,8 @@
 //! | train (33)                                           | `Tram`       |
 //! | every other class                                    | (none)       |
 
+use crate::error::{Error, Result};
+
 /// (kittiId, KITTI-360 name, KITTI type) for every class a KITTI-360 box can carry.
 pub const CLASSES: [(i64, &str, Option<&str>); 37] = [
     (1, "road", None),
@@ -56,6 +58,12 @@ pub const CLASSES: [(i64, &str, Option<&str>); 37] = [
     (37, "unknown object", None),
 ];
 
+/// The label type a class without a KITTI type is written as: its name, spaces as
+/// underscores (a KITTI label line is split at spaces: `traffic light` is `traffic_light`).
+pub fn label_type(name: &str) -> String {
+    name.replace(' ', "_")
+}
+
 /// The KITTI-360 name of a kittiId, None for an id the dataset does not define.
 pub fn class_name(kitti_id: i64) -> Option<&'static str> {
     CLASSES
@@ -70,6 +78,47 @@ pub fn kitti_type(kitti_id: i64) -> Option<&'static str> {
         .iter()
         .find(|(id, _, _)| *id == kitti_id)
         .and_then(|(_, _, kind)| *kind)
+}
+
+/// Checks that every class `--classes` names (`all` aside) is one of [`CLASSES`]; the error
+/// lists them, and a KITTI type given as a class (`Car`) is told which classes it follows
+/// from.
+pub fn check_named(names: &[String]) -> Result<()> {
+    let Some(name) = names
+        .iter()
+        .map(|n| n.trim())
+        .find(|n| *n != "all" && !CLASSES.iter().any(|(_, c, _)| c == n))
+    else {
+        return Ok(());
+    };
+    let of_type = |t: &str| -> Vec<&str> {
+        CLASSES
+            .iter()
+            .filter(|(_, _, kind)| *kind == Some(t))
+            .map(|(_, c, _)| *c)
+            .collect()
+    };
+    let mut types: Vec<&str> = Vec::new();
+    for kind in CLASSES.iter().filter_map(|(_, _, k)| *k) {
+        if !types.contains(&kind) {
+            types.push(kind);
+        }
+    }
+    let what = if types.contains(&name) {
+        format!(
+            "a KITTI type, not a KITTI-360 class: KITTI's types are written without --classes, {name} from {}",
+            of_type(name).join(", ")
+        )
+    } else {
+        "not a KITTI-360 class".to_owned()
+    };
+    let all: Vec<&str> = CLASSES.iter().map(|(_, c, _)| *c).collect();
+    Err(Error::Setup(format!(
+        "--classes {name:?}: {what}; the classes are {} (or `all`); the KITTI types ({}) follow \
+         from them (docs/kitti360.md)",
+        all.join(", "),
+        types.join(", ")
+    )))
 }
 
 #[cfg(test)]

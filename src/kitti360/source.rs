@@ -328,6 +328,21 @@ impl RigSource for Kitti360Source {
         self.selection.classes.keeps(&b.class, &b.dataset_class)
     }
 
+    fn label_types(&self) -> Vec<String> {
+        let untyped = super::classes::CLASSES
+            .iter()
+            .filter(|(_, _, k)| k.is_none());
+        let named: Vec<&str> = match &self.selection.classes {
+            Kitti360Classes::Kitti => return Vec::new(),
+            Kitti360Classes::All => untyped.map(|(_, name, _)| *name).collect(),
+            Kitti360Classes::Also(names) => untyped
+                .filter(|(_, name, _)| names.iter().any(|n| n == name))
+                .map(|(_, name, _)| *name)
+                .collect(),
+        };
+        named.into_iter().map(super::classes::label_type).collect()
+    }
+
     fn parameters(&self) -> Map<String, Value> {
         let s = &self.selection;
         let mut m = Map::new();

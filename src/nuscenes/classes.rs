@@ -8,6 +8,9 @@
 //! wheelchairs, personal mobility, animals, barriers, cones, debris, bicycle racks, riderless
 //! cycles) has no KITTI type.
 
+use crate::error::{Error, Result};
+use std::path::Path;
+
 /// (category, KITTI type) of the categories that always have a type.
 pub const CLASSES: [(&str, &str); 10] = [
     ("vehicle.car", "Car"),
@@ -49,6 +52,43 @@ pub fn occlusion(level: Option<&str>) -> u8 {
         Some("v0-40") => 2,
         _ => 3,
     }
+}
+
+/// The KITTI types, each written from its categories whatever `--classes` says.
+pub const KITTI_TYPES: [&str; 5] = ["Car", "Truck", "Van", "Pedestrian", "Cyclist"];
+
+/// Checks that every category `--classes` names (`all` aside) is one of `known`, those of
+/// `table` (category.json). The error lists them, and a KITTI type given as a category
+/// (`Car`) is told which categories it follows from.
+pub fn check_named(names: &[String], known: &[String], table: &Path) -> Result<()> {
+    let Some(name) = names
+        .iter()
+        .map(|n| n.trim())
+        .find(|n| *n != "all" && !known.iter().any(|k| k == n))
+    else {
+        return Ok(());
+    };
+    let what = if KITTI_TYPES.contains(&name) {
+        let from: Vec<&str> = CLASSES
+            .iter()
+            .filter(|(_, kind)| *kind == name)
+            .map(|(c, _)| *c)
+            .chain(CYCLES.iter().copied().filter(|_| name == "Cyclist"))
+            .collect();
+        format!(
+            "a KITTI type, not a category: KITTI's types are written without --classes, {name} from {}",
+            from.join(", ")
+        )
+    } else {
+        "not a category".to_owned()
+    };
+    Err(Error::Setup(format!(
+        "--classes {name:?}: {what}; the categories of {} are {} (or `all`); the KITTI types ({}) \
+         follow from them (docs/nuscenes.md)",
+        table.display(),
+        known.join(", "),
+        KITTI_TYPES.join(", ")
+    )))
 }
 
 #[cfg(test)]

@@ -91,6 +91,11 @@ impl NuScenes {
         table_path(&self.dataroot, &self.version, name)
     }
 
+    /// The sample annotations of the selected scenes.
+    pub fn annotation_count(&self) -> usize {
+        self.annotations.all().count()
+    }
+
     /// The names of category.json's categories, sorted.
     pub fn category_names(&self) -> Vec<String> {
         let mut names: Vec<String> = self.categories.values().cloned().collect();
@@ -107,10 +112,7 @@ impl NuScenes {
         }
         let dir = dataroot.join(version);
         if !dir.is_dir() {
-            return Err(Error::file(
-                &dir,
-                "no such version folder (expected DATAROOT/VERSION/*.json)",
-            ));
+            return Err(Error::file(&dir, no_version(dataroot)));
         }
         let path = |name: &str| table_path(dataroot, version, name);
         let (sensors, calibrated) = read_sensors(&path("sensor"), &path("calibrated_sensor"))?;
@@ -173,6 +175,25 @@ impl NuScenes {
             visibility,
         })
     }
+}
+
+/// The folders of `dataroot` that hold a version's tables (a `sample.json`), sorted.
+pub fn versions(dataroot: &Path) -> Vec<String> {
+    crate::fs::folders_holding(dataroot, "sample.json")
+}
+
+/// The error of a missing version folder: the versions `dataroot` holds, or that it holds none.
+fn no_version(dataroot: &Path) -> String {
+    let versions = versions(dataroot);
+    let present = match versions.len() {
+        0 => format!("{} holds no version folder", dataroot.display()),
+        _ => format!(
+            "the versions in {}: {}",
+            dataroot.display(),
+            versions.join(", ")
+        ),
+    };
+    format!("no such version folder (expected DATAROOT/VERSION/*.json); {present}")
 }
 
 /// `DATAROOT/VERSION/NAME.json`.

@@ -15,7 +15,7 @@ mod tables;
 mod token;
 
 pub use dataset::{
-    table_path, NuScenes, SceneEntry, Selection, NUSCENES_CAMERAS, REFERENCE_CAMERA,
+    table_path, versions, NuScenes, SceneEntry, Selection, NUSCENES_CAMERAS, REFERENCE_CAMERA,
     REFERENCE_LIDAR,
 };
 pub use frame::{Item, NuScenesFrame, ObjectInfo, Options};

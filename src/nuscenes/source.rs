@@ -246,6 +246,17 @@ impl RigSource for NuScenesSource {
         self.selection.classes.keeps(&b.class, &b.dataset_class)
     }
 
+    fn label_types(&self) -> Vec<String> {
+        let named = match &self.selection.classes {
+            NuScenesClasses::Kitti => return Vec::new(),
+            NuScenesClasses::All => self.dataset().category_names(),
+            NuScenesClasses::Also(names) => names.clone(),
+        };
+        // a category that always has a KITTI type is written as that type
+        let typed = |c: &String| super::classes::CLASSES.iter().any(|(k, _)| k == c);
+        named.into_iter().filter(|c| !typed(c)).collect()
+    }
+
     fn drops_unseen(&self, b: &SourceBox) -> bool {
         !self.selection.keep_unseen && b.sensor_points == Some(0)
     }

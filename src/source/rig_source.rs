@@ -113,6 +113,13 @@ pub trait RigSource: Sync {
     /// classes); the others are dropped for their class.
     fn keeps(&self, object: &SourceBox) -> bool;
 
+    /// The label types besides KITTI's that the written labels may carry (the categories the
+    /// selection's classes add, named as written), in a fixed order: an export after the
+    /// conversion gives each a category of its own.
+    fn label_types(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Whether a box is left out because the dataset's own count says no sensor saw it
     /// ([`SourceBox::sensor_points`] is 0) and the selection leaves such boxes out (nuScenes'
     /// evaluation rule); counted as unseen.

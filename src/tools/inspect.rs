@@ -5,8 +5,8 @@
 use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
-use crate::kitti::Cam;
-use crate::kitti::{Calib, Dataset, Label};
+use crate::kitti::{Calib, Cam, Dataset, Label, SourceCamera, Split};
+use crate::tools::inspect_rig::{inspect_rig, RigReport};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -184,22 +184,36 @@ fn ids_in(dir: &Path, ext: &str) -> Vec<String> {
 /// are errors; everything wrong inside the dataset is in [`Report::problems`].
 pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
     let dataset = Dataset::open(root, only)?;
-    let mut classes = BTreeMap::new();
-    let mut sizes: BTreeMap<(u32, u32), usize> = BTreeMap::new();
-    let mut calibs: Vec<CalibCount> = Vec::new();
-    let mut projections = BTreeMap::new();
-    let mut small = SmallObjects {
-        threshold_px: SMALL_OBJECT_PX,
-        count: 0,
-        classes: BTreeMap::new(),
-    };
-    let mut problems = Vec::new();
-    let mut splits = Vec::new();
-    let mut total = 0;
+    let mut tally = Tally::default();
     for split in &dataset.splits {
-        let rel = |sub: &str, id: &str, ext: &str| format!("{}/{sub}/{id}{ext}", split.name);
-        total += split.frames.len();
-        splits.push(SplitReport {
+        tally.split(split);
+    }
+    Ok(tally.into_report(root))
+}
+
+/// What [`inspect`] has counted so far.
+#[derive(Default)]
+struct Tally {
+    frames: usize,
+    splits: Vec<SplitReport>,
+    classes: BTreeMap<String, usize>,
+    sizes: BTreeMap<(u32, u32), usize>,
+    calibs: Vec<CalibCount>,
+    projections: BTreeMap<String, usize>,
+    small: BTreeMap<String, usize>,
+    small_count: usize,
+    problems: Vec<Problem>,
+}
+
+/// `split/sub/idext`, a file's path relative to the dataset root.
+fn rel(split: &Split, sub: &str, id: &str, ext: &str) -> String {
+    format!("{}/{sub}/{id}{ext}", split.name)
+}
+
+impl Tally {
+    fn split(&mut self, split: &Split) {
+        self.frames += split.frames.len();
+        self.splits.push(SplitReport {
             name: split.name.clone(),
             frames: split.frames.len(),
             labelled: split.has_labels,
@@ -211,110 +225,130 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
                 .collect(),
         });
         for id in &split.frames {
-            let frame = format!("{}/{id}", split.name);
-            let image_rel = rel("image_2", id, ".png");
-            let image_path = split.image_path(Cam::C2, id);
-            match png::read_file_size(&image_path) {
-                Ok(s) => *sizes.entry(s).or_default() += 1,
-                // What the conversion says of it, rather than the png crate's signature error.
-                Err(_) if is_jpeg(&image_path) => problems.push(Problem::file(
-                    &image_rel,
-                    "cannot decode PNG: the file is a JPEG (it starts with JPEG's FF D8 FF), not a PNG: KITTI images are PNG, convert it".to_owned(),
-                )),
-                Err(e) => problems.push(Problem::from_error(&image_rel, e)),
-            }
-
-            let calib_rel = rel("calib", id, ".txt");
-            let calib_path = split.calib_path(id);
-            if !calib_path.is_file() {
-                problems.push(Problem::file(
-                    &calib_rel,
-                    format!("missing (the frame has {image_rel})"),
-                ));
-            } else {
-                let calib = read_lines(&calib_path)
-                    .and_then(|lines| Calib::parse(Path::new(&calib_rel), lines))
-                    .and_then(|c| c.camera(Cam::C2).map(|cam| (c, cam)));
-                match calib {
-                    Ok((calib, cam)) => {
-                        let name = calib.projection.map_or("kitti", |p| p.name());
-                        *projections.entry(name.to_owned()).or_default() += 1;
-                        let p2: [f64; 12] = calib.p[2]
-                            .expect("camera(2) succeeded")
-                            .transpose()
-                            .as_slice()
-                            .try_into()
-                            .expect("3x4");
-                        let written = match (calib.projection, calib.k_out[2], calib.c_out[2]) {
-                            (Some(p), Some(k), Some(c)) => Some(WrittenCamera {
-                                projection: p.name().to_owned(),
-                                fu: k.fu,
-                                fv: k.fv,
-                                cu: k.cu,
-                                cv: k.cv,
-                                c2: [c.x, c.y, c.z],
-                            }),
-                            _ => None,
-                        };
-                        match calibs
-                            .iter_mut()
-                            .find(|c| c.p2 == p2 && c.written == written)
-                        {
-                            Some(c) => c.count += 1,
-                            None => calibs.push(CalibCount {
-                                p2,
-                                fu: cam.k.fu,
-                                fv: cam.k.fv,
-                                cu: cam.k.cu,
-                                cv: cam.k.cv,
-                                c2: [cam.centre.x, cam.centre.y, cam.centre.z],
-                                count: 1,
-                                first_frame: frame.clone(),
-                                written,
-                            }),
-                        }
-                    }
-                    Err(e) => problems.push(Problem::from_error(&calib_rel, e)),
-                }
-            }
-
-            if !split.has_labels {
-                continue;
-            }
-            let label_rel = rel("label_2", id, ".txt");
-            let label_path = split.label_path(id);
-            if !label_path.is_file() {
-                problems.push(Problem::file(
-                    &label_rel,
-                    format!("missing (the frame has {image_rel})"),
-                ));
-                continue;
-            }
-            let lines = match read_lines(&label_path) {
-                Ok(l) => l,
-                Err(e) => {
-                    problems.push(Problem::from_error(&label_rel, e));
-                    continue;
-                }
-            };
-            for (i, line) in lines.iter().enumerate() {
-                if line.trim().is_empty() {
-                    continue;
-                }
-                match Label::parse(Path::new(&label_rel), i + 1, line) {
-                    Ok(label) => {
-                        *classes.entry(label.kind.clone()).or_default() += 1;
-                        let h = label.bbox[3] - label.bbox[1];
-                        if !label.is_dont_care() && h < SMALL_OBJECT_PX {
-                            small.count += 1;
-                            *small.classes.entry(label.kind.clone()).or_default() += 1;
-                        }
-                    }
-                    Err(e) => problems.push(Problem::from_error(&label_rel, e)),
-                }
+            self.image(split, id);
+            self.calib(split, id);
+            if split.has_labels {
+                self.labels(split, id);
             }
         }
-        // Files without an image.
+        self.orphans(split);
+    }
+
+    /// The frame's image size.
+    fn image(&mut self, split: &Split, id: &str) {
+        let image_rel = rel(split, "image_2", id, ".png");
+        let image_path = split.image_path(Cam::C2, id);
+        match png::read_file_size(&image_path) {
+            Ok(s) => *self.sizes.entry(s).or_default() += 1,
+            // What the conversion says of it, rather than the png crate's signature error.
+            Err(_) if is_jpeg(&image_path) => self.problems.push(Problem::file(
+                &image_rel,
+                "cannot decode PNG: the file is a JPEG (it starts with JPEG's FF D8 FF), not a PNG: KITTI images are PNG, convert it".to_owned(),
+            )),
+            Err(e) => self.problems.push(Problem::from_error(&image_rel, e)),
+        }
+    }
+
+    /// The frame's calibration: its projection and camera 2.
+    fn calib(&mut self, split: &Split, id: &str) {
+        let calib_rel = rel(split, "calib", id, ".txt");
+        let calib_path = split.calib_path(id);
+        if !calib_path.is_file() {
+            let image_rel = rel(split, "image_2", id, ".png");
+            self.problems.push(Problem::file(
+                &calib_rel,
+                format!("missing (the frame has {image_rel})"),
+            ));
+            return;
+        }
+        let calib = read_lines(&calib_path)
+            .and_then(|lines| Calib::parse(Path::new(&calib_rel), lines))
+            .and_then(|c| c.camera(Cam::C2).map(|cam| (c, cam)));
+        match calib {
+            Ok((calib, cam)) => {
+                let name = calib.projection.map_or("kitti", |p| p.name());
+                *self.projections.entry(name.to_owned()).or_default() += 1;
+                self.count_calib(&calib, &cam, format!("{}/{id}", split.name));
+            }
+            Err(e) => self.problems.push(Problem::from_error(&calib_rel, e)),
+        }
+    }
+
+    /// Counts camera 2's calibration (P2 and the written camera) among the distinct ones.
+    fn count_calib(&mut self, calib: &Calib, cam: &SourceCamera, frame: String) {
+        let p2: [f64; 12] = calib.p[2]
+            .expect("camera(2) succeeded")
+            .transpose()
+            .as_slice()
+            .try_into()
+            .expect("3x4");
+        let written = match (calib.projection, calib.k_out[2], calib.c_out[2]) {
+            (Some(p), Some(k), Some(c)) => Some(WrittenCamera {
+                projection: p.name().to_owned(),
+                fu: k.fu,
+                fv: k.fv,
+                cu: k.cu,
+                cv: k.cv,
+                c2: [c.x, c.y, c.z],
+            }),
+            _ => None,
+        };
+        match self
+            .calibs
+            .iter_mut()
+            .find(|c| c.p2 == p2 && c.written == written)
+        {
+            Some(c) => c.count += 1,
+            None => self.calibs.push(CalibCount {
+                p2,
+                fu: cam.k.fu,
+                fv: cam.k.fv,
+                cu: cam.k.cu,
+                cv: cam.k.cv,
+                c2: [cam.centre.x, cam.centre.y, cam.centre.z],
+                count: 1,
+                first_frame: frame,
+                written,
+            }),
+        }
+    }
+
+    /// The frame's label lines: classes and small objects.
+    fn labels(&mut self, split: &Split, id: &str) {
+        let label_rel = rel(split, "label_2", id, ".txt");
+        let label_path = split.label_path(id);
+        if !label_path.is_file() {
+            let image_rel = rel(split, "image_2", id, ".png");
+            self.problems.push(Problem::file(
+                &label_rel,
+                format!("missing (the frame has {image_rel})"),
+            ));
+            return;
+        }
+        let lines = match read_lines(&label_path) {
+            Ok(l) => l,
+            Err(e) => return self.problems.push(Problem::from_error(&label_rel, e)),
+        };
+        for (i, line) in lines.iter().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            match Label::parse(Path::new(&label_rel), i + 1, line) {
+                Ok(label) => {
+                    *self.classes.entry(label.kind.clone()).or_default() += 1;
+                    let h = label.bbox[3] - label.bbox[1];
+                    if !label.is_dont_care() && h < SMALL_OBJECT_PX {
+                        self.small_count += 1;
+                        *self.small.entry(label.kind.clone()).or_default() += 1;
+                    }
+                }
+                Err(e) => self.problems.push(Problem::from_error(&label_rel, e)),
+            }
+        }
+    }
+
+    /// Files without an image.
+    fn orphans(&mut self, split: &Split) {
         let mut orphans = vec![("calib", ".txt")];
         if split.has_labels {
             orphans.push(("label_2", ".txt"));
@@ -322,41 +356,50 @@ pub fn inspect(root: &Path, only: Option<&str>) -> Result<Report> {
         for (sub, ext) in orphans {
             for id in ids_in(&split.dir.join(sub), ext) {
                 if split.frames.binary_search(&id).is_err() {
-                    problems.push(Problem::file(
-                        &rel(sub, &id, ext),
-                        format!("no image {} for it", rel("image_2", &id, ".png")),
+                    self.problems.push(Problem::file(
+                        &rel(split, sub, &id, ext),
+                        format!("no image {} for it", rel(split, "image_2", &id, ".png")),
                     ));
                 }
             }
         }
     }
-    let mut image_sizes: Vec<SizeCount> = sizes
-        .into_iter()
-        .map(|((width, height), count)| SizeCount {
-            width,
-            height,
-            count,
-        })
-        .collect();
-    image_sizes.sort_by(|a, b| {
-        b.count
-            .cmp(&a.count)
-            .then((b.width, b.height).cmp(&(a.width, a.height)))
-    });
-    // most common first; ties in order of first appearance (frames are sorted)
-    calibs.sort_by_key(|c| std::cmp::Reverse(c.count));
-    problems.sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
-    Ok(Report {
-        dataset: root.display().to_string(),
-        frames: total,
-        splits,
-        classes,
-        image_sizes,
-        calibrations: calibs,
-        projections,
-        small_objects: small,
-        problems,
-    })
+
+    fn into_report(mut self, root: &Path) -> Report {
+        let mut image_sizes: Vec<SizeCount> = self
+            .sizes
+            .into_iter()
+            .map(|((width, height), count)| SizeCount {
+                width,
+                height,
+                count,
+            })
+            .collect();
+        image_sizes.sort_by(|a, b| {
+            b.count
+                .cmp(&a.count)
+                .then((b.width, b.height).cmp(&(a.width, a.height)))
+        });
+        // most common first; ties in order of first appearance (frames are sorted)
+        self.calibs.sort_by_key(|c| std::cmp::Reverse(c.count));
+        self.problems
+            .sort_by(|a, b| (&a.file, a.line).cmp(&(&b.file, b.line)));
+        Report {
+            dataset: root.display().to_string(),
+            frames: self.frames,
+            splits: self.splits,
+            classes: self.classes,
+            image_sizes,
+            calibrations: self.calibs,
+            projections: self.projections,
+            small_objects: SmallObjects {
+                threshold_px: SMALL_OBJECT_PX,
+                count: self.small_count,
+                classes: self.small,
+            },
+            problems: self.problems,
+        }
+    }
 }
 
 impl Report {
@@ -375,6 +418,15 @@ impl Report {
     /// The human-readable report.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
+        self.text_splits(&mut s);
+        self.text_counts(&mut s);
+        self.text_cameras(&mut s);
+        self.text_problems(&mut s);
+        s
+    }
+
+    /// The dataset, its frames and each split's folders.
+    fn text_splits(&self, s: &mut String) {
         let _ = writeln!(s, "dataset: {}", self.dataset);
         let per_split: Vec<String> = self
             .splits
@@ -395,6 +447,10 @@ impl Report {
                 let _ = writeln!(s, " (no {})", absent.join(", no "));
             }
         }
+    }
+
+    /// Label lines per class and the image sizes.
+    fn text_counts(&self, s: &mut String) {
         let objects: usize = self.classes.values().sum();
         let _ = writeln!(s, "classes: {objects} label lines");
         let mut classes: Vec<_> = self.classes.iter().collect();
@@ -411,6 +467,10 @@ impl Report {
                 z.count
             );
         }
+    }
+
+    /// The distinct calibrations and the projections, with the note on P2.
+    fn text_cameras(&self, s: &mut String) {
         let _ = writeln!(s, "calibrations: {} distinct", self.calibrations.len());
         for c in &self.calibrations {
             // A converted image is described by the camera it was written with; P2 stays the
@@ -448,6 +508,10 @@ impl Report {
                 not_p2.join(", ")
             );
         }
+    }
+
+    /// Small objects and the problems found.
+    fn text_problems(&self, s: &mut String) {
         let by_class: Vec<String> = self
             .small_objects
             .classes
@@ -472,7 +536,6 @@ impl Report {
                 let _ = writeln!(s, "  {p}");
             }
         }
-        s
     }
 }
 
@@ -484,4 +547,57 @@ fn is_jpeg(path: &Path) -> bool {
         .and_then(|mut f| f.read_exact(&mut head))
         .is_ok()
         && head == [0xFF, 0xD8, 0xFF]
+}
+
+/// What `panoconv inspect` reports: a KITTI layout's report, or a rig dataset's description.
+#[derive(Debug, Clone)]
+pub enum Inspection {
+    /// A KITTI object root (original or converted).
+    Kitti(Report),
+    /// A nuScenes or KITTI-360 root.
+    Rig(RigReport),
+}
+
+/// Inspects `root`: a KITTI layout (one split with `only`), else a nuScenes or KITTI-360 root
+/// (described; `only` names a KITTI split, so it is refused there).
+pub fn inspect_root(root: &Path, only: Option<&str>) -> Result<Inspection> {
+    if !root.join("training").is_dir() && !root.join("testing").is_dir() {
+        if let Some(rig) = inspect_rig(root)? {
+            if only.is_some() {
+                return Err(Error::Setup(format!(
+                    "--split: {} is a {} root, not a KITTI layout with splits",
+                    root.display(),
+                    rig.format
+                )));
+            }
+            return Ok(Inspection::Rig(rig));
+        }
+    }
+    inspect(root, only).map(Inspection::Kitti)
+}
+
+impl Inspection {
+    /// Whether no problem was found (a rig root's description has none to report).
+    pub fn is_clean(&self) -> bool {
+        match self {
+            Inspection::Kitti(r) => r.is_clean(),
+            Inspection::Rig(_) => true,
+        }
+    }
+
+    /// Pretty JSON with a final newline.
+    pub fn to_json(&self) -> String {
+        match self {
+            Inspection::Kitti(r) => r.to_json(),
+            Inspection::Rig(r) => r.to_json(),
+        }
+    }
+
+    /// The human-readable report.
+    pub fn to_text(&self) -> String {
+        match self {
+            Inspection::Kitti(r) => r.to_text(),
+            Inspection::Rig(r) => r.to_text(),
+        }
+    }
 }

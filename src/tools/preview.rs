@@ -148,9 +148,14 @@ pub fn draw_label_with(
     draw_labels(img, std::slice::from_ref(label), camera, centre, text_scale);
 }
 
-/// Draws every label of a frame: first all boxes, then the texts, each placed where no
-/// text drawn before it lies (above its 2D box, else further up, else below its top edge and
-/// further down), so that no label hides another's.
+/// How many text rows a label's text may move away from its box (up from above it, or down
+/// from its top edge) to find a free place; a text with none is left out, its box drawn.
+pub const MAX_TEXT_SHIFT: i64 = 2;
+
+/// Draws every label of a frame: first all boxes, then the texts, taller boxes (nearer
+/// objects) first, each placed where no text drawn before it lies: above its 2D box, else up
+/// to [`MAX_TEXT_SHIFT`] rows further up, else below its top edge and as far down. A crowded
+/// frame's other texts are left out rather than stacked far from their boxes (over the sky).
 pub fn draw_labels(
     img: &mut RgbImage,
     labels: &[Label],
@@ -166,8 +171,11 @@ pub fn draw_labels(
     if text_scale == 0 {
         return;
     }
+    let mut order: Vec<&Label> = labels.iter().filter(|l| !l.is_dont_care()).collect();
+    let height = |l: &Label| l.bbox[3] - l.bbox[1];
+    order.sort_by(|a, b| height(b).total_cmp(&height(a)));
     let mut placed: Vec<[i64; 4]> = Vec::new();
-    for label in labels.iter().filter(|l| !l.is_dont_care()) {
+    for label in order {
         let text = label_text(label, camera, centre);
         let (tw, th) = text_size(&text, text_scale);
         let (tw, th) = (tw as i64, th as i64);
@@ -176,18 +184,21 @@ pub fn draw_labels(
         let max_y = (img.height() as i64 - th).max(0);
         let (above, below) = (t.round() as i64 - th - 2, t.round() as i64 + 2);
         // Candidates nearest the box first: above it and up, then below its top edge and down.
-        let up = (0..).map(|k| above - k * (th + 1)).take_while(|&y| y >= 0);
-        let down = (0..)
+        let up = (0..=MAX_TEXT_SHIFT)
+            .map(|k| above - k * (th + 1))
+            .filter(|&y| y >= 0);
+        let down = (0..=MAX_TEXT_SHIFT)
             .map(|k| below + k * (th + 1))
-            .take_while(|&y| y <= max_y);
+            .filter(|&y| y <= max_y);
         let free = |y: i64| {
             let r = [x, y, x + tw, y + th];
             placed
                 .iter()
                 .all(|p| r[2] <= p[0] || p[2] <= r[0] || r[3] <= p[1] || p[3] <= r[1])
         };
-        let fallback = if above >= 0 { above } else { below.min(max_y) };
-        let y = up.chain(down).find(|&y| free(y)).unwrap_or(fallback);
+        let Some(y) = up.chain(down).find(|&y| free(y)) else {
+            continue;
+        };
         placed.push([x, y, x + tw, y + th]);
         draw_text(
             img,

@@ -11,6 +11,8 @@ use std::sync::OnceLock;
 
 pub const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
+mod jpeg;
+pub use jpeg::jpeg_blocks;
 mod paths;
 pub use paths::*;
 mod render;

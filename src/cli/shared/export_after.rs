@@ -99,11 +99,13 @@ fn summary(format: Format, report: &ExportReport, output: &Path) -> String {
 
 /// `kitti --export`: COCO and Omni3D into OUT/annotations, YOLO into OUT_yolo beside OUT; the
 /// split from INPUT/ImageSets when it has train.txt and val.txt (not with --augment, whose
-/// frame ids are new).
+/// frame ids are new). The categories: KITTI's classes, then `label_types` (the other types
+/// the conversion wrote: those its `--classes` added).
 pub(crate) fn export_after_kitti(
     input: &Path,
     output: &Path,
     formats: &[FormatArg],
+    label_types: &[String],
     augmented: bool,
     overwrite: bool,
     quiet: bool,
@@ -113,7 +115,7 @@ pub(crate) fn export_after_kitti(
         _ => SplitRule::default_for(output),
     };
     let options = ExportOptions {
-        classes: ClassMap::kitti(),
+        classes: ClassMap::kitti_and(label_types),
         split_rule,
         overwrite,
         path_prefix: String::new(),

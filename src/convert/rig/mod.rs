@@ -11,9 +11,11 @@
 //! - `scene_depth.rs`: a frame's scene (boxes, ground, scan) as a depth-guided stitch sees it;
 //! - `frame_cache.rs`: what a frame's views share (its scan's positions, its scene);
 //! - `gray.rs`: the 8-bit PNG of the source map;
+//! - `canvas.rs`: the output canvas and scale a rig's flags ask for;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
 //!   written, its frames, files and manifest, for any dataset.
 
+mod canvas;
 mod frame_cache;
 mod gray;
 mod ground;
@@ -24,6 +26,7 @@ mod run;
 mod scene_depth;
 mod setup;
 
+pub use canvas::{rig_output_spec, uncovered_share, CanvasFlags, DEFAULT_PANO_WIDTH};
 pub use ground::Ground;
 pub use job::{ObjectCounts, RigJob, RigSpec, RigSummary, SPLIT};
 pub use objects::{

@@ -109,23 +109,35 @@ impl CameraModel for InReference<'_> {
     }
 }
 
-/// The output camera of `frame` for `target`, from its first chosen camera.
+/// The output camera of `frame` for `target`, from its first chosen camera (a
+/// [`crate::geometry::Canvas::Band`] spans every chosen camera's field of view).
 pub fn output_camera(
     frame: &Frame,
     info: &[CameraInfo],
     target: &Target,
-    first: usize,
+    cameras: &[usize],
 ) -> Result<Box<dyn OutputCamera>> {
-    let camera = &frame.rig[first];
-    let r = camera.reference_from_camera.rotation;
-    let source = InReference {
-        model: camera.model.as_ref(),
-        reference_from_camera: r,
-        camera_from_reference: r
-            .try_inverse()
-            .ok_or_else(|| Error::Setup(format!("{}: singular pose", camera.name)))?,
+    let in_reference = |k: usize| -> Result<InReference> {
+        let camera = &frame.rig[k];
+        let r = camera.reference_from_camera.rotation;
+        Ok(InReference {
+            model: camera.model.as_ref(),
+            reference_from_camera: r,
+            camera_from_reference: r
+                .try_inverse()
+                .ok_or_else(|| Error::Setup(format!("{}: singular pose", camera.name)))?,
+        })
     };
-    target.camera(info[first].focal, &source)
+    let Some(&first) = cameras.first() else {
+        return Err(Error::Setup("no camera chosen".into()));
+    };
+    let source = in_reference(first)?;
+    let others = cameras[1..]
+        .iter()
+        .map(|&k| in_reference(k))
+        .collect::<Result<Vec<_>>>()?;
+    let others: Vec<&dyn CameraModel> = others.iter().map(|o| o as &dyn CameraModel).collect();
+    target.camera_over(info[first].focal, &source, &others)
 }
 
 /// Converts `frame` (its rig described by `info`, one per rig camera) into `target`, writing
@@ -137,11 +149,8 @@ pub fn convert_frame(
     options: &RigOptions,
     keep_class: ClassFilter,
 ) -> Result<RigFrame> {
-    let Some(&first) = options.cameras.first() else {
-        return Err(Error::Setup("no camera chosen".into()));
-    };
     chosen_cameras(frame, options)?;
-    let camera = output_camera(frame, info, target, first)?;
+    let camera = output_camera(frame, info, target, &options.cameras)?;
     let images = read_images(frame, options)?;
     convert_into(frame, info, camera, &images, options, keep_class)
 }

@@ -137,7 +137,7 @@ impl Ctx<'_> {
         keep: ClassFilter,
     ) -> Result<Vec<OutputView>> {
         let job = self.job;
-        let canvas = output_camera(frame, info, &job.target, job.cameras[0])?;
+        let canvas = output_camera(frame, info, &job.target, &job.cameras)?;
         let Some(aug) = &job.run.augment else {
             return Ok(vec![(item.id.clone(), None, canvas)]);
         };

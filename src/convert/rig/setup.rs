@@ -93,7 +93,7 @@ pub(super) fn check_output_camera(
         return Ok(());
     };
     let info: Vec<_> = source.cameras(item.part).iter().map(|c| c.info).collect();
-    output_camera(&read.frame, &info, &job.target, job.cameras[0])
+    output_camera(&read.frame, &info, &job.target, &job.cameras)
         .map(|_| ())
         .map_err(|e| Error::Setup(format!("the output camera of frame {}: {e}", item.id)))
 }

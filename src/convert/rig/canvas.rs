@@ -1,0 +1,115 @@
+//! A rig conversion's output canvas and scale from its flags: a panorama of several cameras is,
+//! by default, [`DEFAULT_PANO_WIDTH`] pixels for 360° over the band of elevations its cameras
+//! cover (nuScenes' six cameras leave 81 % of a whole equirect sphere black); `--full-360`
+//! asks for the whole sphere, `--size` for an explicit canvas, and an explicit scale alone
+//! keeps the whole sphere as before.
+
+use crate::camera::{ImageSize, Projection};
+use crate::error::{Error, Result};
+use crate::geometry::{Canvas, Crop, OutputSpec, Scale};
+use std::path::{Path, PathBuf};
+
+/// The width of a rig panorama's 360° when no scale is given: a size trainers take.
+pub const DEFAULT_PANO_WIDTH: u32 = 2048;
+
+/// The flags of a rig command that shape its linear output camera.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CanvasFlags {
+    /// `--pano-width`.
+    pub pano_width: Option<u32>,
+    /// `--px-per-deg`.
+    pub px_per_deg: Option<f64>,
+    /// `--full-360`.
+    pub full_360: bool,
+    /// `--size`.
+    pub size: Option<ImageSize>,
+    /// `--crop`.
+    pub crop: Option<Crop>,
+    /// `--resize`.
+    pub resize: Option<ImageSize>,
+}
+
+/// The output spec of `projection` for a rig of `cameras` chosen cameras: one camera, or a
+/// perspective view, is converted as `kitti` converts one (the first camera's scale, its
+/// tight field of view unless `--full-360` or `--size`); a panorama of several cameras takes
+/// [`Canvas::Band`] at [`DEFAULT_PANO_WIDTH`] when no flag says otherwise.
+pub fn rig_output_spec(
+    projection: Projection,
+    cameras: usize,
+    flags: &CanvasFlags,
+) -> Result<OutputSpec> {
+    if flags.full_360 && flags.size.is_some() {
+        return Err(Error::Setup(
+            "--full-360 and --size exclude each other".into(),
+        ));
+    }
+    let given = Scale::from_flags(flags.pano_width, flags.px_per_deg)?;
+    let panorama = cameras > 1 && projection != Projection::Perspective;
+    let (scale, canvas) = match (flags.full_360, flags.size) {
+        (true, _) => (given, Canvas::Full360),
+        (false, Some(s)) => (given, Canvas::Size(s)),
+        (false, None) if !panorama => (given, Canvas::Tight),
+        (false, None) if given != Scale::SourceFocal => (given, Canvas::Full360),
+        (false, None) => (Scale::PanoWidth(DEFAULT_PANO_WIDTH), Canvas::Band),
+    };
+    Ok(OutputSpec {
+        projection,
+        scale,
+        canvas,
+        crop: flags.crop,
+        resize: flags.resize,
+    })
+}
+
+/// The share of the first written frame's pixels that no camera covers (`source_2` =
+/// [`crate::warp::NO_SOURCE`]) in the rig output `output`; None when it has none to read.
+pub fn uncovered_share(output: &Path) -> Option<(f64, PathBuf)> {
+    let dir = output.join(super::SPLIT).join("source_2");
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .collect();
+    names.sort();
+    let first = names.into_iter().next()?;
+    let bytes = std::fs::read(&first).ok()?;
+    let image = crate::codec::png::decode_rgb8(&bytes, &first).ok()?;
+    let pixels = image.as_raw().chunks_exact(3);
+    let n = pixels.len();
+    let black = pixels.filter(|p| p[0] == crate::warp::NO_SOURCE).count();
+    Some((black as f64 / n.max(1) as f64, first))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panorama_without_flags_is_the_band_and_an_explicit_scale_the_sphere() {
+        let eq = Projection::Equirect;
+        let spec = rig_output_spec(eq, 6, &CanvasFlags::default()).unwrap();
+        assert_eq!(spec.canvas, Canvas::Band);
+        assert_eq!(spec.scale, Scale::PanoWidth(DEFAULT_PANO_WIDTH));
+        let width = CanvasFlags {
+            pano_width: Some(1024),
+            ..Default::default()
+        };
+        let spec = rig_output_spec(eq, 6, &width).unwrap();
+        assert_eq!(
+            (spec.scale, spec.canvas),
+            (Scale::PanoWidth(1024), Canvas::Full360)
+        );
+        let one = rig_output_spec(eq, 1, &CanvasFlags::default()).unwrap();
+        assert_eq!((one.scale, one.canvas), (Scale::SourceFocal, Canvas::Tight));
+        let full = CanvasFlags {
+            full_360: true,
+            ..Default::default()
+        };
+        let spec = rig_output_spec(eq, 6, &full).unwrap();
+        assert_eq!(
+            (spec.scale, spec.canvas),
+            (Scale::SourceFocal, Canvas::Full360)
+        );
+    }
+}
