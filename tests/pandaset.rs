@@ -92,7 +92,7 @@ fn figures(mode: StitchMode) -> Vec<StitchFigures> {
         .iter()
         .map(|item| {
             let frame = source.read(item).unwrap().frame;
-            let camera = output_camera(&frame, &info, &target, 0).unwrap();
+            let camera = output_camera(&frame, &info, &target, &cameras).unwrap();
             let images = read_images(&frame, &options).unwrap();
             let refs: Vec<&RgbImage> = images.iter().collect();
             let built = rig_stitch(&frame, &info, camera.as_ref(), &options).unwrap();
