@@ -214,8 +214,7 @@ fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f64 {
             a
         })
         .reduce(|| 0.0, f64::max);
-    let step = 2.0 * (step / 2.0).min(1.0).asin();
-    step
+    2.0 * (step / 2.0).min(1.0).asin()
 }
 
 /// The output's grid as a cone's bound reads it.

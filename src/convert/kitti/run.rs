@@ -66,9 +66,7 @@ pub fn run_kitti(
         write_split_calib(&ctx, split)?;
     }
     let unusable = unusable_frames(job, &dataset);
-    // what the dataset holds that is no frame: listed once, by an unsharded run or shard 0
-    let listed = job.frames.is_none() && folder.writes_shared_files();
-    let not_frames = (listed.then(|| crate::kitti::not_frames::list(&dataset))).unwrap_or_default();
+    let not_frames = not_frames(job, &folder, &dataset);
     let mut run = folder.start(
         job.source.command(),
         parameters,
@@ -113,6 +111,16 @@ fn selected_frames(job: &KittiJob, dataset: &Dataset) -> Result<Vec<FrameRef>> {
         frames.retain(|f| shard.owns(&f.split, &f.id));
     }
     Ok(frames)
+}
+
+/// What the dataset holds that is no frame, listed once: by an unsharded run of the whole
+/// dataset, or its shard 0.
+fn not_frames(job: &KittiJob, folder: &OutputFolder, dataset: &Dataset) -> Vec<String> {
+    if job.frames.is_none() && folder.writes_shared_files() {
+        crate::kitti::not_frames::list(dataset)
+    } else {
+        Vec::new()
+    }
 }
 
 /// The image files of the selection that are not frames, each recorded as a failure.
