@@ -406,19 +406,7 @@ fn unified_family(
         ));
     }
     let max_theta = fov.to_radians() / 2.0;
-    let at_most = |v: &Option<Vec<f64>>, field: &str| -> Result<[f64; 2]> {
-        let v = v.clone().unwrap_or_default();
-        if v.len() > 2 {
-            return Err(bad(
-                field,
-                format!("expected at most 2 coefficients, found {}", v.len()),
-            ));
-        }
-        if !v.iter().all(|c| c.is_finite()) {
-            return Err(bad(field, "coefficients must be finite".into()));
-        }
-        Ok(std::array::from_fn(|i| v.get(i).copied().unwrap_or(0.0)))
-    };
+    let at_most = |v: &Option<Vec<f64>>, field: &str| at_most_two(v, field, bad);
     let built = match model {
         ModelName::Mei => {
             let [k1, k2] = at_most(&file.k, "k")?;
@@ -473,6 +461,25 @@ fn unified_family(
         };
         bad(field, e.to_string())
     })
+}
+
+/// Up to two finite coefficients of `field`, zeros after those given.
+fn at_most_two(
+    v: &Option<Vec<f64>>,
+    field: &str,
+    bad: &dyn Fn(&str, String) -> Error,
+) -> Result<[f64; 2]> {
+    let v = v.clone().unwrap_or_default();
+    if v.len() > 2 {
+        return Err(bad(
+            field,
+            format!("expected at most 2 coefficients, found {}", v.len()),
+        ));
+    }
+    if !v.iter().all(|c| c.is_finite()) {
+        return Err(bad(field, "coefficients must be finite".into()));
+    }
+    Ok(std::array::from_fn(|i| v.get(i).copied().unwrap_or(0.0)))
 }
 
 /// The description's rotation (`output_from_camera`), identity when absent.
