@@ -242,36 +242,7 @@ impl<'a, 'input> Reader<'a, 'input> {
             |(lo, hi), v| (lo.inf(v), hi.sup(v)),
         );
         let r = transform.fixed_view::<3, 3>(0, 0).into_owned();
-        let scaled: Vec<Vector3<f64>> = (0..3).map(|k| r.column(k) * (hi[k] - lo[k])).collect();
-        let extent = Vector3::from_iterator(scaled.iter().map(|a| a.norm()));
-        if !extent.iter().all(|e| *e > 1e-9) {
-            return Err(bad("the box is flat: an axis has no extent".into()));
-        }
-        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-            let cos = scaled[i].dot(&scaled[j]) / (extent[i] * extent[j]);
-            if cos.abs() > MAX_AXIS_COSINE {
-                return Err(bad(format!(
-                    "columns {i} and {j} are not perpendicular (cos {cos:.2e}): not a rotation \
-                     times a scale"
-                )));
-            }
-        }
-        let axes = Matrix3::from_columns(&[
-            scaled[0] / extent[0],
-            scaled[1] / extent[1],
-            scaled[2] / extent[2],
-        ]);
-        if !(axes.determinant() > 0.0) {
-            return Err(bad(
-                "the box's axes are mirrored (negative determinant)".into()
-            ));
-        }
-        // The nearest rotation, so that the neutral box is rigid whatever the rounding.
-        let svd = axes.svd(true, true);
-        let axes = match (svd.u, svd.v_t) {
-            (Some(u), Some(v_t)) => u * v_t,
-            _ => axes,
-        };
+        let (axes, extent) = rigid_axes(&r, &lo, &hi, bad)?;
         let centre_local = (lo + hi) / 2.0;
         Ok(WorldBox {
             line,
@@ -288,6 +259,47 @@ impl<'a, 'input> Reader<'a, 'input> {
             extent,
         })
     }
+}
+
+/// A box's axes and extents from its transform's 3x3 part `r` over its local bounds `lo`..`hi`:
+/// the columns must be a rotation times a scale (perpendicular, right-handed, none flat); the
+/// nearest rotation is returned, so that the neutral box is rigid whatever the rounding.
+fn rigid_axes(
+    r: &Matrix3<f64>,
+    lo: &Vector3<f64>,
+    hi: &Vector3<f64>,
+    bad: impl Fn(String) -> Error,
+) -> Result<(Matrix3<f64>, Vector3<f64>)> {
+    let scaled: Vec<Vector3<f64>> = (0..3).map(|k| r.column(k) * (hi[k] - lo[k])).collect();
+    let extent = Vector3::from_iterator(scaled.iter().map(|a| a.norm()));
+    if !extent.iter().all(|e| *e > 1e-9) {
+        return Err(bad("the box is flat: an axis has no extent".into()));
+    }
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        let cos = scaled[i].dot(&scaled[j]) / (extent[i] * extent[j]);
+        if cos.abs() > MAX_AXIS_COSINE {
+            return Err(bad(format!(
+                "columns {i} and {j} are not perpendicular (cos {cos:.2e}): not a rotation \
+                 times a scale"
+            )));
+        }
+    }
+    let axes = Matrix3::from_columns(&[
+        scaled[0] / extent[0],
+        scaled[1] / extent[1],
+        scaled[2] / extent[2],
+    ]);
+    if !(axes.determinant() > 0.0) {
+        return Err(bad(
+            "the box's axes are mirrored (negative determinant)".into()
+        ));
+    }
+    let svd = axes.svd(true, true);
+    let axes = match (svd.u, svd.v_t) {
+        (Some(u), Some(v_t)) => u * v_t,
+        _ => axes,
+    };
+    Ok((axes, extent))
 }
 
 /// Parses the text of a box file; `path` names it in errors.

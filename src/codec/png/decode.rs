@@ -336,7 +336,11 @@ mod ssse3 {
     //! added to all five. Only the last step depends on the previous block.
     use std::arch::x86_64::*;
 
-    /// SAFETY: the CPU must have SSSE3.
+    /// # Safety
+    ///
+    /// The CPU must have SSSE3: the function is compiled with its instructions, which
+    /// fault on a processor without them. Its loads and stores stay inside both slices (each
+    /// block is checked against their shorter length).
     #[target_feature(enable = "ssse3")]
     pub(super) unsafe fn unsub(src: &[u8], cur: &mut [u8]) {
         let n = src.len().min(cur.len());

@@ -194,7 +194,10 @@ fn sub_dispatch(bpp: usize, cur: &[u8], out: &mut [u8]) {
     sub(bpp, cur, out)
 }
 
-/// SAFETY: the CPU must have AVX2.
+/// # Safety
+///
+/// The CPU must have AVX2: the function is compiled with its instructions, which
+/// fault on a processor without them. It reads and writes only through safe slices.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn sub_avx2(bpp: usize, cur: &[u8], out: &mut [u8]) {
@@ -213,7 +216,10 @@ fn paeth_dispatch(bpp: usize, prev: &[u8], cur: &[u8], out: &mut [u8]) {
     paeth(bpp, prev, cur, out)
 }
 
-/// SAFETY: the CPU must have AVX2.
+/// # Safety
+///
+/// The CPU must have AVX2: the function is compiled with its instructions, which
+/// fault on a processor without them. It reads and writes only through safe slices.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn paeth_avx2(bpp: usize, prev: &[u8], cur: &[u8], out: &mut [u8]) {

@@ -10,7 +10,7 @@ use crate::convert::style_pass::{convert_group, StylePass};
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::kitti::{Cam, Dataset, FrameRef, OutputKind, Split};
-use crate::run::journal::Journal;
+use crate::run::journal::{Journal, Previous};
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::names::IMAGE_SETS;
 use crate::run::{Claim, FrameRun, FrameWork, OutputFolder, Progress};
@@ -56,11 +56,7 @@ pub fn run_kitti(
         .map(|m| StylePass::new(m, job.style.as_ref().map_or(1, |s| s.batch)));
     if job.augment.is_none() {
         // (augmented views have tables of their own, built with the frame)
-        let todo: Vec<(&Split, &str)> = (frames.iter())
-            .filter(|f| !previous.contains(&f.split, &f.id))
-            .filter_map(|f| Some((dataset.split(&f.split)?, f.id.as_str())))
-            .collect();
-        super::tables::build_ahead(&ctx, &todo, &job.cameras, progress);
+        build_tables_ahead(&ctx, &frames, &previous, progress);
     }
     for split in &dataset.splits {
         write_split_calib(&ctx, split)?;
@@ -104,6 +100,20 @@ pub fn run_kitti(
             .map(|a| (ctx.views.thin_views(), a.min_objects.max(1) as usize)),
         not_frames,
     })
+}
+
+/// Builds the tables of the frames still to convert (those of a resumed run's records aside).
+fn build_tables_ahead(
+    ctx: &Context,
+    frames: &[FrameRef],
+    previous: &Previous,
+    progress: &dyn Progress,
+) {
+    let todo: Vec<(&Split, &str)> = (frames.iter())
+        .filter(|f| !previous.contains(&f.split, &f.id))
+        .filter_map(|f| Some((ctx.dataset.split(&f.split)?, f.id.as_str())))
+        .collect();
+    super::tables::build_ahead(ctx, &todo, &ctx.job.cameras, progress);
 }
 
 /// The frames of the selection this process converts: checked on the whole selection, before

@@ -344,6 +344,21 @@ fn write(root: &Path, relative: &str, bytes: &[u8]) -> Result<()> {
     write_atomic(&path, bytes)
 }
 
+/// The rig's calibration folder, in KITTI-360's files.
+fn write_calibration(root: &Path, rig: &Rig) -> Result<()> {
+    let files = [
+        ("calib_cam_to_pose.txt", rig.cam_to_pose_text()),
+        ("perspective.txt", rig.perspective_text()),
+        ("image_02.yaml", rig.fisheye_yaml(0)),
+        ("image_03.yaml", rig.fisheye_yaml(1)),
+        ("calib_cam_to_velo.txt", rig.cam_to_velo_text()),
+    ];
+    for (name, text) in files {
+        write(root, &format!("calibration/{name}"), text.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// Writes the synthetic sequence under `root` (created; it must be empty unless `overwrite`).
 pub fn write_sequence(
     root: &Path,
@@ -356,31 +371,7 @@ pub fn write_sequence(
         return Err(Error::Setup("a sequence needs at least one frame".into()));
     }
     let rig = Rig::new(options.scale, options.zero_baseline)?;
-    write(
-        root,
-        "calibration/calib_cam_to_pose.txt",
-        rig.cam_to_pose_text().as_bytes(),
-    )?;
-    write(
-        root,
-        "calibration/perspective.txt",
-        rig.perspective_text().as_bytes(),
-    )?;
-    write(
-        root,
-        "calibration/image_02.yaml",
-        rig.fisheye_yaml(0).as_bytes(),
-    )?;
-    write(
-        root,
-        "calibration/image_03.yaml",
-        rig.fisheye_yaml(1).as_bytes(),
-    )?;
-    write(
-        root,
-        "calibration/calib_cam_to_velo.txt",
-        rig.cam_to_velo_text().as_bytes(),
-    )?;
+    write_calibration(root, &rig)?;
     let frames: Vec<u32> = (0..options.frames).map(|i| FIRST_FRAME + i).collect();
     let poses: String = frames
         .iter()

@@ -7,6 +7,7 @@
 
 use crate::tools::synth::{Scene, SceneBox, GROUND_Y};
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
+use std::f64::consts::FRAC_PI_2;
 
 /// world_from_scene's rotation (scene x → world x, scene y → world −z, scene z → world y).
 pub const WORLD_FROM_SCENE: [f64; 9] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0];
@@ -143,128 +144,77 @@ pub fn world_transform(b: &SceneBox) -> Matrix4<f64> {
     m
 }
 
-/// The objects of the synthetic drive: vehicles, a pedestrian and a bicycle leaning 12° (a box
-/// that is not upright) all around the rig, a building (a class KITTI has no type for), a parked car that is annotated for the
-/// first two frames only, and one car driving towards the rig.
+/// An object that stands in the scene for the whole drive: (kittiId, instanceId, label,
+/// dimensions h w l, rotation_y, colour, scene x z of its bottom centre, lean in degrees).
+type Standing = (
+    i64,
+    i64,
+    &'static str,
+    [f64; 3],
+    f64,
+    [f64; 3],
+    [f64; 2],
+    f64,
+);
+
+const CAR: [f64; 3] = [1.52, 1.65, 3.9];
+
+/// The objects standing all around the rig: vehicles, a pedestrian, a bicycle leaning 12° on
+/// its stand (a box that is not upright) and a building (a class KITTI has no type for).
+#[rustfmt::skip]
+const STANDING: [Standing; 8] = [
+    (13, 1, "car", CAR, -FRAC_PI_2, [170.0, 60.0, 60.0], [2.0, 11.0], 0.0),
+    (13, 2, "car", CAR, -FRAC_PI_2, [60.0, 70.0, 170.0], [-1.6, -11.0], 0.0),
+    (13, 3, "car", CAR, -1.45, [200.0, 200.0, 80.0], [-4.2, 3.5], 0.0),
+    (16, 1, "caravan", [2.4, 2.1, 5.5], -1.65, [150.0, 90.0, 40.0], [4.6, -1.5], 0.0),
+    (19, 1, "pedestrian", [1.75, 0.6, 0.8], 0.4, [90.0, 140.0, 90.0], [3.4, 6.0], 0.0),
+    (18, 1, "bicycle", [1.1, 0.6, 1.7], -1.5, [120.0, 50.0, 140.0], [-3.3, -4.5], 12.0),
+    (14, 1, "truck", [3.2, 2.5, 8.0], -1.6, [70.0, 90.0, 160.0], [-7.0, 22.0], 0.0),
+    (11, 1, "building", [6.0, 8.0, 12.0], 0.0, [130.0, 120.0, 110.0], [14.0, 8.0], 0.0),
+];
+
+/// The objects of the synthetic drive: those of [`STANDING`], a parked car that is annotated
+/// for the first two frames only, and one car driving towards the rig.
 pub fn objects() -> Vec<Object> {
-    use std::f64::consts::FRAC_PI_2;
-    let car = [1.52, 1.65, 3.9];
-    let stat = |at: [f64; 2]| Motion::Static {
-        at,
-        frames: [0, 100_000],
-    };
-    let o = |kitti_id, instance_id, label, dimensions, rotation_y, colour, motion| Object {
-        kitti_id,
+    let standing = STANDING.iter().map(
+        |&(kitti_id, instance_id, label, dimensions, rotation_y, colour, at, lean)| Object {
+            kitti_id,
+            instance_id,
+            label,
+            dimensions,
+            rotation_y,
+            colour,
+            motion: Motion::Static {
+                at,
+                frames: [0, 100_000],
+            },
+            lean: lean.to_radians(),
+        },
+    );
+    let car = |instance_id, rotation_y, colour, motion| Object {
+        kitti_id: 13,
         instance_id,
-        label,
-        dimensions,
+        label: "car",
+        dimensions: CAR,
         rotation_y,
         colour,
         motion,
         lean: 0.0,
     };
-    vec![
-        o(
-            13,
-            1,
-            "car",
-            car,
-            -FRAC_PI_2,
-            [170.0, 60.0, 60.0],
-            stat([2.0, 11.0]),
-        ),
-        o(
-            13,
-            2,
-            "car",
-            car,
-            -FRAC_PI_2,
-            [60.0, 70.0, 170.0],
-            stat([-1.6, -11.0]),
-        ),
-        o(
-            13,
-            3,
-            "car",
-            car,
-            -1.45,
-            [200.0, 200.0, 80.0],
-            stat([-4.2, 3.5]),
-        ),
-        o(
-            16,
-            1,
-            "caravan",
-            [2.4, 2.1, 5.5],
-            -1.65,
-            [150.0, 90.0, 40.0],
-            stat([4.6, -1.5]),
-        ),
-        o(
-            19,
-            1,
-            "pedestrian",
-            [1.75, 0.6, 0.8],
-            0.4,
-            [90.0, 140.0, 90.0],
-            stat([3.4, 6.0]),
-        ),
-        // a parked bicycle leaning on its stand, 12° from upright
-        Object {
-            lean: 12f64.to_radians(),
-            ..o(
-                18,
-                1,
-                "bicycle",
-                [1.1, 0.6, 1.7],
-                -1.5,
-                [120.0, 50.0, 140.0],
-                stat([-3.3, -4.5]),
-            )
-        },
-        o(
-            14,
-            1,
-            "truck",
-            [3.2, 2.5, 8.0],
-            -1.6,
-            [70.0, 90.0, 160.0],
-            stat([-7.0, 22.0]),
-        ),
-        o(
-            11,
-            1,
-            "building",
-            [6.0, 8.0, 12.0],
-            0.0,
-            [130.0, 120.0, 110.0],
-            stat([14.0, 8.0]),
-        ),
-        o(
-            13,
-            4,
-            "car",
-            car,
-            -1.5,
-            [60.0, 150.0, 60.0],
-            Motion::Static {
-                at: [5.0, 16.0],
-                frames: [FIRST_FRAME - 50, FIRST_FRAME + 1],
-            },
-        ),
-        o(
-            13,
-            5,
-            "car",
-            car,
-            FRAC_PI_2,
-            [180.0, 180.0, 190.0],
-            Motion::Moving {
-                from: [-1.8, 18.0],
-                step: [0.0, -1.5],
-            },
-        ),
-    ]
+    let parked = Motion::Static {
+        at: [5.0, 16.0],
+        frames: [FIRST_FRAME - 50, FIRST_FRAME + 1],
+    };
+    let driving = Motion::Moving {
+        from: [-1.8, 18.0],
+        step: [0.0, -1.5],
+    };
+    standing
+        .chain([
+            car(4, -1.5, [60.0, 150.0, 60.0], parked),
+            car(5, FRAC_PI_2, [180.0, 180.0, 190.0], driving),
+        ])
+        .collect()
 }
 
 /// The scene at `frame`.

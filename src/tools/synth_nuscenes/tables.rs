@@ -78,35 +78,8 @@ fn calibrated(m: &Mounting, intrinsic: Value) -> Value {
     })
 }
 
-/// Every table as (name, JSON text). `sweeps` holds each sample's world_from_lidar and points.
-pub fn tables(rig: &Rig, samples: u32, sweeps: Points) -> Vec<(&'static str, String)> {
-    let log = token("log");
-    let scene = token("scene");
-    let sample_tokens: Vec<String> = (0..samples)
-        .map(|s| token(&format!("sample {s}")))
-        .collect();
-    let mut sensors = vec![
-        json!({"token": token("sensor LIDAR_TOP"), "channel": "LIDAR_TOP", "modality": "lidar"}),
-    ];
-    let mut calibrated_sensors = vec![calibrated(&LIDAR, json!([]))];
-    for c in &rig.cameras {
-        let ch = c.mounting.channel;
-        sensors.push(
-            json!({"token": token(&format!("sensor {ch}")), "channel": ch, "modality": "camera"}),
-        );
-        let [fx, fy, cx, cy] = c.intrinsics;
-        calibrated_sensors.push(calibrated(
-            &c.mounting,
-            json!([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]),
-        ));
-    }
-    let sample_records: Vec<Value> = (0..samples as usize)
-        .map(|s| {
-            json!({"token": sample_tokens[s], "timestamp": lidar_time(s as u32), "prev": link(&sample_tokens, s, -1),
-                   "next": link(&sample_tokens, s, 1), "scene_token": scene})
-        })
-        .collect();
-    // sample_data and ego_pose: one per sensor reading
+/// The sample_data and ego_pose records: one of each per sensor reading, the LiDAR's first.
+fn readings(rig: &Rig, samples: u32, sample_tokens: &[String]) -> (Vec<Value>, Vec<Value>) {
     let mut sample_data = Vec::new();
     let mut ego_poses = Vec::new();
     let mut channels: Vec<(&str, [u32; 2], Vec<u64>)> = vec![(
@@ -140,6 +113,38 @@ pub fn tables(rig: &Rig, samples: u32, sweeps: Points) -> Vec<(&'static str, Str
             }));
         }
     }
+    (sample_data, ego_poses)
+}
+
+/// Every table as (name, JSON text). `sweeps` holds each sample's world_from_lidar and points.
+pub fn tables(rig: &Rig, samples: u32, sweeps: Points) -> Vec<(&'static str, String)> {
+    let log = token("log");
+    let scene = token("scene");
+    let sample_tokens: Vec<String> = (0..samples)
+        .map(|s| token(&format!("sample {s}")))
+        .collect();
+    let mut sensors = vec![
+        json!({"token": token("sensor LIDAR_TOP"), "channel": "LIDAR_TOP", "modality": "lidar"}),
+    ];
+    let mut calibrated_sensors = vec![calibrated(&LIDAR, json!([]))];
+    for c in &rig.cameras {
+        let ch = c.mounting.channel;
+        sensors.push(
+            json!({"token": token(&format!("sensor {ch}")), "channel": ch, "modality": "camera"}),
+        );
+        let [fx, fy, cx, cy] = c.intrinsics;
+        calibrated_sensors.push(calibrated(
+            &c.mounting,
+            json!([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]]),
+        ));
+    }
+    let sample_records: Vec<Value> = (0..samples as usize)
+        .map(|s| {
+            json!({"token": sample_tokens[s], "timestamp": lidar_time(s as u32), "prev": link(&sample_tokens, s, -1),
+                   "next": link(&sample_tokens, s, 1), "scene_token": scene})
+        })
+        .collect();
+    let (sample_data, ego_poses) = readings(rig, samples, &sample_tokens);
     let (annotations, instances) = annotations(samples, &sample_tokens, sweeps);
     let named = |kind: &str, names: &[&str]| -> Vec<Value> {
         names
