@@ -97,8 +97,9 @@ pub fn transform_label(
 }
 
 /// One label in the output camera `output` of the source camera `source` (both about
-/// `centre`, rect axes), as [`label_text`] writes it (an object that fails `visibility` as a
-/// DontCare region) and [`objects_in`] counts it; None when it left the image.
+/// `centre`, rect axes), as a conversion's label file writes it (an object that fails
+/// `visibility` as a DontCare region) and its `--min-objects` count counts it; None when it
+/// left the image.
 pub fn move_label(
     label: &Label,
     centre: &Vector3<f64>,

@@ -173,8 +173,8 @@ const STANDING: [Standing; 8] = [
     (11, 1, "building", [6.0, 8.0, 12.0], 0.0, [130.0, 120.0, 110.0], [14.0, 8.0], 0.0),
 ];
 
-/// The objects of the synthetic drive: those of [`STANDING`], a parked car that is annotated
-/// for the first two frames only, and one car driving towards the rig.
+/// The objects of the synthetic drive: those standing all around the rig, a parked car that
+/// is annotated for the first two frames only, and one car driving towards the rig.
 pub fn objects() -> Vec<Object> {
     let standing = STANDING.iter().map(
         |&(kitti_id, instance_id, label, dimensions, rotation_y, colour, at, lean)| Object {
