@@ -16,6 +16,10 @@ Usage: python -m panoconv pandaset --input SEQ --to PROJECTION --output OUT [OPT
 PandaSet's options:
   -i, --input <SEQ>      The sequence folder (e.g. /data/pandaset/002)
       --lidar <WHICH>    both (default), pandar64 (360°) or pandargt (forward), or none
+      --vehicle-box <BOX>
+                         The car's own returns, dropped: X0,Y0,Z0,X1,Y1,Z1 (least and
+                         greatest corner in the LiDAR's pose frame, metres) or none
+                         [default: -1,-1.3,1,1,2.2,2, the roof and the sensor's mount]
 
 Examples:
   python -m panoconv pandaset --input /data/pandaset/002 --to equirect --output /tmp/pandaset_equi --pano-width 2048 --depth
@@ -44,6 +48,21 @@ def _take(args: list, names: tuple) -> tuple:
     return value, rest
 
 
+def _vehicle_box(given):
+    """`--vehicle-box`: True for the default, None for `none`, the two corners, or False."""
+    if given is None:
+        return True
+    if given == "none":
+        return None
+    try:
+        v = [float(x) for x in given.split(",")]
+    except ValueError:
+        return False
+    if len(v) != 6 or not all(a < b for a, b in zip(v[:3], v[3:])):
+        return False
+    return (tuple(v[:3]), tuple(v[3:]))
+
+
 def pandaset(args: list) -> int:
     from .rig import command, convert_rig
 
@@ -53,6 +72,7 @@ def pandaset(args: list) -> int:
         return subprocess.call([command(), "rig-stream", "--help"])
     given, rest = _take(args, ("--input", "-i"))
     lidar, rest = _take(rest, ("--lidar",))
+    vehicle, rest = _take(rest, ("--vehicle-box",))
     output, rest = _take(rest, ("--output", "-o"))
     missing = [n for n, v in (("--input", given), ("--output", output)) if not v]
     if missing:
@@ -64,10 +84,20 @@ def pandaset(args: list) -> int:
     if not os.path.isdir(os.path.join(given, "camera")):
         sys.stderr.write(f"panoconv: error: --input {given}: not a PandaSet sequence (no camera/)\n")
         return 2
+    box = _vehicle_box(vehicle)
+    if box is False:
+        sys.stderr.write(
+            f"panoconv: error: --vehicle-box {vehicle!r}: X0,Y0,Z0,X1,Y1,Z1 (metres) or none\n"
+        )
+        return 2
     try:
-        from .sources.pandaset import PandaSet
+        from .sources.pandaset import VEHICLE_BOX, PandaSet
 
-        source = PandaSet(given, lidar=None if lidar == "none" else (lidar or "both"))
+        source = PandaSet(
+            given,
+            lidar=None if lidar == "none" else (lidar or "both"),
+            vehicle_box=VEHICLE_BOX if box is True else box,
+        )
     except ImportError as e:
         sys.stderr.write(f"panoconv: error: {e}: pip install panoconv[pandaset]\n")
         return 2

@@ -217,6 +217,42 @@ def pandaset(tmp_path_factory):
     return seq, out, r.stderr
 
 
+def test_pandaset_drops_the_car_s_own_returns(capfd):
+    """The roof and the sensor's mount (the Pandar64's returns within a metre or two of it,
+    1.35-1.6 m up in its pose frame) are not depth: the adapter drops them, `vehicle_box=None`
+    keeps them, and nothing else goes."""
+    pytest.importorskip("pandas")
+    from panoconv.sources.pandaset import VEHICLE_BOX, PandaSet, pose_matrix
+
+    seq = pandaset_dir()
+    kept = PandaSet(seq, lidar="pandar64")
+    every = PandaSet(seq, lidar="pandar64", vehicle_box=None)
+    for frame in kept.frames():
+        world_from_lidar = pose_matrix(kept.lidar_poses[int(frame)])
+        a = kept.read(frame).lidar
+        b = every.read(frame).lidar
+        lidar_from_world = np.linalg.inv(world_from_lidar)
+
+        def local(points):
+            return points[:, :3] @ lidar_from_world[:3, :3].T + lidar_from_world[:3, 3]
+
+        least, greatest = (np.array(c) for c in VEHICLE_BOX)
+        inside = np.all((local(b) >= least) & (local(b) <= greatest), axis=1)
+        # the car's body: several hundred returns a sweep, all within 2.5 m of the sensor
+        assert inside.sum() > 400, (frame, inside.sum())
+        assert np.linalg.norm(local(b)[inside], axis=1).max() < 2.5
+        # exactly those go, the others stay in their order
+        assert np.array_equal(a, b[~inside])
+        assert not np.any(np.all((local(a) >= least) & (local(a) <= greatest), axis=1))
+    # a bad box is refused by the command, before anything is written
+    r = subprocess.run(
+        [sys.executable, "-m", "panoconv", "pandaset", "--input", str(seq), "--to", "equirect",
+         "--vehicle-box", "1,2,3", "--output", "/nonexistent/out"],
+        capture_output=True, text=True, timeout=60,
+    )
+    assert r.returncode == 2 and "--vehicle-box '1,2,3'" in r.stderr, r.stderr
+
+
 def rect_to_world(calib_path: Path) -> np.ndarray:
     for line in calib_path.read_text().splitlines():
         if line.startswith("Tr_rect_to_world:"):

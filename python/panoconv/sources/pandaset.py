@@ -22,6 +22,15 @@ import numpy as np
 from ..rig import Box3D, RigCamera, RigFrame, RigSource
 from .._native import Camera
 
+# The car's own body as the Pandar64 sees it, in the LiDAR's pose frame (PandaSet's
+# `lidar/poses.json`): the roof and the sensor's mount return within 2 m of its origin,
+# 1.35-1.6 m up in that frame (about 600 returns a sweep), and would read as the nearest
+# surface of every ray through them (depth labels, the depth-guided stitch). As nuScenes'
+# devkit and KITTI-360's scripts drop their vehicle's returns, the adapter drops those inside
+# this box ((least corner), (greatest corner), metres); `vehicle_box=None` keeps them. The
+# nearest other returns of the sequence's frames (a parked car) lie 2 m to the side.
+VEHICLE_BOX = ((-1.0, -1.3, 1.0), (1.0, 2.2, 2.0))
+
 # Clockwise from the front camera, as nuScenes orders its rig; the first is the level frame's.
 CAMERAS = (
     "front_camera",
@@ -104,13 +113,22 @@ def _json(path: str):
 
 class PandaSet(RigSource):
     """A PandaSet sequence folder (`.../002`). `lidar`: "both" (default), "pandar64" (the
-    360° one, `d` = 0) or "pandargt" (the forward one, `d` = 1); None reads no scan."""
+    360° one, `d` = 0) or "pandargt" (the forward one, `d` = 1); None reads no scan.
+    `vehicle_box`: the returns dropped as the car's own body ([`VEHICLE_BOX`], in the LiDAR's
+    pose frame), None to keep every return."""
 
     name = "pandaset"
     lidar_azimuth_step_deg = PANDAR64_AZIMUTH_STEP_DEG
 
-    def __init__(self, sequence, lidar: Optional[str] = "both"):
+    def __init__(self, sequence, lidar: Optional[str] = "both", vehicle_box=VEHICLE_BOX):
         import pandas  # noqa: F401  (the optional extra: fail here, naming it)
+
+        self.vehicle_box = None
+        if vehicle_box is not None:
+            least, greatest = (np.asarray(c, dtype=np.float64).reshape(3) for c in vehicle_box)
+            if not (np.all(np.isfinite(least)) and np.all(least < greatest)):
+                raise ValueError(f"vehicle_box {vehicle_box!r}: a least and a greatest corner")
+            self.vehicle_box = (least, greatest)
 
         self.root = os.path.abspath(os.fspath(sequence))
         if lidar not in ("both", "pandar64", "pandargt", None):
@@ -172,7 +190,10 @@ class PandaSet(RigSource):
             scan = pd.read_pickle(lidar_file)
             if self.lidar != "both":
                 scan = scan[scan["d"] == (0 if self.lidar == "pandar64" else 1)]
-            lidar = scan[["x", "y", "z", "i"]].to_numpy(dtype=np.float64)
+            lidar = self.without_vehicle(
+                scan[["x", "y", "z", "i"]].to_numpy(dtype=np.float64),
+                pose_matrix(self.lidar_poses[k]),
+            )
             inputs.append(lidar_file)
         record = {
             "sequence": self.sequence,
@@ -188,6 +209,16 @@ class PandaSet(RigSource):
             record=record,
             inputs=inputs,
         )
+
+    def without_vehicle(self, points: np.ndarray, world_from_lidar: np.ndarray) -> np.ndarray:
+        """The world-frame `points` (N x 4) less those inside the vehicle box."""
+        if self.vehicle_box is None:
+            return points
+        least, greatest = self.vehicle_box
+        lidar_from_world = np.linalg.inv(world_from_lidar)
+        local = points[:, :3] @ lidar_from_world[:3, :3].T + lidar_from_world[:3, 3]
+        inside = np.all((local >= least) & (local <= greatest), axis=1)
+        return points[~inside]
 
     def boxes(self, cuboids) -> list:
         """The cuboids with a KITTI type, an object annotated once per LiDAR (siblings) once:
