@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Makes the stitch pictures of README.md and docs/stitch.md from a REAL frame: frame 00 of the
+# Makes the stitch pictures of README.md and docs/nuscenes.md from a REAL frame: frame 00 of the
 # PandaSet sequence in ../shared/pandaset/002 (PandaSet, Hesai and Scale AI, CC BY 4.0),
 # rebuilt as nuScenes tables by tests/pandaset_nuscenes.py (the test venv's pandas), converted
 # by `panoconv nuscenes` in both stitch modes and drawn with its boxes by `panoconv preview`.
