@@ -8,14 +8,20 @@ use rayon::prelude::*;
 impl Stitch {
     /// The stitch of one frame's `images` (in the cameras' order, each of its camera's size).
     pub fn apply(&self, images: &[&RgbImage]) -> Stitched {
+        self.blend(&self.remap(images))
+    }
+
+    /// Each camera's image remapped into the output (in the cameras' order).
+    pub(super) fn remap(&self, images: &[&RgbImage]) -> Vec<RgbImage> {
         assert_eq!(images.len(), self.tables.len(), "one image per camera");
-        let remapped: Vec<RgbImage> = self
-            .tables
-            .iter()
-            .zip(images)
+        (self.tables.iter().zip(images))
             .map(|(t, img)| t.apply(img))
-            .collect();
-        let gains = self.gains(&remapped);
+            .collect()
+    }
+
+    /// The remapped images blended by the weights and the frame's exposure gains.
+    pub(super) fn blend(&self, remapped: &[RgbImage]) -> Stitched {
+        let gains = self.gains(remapped);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let mut out = RgbImage::new(self.size.width, self.size.height);
         let mut source = vec![255u8; w * h];

@@ -45,13 +45,8 @@ impl StitchFigures {
 impl Stitch {
     /// The figures of this stitch of `images` (as [`Stitch::apply`] takes them).
     pub fn figures(&self, images: &[&RgbImage]) -> StitchFigures {
-        let stitched = self.apply(images);
-        let remapped: Vec<RgbImage> = self
-            .tables
-            .iter()
-            .zip(images)
-            .map(|(t, img)| t.apply(img))
-            .collect();
+        let remapped = self.remap(images);
+        let stitched = self.blend(&remapped);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let covered: Vec<bool> = (0..w * h)
             .map(|i| {
