@@ -162,7 +162,8 @@ fn shards_merge_and_resume_keep_the_rig_mask() {
     let run = convert(&single, &["--resume"]);
     assert_eq!(run.code, 2, "{}", run.stderr);
     assert!(
-        run.stderr.contains("cannot resume") && run.stderr.contains("mask"),
+        run.stderr.contains("cannot resume")
+            && run.stderr.contains("written with other parameters (mask)"),
         "{}",
         run.stderr
     );
