@@ -246,7 +246,7 @@ fn bad_input_is_a_set_up_error_naming_what_is_wrong() {
     let root = scene(true);
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let cases: [(&[&str], &str); 5] = [
+    let cases: [(&[&str], &str); 4] = [
         (&["--to", "equirect", "--cameras", "CAM_TOP"], "CAM_TOP"),
         (
             &["--to", "equirect", "--classes", "vehicle.spaceship"],
@@ -259,10 +259,6 @@ fn bad_input_is_a_set_up_error_naming_what_is_wrong() {
         (
             &["--to", "equirect", "--scenes", "scene-9999"],
             "scene-9999",
-        ),
-        (
-            &["--to", "equirect", "--mask"],
-            "--mask is not supported by nuscenes",
         ),
     ];
     for (extra, named) in cases {

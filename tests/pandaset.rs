@@ -1,12 +1,16 @@
 //! The stitch on a real scan: the four REAL frames of ../shared/pandaset/002 (PandaSet, Hesai
-//! and Scale AI, CC BY 4.0; six 1920x1080 cameras around the car, a 360° Pandar64), rebuilt as
-//! a nuScenes data root by tests/pandaset_nuscenes.py and converted as `panoconv nuscenes`
-//! converts it. Each frame's figures in both stitch modes ([`StitchFigures`]): the
-//! depth-guided stitch (the default) leaves at most 0.5 % of what the cameras cover black, at
-//! most 0.1 % as isolated holes, and its cameras agree at least as well in their overlaps as
-//! the fixed stitch's at 10 m.
+//! and Scale AI, CC BY 4.0; six 1920x1080 cameras around the car, a 360° Pandar64 and a
+//! forward PandarGT), read by the Python adapter (`panoconv.sources.pandaset`, what
+//! `python -m panoconv pandaset` converts) over the rig-stream protocol. Each frame's figures
+//! in both stitch modes ([`StitchFigures`], printed with `--nocapture`): the depth-guided
+//! stitch (the default) leaves at most 0.5 % of what the cameras cover black, at most 0.1 % as
+//! isolated holes, and its cameras agree at least as well in their overlaps as the fixed
+//! stitch's at 10 m. The same frames converted through the binary keep the car's own returns
+//! out of the depth maps and mark the fallback's pixels in `source_2` and `mask_2`. Then the
+//! nuScenes-format path: the frames rebuilt as nuScenes tables (tests/pandaset_nuscenes.py)
+//! and read by the nuScenes reader hold the same bars.
 
-use crate::common::{self, real_pandaset};
+use crate::common::{self, read_png, real_pandaset};
 use crate::opencv_ref::test_python;
 use panoconv::camera::Projection;
 use panoconv::convert::rig::{
@@ -16,52 +20,67 @@ use panoconv::geometry::{Canvas, OutputSpec, Scale, Target};
 use panoconv::image::RgbImage;
 use panoconv::nuscenes::{NuScenesSelection, NuScenesSource};
 use panoconv::source::{RigSource, VehicleBox};
+use panoconv::stream::{StreamPeer, WorldRigSource};
 use panoconv::warp::{StitchFigures, StitchOptions, FALLBACK_SOURCE, NO_SOURCE};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::sync::OnceLock;
+
+const BIN: &str = env!("CARGO_BIN_EXE_panoconv");
 
 /// The bars of the issue's "done when", per frame with default options.
 const MAX_BLACK_PERCENT: f64 = 0.5;
 const MAX_ISOLATED_PERCENT: f64 = 0.1;
 
-/// The car's own returns in PandaSet's LiDAR frame (x right, y forward, z up, its origin at the
-/// road under the sensor; `--vehicle-box`): the roof and the sensor's mount, 0.4-1.7 m up
-/// within a metre and a half of the origin. nuScenes' default box sits below a sensor 1.84 m
-/// up, so it does not fit this frame.
-const PANDASET_VEHICLE_BOX: &str = "-1.2,-1.6,0.2,1.2,1.2,2.2";
-
-/// The PandaSet frames as a nuScenes data root (version v1.0-mini), made once.
-fn root() -> &'static Path {
-    static ROOT: OnceLock<PathBuf> = OnceLock::new();
-    ROOT.get_or_init(|| {
-        let dir = tempfile::Builder::new()
-            .prefix("pandaset_nuscenes")
-            .tempdir()
-            .unwrap()
-            .keep();
-        let script = common::repo().join("tests/pandaset_nuscenes.py");
-        let run = Command::new(test_python())
-            .arg(&script)
-            .arg(real_pandaset())
-            .arg(&dir)
-            .output()
-            .expect("cannot run the test python");
-        assert!(
-            run.status.success(),
-            "pandaset_nuscenes.py failed: {}",
-            String::from_utf8_lossy(&run.stderr)
-        );
-        dir
-    })
+/// The Python with the panoconv package: $PANOCONV_PYTHON, else the repository's .venv-python.
+fn adapter_python() -> PathBuf {
+    if let Some(p) = std::env::var_os("PANOCONV_PYTHON") {
+        return PathBuf::from(p);
+    }
+    let venv = common::repo().join(".venv-python/bin/python");
+    assert!(
+        venv.is_file(),
+        "no Python with the panoconv package: set PANOCONV_PYTHON or run scripts/install_python_package.sh"
+    );
+    venv
 }
 
-/// Each frame's figures with `mode` at the 2048 px panorama's scale.
-fn figures(mode: StitchMode) -> Vec<StitchFigures> {
-    let mut selection = NuScenesSelection::new(root().into(), "v1.0-mini".into());
-    selection.vehicle_box = VehicleBox::parse(PANDASET_VEHICLE_BOX).unwrap();
-    let source = NuScenesSource::open(selection).unwrap();
+/// The adapter's side of the protocol in a child process: `panoconv.convert_rig`'s own server
+/// (`panoconv.rig._serve`) answering on its stdin and stdout, as it answers `rig-stream`.
+const SERVE: &str = "import sys, types
+from panoconv.rig import _serve
+from panoconv.sources.pandaset import PandaSet
+_serve(types.SimpleNamespace(stdout=sys.stdin.buffer, stdin=sys.stdout.buffer), PandaSet(sys.argv[1]))
+";
+
+type Peer = StreamPeer<BufReader<ChildStdout>, ChildStdin>;
+
+/// The PandaSet adapter with its defaults, as a [`RigSource`] over the protocol, and its
+/// process (which ends when the source, holding its stdin, is dropped).
+fn adapter() -> (WorldRigSource<Peer>, Child) {
+    let mut serve = Command::new(adapter_python());
+    serve.args(["-c", SERVE]).arg(real_pandaset());
+    served(serve)
+}
+
+/// The source that the Python process `serve` answers for on its stdin and stdout.
+fn served(mut serve: Command) -> (WorldRigSource<Peer>, Child) {
+    let mut child = serve
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("cannot run the adapter's Python");
+    let output = BufReader::new(child.stdout.take().unwrap());
+    let mut peer = StreamPeer::new(output, child.stdin.take().unwrap());
+    let rig = peer.open().expect("the adapter opens the sequence");
+    (WorldRigSource::new(rig, peer).unwrap(), child)
+}
+
+/// Each frame's figures of `source` with `mode`, 2048 px wide, every camera, default options.
+fn figures(source: &dyn RigSource, mode: StitchMode) -> Vec<StitchFigures> {
     let cameras: Vec<usize> = (0..source.cameras(0).len()).collect();
+    assert_eq!(cameras.len(), 6);
     let info: Vec<_> = source.cameras(0).iter().map(|c| c.info).collect();
     let target = Target::Linear(OutputSpec {
         projection: Projection::Equirect,
@@ -87,7 +106,6 @@ fn figures(mode: StitchMode) -> Vec<StitchFigures> {
         style: None,
     };
     let items = source.items(&cameras).unwrap().items;
-    assert_eq!(items.len(), 4);
     items
         .iter()
         .map(|item| {
@@ -102,12 +120,12 @@ fn figures(mode: StitchMode) -> Vec<StitchFigures> {
         .collect()
 }
 
-#[test]
-fn the_default_stitch_of_real_frames_is_never_black_where_a_camera_sees_and_agrees_at_its_seams() {
-    let (depth, fixed) = (figures(StitchMode::Depth), figures(StitchMode::Fixed));
-    for (k, (d, f)) in depth.iter().zip(&fixed).enumerate() {
+/// Prints each frame's figures of both modes and checks the issue's bars on them.
+fn check_bars(route: &str, depth: &[StitchFigures], fixed: &[StitchFigures]) {
+    assert_eq!(depth.len(), fixed.len());
+    for (k, (d, f)) in depth.iter().zip(fixed).enumerate() {
         eprintln!(
-            "frame {k}: depth-guided black {:.3} %, isolated {:.3} %, fallback {:.2} %, seam {:.2} levels over {} px; fixed black {:.3} %, isolated {:.3} %, seam {:.2} levels over {} px",
+            "{route}: frame {k}: depth-guided black {:.3} %, isolated {:.3} %, fallback {:.2} %, seam {:.2} levels over {} px; fixed black {:.3} %, isolated {:.3} %, seam {:.2} levels over {} px",
             d.black_percent(),
             d.isolated_percent(),
             d.fallback_percent(),
@@ -118,40 +136,58 @@ fn the_default_stitch_of_real_frames_is_never_black_where_a_camera_sees_and_agre
             f.seam_levels,
             f.overlap
         );
-        assert!(d.covered > 500_000, "frame {k}: {d:?}");
-        assert!(d.black_percent() <= MAX_BLACK_PERCENT, "frame {k}: {d:?}");
+        assert!(d.covered > 500_000, "{route}: frame {k}: {d:?}");
+        assert!(
+            d.black_percent() <= MAX_BLACK_PERCENT,
+            "{route}: frame {k}: {d:?}"
+        );
         assert!(
             d.isolated_percent() <= MAX_ISOLATED_PERCENT,
-            "frame {k}: {d:?}"
+            "{route}: frame {k}: {d:?}"
         );
         assert!(
             d.overlap > 10_000 && d.seam_levels <= f.seam_levels,
-            "frame {k}: depth-guided {d:?} against fixed {f:?}"
+            "{route}: frame {k}: depth-guided {d:?} against fixed {f:?}"
         );
     }
 }
 
 #[test]
-fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_marked() {
+fn the_default_stitch_of_real_frames_is_never_black_where_a_camera_sees_and_agrees_at_its_seams() {
+    let (source, mut child) = adapter();
+    let depth = figures(&source, StitchMode::Depth);
+    let fixed = figures(&source, StitchMode::Fixed);
+    drop(source);
+    assert!(
+        child.wait().unwrap().success(),
+        "the adapter's process failed"
+    );
+    check_bars("adapter", &depth, &fixed);
+}
+
+#[test]
+fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_masked() {
     let out = tempfile::tempdir().unwrap();
-    let run = common::panoconv([
-        "nuscenes",
-        "--to",
-        "equirect",
-        "--input",
-        root().to_str().unwrap(),
-        "--version",
-        "v1.0-mini",
-        "--pano-width",
-        "1024",
-        "--depth",
-        "--vehicle-box",
-        PANDASET_VEHICLE_BOX,
-        "-q",
-        "--output",
-        out.path().to_str().unwrap(),
-    ]);
-    assert_eq!(run.code, 0, "{}", run.stderr);
+    let run = Command::new(adapter_python())
+        .args(["-m", "panoconv", "pandaset", "--input"])
+        .arg(real_pandaset())
+        .args([
+            "--to",
+            "equirect",
+            "--pano-width",
+            "1024",
+            "--depth",
+            "--mask",
+        ])
+        .args(["-q", "--output"])
+        .arg(out.path())
+        .env("PANOCONV_COMMAND", BIN)
+        .output()
+        .expect("cannot run the adapter's Python");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    let verify = common::panoconv(["verify", out.path().to_str().unwrap()]);
+    assert_eq!(verify.code, 0, "{}", verify.stderr);
     let training = out.path().join("training");
     let mut ids: Vec<_> = std::fs::read_dir(training.join("depth_2"))
         .unwrap()
@@ -161,7 +197,7 @@ fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_
     assert_eq!(ids.len(), 4);
     for depth_path in &ids {
         let name = depth_path.file_name().unwrap();
-        let png = common::read_png(depth_path);
+        let png = read_png(depth_path);
         let depth: Vec<u16> = png
             .data
             .chunks(2)
@@ -173,17 +209,71 @@ fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_
         let written = depth.iter().filter(|&&d| d > 0).count();
         assert!(written > 5_000, "{name:?}: {written} depth pixels");
         assert_eq!(near, 0, "{name:?}: {near} depth pixels nearer than 2 m");
-        let source = common::read_png(&training.join("source_2").join(name)).data;
-        let marked = source
-            .iter()
-            .filter(|&&s| s != NO_SOURCE && s & FALLBACK_SOURCE != 0)
-            .count();
+        let source = read_png(&training.join("source_2").join(name)).data;
         assert!(
             source
                 .iter()
                 .all(|&s| s == NO_SOURCE || (s & !FALLBACK_SOURCE) < 6),
             "{name:?}: a source value outside 0-5, 128-133 and 255"
         );
-        eprintln!("{name:?}: {marked} fallback pixels");
+        let fallback = |s: u8| s != NO_SOURCE && s & FALLBACK_SOURCE != 0;
+        let marked = source.iter().filter(|&&s| fallback(s)).count();
+        assert!(marked > 100, "{name:?}: {marked} fallback pixels");
+        // mask_2: white exactly where a camera passed the occlusion test (1 bit a pixel)
+        let mask = read_png(&training.join("mask_2").join(name));
+        assert_eq!(mask.depth, png::BitDepth::One, "{name:?}");
+        let stride = (mask.width as usize).div_ceil(8);
+        for (i, &s) in source.iter().enumerate() {
+            let (u, v) = (i % mask.width as usize, i / mask.width as usize);
+            let white = mask.data[v * stride + u / 8] >> (7 - u % 8) & 1 == 1;
+            assert_eq!(
+                white,
+                s < FALLBACK_SOURCE,
+                "{name:?}: pixel {i}: source {s}"
+            );
+        }
+        eprintln!("{name:?}: {marked} fallback pixels, left out of mask_2");
     }
+}
+
+/// The car's own returns in PandaSet's LiDAR frame (x right, y forward, z up, its origin at the
+/// road under the sensor; `--vehicle-box`): the roof and the sensor's mount, 0.4-1.7 m up
+/// within a metre and a half of the origin. nuScenes' default box sits below a sensor 1.84 m
+/// up, so it does not fit this frame.
+const PANDASET_VEHICLE_BOX: &str = "-1.2,-1.6,0.2,1.2,1.2,2.2";
+
+/// The PandaSet frames as a nuScenes data root (version v1.0-mini), made once.
+fn nuscenes_root() -> &'static Path {
+    static ROOT: OnceLock<PathBuf> = OnceLock::new();
+    ROOT.get_or_init(|| {
+        let dir = tempfile::Builder::new()
+            .prefix("pandaset_nuscenes")
+            .tempdir()
+            .unwrap()
+            .keep();
+        let script = common::repo().join("tests/pandaset_nuscenes.py");
+        let run = Command::new(test_python())
+            .arg(&script)
+            .arg(real_pandaset())
+            .arg(&dir)
+            .output()
+            .expect("cannot run the test python");
+        assert!(
+            run.status.success(),
+            "pandaset_nuscenes.py failed: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        dir
+    })
+}
+
+#[test]
+fn the_nuscenes_format_path_of_the_real_frames_holds_the_same_bars() {
+    let mut selection = NuScenesSelection::new(nuscenes_root().into(), "v1.0-mini".into());
+    selection.vehicle_box = VehicleBox::parse(PANDASET_VEHICLE_BOX).unwrap();
+    let source = NuScenesSource::open(selection).unwrap();
+    let depth = figures(&source, StitchMode::Depth);
+    let fixed = figures(&source, StitchMode::Fixed);
+    assert_eq!(depth.len(), 4);
+    check_bars("nuScenes tables", &depth, &fixed);
 }

@@ -284,6 +284,7 @@ fn job(output: &Path) -> RigJob {
         },
         stitch_mode: StitchMode::Depth,
         stitch_depth: false,
+        mask: false,
         centre: None,
         objects: ObjectRule {
             max_distance: 80.0,

@@ -54,6 +54,7 @@ mod preview_text;
 mod raw;
 mod resume;
 mod rig_canvas;
+mod rig_mask;
 mod rig_plugin;
 mod rig_stream;
 mod sample;

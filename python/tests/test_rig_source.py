@@ -117,6 +117,33 @@ def test_shards_merge_resume_and_the_tools_work_on_a_python_source_s_output(tmp_
     assert list((exported / "annotations").glob("*.json")), sorted(p.name for p in exported.iterdir())
 
 
+def test_mask_2_of_a_python_source_is_its_trusted_pixels_and_the_dataset_s_coverage(tmp_path):
+    # --mask through convert_rig: mask_2 is source_2 below 128 (here, with no scan, a fixed
+    # stitch: every covered pixel), and RandomCameraDataset takes it as the frame's coverage
+    from panoconv.random_cameras import CameraSampler, RandomCameraDataset, source_coverage
+
+    code, out = convert(tmp_path, Toy(tmp_path / "in"), "--mask")
+    assert code == 0
+    assert panoconv.verify(out).ok
+    assert panoconv.read_manifest(out)["parameters"]["mask"] is True
+    frames = panoconv.Dataset(out)
+    assert len(frames) == 2
+    for frame in frames:
+        source = panoconv.read_image(frame.source_map)[..., 0]
+        mask = panoconv.read_image(frame.mask)[..., 0] > 0
+        assert np.array_equal(mask, source < 128)
+        assert 0.05 < mask.mean() < 0.95  # two 60 deg cameras: a covered band, black elsewhere
+        assert np.array_equal(source_coverage(frame), mask)
+    sampler = CameraSampler(model=["perspective"], width=(64, 64), height=(48, 48),
+                            fov_deg=(60, 60), yaw_deg=(-180, 180))
+    x = RandomCameraDataset(out, sampler, seed=0)[0]
+    assert not (x["mask"] & (x["image"] == 0).all(axis=2)).any()
+    # without --mask there is none, and source_2 is the coverage
+    (tmp_path / "plain").mkdir()
+    code, plain = convert(tmp_path / "plain", Toy(tmp_path / "in"))
+    assert code == 0 and panoconv.Dataset(plain)[0].mask is None
+
+
 def test_fisheye_cameras_serve_and_a_turned_one_is_refused(tmp_path, capfd):
     fisheye = panoconv.Camera.kannala_brandt(*SIZE, 20.0, 20.0, 31.5, 23.5, [0.01, 0.0, 0.0, 0.0], max_fov_deg=190.0)
     code, out = convert(tmp_path, Toy(tmp_path / "in", lens=fisheye))

@@ -133,8 +133,10 @@ pub(super) struct RigArgs {
     /// Not supported by rig commands (named here to say so).
     #[arg(long, hide = true)]
     style_after_warp: bool,
-    /// Not supported by rig commands (named here to say so).
-    #[arg(long, hide = true)]
+    /// Also write mask_2/: 1-bit PNGs, white where the pixel's colour is trustworthy (a
+    /// camera passed the depth-guided stitch's occlusion test; with `--stitch-mode fixed`, some
+    /// camera covers it): source_2 below 128.
+    #[arg(long)]
     mask: bool,
 }
 
@@ -195,26 +197,13 @@ pub(super) fn ego_masks(
 }
 
 impl RigArgs {
-    /// The flags rig commands name only to refuse them, with the reason.
+    /// The flag rig commands name only to refuse it, with the reason.
     fn refuse_unsupported(&self, command: &str) -> Result<()> {
-        for (given, flag, why) in [
-            (
-                self.style_after_warp,
-                "--style-after-warp",
-                "each camera's image is styled before the stitch, so that the blend and the \
-                 exposure gains work on styled images",
-            ),
-            (
-                self.mask,
-                "--mask",
-                "source_2/ marks the pixels without a camera (255)",
-            ),
-        ] {
-            if given {
-                bail!(setup(format!(
-                    "{flag} is not supported by {command}: {why}"
-                )));
-            }
+        if self.style_after_warp {
+            bail!(setup(format!(
+                "--style-after-warp is not supported by {command}: each camera's image is styled \
+                 before the stitch, so that the blend and the exposure gains work on styled images"
+            )));
         }
         Ok(())
     }
@@ -294,6 +283,7 @@ impl RigArgs {
                 StitchModeArg::Fixed => StitchMode::Fixed,
             },
             stitch_depth: self.stitch_depth,
+            mask: self.mask,
             centre: self.centre,
             objects: ObjectRule {
                 max_distance: self.max_distance,

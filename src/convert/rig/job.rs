@@ -5,7 +5,7 @@
 //! errors from the same place. Then its summary, and what the manifest records of it.
 //!
 //! The output is a KITTI object dataset: `OUT/training/{image_2, label_2, calib, source_2,
-//! objects, depth_2}/ID.*` (docs/kitti360.md), ID the source's item id.
+//! objects, depth_2, mask_2}/ID.*` (docs/kitti360.md), ID the source's item id.
 
 use super::objects::{DropReason, ObjectOutcome, ObjectRule};
 use super::scene_depth::StitchMode;
@@ -46,6 +46,9 @@ pub struct RigSpec {
     pub stitch_mode: StitchMode,
     /// Write the distance each pixel was stitched at (`stitch_depth_2/`).
     pub stitch_depth: bool,
+    /// Write `mask_2/`: white where the pixel's colour is trustworthy (`source_2` below 128:
+    /// a camera passed the occlusion test, or covers the pixel in a fixed stitch).
+    pub mask: bool,
     /// The output centre C2 in the reference frame (default: the mean of the cameras'
     /// centres).
     pub centre: Option<Vector3<f64>>,
@@ -217,6 +220,9 @@ pub(super) struct Parameters<'a> {
     pub(super) stitch_mode: StitchMode,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub(super) stitch_depth: bool,
+    /// `--mask`: `mask_2/` written.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub(super) mask: bool,
     pub(super) blend_width_deg: f64,
     pub(super) exposure_gains: bool,
     pub(super) centre: Option<[f64; 3]>,
@@ -268,6 +274,7 @@ pub(super) fn parameters(
             StitchMode::Fixed
         },
         stitch_depth: job.stitch_depth,
+        mask: job.mask,
         blend_width_deg: job.stitch.blend_width.to_degrees(),
         exposure_gains: job.stitch.even_exposure,
         centre: job.centre.map(|c| [c.x, c.y, c.z]),
@@ -327,6 +334,7 @@ mod tests {
             },
             stitch_mode: StitchMode::Fixed,
             stitch_depth: false,
+            mask: false,
             centre: None,
             objects: ObjectRule {
                 max_distance: 80.0,

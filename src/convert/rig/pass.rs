@@ -83,6 +83,25 @@ pub struct RigFrame {
     pub distances: Option<DepthMap>,
 }
 
+impl RigFrame {
+    /// Whether a `source` value (`source_2`) marks a trustworthy colour: a camera passed the
+    /// occlusion test there (below 128; the fallback's camera + 128 and the uncovered 255 are
+    /// not). In a fixed stitch, every covered pixel.
+    pub fn trusted(source: u8) -> bool {
+        source < FALLBACK_SOURCE
+    }
+
+    /// The `--mask` image (`mask_2/`): a 1-bit PNG, white where [`RigFrame::trusted`], as
+    /// `kitti --mask` writes its own.
+    pub fn encode_mask(&self) -> Vec<u8> {
+        let size = self.camera.size();
+        let width = size.width as usize;
+        crate::codec::png::encode_mask(size.width, size.height, |u, v| {
+            Self::trusted(self.source[v as usize * width + u as usize])
+        })
+    }
+}
+
 /// A rig camera's model with bearings in the reference frame's axes.
 #[derive(Debug)]
 struct InReference<'a> {

@@ -34,7 +34,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// The per-frame outputs under `OUT/training/`.
-const OUTPUTS: [OutputKind; 7] = [
+const OUTPUTS: [OutputKind; 8] = [
     OutputKind::Image(Cam::C2),
     OutputKind::Calib,
     OutputKind::Label,
@@ -42,6 +42,7 @@ const OUTPUTS: [OutputKind; 7] = [
     OutputKind::Objects,
     OutputKind::Depth,
     OutputKind::StitchDepth,
+    OutputKind::Mask(Cam::C2),
 ];
 
 /// One output of a frame: its id, how an augmented view was drawn (None: the whole frame) and
@@ -344,6 +345,7 @@ impl ViewFiles for RigViewFiles<'_> {
         })
         .expect("the objects record serialises");
         let size = out.camera.size();
+        let mask = ctx.job.mask.then(|| out.encode_mask());
         sink.image(
             ctx.output_path(OutputKind::Image(Cam::C2), &id),
             ViewImage::Warped(&out.image),
@@ -366,6 +368,9 @@ impl ViewFiles for RigViewFiles<'_> {
                 ctx.job.run.png_compression,
             );
             sink.file(ctx.output_path(OutputKind::StitchDepth, &id), png);
+        }
+        if let Some(mask) = mask {
+            sink.file(ctx.output_path(OutputKind::Mask(Cam::C2), &id), mask);
         }
         Ok(())
     }
@@ -481,6 +486,7 @@ fn create_output_folders(job: &RigJob, root: &Path) -> Result<()> {
     for kind in OUTPUTS {
         if (kind == OutputKind::Depth && job.run.depth.is_none())
             || (kind == OutputKind::StitchDepth && !(job.stitch_depth && job.depth_guided()))
+            || (kind == OutputKind::Mask(Cam::C2) && !job.mask)
         {
             continue;
         }

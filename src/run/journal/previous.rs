@@ -124,11 +124,15 @@ fn check_parameters(path: &Path, old: &Value, parameters: &Value) -> Result<()> 
         return Ok(());
     }
     let differ: Vec<String> = match (old, parameters) {
-        (Value::Object(a), Value::Object(b)) => b
-            .iter()
-            .filter(|(k, v)| a.get(*k) != Some(v))
-            .map(|(k, _)| k.clone())
-            .collect(),
+        (Value::Object(a), Value::Object(b)) => {
+            let mut differ: Vec<String> = (b.iter())
+                .filter(|(k, v)| a.get(*k) != Some(v))
+                .map(|(k, _)| k.clone())
+                .collect();
+            // a key only the old run wrote (a flag it was given, e.g. `mask`) differs too
+            differ.extend(a.keys().filter(|k| !b.contains_key(*k)).cloned());
+            differ
+        }
         _ => vec!["parameters".into()],
     };
     Err(Error::ResumeMismatch {
