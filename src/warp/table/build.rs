@@ -1,7 +1,9 @@
 //! Building a [`RemapTable`]: every output pixel centre mapped to the source once (by
 //! column and row shares where the output camera is separable), the supersampling each pixel
-//! needs from its neighbours' mapped centres, and its taps merged into 2×2 blocks with
-//! integer weights ([`Quad`]s), band by band of rows, serially or on rayon's pool.
+//! needs from its neighbours' mapped centres, its taps (interpolated from those centres where
+//! the mapping is smooth enough: `local.rs`) merged into 2×2 blocks with integer weights
+//! ([`Quad`]s, through a dense grid: `dense.rs`), band by band of rows, serially or on rayon's
+//! pool.
 
 use super::{column_inside, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Separable, Share};

@@ -113,7 +113,8 @@ fn tile(
                 }
                 let share = grid[i] * scale;
                 sum += share;
-                let r = (sum + 0.5).floor() as i32;
+                // (sum >= 0: truncation is floor, without a libm call)
+                let r = (sum + 0.5) as i32;
                 w[k] = (r - given) as i16;
                 given = r;
                 if share > top {

@@ -10,7 +10,7 @@
 //! one, twelve products.
 
 use super::{tap_offset, Builder};
-use crate::warp::table::Wrap;
+use crate::warp::table::{Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Point2, Vector2};
 
 /// Largest second difference (source pixels, along u, along v or across) of the mapped centres
@@ -79,12 +79,15 @@ impl Builder<'_> {
             return false;
         }
         let start = out.len();
+        let mut across = [[0.0; 3]; MAX_SUPERSAMPLE as usize];
+        for (i, l) in across.iter_mut().take(nu as usize).enumerate() {
+            *l = lagrange(tap_offset(i as u32, nu));
+        }
         for j in 0..nv {
             let lv = lagrange(tap_offset(j, nv));
             let row: [Vector2<f64>; 3] =
                 std::array::from_fn(|k| d[0][k] * lv[0] + d[1][k] * lv[1] + d[2][k] * lv[2]);
-            for i in 0..nu {
-                let lu = lagrange(tap_offset(i, nu));
+            for lu in &across[..nu as usize] {
                 out.push(Some(c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])));
             }
         }
