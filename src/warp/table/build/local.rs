@@ -117,7 +117,7 @@ impl Builder<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{tap_offset, Builder, Parts};
+    use super::super::{Builder, Parts};
     use super::near;
     use crate::camera::{
         rotation_ypr, CameraModel, Equirect, Fisheye, ImageSize, Intrinsics, Perspective,
@@ -125,6 +125,15 @@ mod tests {
     };
     use crate::warp::table::Wrap;
     use nalgebra::Point2;
+
+    /// A name, the output camera, the source camera, the turn (yaw, pitch, roll) and the wrap.
+    type Case<'a> = (
+        &'a str,
+        &'a dyn CameraModel,
+        &'a dyn CameraModel,
+        [f64; 3],
+        Wrap,
+    );
 
     /// The largest distance (source pixels) between a pixel's interpolated taps and its exact
     /// ones, over every supersampled pixel (4×4 taps) whose taps are interpolated, and the share
@@ -182,7 +191,6 @@ mod tests {
                 }
             }
         }
-        let _ = tap_offset;
         (worst, used as f64 / candidates.max(1) as f64)
     }
 
@@ -229,7 +237,7 @@ mod tests {
             Intrinsics::new(40.0, 40.0, 150.0, 60.0),
             ImageSize::new(300, 120),
         );
-        let cases: [(&str, &dyn CameraModel, &dyn CameraModel, [f64; 3], Wrap); 4] = [
+        let cases: [Case; 4] = [
             (
                 "pano poles",
                 small.as_ref(),
