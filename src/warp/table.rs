@@ -4,6 +4,11 @@
 //! the output is locally coarser than the source (more than 1.5 source pixels per output pixel
 //! along an axis) the pixel is supersampled on an nu×nv grid over its footprint (n = round(scale)
 //! per axis, at most 8): a box prefilter that removes the moiré a plain bilinear lookup gives.
+//! Such a pixel's taps cost about what its bilinear lookup costs: they are interpolated from the
+//! source positions of its own and its eight neighbours' centres, which the build maps anyway
+//! (`build/local.rs`; each tap is mapped through the cameras only where the mapping bends too
+//! sharply for that, near a pole or a lens's rim), and merged into a dense grid of the source
+//! pixels under them instead of being sorted (`build/dense.rs`).
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path. The finished table holds them in groups of

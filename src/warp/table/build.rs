@@ -1,7 +1,9 @@
 //! Building a [`RemapTable`]: every output pixel centre mapped to the source once (by
 //! column and row shares where the output camera is separable), the supersampling each pixel
-//! needs from its neighbours' mapped centres, and its taps merged into 2×2 blocks with
-//! integer weights ([`Quad`]s), band by band of rows, serially or on rayon's pool.
+//! needs from its neighbours' mapped centres, its taps (interpolated from those centres where
+//! the mapping is smooth enough: `local.rs`) merged into 2×2 blocks with integer weights
+//! ([`Quad`]s, through a dense grid: `dense.rs`), band by band of rows, serially or on rayon's
+//! pool.
 
 use super::{column_inside, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Separable, Share};
@@ -11,7 +13,9 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+mod dense;
 mod lanes;
+mod local;
 mod plain;
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
@@ -102,10 +106,13 @@ struct Band {
     cover: Vec<Cover>,
 }
 
-/// Scratch space of one pixel's taps: merged blocks (offset, float weights).
+/// Scratch space of one pixel's taps: merged blocks (offset, float weights), or the taps'
+/// blocks (top-left column and row, weights) and the dense grid they are added into.
 #[derive(Default)]
 struct Scratch {
     blocks: Vec<(u32, [f64; 4])>,
+    cells: Vec<(u32, u32, [f64; 4])>,
+    grid: Vec<f64>,
     ints: Vec<[i32; 4]>,
     order: Vec<(usize, f64)>,
 }
@@ -257,7 +264,6 @@ impl<'a> Builder<'a> {
         band: &mut Band,
     ) {
         let w = self.dst.size().width as usize;
-        let vf = v as f64;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
         for u in 0..w {
@@ -282,36 +288,17 @@ impl<'a> Builder<'a> {
                     (nu.min(cap), nv.min(cap))
                 }
             };
-            scratch.blocks.clear();
-            let inside = if (nu, nv) == (1, 1) {
-                self.add_tap(centre, scratch) as u32
-            } else {
-                // the taps row by row, each row's columns left to right
-                parts.bearings.clear();
-                match self.by_parts {
-                    Some(sep) => {
-                        let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
-                        let rows = &mut parts.tap_rows[nv as usize];
-                        if rows.is_empty() {
-                            rows.extend((0..nv).map(|j| sep.row(vf + tap_offset(j, nv))));
-                        }
-                        for &row in rows.iter() {
-                            sep.bearings(columns, row, &mut parts.bearings);
-                        }
-                    }
-                    None => self.tap_bearings(u as f64, vf, nu, nv, &mut parts.bearings),
-                }
-                parts.taps.clear();
-                self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
-                let mut inside = 0;
-                for &p in &parts.taps {
-                    inside += self.add_tap(p, scratch) as u32;
-                }
-                inside
-            };
             let taps = nu * nv;
             let before = band.quads.len();
-            quantize(scratch, inside, taps, &mut band.quads);
+            let inside = if (nu, nv) == (1, 1) {
+                scratch.blocks.clear();
+                let inside = self.add_tap(centre, scratch) as u32;
+                quantize(scratch, inside, taps, &mut band.quads);
+                inside
+            } else {
+                let near = local::near([above, here, below], u);
+                self.supersampled(u, v, (nu, nv), &near, scratch, parts, &mut band.quads)
+            };
             band.counts.push((band.quads.len() - before) as u8);
             band.cover.push(match inside {
                 0 => Cover::None,
@@ -319,6 +306,52 @@ impl<'a> Builder<'a> {
                 _ => Cover::Part,
             });
         }
+    }
+
+    /// Appends the quads of supersampled pixel (u, v) (`nu`×`nv` taps, its neighbourhood of
+    /// mapped centres `near`) and gives how many of its taps lie inside the source. The taps
+    /// are interpolated from `near` where that is exact enough (see `local.rs`), else each
+    /// mapped; merged in a dense grid where it fits (see `dense.rs`), else by offset.
+    #[allow(clippy::too_many_arguments)]
+    fn supersampled(
+        &self,
+        u: usize,
+        v: usize,
+        (nu, nv): (u32, u32),
+        near: &local::Near,
+        scratch: &mut Scratch,
+        parts: &mut Parts,
+        quads: &mut Vec<Quad>,
+    ) -> u32 {
+        parts.taps.clear();
+        if !self.local_taps(near, nu, nv, &mut parts.taps) {
+            // the taps row by row, each row's columns left to right
+            parts.bearings.clear();
+            match self.by_parts {
+                Some(sep) => {
+                    let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
+                    let rows = &mut parts.tap_rows[nv as usize];
+                    if rows.is_empty() {
+                        rows.extend((0..nv).map(|j| sep.row(v as f64 + tap_offset(j, nv))));
+                    }
+                    for &row in rows.iter() {
+                        sep.bearings(columns, row, &mut parts.bearings);
+                    }
+                }
+                None => self.tap_bearings(u as f64, v as f64, nu, nv, &mut parts.bearings),
+            }
+            self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+        }
+        if let Some(inside) = self.dense_quads(&parts.taps, scratch, quads) {
+            return inside;
+        }
+        scratch.blocks.clear();
+        let mut inside = 0;
+        for &p in &parts.taps {
+            inside += self.add_tap(p, scratch) as u32;
+        }
+        quantize(scratch, inside, nu * nv, quads);
+        inside
     }
 
     /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
