@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex};
 
 /// Builds without a single reuse after which a run stops keeping stitches: its geometry
 /// moves, and a kept stitch (hundreds of MB at 2048 px over six cameras) would only hold
-/// memory.
+/// memory between frames.
 const GIVE_UP: usize = 3;
 
 /// The environment variable that turns the cache off (`off`).
@@ -68,6 +68,9 @@ impl StitchCache {
                 kept.reuses += 1;
                 return Ok(found);
             }
+            // another geometry: let its tables go before these are built, so that a moving
+            // rig's run never holds two stitches at once
+            kept.latest = None;
         }
         // built outside the lock: frames of other geometries build beside it
         let stitch = Arc::new(Stitch::build_masked(
