@@ -3,8 +3,8 @@
 # same stitch model in numpy + cv2.remap) on the same frames of a synthetic sequence; with
 # --nuscenes, `panoconv nuscenes --to equirect` against benches/opencv_stitch_nuscenes.py on a
 # synthetic nuScenes scene (six 1600x900 cameras at scale 1).
-#   benches/stitch.sh [--nuscenes] [--data DIR] [--rounds R] [--jobs J] [--width W] [--scale S]
-#                     [--frames N] [--bin BIN]
+#   benches/stitch.sh [--nuscenes [--naive] [--still] [--pandaset SEQ]] [--data DIR] [--rounds R]
+#                     [--jobs J] [--width W] [--scale S] [--frames N] [--bin BIN] [--python PY]
 # --data: where the synthetic sequence lives (written by `panoconv synth --kitti360|--nuscenes
 # --scale S --frames N` on first use, minutes at scale 1; default /tmp/panoconv-stitch-bench or
 # /tmp/panoconv-stitch-bench-nuscenes). Each round runs panoconv (--jobs J) then Python (J
@@ -15,7 +15,21 @@
 # boxes). Checks that every Python panorama agrees with panoconv's fixed one (PSNR >= 40 dB),
 # else exit 1. Also prints each run's CPU time (GNU time's user + sys, /usr/bin/time), which a
 # shared machine's load disturbs less than the wall time.
+# --naive (with --nuscenes): the Python is benches/naive_stitch.py instead, the stitch a user
+# writes in numpy + cv2.remap (bilinear maps at pixel centres, a feathered blend, no prefilter,
+# no gains): its panoramas differ from panoconv's by design, so no PSNR check.
+# --pandaset SEQ: the data is PandaSet sequence folder SEQ (../shared/pandaset/002) rebuilt as a
+# nuScenes root by tests/pandaset_nuscenes.py (with --python's interpreter: numpy, pandas) into
+# --data (default /tmp/panoconv-stitch-bench-pandaset).
+# --still: every sample takes the first sample's ego poses (benches/still_rig.py, into
+# DATA-still): a rig whose geometry repeats, so panoconv's fixed stitch is built once a run.
+# --python PY: the interpreter of the Python side (default benches/.venv's).
 # Sets up benches/.venv (opencv-python-headless, numpy) on first use, as benches/run.sh does.
+#
+# The figures of docs/performance.md ("Rig stitch against the naive numpy stitch"):
+#   benches/stitch.sh --nuscenes --naive --jobs 1 --rounds 2 --data DIR
+#   benches/stitch.sh --nuscenes --naive --jobs 1 --rounds 2 --pandaset ../shared/pandaset/002
+#   (each also with --still)
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"
@@ -28,6 +42,10 @@ width=2048
 scale=1
 frames=3
 bin=""
+naive=0
+still=0
+pandaset=""
+python=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --nuscenes) nuscenes=1; shift ;;
@@ -38,18 +56,34 @@ while [ $# -gt 0 ]; do
         --scale) scale="$2"; shift 2 ;;
         --frames) frames="$2"; shift 2 ;;
         --bin) bin="$2"; shift 2 ;;
+        --naive) naive=1; shift ;;
+        --still) still=1; shift ;;
+        --pandaset) pandaset="$2"; nuscenes=1; shift 2 ;;
+        --python) python="$2"; shift 2 ;;
         *) echo "unknown argument: $1" >&2; exit 2 ;;
     esac
 done
-if ! "$venv/bin/python" -c 'import cv2, numpy' 2>/dev/null; then
-    python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet opencv-python-headless==5.0.0.93 numpy==2.4.6
+if [ -z "$python" ]; then
+    if ! "$venv/bin/python" -c 'import cv2, numpy' 2>/dev/null; then
+        python3 -m venv "$venv"
+        "$venv/bin/pip" install --quiet opencv-python-headless==5.0.0.93 numpy==2.4.6
+    fi
+    python="$venv/bin/python"
 fi
+# one thread a Python process: numpy's BLAS would otherwise spin on every core
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 if [ -z "$bin" ]; then
     (cd "$root" && cargo build --release --quiet --bin panoconv)
     bin="${CARGO_TARGET_DIR:-$root/target}/release/panoconv"
 fi
 # the dataset's command and its Python stitch, both reading "$data"
+if [ -n "$pandaset" ]; then
+    data="${data:-/tmp/panoconv-stitch-bench-pandaset}"
+    if [ ! -f "$data/v1.0-mini/sample.json" ]; then
+        echo "rebuilding PandaSet $pandaset as a nuScenes root in $data"
+        "$python" "$root/tests/pandaset_nuscenes.py" "$pandaset" "$data" >/dev/null
+    fi
+fi
 if [ "$nuscenes" = 1 ]; then
     data="${data:-/tmp/panoconv-stitch-bench-nuscenes}"
     version=v1.0-mini
@@ -57,13 +91,19 @@ if [ "$nuscenes" = 1 ]; then
         echo "writing the synthetic scene (scale $scale, $frames samples) into $data"
         "$bin" synth --nuscenes --scale "$scale" --frames "$frames" --output "$data" >/dev/null
     fi
-    n=$("$venv/bin/python" -c 'import json, sys; print(len(json.load(open(sys.argv[1]))))' \
+    if [ "$still" = 1 ]; then
+        "$python" "$here/still_rig.py" "$data" "$version" "$data-still"
+        data="$data-still"
+    fi
+    n=$("$python" -c 'import json, sys; print(len(json.load(open(sys.argv[1]))))' \
         "$data/$version/sample.json")
-    cameras=$("$venv/bin/python" -c 'import json, sys
+    cameras=$("$python" -c 'import json, sys
 print(sum(s["modality"] == "camera" for s in json.load(open(sys.argv[1]))))' \
         "$data/$version/sensor.json")
     convert=(nuscenes --input "$data" --version "$version")
-    python=("$here/opencv_stitch_nuscenes.py" --input "$data" --version "$version")
+    script="$here/opencv_stitch_nuscenes.py"
+    [ "$naive" = 1 ] && script="$here/naive_stitch.py"
+    python_args=("$script" --input "$data" --version "$version")
 else
     data="${data:-/tmp/panoconv-stitch-bench}"
     seq=2013_05_28_drive_0000_sync
@@ -74,7 +114,7 @@ else
     n=$(wc -l <"$data/data_poses/$seq/poses.txt")
     cameras=4
     convert=(kitti360 --input "$data" --sequence "$seq")
-    python=("$here/opencv_stitch.py" --input "$data" --sequence "$seq")
+    python_args=("$here/opencv_stitch.py" --input "$data" --sequence "$seq")
 fi
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
@@ -106,7 +146,7 @@ for r in $(seq 1 "$rounds"); do
         --stitch-mode fixed
     timed "$r" panoconv " (depth-guided)" depth_s "$bin" "${convert[@]}" --to equirect \
         --pano-width "$width" --output "$work/depth" --overwrite --quiet --jobs "$jobs"
-    timed "$r" python "" py_s "$venv/bin/python" "${python[@]}" --output "$work/python" \
+    timed "$r" python "" py_s "$python" "${python_args[@]}" --output "$work/python" \
         --width "$width" --jobs "$jobs" 2>/dev/null
 done
 total=$((n * rounds))
@@ -120,10 +160,13 @@ printf 'panoconv depth-guided %.3f frames/s: %.2fx the fixed distance time, %.2f
 printf 'CPU s a frame: panoconv %.2f, depth-guided %.2f, python+opencv %.2f (python / panoconv %.2f)\n' \
     "$(echo "$rust_cpu / $total" | bc -l)" "$(echo "$depth_cpu / $total" | bc -l)" \
     "$(echo "$py_cpu / $total" | bc -l)" "$(echo "$py_cpu / $rust_cpu" | bc -l)"
+if [ "$naive" = 1 ]; then
+    exit 0  # the naive stitch differs from panoconv's by design (no prefilter, no gains)
+fi
 worst=999
 for f in "$work"/python/image_2/*.png; do
     name=$(basename "$f")
-    p=$("$venv/bin/python" "$here/opencv_stitch.py" --compare "$f" "$work/rust/training/image_2/$name")
+    p=$("$python" "$here/opencv_stitch.py" --compare "$f" "$work/rust/training/image_2/$name")
     echo "PSNR $name: $p dB"
     worst=$(echo "if ($p < $worst) $p else $worst" | bc -l)
 done

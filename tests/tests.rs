@@ -60,6 +60,7 @@ mod rig_stream;
 mod sample;
 mod scale;
 mod setup_text;
+mod stitch_cache;
 mod style;
 mod style_batch;
 mod style_cli;

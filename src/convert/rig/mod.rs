@@ -10,6 +10,7 @@
 //!   the others were dropped;
 //! - `scene_depth.rs`: a frame's scene (boxes, ground, scan) as a depth-guided stitch sees it;
 //! - `frame_cache.rs`: what a frame's views share (its scan's positions, its scene);
+//! - `stitch_cache.rs`: the fixed stitches a run keeps for frames of the same geometry;
 //! - `gray.rs`: the 8-bit PNG of the source map;
 //! - `canvas.rs`: the output canvas and scale a rig's flags ask for;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
@@ -25,6 +26,7 @@ mod pass;
 mod run;
 mod scene_depth;
 mod setup;
+mod stitch_cache;
 
 pub use canvas::{rig_output_spec, uncovered_share, CanvasFlags, DEFAULT_PANO_WIDTH};
 pub use ground::Ground;

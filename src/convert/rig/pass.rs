@@ -7,11 +7,11 @@
 //! `Full360` for a panorama of several cameras); a fisheye target is the given lens, turned by
 //! its rotation relative to the reference frame. The rig moves in the reference frame from
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
-//! tables are built per frame.
+//! tables are built per frame, unless the geometry repeats exactly (`stitch_cache.rs`).
 
 use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
-use super::scene_depth::{distance_map, frame_stitch_in, SceneDepth, StitchMode};
+use super::scene_depth::{distance_map, frame_stitch_in, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -29,7 +29,7 @@ use crate::warp::{
     EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, FALLBACK_SOURCE, NO_SOURCE,
 };
 use nalgebra::{Matrix3, Point2, Vector3};
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 pub use crate::source::CameraInfo;
 
@@ -309,7 +309,7 @@ pub(super) fn convert_view(
         stitch,
         mode: stitch_mode,
         centre,
-    } = rig_stitch_in((frame, &cache.scene), info, camera.as_ref(), options)?;
+    } = rig_stitch_in((frame, cache), info, camera.as_ref(), options)?;
     let distances = options
         .stitch_depth
         .then(|| distance_map(&stitch))
@@ -369,8 +369,8 @@ pub(super) fn convert_view(
 /// A frame's stitch as [`convert_into`] builds it, with the mode it was built in and the output
 /// centre C2.
 pub struct RigStitch {
-    /// The stitch.
-    pub stitch: Stitch,
+    /// The stitch (shared with the run's other frames where their geometry is the same).
+    pub stitch: Arc<Stitch>,
     /// Depth-guided, or at the proxy distance.
     pub mode: StitchMode,
     /// C2 in the reference frame.
@@ -384,13 +384,13 @@ pub fn rig_stitch(
     camera: &dyn CameraModel,
     options: &RigOptions,
 ) -> Result<RigStitch> {
-    rig_stitch_in((frame, &OnceLock::new()), info, camera, options)
+    rig_stitch_in((frame, &FrameCache::default()), info, camera, options)
 }
 
-/// [`rig_stitch`] with the frame's depth-guided scene built once in `scene` (a frame's views
-/// share it).
+/// [`rig_stitch`] with the frame's depth-guided scene built once in `cache` (a frame's views
+/// share it), and a fixed stitch taken from the run's kept ones where its geometry repeats.
 fn rig_stitch_in(
-    (frame, scene): (&Frame, &OnceLock<SceneDepth>),
+    (frame, cache): (&Frame, &FrameCache),
     info: &[CameraInfo],
     camera: &dyn CameraModel,
     options: &RigOptions,
@@ -421,9 +421,19 @@ fn rig_stitch_in(
         .iter()
         .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
         .collect();
+    // frame_stitch_in's rule for a stitch at the proxy distance
+    let fixed =
+        options.stitch_mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras.len() < 2;
+    if let Some(kept) = cache.stitches.as_ref().filter(|_| fixed) {
+        return Ok(RigStitch {
+            stitch: kept.fixed(camera, &centre, &cameras, &masks, options.stitch)?,
+            mode: StitchMode::Fixed,
+            centre,
+        });
+    }
     let eyes = chosen.iter().map(|c| c.centre()).collect();
     let (stitch, stitch_mode) = frame_stitch_in(
-        (frame, scene),
+        (frame, &cache.scene),
         camera,
         &centre,
         (&cameras, eyes),
@@ -432,7 +442,7 @@ fn rig_stitch_in(
         options.stitch_mode,
     )?;
     Ok(RigStitch {
-        stitch,
+        stitch: Arc::new(stitch),
         mode: stitch_mode,
         centre,
     })

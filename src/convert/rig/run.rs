@@ -16,6 +16,7 @@ use super::pass::{
 };
 use super::scene_depth::StitchMode;
 use super::setup::{check_cameras, check_output_camera, read_ego_masks, Masks};
+use super::stitch_cache::StitchCache;
 use crate::camera::OutputCamera;
 use crate::convert::augment_draw::{draw_view, CountObjects};
 use crate::convert::style_pass::{convert_group, StyleImages, StylePass};
@@ -31,7 +32,7 @@ use crate::source::{Frame, RigItem, RigItems, RigSource, SourceBox, SourceFrame}
 use crate::style::{StyleError, StyleModel};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// The per-frame outputs under `OUT/training/`.
 const OUTPUTS: [OutputKind; 8] = [
@@ -93,6 +94,8 @@ struct Ctx<'a> {
     /// The first frame the run converts, as the set-up check read it: the loop takes it
     /// instead of reading the frame again.
     first: Mutex<Option<(String, Result<SourceFrame>)>>,
+    /// The fixed stitches kept across frames of one geometry (None: turned off).
+    stitches: Option<Arc<StitchCache>>,
 }
 
 impl Ctx<'_> {
@@ -223,7 +226,7 @@ impl Ctx<'_> {
             ctx: self,
             frame,
             record: &read.record,
-            cache: FrameCache::default(),
+            cache: FrameCache::with_stitches(self.stitches.clone()),
             info: &self.infos[item.part],
             images: &images,
             options: &self.options,
@@ -531,6 +534,7 @@ impl<'a> Ctx<'a> {
             style_pass: style.map(|m| StylePass::new(m, batch)),
             thin_views: AtomicUsize::new(0),
             first: Mutex::new(None),
+            stitches: StitchCache::from_env(),
         }
     }
 }
