@@ -85,11 +85,12 @@ fn run(selection: NuScenesSelection) -> Result<(), Box<dyn std::error::Error>> {
 
 fn print(id: &str, mode: StitchMode, f: &StitchFigures) {
     println!(
-        "{id} {mode:?}: covered {} px, black {:.3} %, isolated {:.3} %, fallback {:.2} %, seam {:.2} levels over {} px",
+        "{id} {mode:?}: covered {} px, black {:.3} %, isolated {:.3} %, fallback {:.2} %, far fill {:.2} %, seam {:.2} levels over {} px",
         f.covered,
         f.black_percent(),
         f.isolated_percent(),
         f.fallback_percent(),
+        f.far_percent(),
         f.seam_levels,
         f.overlap
     );

@@ -17,6 +17,7 @@ pub use mapping::{ImageMapping, NO_SOURCE};
 pub use mask::EgoMask;
 pub use stitch::{
     Stitch, StitchCamera, StitchDepth, StitchFigures, StitchOptions, Stitched, FALLBACK_SOURCE,
+    FAR_SOURCE,
 };
 pub use stream::{warp_encode, PngSource};
 pub use table::{RemapTable, Wrap, MAX_SUPERSAMPLE};

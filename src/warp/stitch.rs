@@ -45,6 +45,7 @@
 
 mod apply;
 mod fallback;
+mod far_fill;
 mod figures;
 mod gains;
 mod guided;
@@ -52,6 +53,7 @@ mod proxy;
 mod weights;
 
 pub use fallback::FALLBACK_SOURCE;
+pub use far_fill::FAR_SOURCE;
 pub use figures::StitchFigures;
 pub use guided::StitchDepth;
 
@@ -110,6 +112,8 @@ pub struct Stitch {
     distances: Option<Vec<f64>>,
     /// A depth-guided stitch's pixels filled by the fallback rule ([`FALLBACK_SOURCE`]).
     fallback: Option<Vec<bool>>,
+    /// A depth-guided stitch's pixels stitched at the proxy distance ([`FAR_SOURCE`]).
+    far: Option<Vec<bool>>,
 }
 
 /// One frame's stitch.
@@ -148,6 +152,7 @@ impl Stitch {
             even_exposure: options.even_exposure,
             distances: built.distances,
             fallback: built.fallback,
+            far: built.far,
         }
     }
 
@@ -205,6 +210,14 @@ impl Stitch {
     pub fn fell_back(&self, u: u32, v: u32) -> bool {
         let i = v as usize * self.size.width as usize + u as usize;
         self.fallback.as_ref().is_some_and(|f| f[i])
+    }
+
+    /// Whether a depth-guided stitch's far fill took output pixel (u, v): no camera's image
+    /// holds its point at the scene's distance, so it was stitched at the proxy distance
+    /// ([`FAR_SOURCE`]).
+    pub fn filled_far(&self, u: u32, v: u32) -> bool {
+        let i = v as usize * self.size.width as usize + u as usize;
+        self.far.as_ref().is_some_and(|f| f[i])
     }
 
     /// Camera i's weight at output pixel (u, v).

@@ -80,6 +80,12 @@ impl RigJob {
         {
             return Err(Error::Setup(format!("camera {k} is chosen twice")));
         }
+        // source_2's bits 64 and 128 mark the far fill and the fallback
+        if let Some(k) = spec.cameras.iter().find(|&&k| k >= 64) {
+            return Err(Error::Setup(format!(
+                "camera {k}: source_2 holds the rig's camera indices 0 to 63 only"
+            )));
+        }
         if (spec.run.style.as_ref()).is_some_and(|s| s.order == StyleOrder::AfterWarp) {
             return Err(Error::Setup(
                 "--style-after-warp: each camera's image is styled before the stitch, so that \

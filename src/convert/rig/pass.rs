@@ -26,7 +26,8 @@ use crate::style::StyleModel;
 /// dropped (its class, or the dataset's count of the sensor returns in it).
 pub type ClassFilter<'a> = &'a (dyn Fn(&SourceBox) -> Option<DropReason> + Sync);
 use crate::warp::{
-    EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, FALLBACK_SOURCE, NO_SOURCE,
+    EgoMask, ImageMapping, Stitch, StitchCamera, StitchOptions, FALLBACK_SOURCE, FAR_SOURCE,
+    NO_SOURCE,
 };
 use nalgebra::{Matrix3, Point2, Vector3};
 use std::sync::Arc;
@@ -85,10 +86,10 @@ pub struct RigFrame {
 
 impl RigFrame {
     /// Whether a `source` value (`source_2`) marks a trustworthy colour: a camera passed the
-    /// occlusion test there (below 128; the fallback's camera + 128 and the uncovered 255 are
-    /// not). In a fixed stitch, every covered pixel.
+    /// occlusion test there (below 64; the far fill's camera + 64, the fallback's camera + 128
+    /// and the uncovered 255 are not). In a fixed stitch, every covered pixel.
     pub fn trusted(source: u8) -> bool {
-        source < FALLBACK_SOURCE
+        source < FAR_SOURCE
     }
 
     /// The `--mask` image (`mask_2/`): a 1-bit PNG, white where [`RigFrame::trusted`], as
@@ -320,8 +321,11 @@ pub(super) fn convert_view(
         .source
         .iter()
         .map(|&s| {
-            let rule = s & FALLBACK_SOURCE;
-            match options.cameras.get((s & !FALLBACK_SOURCE) as usize) {
+            let rule = s & (FALLBACK_SOURCE | FAR_SOURCE);
+            match options
+                .cameras
+                .get((s & !(FALLBACK_SOURCE | FAR_SOURCE)) as usize)
+            {
                 Some(&i) if s != NO_SOURCE => u8::try_from(i).map_or(254, |i| i | rule),
                 _ => NO_SOURCE,
             }

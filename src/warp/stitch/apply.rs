@@ -1,7 +1,7 @@
 //! A frame's stitch: each camera's image remapped, then blended by the weights and the exposure
 //! gains (step 4 of the stitch's model).
 
-use super::{Stitch, Stitched, FALLBACK_SOURCE};
+use super::{Stitch, Stitched, FALLBACK_SOURCE, FAR_SOURCE};
 use crate::image::RgbImage;
 use rayon::prelude::*;
 
@@ -53,7 +53,10 @@ impl Stitch {
                         }
                     }
                     let fell_back = self.fallback.as_ref().is_some_and(|f| f[i]);
-                    src_row[u] = if fell_back {
+                    let far = self.far.as_ref().is_some_and(|f| f[i]);
+                    src_row[u] = if far {
+                        best.1 | FAR_SOURCE
+                    } else if fell_back {
                         best.1 | FALLBACK_SOURCE
                     } else {
                         best.1

@@ -1,8 +1,8 @@
 //! A stitch's figures on real images, where no reference render exists: how much of what the
 //! cameras cover is left black, how much of it as isolated holes, how much the fallback rule
-//! filled, and how well two cameras agree where both give a pixel.
+//! and the far fill filled, and how well two cameras agree where both give a pixel.
 
-use super::{Stitch, FALLBACK_SOURCE};
+use super::{Stitch, FALLBACK_SOURCE, FAR_SOURCE};
 use crate::image::RgbImage;
 use crate::warp::NO_SOURCE;
 use serde::Serialize;
@@ -10,7 +10,8 @@ use serde::Serialize;
 /// One frame's stitch figures ([`Stitch::figures`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct StitchFigures {
-    /// Output pixels some camera's table holds: the camera's image contains the stitched point.
+    /// Output pixels some camera's table holds: the camera's image contains the stitched point
+    /// (with the far fill, the point at the proxy distance where none holds the scene's).
     pub covered: usize,
     /// Covered pixels no camera gives (black).
     pub black: usize,
@@ -18,7 +19,9 @@ pub struct StitchFigures {
     pub isolated: usize,
     /// Pixels the fallback rule filled ([`FALLBACK_SOURCE`]).
     pub fallback: usize,
-    /// Pixels two cameras or more give (the fallback's aside).
+    /// Pixels the far fill took ([`FAR_SOURCE`]): stitched at the proxy distance.
+    pub far: usize,
+    /// Pixels two cameras or more give (the fallback's and the far fill's aside).
     pub overlap: usize,
     /// Over those, the mean absolute difference of the two largest-weight cameras'
     /// gain-matched samples, levels (0-255, the mean of the three channels).
@@ -34,6 +37,11 @@ impl StitchFigures {
     /// Isolated holes, per cent of the covered pixels.
     pub fn isolated_percent(&self) -> f64 {
         100.0 * self.isolated as f64 / self.covered.max(1) as f64
+    }
+
+    /// Far-filled pixels, per cent of the covered ones.
+    pub fn far_percent(&self) -> f64 {
+        100.0 * self.far as f64 / self.covered.max(1) as f64
     }
 
     /// Fallback pixels, per cent of the covered ones.
@@ -61,6 +69,7 @@ impl Stitch {
             black: 0,
             isolated: 0,
             fallback: 0,
+            far: 0,
             overlap: 0,
             seam_levels: 0.0,
         };
@@ -77,6 +86,10 @@ impl Stitch {
                 {
                     f.isolated += 1;
                 }
+                continue;
+            }
+            if source[i] != NO_SOURCE && source[i] & FAR_SOURCE != 0 {
+                f.far += 1;
                 continue;
             }
             if source[i] != NO_SOURCE && source[i] & FALLBACK_SOURCE != 0 {

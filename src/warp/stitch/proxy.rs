@@ -157,6 +157,20 @@ impl<'a> Proxy<'a> {
         }
     }
 
+    /// Whether camera point `q` lies within the camera's image as a depth-guided table's
+    /// pixel centre must ([`Proxy::within`], then [`in_image`]), at least `rim` source
+    /// pixels inside its border.
+    pub(super) fn holds(&self, q: &Vector3<f64>, rim: f64) -> bool {
+        let size = self.camera.model.size();
+        let (w, h) = (
+            size.width as f64 - 2.0 * rim,
+            size.height as f64 - 2.0 * rim,
+        );
+        self.within(q)
+            && (self.camera.model.project_point(q))
+                .is_ok_and(|p| in_image(&Point2::new(p.x - rim, p.y - rim), w, h))
+    }
+
     /// Whether camera point `q` lies within the lens's field of view: θ(q) ≤ θ_max, θ the
     /// angle from the optical axis (`atan2` only within [`FOV_SLACK`] of the edge).
     #[inline]

@@ -1,6 +1,7 @@
 //! A stitch's remap tables and blend weights (steps 2, 3 and 6 of the stitch's model): each
 //! camera's angular margin, smoothed over the blend width, zero where its ego mask is touched.
 
+use super::far_fill::{far_pixels, FarScene};
 use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel};
@@ -132,7 +133,30 @@ impl Stitch {
             })
         };
         let reach = Reach::new(output, &cones, depth.map(|_| &near as NearBound));
-        let distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
+        let mut distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
+        // the far fill: pixels no camera's image holds at the scene's distance, at the proxy's
+        let far = distances.as_mut().map(|distances| {
+            let far = far_pixels(&reach, size, distances, &proxies, options.distance);
+            for (t, _) in distances.iter_mut().zip(&far).filter(|(_, f)| **f) {
+                *t = options.distance;
+            }
+            far
+        });
+        let far_scene = depth.zip(far.as_deref()).map(|(inner, far)| FarScene {
+            inner,
+            output,
+            centre: *centre,
+            far,
+            distance: options.distance,
+        });
+        let depth: Option<&dyn StitchDepth> = match &far_scene {
+            Some(scene) => Some(scene),
+            None => depth,
+        };
+        let proxies: Vec<Proxy> = cameras
+            .iter()
+            .map(|camera| Proxy::guided(*camera, *centre, options.distance, depth))
+            .collect();
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
         let pass = WeightPass {
@@ -174,6 +198,7 @@ impl Stitch {
             weights,
             distances,
             fallback,
+            far,
         }
     }
 }
@@ -301,6 +326,8 @@ pub(super) struct TablesAndWeights {
     pub(super) distances: Option<Vec<f64>>,
     /// With a depth, the pixels filled by the fallback rule ([`super::fallback`]).
     pub(super) fallback: Option<Vec<bool>>,
+    /// With a depth, the pixels stitched at the proxy distance ([`super::far_fill`]).
+    pub(super) far: Option<Vec<bool>>,
 }
 
 #[cfg(test)]
