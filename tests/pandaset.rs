@@ -21,7 +21,7 @@ use panoconv::image::RgbImage;
 use panoconv::nuscenes::{NuScenesSelection, NuScenesSource};
 use panoconv::source::{RigSource, VehicleBox};
 use panoconv::stream::{StreamPeer, WorldRigSource};
-use panoconv::warp::{StitchFigures, StitchOptions, FALLBACK_SOURCE, NO_SOURCE};
+use panoconv::warp::{StitchFigures, StitchOptions, FALLBACK_SOURCE, FAR_SOURCE, NO_SOURCE};
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -125,10 +125,11 @@ fn check_bars(route: &str, depth: &[StitchFigures], fixed: &[StitchFigures]) {
     assert_eq!(depth.len(), fixed.len());
     for (k, (d, f)) in depth.iter().zip(fixed).enumerate() {
         eprintln!(
-            "{route}: frame {k}: depth-guided black {:.3} %, isolated {:.3} %, fallback {:.2} %, seam {:.2} levels over {} px; fixed black {:.3} %, isolated {:.3} %, seam {:.2} levels over {} px",
+            "{route}: frame {k}: depth-guided black {:.3} %, isolated {:.3} %, fallback {:.2} %, far fill {:.2} %, seam {:.2} levels over {} px; fixed black {:.3} %, isolated {:.3} %, seam {:.2} levels over {} px",
             d.black_percent(),
             d.isolated_percent(),
             d.fallback_percent(),
+            d.far_percent(),
             d.seam_levels,
             d.overlap,
             f.black_percent(),
@@ -163,6 +164,56 @@ fn the_default_stitch_of_real_frames_is_never_black_where_a_camera_sees_and_agre
         "the adapter's process failed"
     );
     check_bars("adapter", &depth, &fixed);
+}
+
+/// `python -m panoconv pandaset` of the real frames at 1024 px with `args`, into a new folder.
+fn convert_adapter(args: &[&str]) -> tempfile::TempDir {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(adapter_python())
+        .args(["-m", "panoconv", "pandaset", "--input"])
+        .arg(real_pandaset())
+        .args(["--to", "equirect", "--pano-width", "1024", "-q"])
+        .args(args)
+        .arg("--output")
+        .arg(out.path())
+        .env("PANOCONV_COMMAND", BIN)
+        .output()
+        .expect("cannot run the adapter's Python");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    out
+}
+
+#[test]
+fn the_depth_guided_stitch_is_not_black_where_the_fixed_stitch_has_a_sample() {
+    // near the car, between two cameras, the scene's point lies in no camera's image where the
+    // 10 m sphere's does: the far fill stitches those pixels at 10 m (source_2 = camera + 64)
+    let (depth, fixed) = (
+        convert_adapter(&[]),
+        convert_adapter(&["--stitch-mode", "fixed"]),
+    );
+    for frame in ["00", "20", "40", "60"] {
+        let name = format!("training/source_2/{frame}.png");
+        let d = read_png(&depth.path().join(&name)).data;
+        let f = read_png(&fixed.path().join(&name)).data;
+        let given = f.iter().filter(|&&s| s != NO_SOURCE).count();
+        let lost = (d.iter().zip(&f))
+            .filter(|&(&d, &f)| f != NO_SOURCE && d == NO_SOURCE)
+            .count();
+        let far = (d.iter())
+            .filter(|&&s| s != NO_SOURCE && s & FAR_SOURCE != 0)
+            .count();
+        let lost_percent = 100.0 * lost as f64 / given as f64;
+        eprintln!("frame {frame}: {lost} of the fixed stitch's {given} pixels black ({lost_percent:.3} %), {far} far-filled");
+        assert!(
+            lost_percent <= MAX_BLACK_PERCENT,
+            "frame {frame}: {lost} of {given}"
+        );
+        assert!(far > 1_000, "frame {frame}: {far} far-filled pixels");
+    }
 }
 
 #[test]
@@ -213,10 +264,10 @@ fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_
         assert!(
             source
                 .iter()
-                .all(|&s| s == NO_SOURCE || (s & !FALLBACK_SOURCE) < 6),
-            "{name:?}: a source value outside 0-5, 128-133 and 255"
+                .all(|&s| s == NO_SOURCE || (s & !(FALLBACK_SOURCE | FAR_SOURCE)) < 6),
+            "{name:?}: a source value outside 0-5, 64-69, 128-133 and 255"
         );
-        let fallback = |s: u8| s != NO_SOURCE && s & FALLBACK_SOURCE != 0;
+        let fallback = |s: u8| s != NO_SOURCE && s & (FALLBACK_SOURCE | FAR_SOURCE) != 0;
         let marked = source.iter().filter(|&&s| fallback(s)).count();
         assert!(marked > 100, "{name:?}: {marked} fallback pixels");
         // mask_2: white exactly where a camera passed the occlusion test (1 bit a pixel)
@@ -226,11 +277,7 @@ fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_
         for (i, &s) in source.iter().enumerate() {
             let (u, v) = (i % mask.width as usize, i / mask.width as usize);
             let white = mask.data[v * stride + u / 8] >> (7 - u % 8) & 1 == 1;
-            assert_eq!(
-                white,
-                s < FALLBACK_SOURCE,
-                "{name:?}: pixel {i}: source {s}"
-            );
+            assert_eq!(white, s < FAR_SOURCE, "{name:?}: pixel {i}: source {s}");
         }
         eprintln!("{name:?}: {marked} fallback pixels, left out of mask_2");
     }

@@ -1,13 +1,13 @@
 //! `--mask` of the rig commands through the binary, on the synthetic nuScenes scene (the rig
 //! with nuScenes' camera offsets, whose depth-guided stitch has fallback pixels): `mask_2/`
-//! is white exactly where `source_2` is below 128 (a camera passed the occlusion test; in a
+//! is white exactly where `source_2` is below 64 (a camera passed the occlusion test; in a
 //! fixed stitch, some camera covers the pixel), it adds files without changing any other,
 //! the manifest records it, and `verify`, `inspect`, `--shard` + `merge` and `--resume` keep
 //! it.
 
 use crate::common::{self, assert_success, panoconv, read_manifest, read_png, tree_bytes};
 use crate::nuscenes_command::scene;
-use panoconv::warp::{FALLBACK_SOURCE, NO_SOURCE};
+use panoconv::warp::{FALLBACK_SOURCE, FAR_SOURCE, NO_SOURCE};
 use std::path::Path;
 
 /// `panoconv nuscenes` of the offset scene into `output`, 720 px wide, with `extra`.
@@ -62,11 +62,11 @@ fn check_masks(out: &Path) -> (usize, usize, usize) {
         let (w, h, mask) = read_mask_bits(&training.join(format!("mask_2/{id}.png")));
         assert_eq!((w, h), (source.width, source.height), "{id}");
         for (i, (&s, &m)) in source.data.iter().zip(&mask).enumerate() {
-            let rule = s != NO_SOURCE && s & FALLBACK_SOURCE == 0;
+            let rule = s != NO_SOURCE && s & (FALLBACK_SOURCE | FAR_SOURCE) == 0;
             assert_eq!(m, rule, "{id}: pixel {i}: source_2 {s}, mask {m}");
         }
         fallback += (source.data.iter())
-            .filter(|&&s| s != NO_SOURCE && s & FALLBACK_SOURCE != 0)
+            .filter(|&&s| s != NO_SOURCE && s & (FALLBACK_SOURCE | FAR_SOURCE) != 0)
             .count();
         uncovered += source.data.iter().filter(|&&s| s == NO_SOURCE).count();
         trusted += mask.iter().filter(|&&m| m).count();
@@ -93,7 +93,7 @@ fn check_tools(out: &Path) {
 }
 
 #[test]
-fn the_rig_mask_is_source_2_below_128_in_both_stitch_modes_and_adds_only_itself() {
+fn the_rig_mask_is_source_2_below_64_in_both_stitch_modes_and_adds_only_itself() {
     let tmp = tempfile::tempdir().unwrap();
     for (mode, fallbacks) in [("depth", true), ("fixed", false)] {
         let with = tmp.path().join(format!("{mode}_mask"));

@@ -118,7 +118,7 @@ def test_shards_merge_resume_and_the_tools_work_on_a_python_source_s_output(tmp_
 
 
 def test_mask_2_of_a_python_source_is_its_trusted_pixels_and_the_dataset_s_coverage(tmp_path):
-    # --mask through convert_rig: mask_2 is source_2 below 128 (here, with no scan, a fixed
+    # --mask through convert_rig: mask_2 is source_2 below 64 (here, with no scan, a fixed
     # stitch: every covered pixel), and RandomCameraDataset takes it as the frame's coverage
     from panoconv.random_cameras import CameraSampler, RandomCameraDataset, source_coverage
 
@@ -131,7 +131,7 @@ def test_mask_2_of_a_python_source_is_its_trusted_pixels_and_the_dataset_s_cover
     for frame in frames:
         source = panoconv.read_image(frame.source_map)[..., 0]
         mask = panoconv.read_image(frame.mask)[..., 0] > 0
-        assert np.array_equal(mask, source < 128)
+        assert np.array_equal(mask, source < 64)
         assert 0.05 < mask.mean() < 0.95  # two 60 deg cameras: a covered band, black elsewhere
         assert np.array_equal(source_coverage(frame), mask)
     sampler = CameraSampler(model=["perspective"], width=(64, 64), height=(48, 48),
