@@ -107,6 +107,7 @@ impl WorldBox {
             truncation: None,
             occlusion: None,
             sensor_points: None,
+            velocity: None,
         }
     }
 }

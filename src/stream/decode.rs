@@ -222,7 +222,13 @@ fn world_camera(v: &Value, field: &str) -> Checked<WorldCamera> {
             &format!("{field}.world_from_camera"),
         )?,
         image,
+        time: optional_number(get(c, "time"), &format!("{field}.time"))?,
     })
+}
+
+/// An optional finite number (absent or null: None).
+fn optional_number(v: Option<&Value>, field: &str) -> Checked<Option<f64>> {
+    v.map(|v| number(v, field)).transpose()
 }
 
 fn count(v: Option<&Value>, field: &str) -> Checked<Option<u64>> {
@@ -265,6 +271,10 @@ fn world_box(v: &Value, field: &str) -> Checked<WorldBox> {
         world_from_box,
         points: count(get(b, "points"), &f("points"))?,
         instance: count(get(b, "instance"), &f("instance"))?,
+        velocity: match get(b, "velocity") {
+            None => None,
+            Some(v) => Some(Vector3::from_column_slice(&numbers(v, &f("velocity"), 3)?)),
+        },
     })
 }
 

@@ -1,0 +1,231 @@
+//! Moving objects at each camera's time.
+//!
+//! A frame's boxes and scan hold at the frame's time; its cameras fire at their own
+//! ([`crate::source::RigCamera::time`], up to ~40 ms apart in nuScenes). A box with a velocity
+//! v ([`crate::source::SourceBox::velocity`]) lies, at camera i's time tᵢ, moved by v·tᵢ:
+//! - camera i's occlusion tests meet the boxes where they were at tᵢ;
+//! - a point of the scene on or in a moving box (where the output centre sees it at the frame's
+//!   time) is sampled by camera i at x + v·tᵢ ([`Motion::seen_at`]);
+//! - the scan's returns on a moving box were measured at their own times within the sweep, so
+//!   a return belongs to the box (it leaves the residual points, the box's exact faces stand
+//!   for it) when it lies within [`BOX_MARGIN`] of the box anywhere on its path within
+//!   [`SWEEP`] of the frame's time ([`Motion::swept`]).
+//!
+//! A box without a velocity and a camera without a time are still: a frame whose cameras fire
+//! with the scan (KITTI-360) or whose boxes are still is stitched as before, to the bit.
+
+use super::{Solid, BOX_MARGIN};
+use crate::source::Frame;
+use nalgebra::Vector3;
+
+/// How far from the frame's time a return of the sweep may have been measured, seconds: a
+/// 10 Hz scanner's whole turn (a 20 Hz one's is half).
+pub const SWEEP: f64 = 0.1;
+
+/// The boxes' velocities and the cameras' times of a frame's scene.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Motion {
+    /// Per camera of the stitch: its time after the frame's, seconds.
+    times: Vec<f64>,
+    /// Per box: its velocity in the reference frame, m/s (zero: still or unknown).
+    velocities: Vec<Vector3<f64>>,
+    /// The boxes whose velocity is not zero.
+    moving: Vec<usize>,
+}
+
+impl Motion {
+    /// The motion of `frame`'s boxes for the cameras at `eyes`. Camera i's time is that of
+    /// the frame's rig camera whose centre is eyes[i]; where several share that centre with
+    /// different times, or none has one, camera i is taken at the frame's time.
+    pub(super) fn new(frame: &Frame, eyes: &[Vector3<f64>]) -> Self {
+        let times = eyes
+            .iter()
+            .map(|eye| {
+                let mut at = frame.rig.iter().filter(|c| c.centre() == *eye);
+                let first = at.next().and_then(|c| c.time).unwrap_or(0.0);
+                let agree = at.all(|c| c.time.unwrap_or(0.0) == first);
+                if agree && first.is_finite() {
+                    first
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let velocities: Vec<Vector3<f64>> = frame
+            .objects
+            .iter()
+            .map(|b| {
+                b.velocity
+                    .filter(|v| v.iter().all(|x| x.is_finite()))
+                    .unwrap_or_else(Vector3::zeros)
+            })
+            .collect();
+        let moving = (0..velocities.len())
+            .filter(|&k| velocities[k] != Vector3::zeros())
+            .collect();
+        Motion {
+            times,
+            velocities,
+            moving,
+        }
+    }
+
+    /// Whether no box moves at any camera's time.
+    pub(super) fn is_still(&self) -> bool {
+        self.moving.is_empty() || self.times.iter().all(|t| *t == 0.0)
+    }
+
+    /// Box `k`'s displacement at camera `camera`'s time, metres.
+    pub(super) fn shift(&self, camera: usize, k: usize) -> Vector3<f64> {
+        let t = self.times.get(camera).copied().unwrap_or(0.0);
+        match self.velocities.get(k) {
+            Some(v) if t != 0.0 => v * t,
+            _ => Vector3::zeros(),
+        }
+    }
+
+    /// `solids` (the frame's boxes at its time) where camera `camera` saw them.
+    pub(super) fn solids_at(&self, camera: usize, solids: &[Solid]) -> Vec<Solid> {
+        let mut out = solids.to_vec();
+        for &k in &self.moving {
+            out[k].centre += self.shift(camera, k);
+        }
+        out
+    }
+
+    /// The largest displacement of any box at camera `camera`'s time, metres.
+    pub(super) fn bound(&self, camera: usize) -> f64 {
+        self.moving
+            .iter()
+            .map(|&k| self.shift(camera, k).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// Where camera `camera` saw scene point `x` (at the frame's time): moved with the first
+    /// moving box that holds it (within [`super::SURFACE_TOLERANCE`], its faces included).
+    pub(super) fn seen_at(&self, solids: &[Solid], camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        for &k in &self.moving {
+            if solids[k].contains(x, super::SURFACE_TOLERANCE) {
+                return x + self.shift(camera, k);
+            }
+        }
+        *x
+    }
+
+    /// Whether return `p` lies within [`BOX_MARGIN`] of a moving box anywhere on its path
+    /// within [`SWEEP`] of the frame's time: the segment p − v·s, s in ±[`SWEEP`], meets the
+    /// box grown by the margin.
+    pub(super) fn swept(&self, solids: &[Solid], p: &Vector3<f64>) -> bool {
+        self.moving.iter().any(|&k| {
+            let s = &solids[k];
+            let reach = self.velocities[k].norm() * SWEEP;
+            if (p - s.centre).norm() > s.radius + BOX_MARGIN + reach {
+                return false;
+            }
+            // in the box's axes: the point at path time s is a − w·s
+            let a = s.box_from_reference * (p - s.centre);
+            let w = s.box_from_reference * self.velocities[k];
+            let (mut lo, mut hi) = (-SWEEP, SWEEP);
+            for i in 0..3 {
+                let half = s.half[i] + BOX_MARGIN;
+                if w[i] == 0.0 {
+                    if a[i].abs() > half {
+                        return false;
+                    }
+                    continue;
+                }
+                // |a − w·s| ≤ half  ⇔  s in [(a − half)/w, (a + half)/w] (ordered)
+                let (s0, s1) = ((a[i] - half) / w[i], (a[i] + half) / w[i]);
+                lo = lo.max(s0.min(s1));
+                hi = hi.min(s0.max(s1));
+            }
+            lo <= hi
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::source::{Pose, RigCamera, SourceBox};
+    use nalgebra::Matrix3;
+    use std::sync::Arc;
+
+    fn frame(cameras: &[(Vector3<f64>, Option<f64>)], boxes: Vec<SourceBox>) -> Frame {
+        let model = Arc::new(crate::camera::Perspective::new(
+            crate::camera::Intrinsics::new(100.0, 100.0, 50.0, 50.0),
+            crate::camera::ImageSize::new(100, 100),
+        ));
+        Frame {
+            id: "0".into(),
+            provenance: Vec::new(),
+            rig: cameras
+                .iter()
+                .map(|(c, time)| RigCamera {
+                    name: "c".into(),
+                    model: model.clone(),
+                    reference_from_camera: Pose::new(Matrix3::identity(), *c),
+                    image: "c.png".into(),
+                    time: *time,
+                })
+                .collect(),
+            objects: boxes,
+            regions: Vec::new(),
+            lidar: Vec::new(),
+            world_from_reference: None,
+            reference_from_lidar: None,
+            lidar_from_imu: None,
+            input_hashes: Vec::new(),
+        }
+    }
+
+    fn car(velocity: Option<Vector3<f64>>) -> SourceBox {
+        SourceBox {
+            velocity,
+            ..SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(0.0, 1.6, 10.0), 0.0)
+        }
+    }
+
+    #[test]
+    fn a_moving_box_is_shifted_by_its_velocity_times_each_cameras_time() {
+        let eyes = [Vector3::new(-0.5, 0.0, 0.0), Vector3::new(0.5, 0.0, 0.0)];
+        let f = frame(
+            &[(eyes[0], Some(-0.04)), (eyes[1], Some(0.01))],
+            vec![car(Some(Vector3::new(10.0, 0.0, 0.0))), car(None)],
+        );
+        let m = Motion::new(&f, &eyes);
+        assert!(!m.is_still());
+        assert_eq!(m.shift(0, 0), Vector3::new(-0.4, 0.0, 0.0));
+        assert_eq!(m.shift(1, 0), Vector3::new(0.1, 0.0, 0.0));
+        assert_eq!(m.shift(0, 1), Vector3::zeros());
+        assert_eq!(m.bound(0), 0.4);
+        let solids: Vec<Solid> = f.objects.iter().map(Solid::new).collect();
+        // the moving car's rear face moves with it; the still car's does not
+        let rear = Vector3::new(0.3, 1.0, 10.0 - 0.9);
+        assert_eq!(m.seen_at(&solids, 0, &rear), rear + Vector3::new(-0.4, 0.0, 0.0));
+        let still = Motion::new(&frame(&[(eyes[0], Some(-0.04))], vec![car(None)]), &eyes);
+        assert!(still.is_still());
+        assert_eq!(still.seen_at(&solids, 0, &rear), rear);
+        // a point beside the box (not on it) stays
+        let beside = Vector3::new(3.0, 1.0, 10.0);
+        assert_eq!(m.seen_at(&solids, 0, &beside), beside);
+    }
+
+    #[test]
+    fn a_return_on_the_boxs_path_within_the_sweep_belongs_to_it() {
+        // the car (length 4 m along x) moves at 10 m/s along x: its path within ±0.1 s spans
+        // x in [−3 − 0.1, 3 + 0.1] with the margin
+        let f = frame(&[], vec![car(Some(Vector3::new(10.0, 0.0, 0.0)))]);
+        let m = Motion::new(&f, &[]);
+        let solids: Vec<Solid> = f.objects.iter().map(Solid::new).collect();
+        let at = |x: f64| Vector3::new(x, 1.6, 10.0);
+        assert!(m.swept(&solids, &at(3.05)) && m.swept(&solids, &at(-3.05)));
+        assert!(!m.swept(&solids, &at(3.15)) && !m.swept(&solids, &at(-3.15)));
+        // across the path only the margin
+        assert!(m.swept(&solids, &Vector3::new(0.0, 1.6, 10.95)));
+        assert!(!m.swept(&solids, &Vector3::new(0.0, 1.6, 11.05)));
+        // a still box has no path
+        let still = Motion::new(&frame(&[], vec![car(None)]), &[]);
+        assert!(!still.swept(&solids, &at(2.5)));
+    }
+}
