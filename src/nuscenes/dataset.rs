@@ -137,7 +137,10 @@ impl NuScenes {
             &samples,
             selection,
         )?;
-        let sample_times = samples.iter().map(|(t, s)| (t.clone(), s.timestamp)).collect();
+        let sample_times = samples
+            .iter()
+            .map(|(t, s)| (t.clone(), s.timestamp))
+            .collect();
         drop(samples);
         let wanted: HashSet<Token> = scenes
             .iter()

@@ -75,7 +75,10 @@ impl Tracks {
         if a.prev.is_none() && a.next.is_none() {
             return Ok(None);
         }
-        let here = (a.global_from_box.translation, self.time(path, sample, &a.token)?);
+        let here = (
+            a.global_from_box.translation,
+            self.time(path, sample, &a.token)?,
+        );
         let end = |link: &Option<Token>, field: &str| -> Result<(Vector3<f64>, f64)> {
             let Some(t) = link else { return Ok(here) };
             let n = self.neighbours.get(t).ok_or_else(|| {

@@ -253,7 +253,9 @@ impl SceneDepth {
         };
         let moved: Vec<Vec<Solid>> = match motion.is_still() {
             true => Vec::new(),
-            false => (0..eyes.len()).map(|i| motion.solids_at(i, &solids)).collect(),
+            false => (0..eyes.len())
+                .map(|i| motion.solids_at(i, &solids))
+                .collect(),
         };
         let grids = std::iter::once(&centre)
             .chain(&eyes)
