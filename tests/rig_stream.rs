@@ -223,6 +223,7 @@ impl WorldSource for ToyWorld {
                     points: Some(t[9].parse().unwrap()),
                     instance: None,
                     velocity: None,
+                    time: None,
                 }
             })
             .collect();

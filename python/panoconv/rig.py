@@ -54,7 +54,9 @@ class Box3D:
     x along the length towards the front, z up). `points`: the dataset's sensor-point count
     (0: left out as unseen); `instance`: the dataset's id of the object (int or str);
     `velocity`: (vx, vy, vz) in the world frame, m/s, where known (None: taken as still; a
-    depth-guided stitch moves the box to each camera's time)."""
+    depth-guided stitch moves the box to each camera's time); `time`: when the box holds,
+    seconds after the frame's time (a rotating LiDAR measures an object as it passes it; None:
+    the frame's time)."""
 
     def __init__(
         self,
@@ -67,6 +69,7 @@ class Box3D:
         points: Optional[int] = None,
         instance: Any = None,
         velocity: Any = None,
+        time: Optional[float] = None,
     ):
         self.type = type
         self.centre = centre
@@ -77,6 +80,7 @@ class Box3D:
         self.points = points
         self.instance = instance
         self.velocity = velocity
+        self.time = time
 
     def __repr__(self) -> str:
         return f"Box3D({self.type!r}, centre={self.centre!r}, size={self.size!r})"
@@ -212,6 +216,8 @@ def _box(b: Any, field: str) -> dict:
         out["rotation"] = _floats(b.rotation, f"{field}.rotation")
     if getattr(b, "velocity", None) is not None:
         out["velocity"] = _floats(b.velocity, f"{field}.velocity")
+    if getattr(b, "time", None) is not None:
+        out["time"] = _floats(b.time, f"{field}.time")
     return out
 
 

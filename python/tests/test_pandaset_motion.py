@@ -1,6 +1,7 @@
 """PandaSet's moving objects (../shared/pandaset, skipped without it): each camera's time from
-the LiDAR sweep's, and each cuboid's velocity from the same object (uuid) in the nearest frames
-on disk: the parked cars' exactly 0, a moving car's its displacement over the frames' time."""
+the LiDAR sweep's, each cuboid's velocity from the same object (uuid) in the nearest frames on
+disk (the parked cars' exactly 0, a moving car's along its displacement), and each moving
+cuboid's time from its returns' times."""
 
 import os
 from pathlib import Path
@@ -60,3 +61,20 @@ def test_pandaset_cameras_fire_before_the_sweep_s_time_and_cuboids_move_with_the
                 assert abs(np.linalg.norm(v) / np.linalg.norm(step) - 1) < 0.4, (v, step)
                 moving += 1
     assert parked >= 20 and moving >= 5, (parked, moving)
+    # a moving box holds when the sweep passed it (its returns' median time): within the
+    # sweep, and mostly near the time of the camera facing it (which fires as the sweep passes)
+    timed = [b for b in frame.boxes if b.time is not None]
+    assert len(timed) >= 5 and all(-0.11 <= b.time <= 0.01 for b in timed), [b.time for b in timed]
+    assert all(b.velocity is not None and np.any(b.velocity) for b in timed)
+    lidar = np.asarray(frame.world_from_lidar)[:2, 3]
+
+    def azimuth(v):
+        return np.arctan2(v[1], v[0])
+
+    axes = [(azimuth(np.asarray(c.world_from_camera)[:2, 2]), c.time) for c in frame.cameras]
+    apart = []
+    for b in timed:
+        a = azimuth(np.asarray(b.centre, float)[:2] - lidar)
+        gap, t = min((abs((a - x + np.pi) % (2 * np.pi) - np.pi), t) for x, t in axes)
+        apart.append(abs(b.time - t))
+    assert np.median(apart) < 0.02, apart

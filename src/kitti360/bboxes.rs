@@ -108,6 +108,7 @@ impl WorldBox {
             occlusion: None,
             sensor_points: None,
             velocity: None,
+            time: None,
         }
     }
 }

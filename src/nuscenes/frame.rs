@@ -14,6 +14,7 @@ use super::dataset::{NuScenes, SceneEntry};
 use super::lidar::parse_points;
 use super::tables::{Annotation, SampleData};
 use super::token::Token;
+use super::velocity::sweep_time;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Perspective};
 use crate::error::{Error, Result};
 use crate::source::world_from_level;
@@ -263,7 +264,10 @@ impl NuScenes {
                 .collect();
             provenance.push(path);
         }
-        let (objects, infos) = self.objects(sample, &level_from_world, options)?;
+        let (mut objects, infos) = self.objects(sample, &level_from_world, options)?;
+        for o in &mut objects {
+            o.time = sweep_time(&rig, &reference_from_lidar, &o.centre);
+        }
         Ok(NuScenesFrame {
             frame: Frame {
                 id: item.id.clone(),
@@ -324,6 +328,7 @@ impl NuScenes {
                     .tracks
                     .velocity(&table, a, sample)?
                     .map(|v| level_from_world.rotation * v),
+                time: None,
             });
             infos.push(info);
         }

@@ -1,13 +1,15 @@
-//! A box's velocity as nuScenes' devkit gives it (`NuScenes.box_velocity`): the difference of
-//! the object's centres in its previous and next annotations (or this one where it has no
-//! previous or next) over their samples' time, unknown when it has neither or the two lie more
-//! than [`MAX_TIME_DIFF`] apart (twice that for a centred difference).
+//! A box's motion: its velocity as nuScenes' devkit gives it (`NuScenes.box_velocity`): the
+//! difference of the object's centres in its previous and next annotations (or this one where
+//! it has no previous or next) over their samples' time, unknown when it has neither or the
+//! two lie more than [`MAX_TIME_DIFF`] apart (twice that for a centred difference); and the
+//! time it holds at ([`sweep_time`]).
 
 use super::json::Fields;
 use super::records::stream;
 use super::tables::{key, raw, Annotation};
 use super::token::Token;
 use crate::error::{Error, Result};
+use crate::source::{Pose, RigCamera};
 use nalgebra::Vector3;
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
@@ -126,4 +128,79 @@ fn read_neighbour(path: &Path, index: usize, r: &raw::Annotation) -> Result<(Tok
             sample,
         },
     ))
+}
+
+/// When the sweep measured an object centred at `centre` (reference frame), seconds after the
+/// keyframe: nuScenes triggers each camera as the LiDAR sweeps across the middle of its view,
+/// so the object was measured about when the camera whose optical axis lies nearest it in
+/// azimuth (about the LiDAR's z axis) fired. None without a camera time.
+pub(super) fn sweep_time(
+    rig: &[RigCamera],
+    reference_from_lidar: &Pose,
+    centre: &Vector3<f64>,
+) -> Option<f64> {
+    let lidar_from_reference = reference_from_lidar.inverse()?;
+    let azimuth = |v: Vector3<f64>| v.y.atan2(v.x);
+    let at = azimuth(lidar_from_reference.apply(centre));
+    let apart = |a: f64| {
+        let d = (a - at).rem_euclid(std::f64::consts::TAU);
+        d.min(std::f64::consts::TAU - d)
+    };
+    rig.iter()
+        .filter_map(|c| {
+            let axis = lidar_from_reference.apply_vector(&c.optical_axis());
+            Some((apart(azimuth(axis)), c.time?))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, t)| t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{ImageSize, Intrinsics, Perspective};
+    use nalgebra::{Matrix3, Rotation3};
+    use std::sync::Arc;
+
+    #[test]
+    fn an_object_is_timed_by_the_camera_facing_it() {
+        // the LiDAR's axes: x forward, y left, z up; cameras (x right, y down, z forward)
+        // looking forward, left and back, firing at −30, −10 and −45 ms
+        let model = Arc::new(Perspective::new(
+            Intrinsics::new(100.0, 100.0, 50.0, 50.0),
+            ImageSize::new(100, 100),
+        ));
+        let forward = Matrix3::from_columns(&[-Vector3::y(), -Vector3::z(), Vector3::x()]);
+        let camera = |yaw: f64, time: f64| RigCamera {
+            name: "c".into(),
+            model: model.clone(),
+            reference_from_camera: Pose::new(
+                Rotation3::from_axis_angle(&Vector3::z_axis(), yaw).into_inner() * forward,
+                Vector3::zeros(),
+            ),
+            image: "c.png".into(),
+            time: Some(time),
+        };
+        let pi = std::f64::consts::PI;
+        let rig = [
+            camera(0.0, -0.03),
+            camera(pi / 2.0, -0.01),
+            camera(pi, -0.045),
+        ];
+        // the reference frame is the LiDAR's here
+        let lidar = Pose::new(Matrix3::identity(), Vector3::zeros());
+        let at = |x: f64, y: f64| sweep_time(&rig, &lidar, &Vector3::new(x, y, 0.0));
+        assert_eq!(at(10.0, 1.0), Some(-0.03));
+        assert_eq!(at(1.0, 10.0), Some(-0.01));
+        assert_eq!(at(-10.0, -1.0), Some(-0.045));
+        assert_eq!(at(-10.0, 9.0), Some(-0.045));
+        let untimed: Vec<RigCamera> = rig
+            .iter()
+            .map(|c| RigCamera {
+                time: None,
+                ..c.clone()
+            })
+            .collect();
+        assert_eq!(sweep_time(&untimed, &lidar, &Vector3::x()), None);
+    }
 }

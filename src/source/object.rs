@@ -37,6 +37,9 @@ pub struct SourceBox {
     /// Velocity over the ground, m/s, in the reference frame's axes (the frame is fixed to the
     /// world at the frame's time), where the dataset gives it; None: unknown, taken as still.
     pub velocity: Option<Vector3<f64>>,
+    /// When the box holds, seconds after the frame's time, where it differs (a rotating
+    /// LiDAR measures an object as its sweep passes it; None: at the frame's time).
+    pub time: Option<f64>,
 }
 
 impl SourceBox {
@@ -60,6 +63,7 @@ impl SourceBox {
             occlusion: None,
             sensor_points: None,
             velocity: None,
+            time: None,
         }
     }
 

@@ -271,6 +271,7 @@ fn world_box(v: &Value, field: &str) -> Checked<WorldBox> {
         world_from_box,
         points: count(get(b, "points"), &f("points"))?,
         instance: count(get(b, "instance"), &f("instance"))?,
+        time: optional_number(get(b, "time"), &f("time"))?,
         velocity: match get(b, "velocity") {
             None => None,
             Some(v) => Some(Vector3::from_column_slice(&numbers(v, &f("velocity"), 3)?)),

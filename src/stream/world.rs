@@ -46,6 +46,8 @@ pub struct WorldBox {
     pub instance: Option<u64>,
     /// Velocity in the world frame, m/s, where known (None: taken as still).
     pub velocity: Option<Vector3<f64>>,
+    /// When the box holds, seconds after the frame's time (None: at the frame's time).
+    pub time: Option<f64>,
 }
 
 /// A frame in the world frame.
@@ -120,6 +122,7 @@ impl WorldFrame {
                 occlusion: None,
                 sensor_points: b.points,
                 velocity: b.velocity.map(|v| level_from_world.rotation * v),
+                time: b.time,
             })
             .collect();
         let lidar = self
@@ -183,6 +186,7 @@ mod tests {
             points: Some(12),
             instance: Some(3),
             velocity: Some(Vector3::new(0.0, 2.0, 0.0)),
+            time: Some(-0.02),
         };
         let frame = WorldFrame {
             cameras: vec![camera()],

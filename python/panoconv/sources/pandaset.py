@@ -203,6 +203,7 @@ class PandaSet(RigSource):
         if self.lidar is not None:
             lidar_file = os.path.join(self.root, "lidar", f"{frame_id}.pkl.gz")
             scan = pd.read_pickle(lidar_file)
+            self.time_boxes(boxes, scan, float(self.timestamps[k]))
             if self.lidar != "both":
                 scan = scan[scan["d"] == (0 if self.lidar == "pandar64" else 1)]
             lidar = self.without_vehicle(
@@ -224,6 +225,26 @@ class PandaSet(RigSource):
             record=record,
             inputs=inputs,
         )
+
+    @staticmethod
+    def time_boxes(boxes: list, scan, sweep_time: float) -> None:
+        """Sets each moving box's `time`: the median time of the Pandar64's returns inside it
+        (PandaSet's per-point `t`) after `sweep_time`; the sweep turns in 0.1 s and each camera
+        fires as it passes, so the box holds where the camera facing it saw it."""
+        ring = scan[scan["d"] == 0] if "d" in scan else scan
+        xyz = ring[["x", "y", "z"]].to_numpy(dtype=np.float64)
+        t = ring["t"].to_numpy(dtype=np.float64)
+        for b in boxes:
+            if b.velocity is None or not np.any(np.asarray(b.velocity)):
+                continue
+            # the box's axes: x along its length (yaw from the world's x), z up
+            c, s = math.cos(b.yaw), math.sin(b.yaw)
+            d = xyz - np.asarray(b.centre, dtype=np.float64)
+            along, across = d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c
+            half = np.asarray(b.size, dtype=np.float64) / 2
+            inside = (np.abs(along) <= half[0]) & (np.abs(across) <= half[1]) & (np.abs(d[:, 2]) <= half[2])
+            if np.any(inside):
+                b.time = float(np.median(t[inside])) - sweep_time
 
     def without_vehicle(self, points: np.ndarray, world_from_lidar: np.ndarray) -> np.ndarray:
         """The world-frame `points` (N x 4) less those inside the vehicle box."""

@@ -1,24 +1,26 @@
 //! Moving objects at each camera's time.
 //!
-//! A frame's boxes and scan hold at the frame's time; its cameras fire at their own
-//! ([`crate::source::RigCamera::time`], up to ~40 ms apart in nuScenes). A box with a velocity
-//! v ([`crate::source::SourceBox::velocity`]) lies, at camera i's time tᵢ, moved by v·tᵢ:
+//! A frame's cameras fire at their own times ([`crate::source::RigCamera::time`]) and each box
+//! holds at its own ([`crate::source::SourceBox::time`]: a rotating LiDAR measures an object as
+//! its sweep passes it; by default the frame's time). A box with a velocity v
+//! ([`crate::source::SourceBox::velocity`]) held at t_b lies, at camera i's time tᵢ, moved by
+//! v·(tᵢ − t_b):
 //! - camera i's occlusion tests meet the boxes where they were at tᵢ;
-//! - a point of the scene on or in a moving box (where the output centre sees it at the frame's
-//!   time) is sampled by camera i at x + v·tᵢ ([`Motion::seen_at`]);
+//! - a point of the scene on or in a moving box (where the output centre sees it, the box as
+//!   given) is sampled by camera i at x + v·(tᵢ − t_b) ([`Motion::seen_at`]);
 //! - the scan's returns on a moving box were measured at their own times within the sweep, so
 //!   a return belongs to the box (it leaves the residual points, the box's exact faces stand
 //!   for it) when it lies within [`BOX_MARGIN`] of the box anywhere on its path within
-//!   [`SWEEP`] of the frame's time ([`Motion::swept`]).
+//!   [`SWEEP`] of the box's time ([`Motion::swept`]).
 //!
-//! A box without a velocity and a camera without a time are still: a frame whose cameras fire
-//! with the scan (KITTI-360) or whose boxes are still is stitched as before, to the bit.
+//! A box without a velocity and a camera at the box's time are still: a frame whose cameras
+//! fire with the scan (KITTI-360) or whose boxes are still is stitched as before, to the bit.
 
 use super::{Solid, BOX_MARGIN};
 use crate::source::Frame;
 use nalgebra::Vector3;
 
-/// How far from the frame's time a return of the sweep may have been measured, seconds: a
+/// How far from a box's time a return of the sweep on it may have been measured, seconds: a
 /// 10 Hz scanner's whole turn (a 20 Hz one's is half).
 pub const SWEEP: f64 = 0.1;
 
@@ -29,6 +31,8 @@ pub(super) struct Motion {
     times: Vec<f64>,
     /// Per box: its velocity in the reference frame, m/s (zero: still or unknown).
     velocities: Vec<Vector3<f64>>,
+    /// Per box: when it holds, seconds after the frame's time.
+    box_times: Vec<f64>,
     /// The boxes whose velocity is not zero.
     moving: Vec<usize>,
 }
@@ -60,26 +64,35 @@ impl Motion {
                     .unwrap_or_else(Vector3::zeros)
             })
             .collect();
+        let box_times = frame
+            .objects
+            .iter()
+            .map(|b| b.time.filter(|t| t.is_finite()).unwrap_or(0.0))
+            .collect();
         let moving = (0..velocities.len())
             .filter(|&k| velocities[k] != Vector3::zeros())
             .collect();
         Motion {
             times,
             velocities,
+            box_times,
             moving,
         }
     }
 
-    /// Whether no box moves at any camera's time.
+    /// Whether no box moves between its time and any camera's.
     pub(super) fn is_still(&self) -> bool {
-        self.moving.is_empty() || self.times.iter().all(|t| *t == 0.0)
+        let at = |k: usize| self.box_times[k];
+        self.moving
+            .iter()
+            .all(|&k| self.times.iter().all(|t| *t == at(k)))
     }
 
-    /// Box `k`'s displacement at camera `camera`'s time, metres.
+    /// Box `k`'s displacement from its time to camera `camera`'s, metres.
     pub(super) fn shift(&self, camera: usize, k: usize) -> Vector3<f64> {
         let t = self.times.get(camera).copied().unwrap_or(0.0);
-        match self.velocities.get(k) {
-            Some(v) if t != 0.0 => v * t,
+        match (self.velocities.get(k), self.box_times.get(k)) {
+            (Some(v), Some(at)) if t != *at => v * (t - at),
             _ => Vector3::zeros(),
         }
     }
@@ -101,7 +114,7 @@ impl Motion {
             .fold(0.0, f64::max)
     }
 
-    /// Where camera `camera` saw scene point `x` (at the frame's time): moved with the first
+    /// Where camera `camera` saw scene point `x` (the boxes as given): moved with the first
     /// moving box that holds it (within [`super::SURFACE_TOLERANCE`], its faces included).
     pub(super) fn seen_at(
         &self,
@@ -118,7 +131,7 @@ impl Motion {
     }
 
     /// Whether return `p` lies within [`BOX_MARGIN`] of a moving box anywhere on its path
-    /// within [`SWEEP`] of the frame's time: the segment p − v·s, s in ±[`SWEEP`], meets the
+    /// within [`SWEEP`] of the box's time: the segment p − v·s, s in ±[`SWEEP`], meets the
     /// box grown by the margin.
     pub(super) fn swept(&self, solids: &[Solid], p: &Vector3<f64>) -> bool {
         self.moving.iter().any(|&k| {
@@ -215,6 +228,15 @@ mod tests {
             m.seen_at(&solids, 0, &rear),
             rear + Vector3::new(-0.4, 0.0, 0.0)
         );
+        // a box held at camera 0's time is where camera 0 saw it, and 0.5 m on for camera 1
+        let mut held = car(Some(Vector3::new(10.0, 0.0, 0.0)));
+        held.time = Some(-0.04);
+        let h = Motion::new(
+            &frame(&[(eyes[0], Some(-0.04)), (eyes[1], Some(0.01))], vec![held]),
+            &eyes,
+        );
+        assert_eq!(h.shift(0, 0), Vector3::zeros());
+        assert!((h.shift(1, 0) - Vector3::new(0.5, 0.0, 0.0)).norm() < 1e-12);
         let still = Motion::new(&frame(&[(eyes[0], Some(-0.04))], vec![car(None)]), &eyes);
         assert!(still.is_still());
         assert_eq!(still.seen_at(&solids, 0, &rear), rear);
