@@ -446,10 +446,17 @@ impl StitchDepth for SceneDepth {
     }
 
     fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
-        match self.moved.is_empty() {
-            true => *x,
-            false => self.motion.seen_at(&self.solids, camera, x),
+        if self.moved.is_empty() {
+            return *x;
         }
+        // the boxes that hold x are among those the centre's ray through x may meet
+        let mut holder = None;
+        self.grids[0].any(&(x - self.centre), self.solids.len(), |k| {
+            let holds = self.motion.holds(&self.solids, k, x);
+            holder = holder.or(holds.then_some(k));
+            holds
+        });
+        holder.map_or(*x, |k| x + self.motion.shift(camera, k))
     }
 
     fn motion_bound(&self, camera: usize) -> f64 {

@@ -7,7 +7,7 @@
 //! v·(tᵢ − t_b):
 //! - camera i's occlusion tests meet the boxes where they were at tᵢ;
 //! - a point of the scene on or in a moving box (where the output centre sees it, the box as
-//!   given) is sampled by camera i at x + v·(tᵢ − t_b) ([`Motion::seen_at`]);
+//!   given) is sampled by camera i at x + v·(tᵢ − t_b) ([`Motion::holds`]);
 //! - the scan's returns on a moving box were measured at their own times within the sweep, so
 //!   a return belongs to the box (it leaves the residual points, the box's exact faces stand
 //!   for it) when it lies within [`BOX_MARGIN`] of the box anywhere on its path within
@@ -114,20 +114,18 @@ impl Motion {
             .fold(0.0, f64::max)
     }
 
-    /// Where camera `camera` saw scene point `x` (the boxes as given): moved with the first
-    /// moving box that holds it (within [`super::SURFACE_TOLERANCE`], its faces included).
-    pub(super) fn seen_at(
-        &self,
-        solids: &[Solid],
-        camera: usize,
-        x: &Vector3<f64>,
-    ) -> Vector3<f64> {
-        for &k in &self.moving {
-            if solids[k].contains(x, super::SURFACE_TOLERANCE) {
-                return x + self.shift(camera, k);
-            }
-        }
-        *x
+    /// Whether box `k` moves and holds scene point `x` (the boxes as given; within
+    /// [`super::SURFACE_TOLERANCE`], its faces included): camera i saw `x` at
+    /// x + [`Motion::shift`] of the first such box.
+    pub(super) fn holds(&self, solids: &[Solid], k: usize, x: &Vector3<f64>) -> bool {
+        let moves = self
+            .velocities
+            .get(k)
+            .is_some_and(|v| *v != Vector3::zeros());
+        moves
+            && solids
+                .get(k)
+                .is_some_and(|s| s.contains(x, super::SURFACE_TOLERANCE))
     }
 
     /// Whether return `p` lies within [`BOX_MARGIN`] of a moving box anywhere on its path
@@ -201,6 +199,14 @@ mod tests {
         }
     }
 
+    /// Where camera `camera` saw `x`: moved with the first moving box that holds it.
+    fn seen_at(m: &Motion, solids: &[Solid], camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        match (0..solids.len()).find(|&k| m.holds(solids, k, x)) {
+            Some(k) => x + m.shift(camera, k),
+            None => *x,
+        }
+    }
+
     fn car(velocity: Option<Vector3<f64>>) -> SourceBox {
         SourceBox {
             velocity,
@@ -225,7 +231,7 @@ mod tests {
         // the moving car's rear face moves with it; the still car's does not
         let rear = Vector3::new(0.3, 1.0, 10.0 - 0.9);
         assert_eq!(
-            m.seen_at(&solids, 0, &rear),
+            seen_at(&m, &solids, 0, &rear),
             rear + Vector3::new(-0.4, 0.0, 0.0)
         );
         // a box held at camera 0's time is where camera 0 saw it, and 0.5 m on for camera 1
@@ -239,10 +245,10 @@ mod tests {
         assert!((h.shift(1, 0) - Vector3::new(0.5, 0.0, 0.0)).norm() < 1e-12);
         let still = Motion::new(&frame(&[(eyes[0], Some(-0.04))], vec![car(None)]), &eyes);
         assert!(still.is_still());
-        assert_eq!(still.seen_at(&solids, 0, &rear), rear);
+        assert_eq!(seen_at(&still, &solids, 0, &rear), rear);
         // a point beside the box (not on it) stays
         let beside = Vector3::new(3.0, 1.0, 10.0);
-        assert_eq!(m.seen_at(&solids, 0, &beside), beside);
+        assert_eq!(seen_at(&m, &solids, 0, &beside), beside);
     }
 
     #[test]
