@@ -251,25 +251,7 @@ impl SceneDepth {
                 .map(|o| Splats::new(*o, &residual))
                 .collect()
         };
-        let moved: Vec<Vec<Solid>> = match motion.is_still() {
-            true => Vec::new(),
-            false => (0..eyes.len())
-                .map(|i| motion.solids_at(i, &solids))
-                .collect(),
-        };
-        let grids = std::iter::once(&centre)
-            .chain(&eyes)
-            .enumerate()
-            .map(|(view, o)| {
-                let at = view.checked_sub(1).and_then(|i| moved.get(i));
-                let spheres: Vec<_> = at
-                    .unwrap_or(&solids)
-                    .iter()
-                    .map(|s| (s.centre, s.radius))
-                    .collect();
-                BoxGrid::new(o, &spheres)
-            })
-            .collect();
+        let (moved, grids) = motion::views(&motion, &solids, &centre, &eyes);
         let mut nearest = FAR;
         for s in &solids {
             nearest = nearest.min((s.centre - centre).norm() - s.radius);
@@ -290,14 +272,6 @@ impl SceneDepth {
             nearest: nearest.max(0.0),
             motion,
             moved,
-        }
-    }
-
-    /// The boxes as `view` (0 the centre, 1 + i eye i) saw them.
-    fn solids_of(&self, view: usize) -> &[Solid] {
-        match view.checked_sub(1).and_then(|i| self.moved.get(i)) {
-            Some(moved) => moved,
-            None => &self.solids,
         }
     }
 
@@ -446,24 +420,11 @@ impl StitchDepth for SceneDepth {
     }
 
     fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
-        if self.moved.is_empty() {
-            return *x;
-        }
-        // the boxes that hold x are among those the centre's ray through x may meet
-        let mut holder = None;
-        self.grids[0].any(&(x - self.centre), self.solids.len(), |k| {
-            let holds = self.motion.holds(&self.solids, k, x);
-            holder = holder.or(holds.then_some(k));
-            holds
-        });
-        holder.map_or(*x, |k| x + self.motion.shift(camera, k))
+        self.moved_point(camera, x)
     }
 
     fn motion_bound(&self, camera: usize) -> f64 {
-        match self.moved.is_empty() {
-            true => 0.0,
-            false => self.motion.bound(camera),
-        }
+        self.motion_reach(camera)
     }
 
     fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {

@@ -16,7 +16,8 @@
 //! A box without a velocity and a camera at the box's time are still: a frame whose cameras
 //! fire with the scan (KITTI-360) or whose boxes are still is stitched as before, to the bit.
 
-use super::{Solid, BOX_MARGIN};
+use super::grid::BoxGrid;
+use super::{SceneDepth, Solid, BOX_MARGIN};
 use crate::source::Frame;
 use nalgebra::Vector3;
 
@@ -157,6 +158,69 @@ impl Motion {
             }
             lo <= hi
         })
+    }
+}
+
+/// Per eye, the boxes where it saw them (empty: every box is still), and the boxes' grids
+/// seen from `centre`, then from each eye, each with the boxes where that view saw them.
+pub(super) fn views(
+    motion: &Motion,
+    solids: &[Solid],
+    centre: &Vector3<f64>,
+    eyes: &[Vector3<f64>],
+) -> (Vec<Vec<Solid>>, Vec<BoxGrid>) {
+    let moved: Vec<Vec<Solid>> = match motion.is_still() {
+        true => Vec::new(),
+        false => (0..eyes.len())
+            .map(|i| motion.solids_at(i, solids))
+            .collect(),
+    };
+    let grids = std::iter::once(centre)
+        .chain(eyes)
+        .enumerate()
+        .map(|(view, o)| {
+            let at = view.checked_sub(1).and_then(|i| moved.get(i));
+            let spheres: Vec<_> = at
+                .map_or(solids, Vec::as_slice)
+                .iter()
+                .map(|s| (s.centre, s.radius))
+                .collect();
+            BoxGrid::new(o, &spheres)
+        })
+        .collect();
+    (moved, grids)
+}
+
+impl SceneDepth {
+    /// The boxes as `view` (0 the centre, 1 + i eye i) saw them.
+    pub(super) fn solids_of(&self, view: usize) -> &[Solid] {
+        match view.checked_sub(1).and_then(|i| self.moved.get(i)) {
+            Some(moved) => moved,
+            None => &self.solids,
+        }
+    }
+
+    /// [`crate::warp::StitchDepth::seen_at`]: `x` moved with the first moving box that holds
+    /// it, found among those the centre's ray through `x` may meet.
+    pub(super) fn moved_point(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        if self.moved.is_empty() {
+            return *x;
+        }
+        let mut holder = None;
+        self.grids[0].any(&(x - self.centre), self.solids.len(), |k| {
+            let holds = self.motion.holds(&self.solids, k, x);
+            holder = holder.or(holds.then_some(k));
+            holds
+        });
+        holder.map_or(*x, |k| x + self.motion.shift(camera, k))
+    }
+
+    /// [`crate::warp::StitchDepth::motion_bound`].
+    pub(super) fn motion_reach(&self, camera: usize) -> f64 {
+        match self.moved.is_empty() {
+            true => 0.0,
+            false => self.motion.bound(camera),
+        }
     }
 }
 
