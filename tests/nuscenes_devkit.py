@@ -1,6 +1,7 @@
 """nuscenes-devkit (PyPI, the dataset's own devkit) as the independent reader of a
-nuScenes-format data root: its table loader, poses and calibrations, and each camera's boxes
-through `get_sample_data` and `view_points`.
+nuScenes-format data root: its table loader, poses and calibrations, each camera's boxes
+through `get_sample_data` and `view_points`, and each annotation's `box_velocity` (null where
+the devkit gives NaN).
 
 Usage: nuscenes_devkit.py DATAROOT VERSION OUT.json
 
@@ -66,7 +67,10 @@ for scene in nusc.scene:
     token = scene["first_sample_token"]
     while token:
         sample = nusc.get("sample", token)
-        entry = {"token": token, "sensors": {}}
+        entry = {"token": token, "sensors": {}, "velocities": {}}
+        for ann in sample["anns"]:
+            v = nusc.box_velocity(ann)
+            entry["velocities"][ann] = None if np.any(np.isnan(v)) else v.tolist()
         for channel, sd_token in sample["data"].items():
             sd = nusc.get("sample_data", sd_token)
             cs = nusc.get("calibrated_sensor", sd["calibrated_sensor_token"])

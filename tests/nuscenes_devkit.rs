@@ -126,3 +126,79 @@ fn nuscenes_devkit_agrees_with_panoconvs_poses_calibrations_and_projections() {
     assert!(worst < 0.01, "worst corner {worst} px");
     eprintln!("nuscenes-devkit: {corners} box corners, worst {worst:.2e} px");
 }
+
+/// The fixture's tables in a temporary root, the samples `spacing_s` seconds apart.
+fn spaced_tables(spacing_s: f64) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let to = dir.path().join(VERSION);
+    std::fs::create_dir_all(&to).unwrap();
+    for entry in std::fs::read_dir(fixture().join(VERSION)).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_owned();
+        let mut text = std::fs::read_to_string(&path).unwrap();
+        if name == "sample.json" {
+            let mut samples: Vec<Value> = serde_json::from_str(&text).unwrap();
+            let first = samples[0]["timestamp"].as_u64().unwrap();
+            for (k, s) in samples.iter_mut().enumerate() {
+                s["timestamp"] = (first + (k as f64 * spacing_s * 1e6) as u64).into();
+            }
+            text = serde_json::to_string(&samples).unwrap();
+        }
+        std::fs::write(to.join(name), text).unwrap();
+    }
+    dir
+}
+
+/// Every box's velocity as the devkit's `box_velocity` gives it (the centres of the object's
+/// previous and next annotations over their samples' time; unknown past 1.5 s, 3 s centred):
+/// on the fixture (one car moving at 3 m/s, the others still), and on its tables with the
+/// samples 1.6 s apart, where the devkit knows none. Global frame, to 1e-9 m/s.
+#[test]
+fn box_velocities_are_the_devkits() {
+    for (spacing, known_at_least) in [(0.5, 20), (1.6, 0)] {
+        let tables = spaced_tables(spacing);
+        let dk = devkit(tables.path());
+        let ds = NuScenes::open(tables.path(), VERSION, &Selection::default()).unwrap();
+        let options = Options {
+            lidar: false,
+            all_classes: true,
+            keep_unseen: true,
+            ..Options::default()
+        };
+        let samples = dk["scenes"][0]["samples"].as_array().unwrap();
+        let (mut known, mut moving, mut compared) = (0, 0, 0);
+        for (item, theirs) in ds.items().unwrap().iter().zip(samples) {
+            let f = ds.frame(item, &options).unwrap();
+            let world = f.frame.world_from_reference.unwrap();
+            for (o, info) in f.frame.objects.iter().zip(&f.objects) {
+                let want = &theirs["velocities"][info.annotation.as_str()];
+                let got = o.velocity.map(|v| world.rotation * v);
+                match (got, want.as_array()) {
+                    (None, None) => {}
+                    (Some(v), Some(w)) => {
+                        let w = Vector3::new(
+                            w[0].as_f64().unwrap(),
+                            w[1].as_f64().unwrap(),
+                            w[2].as_f64().unwrap(),
+                        );
+                        assert!((v - w).norm() < 1e-9, "{}: {v} {w}", info.annotation);
+                        known += 1;
+                        moving += usize::from(w.norm() > 1.0);
+                    }
+                    _ => panic!("{}: panoconv {got:?}, devkit {want}", info.annotation),
+                }
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 32, "every annotation compared");
+        assert!(
+            known >= known_at_least,
+            "{known} velocities known at {spacing} s"
+        );
+        if spacing == 0.5 {
+            assert_eq!(moving, 3, "the moving car in each sample");
+        } else {
+            assert_eq!(known, 0);
+        }
+    }
+}

@@ -146,6 +146,7 @@ impl RigSource for ToyRig {
                 model: Arc::new(pinhole()),
                 reference_from_camera: reference_from_camera(k),
                 image: dir.join(format!("{}.png", NAMES[k])),
+                time: None,
             })
             .collect();
         let frame = Frame {

@@ -206,6 +206,7 @@ impl WorldSource for ToyWorld {
                     &poses[16 * k..16 * k + 16],
                 )),
                 image: dir.join(format!("{}.png", NAMES[k])),
+                time: None,
             })
             .collect();
         let boxes = common::read_text(&dir.join("boxes.txt"))
@@ -221,6 +222,8 @@ impl WorldSource for ToyWorld {
                     world_from_box: box_from_yaw(v[6]),
                     points: Some(t[9].parse().unwrap()),
                     instance: None,
+                    velocity: None,
+                    time: None,
                 }
             })
             .collect();

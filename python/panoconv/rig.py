@@ -25,13 +25,23 @@ from ._native import Camera, _camera_wire
 
 class RigCamera:
     """One camera of a frame: its image file, its lens (`panoconv.Camera`, in its own axes:
-    x right, y down, z forward) and `world_from_camera` (4 x 4) when the image was taken."""
+    x right, y down, z forward) and `world_from_camera` (4 x 4) when the image was taken.
+    `time`: when it was taken, seconds after the frame's time (the LiDAR sweep's, at which the
+    boxes hold); None: at the frame's time."""
 
-    def __init__(self, name: str, image: Any, camera: Camera, world_from_camera: Any):
+    def __init__(
+        self,
+        name: str,
+        image: Any,
+        camera: Camera,
+        world_from_camera: Any,
+        time: Optional[float] = None,
+    ):
         self.name = name
         self.image = image
         self.camera = camera
         self.world_from_camera = world_from_camera
+        self.time = time
 
     def __repr__(self) -> str:
         return f"RigCamera({self.name!r}, {str(self.image)!r})"
@@ -42,7 +52,11 @@ class Box3D:
     `size` (length, width, height), and either `yaw` (radians, counter-clockwise about the
     world's z axis, from its x axis to the box's front) or `rotation` (3 x 3, world from box:
     x along the length towards the front, z up). `points`: the dataset's sensor-point count
-    (0: left out as unseen); `instance`: the dataset's id of the object (int or str)."""
+    (0: left out as unseen); `instance`: the dataset's id of the object (int or str);
+    `velocity`: (vx, vy, vz) in the world frame, m/s, where known (None: taken as still; a
+    depth-guided stitch moves the box to each camera's time); `time`: when the box holds,
+    seconds after the frame's time (a rotating LiDAR measures an object as it passes it; None:
+    the frame's time)."""
 
     def __init__(
         self,
@@ -54,6 +68,8 @@ class Box3D:
         label: Optional[str] = None,
         points: Optional[int] = None,
         instance: Any = None,
+        velocity: Any = None,
+        time: Optional[float] = None,
     ):
         self.type = type
         self.centre = centre
@@ -63,6 +79,8 @@ class Box3D:
         self.label = label
         self.points = points
         self.instance = instance
+        self.velocity = velocity
+        self.time = time
 
     def __repr__(self) -> str:
         return f"Box3D({self.type!r}, centre={self.centre!r}, size={self.size!r})"
@@ -196,6 +214,10 @@ def _box(b: Any, field: str) -> dict:
         out["yaw"] = _floats(b.yaw, f"{field}.yaw")
     if b.rotation is not None:
         out["rotation"] = _floats(b.rotation, f"{field}.rotation")
+    if getattr(b, "velocity", None) is not None:
+        out["velocity"] = _floats(b.velocity, f"{field}.velocity")
+    if getattr(b, "time", None) is not None:
+        out["time"] = _floats(b.time, f"{field}.time")
     return out
 
 
@@ -207,14 +229,15 @@ def _frame(frame: Any) -> tuple[dict, bytes]:
         field = f"cameras[{k}]"
         if not isinstance(c, RigCamera):
             raise _FieldError(field, f"{type(c).__name__} is not a panoconv.RigCamera")
-        header["cameras"].append(
-            {
-                "name": c.name,
-                "image": os.path.abspath(os.fspath(c.image)),
-                "camera": _camera(c.camera, f"{field}.camera"),
-                "world_from_camera": _floats(c.world_from_camera, f"{field}.world_from_camera"),
-            }
-        )
+        wire = {
+            "name": c.name,
+            "image": os.path.abspath(os.fspath(c.image)),
+            "camera": _camera(c.camera, f"{field}.camera"),
+            "world_from_camera": _floats(c.world_from_camera, f"{field}.world_from_camera"),
+        }
+        if getattr(c, "time", None) is not None:
+            wire["time"] = _floats(c.time, f"{field}.time")
+        header["cameras"].append(wire)
     header["boxes"] = [_box(b, f"boxes[{k}]") for k, b in enumerate(frame.boxes)]
     if frame.world_from_lidar is not None:
         header["world_from_lidar"] = _floats(frame.world_from_lidar, "world_from_lidar")

@@ -152,6 +152,7 @@ impl Split {
                 model: Arc::new(Perspective::new(source.k, ImageSize::new(w, h))),
                 reference_from_camera: Pose::new(Matrix3::identity(), source.centre),
                 image: path,
+                time: None,
             });
             intrinsics.push(source.k);
             images.push(image);

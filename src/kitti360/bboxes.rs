@@ -107,6 +107,8 @@ impl WorldBox {
             truncation: None,
             occlusion: None,
             sensor_points: None,
+            velocity: None,
+            time: None,
         }
     }
 }

@@ -264,6 +264,8 @@ impl Sequence {
                 model: Arc::clone(&self.models[k]),
                 reference_from_camera: level_from_world.compose(&self.world_from_image(frame, k)?),
                 image,
+                // the cameras are triggered with the sweep (docs/kitti360.md)
+                time: None,
             });
         }
         let objects = self

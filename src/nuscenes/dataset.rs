@@ -3,8 +3,9 @@
 //!
 //! Only what the selection needs is kept: the scenes asked for, their samples, the keyframe
 //! `sample_data` of the chosen cameras, the reference camera and the LiDAR of those samples,
-//! the ego poses these name, the samples' annotations and the instances, categories,
-//! attributes and visibility levels they name. The large tables (`sample_data`, `ego_pose`,
+//! the ego poses these name, the samples' annotations (and their previous and next, for the
+//! objects' velocities) and the instances, categories, attributes and visibility levels they
+//! name. The large tables (`sample_data`, `ego_pose`,
 //! `sample_annotation`, `instance`) are streamed and filtered record by record, so a version of
 //! millions of records is indexed in the memory of the selection.
 
@@ -14,6 +15,7 @@ use super::tables::{
     CalibratedSensor, Sample, SampleData, Scene, Sensor,
 };
 use super::token::Token;
+use super::velocity::Tracks;
 use crate::error::{Error, Result};
 use crate::source::Pose;
 use serde::Deserialize;
@@ -79,6 +81,8 @@ pub struct NuScenes {
     pub(super) keyframes: HashMap<(Token, String), SampleData>,
     pub(super) ego_poses: HashMap<Token, Pose>,
     pub(super) annotations: Annotations,
+    /// The annotations' neighbours and the samples' times, for velocities.
+    pub(super) tracks: Tracks,
     pub(super) instances: HashMap<Token, Token>,
     pub(super) categories: HashMap<Token, String>,
     pub(super) attributes: HashMap<Token, String>,
@@ -133,6 +137,10 @@ impl NuScenes {
             &samples,
             selection,
         )?;
+        let sample_times = samples
+            .iter()
+            .map(|(t, s)| (t.clone(), s.timestamp))
+            .collect();
         drop(samples);
         let wanted: HashSet<Token> = scenes
             .iter()
@@ -148,6 +156,7 @@ impl NuScenes {
         let pose_tokens: HashSet<Token> = keyframes.values().map(|d| d.ego_pose.clone()).collect();
         let ego_poses = read_listed(&path("ego_pose"), &pose_tokens, read_ego_pose)?;
         let annotations = read_annotations(&path("sample_annotation"), &wanted)?;
+        let tracks = Tracks::read(&path("sample_annotation"), annotations.all(), sample_times)?;
         let instance_tokens: HashSet<Token> =
             annotations.all().map(|a| a.instance.clone()).collect();
         let instances = read_listed(&path("instance"), &instance_tokens, read_instance)?;
@@ -169,6 +178,7 @@ impl NuScenes {
             keyframes,
             ego_poses,
             annotations,
+            tracks,
             instances,
             categories: named("category")?,
             attributes: named("attribute")?,

@@ -2,7 +2,9 @@
 //!
 //! Time: each camera of a sample fires at its own time, with the ego pose of its own
 //! `sample_data`; the LiDAR keyframe's ego pose is the sample's reference (its annotations hold
-//! at that time). Sensor → global is `ego_pose · calibrated_sensor` of the sensor's own
+//! at that time). Each rig camera carries its time from the LiDAR keyframe's, each box the
+//! devkit's velocity (`velocity.rs`), so that a stitch sees a moving object where each
+//! camera saw it. Sensor → global is `ego_pose · calibrated_sensor` of the sensor's own
 //! reading. The level frame: origin at the reference camera's (CAM_FRONT's) optical centre at
 //! the reference pose, y = −(global z), z = that camera's optical axis made horizontal,
 //! x = y × z.
@@ -12,6 +14,7 @@ use super::dataset::{NuScenes, SceneEntry};
 use super::lidar::parse_points;
 use super::tables::{Annotation, SampleData};
 use super::token::Token;
+use super::velocity::sweep_time;
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Perspective};
 use crate::error::{Error, Result};
 use crate::source::world_from_level;
@@ -41,6 +44,11 @@ impl Default for Options {
             vehicle_box: VehicleBox::NUSCENES,
         }
     }
+}
+
+/// Seconds from microsecond time `from` to `to` (negative: `to` is earlier).
+fn microseconds_between(from: u64, to: u64) -> f64 {
+    (to as i128 - from as i128) as f64 * 1e-6
 }
 
 /// One output frame: a sample of a selected scene.
@@ -225,6 +233,7 @@ impl NuScenes {
         let mut provenance = Vec::new();
         let mut rig = Vec::with_capacity(self.cameras.len());
         let mut camera_timestamps = Vec::with_capacity(self.cameras.len());
+        let lidar_data = self.keyframe(sample, &self.lidar)?;
         for channel in &self.cameras {
             let data = self.keyframe(sample, channel)?;
             let image = self.dataroot.join(&data.filename);
@@ -235,9 +244,9 @@ impl NuScenes {
                 model: self.camera_model(data)?,
                 reference_from_camera: level_from_world.compose(&self.world_from_sensor(data)?),
                 image,
+                time: Some(microseconds_between(lidar_data.timestamp, data.timestamp)),
             });
         }
-        let lidar_data = self.keyframe(sample, &self.lidar)?;
         let reference_from_lidar = level_from_world.compose(&self.world_from_sensor(lidar_data)?);
         let mut lidar = Vec::new();
         let mut input_hashes = Vec::new();
@@ -255,7 +264,10 @@ impl NuScenes {
                 .collect();
             provenance.push(path);
         }
-        let (objects, infos) = self.objects(sample, &level_from_world, options)?;
+        let (mut objects, infos) = self.objects(sample, &level_from_world, options)?;
+        for o in &mut objects {
+            o.time = sweep_time(&rig, &reference_from_lidar, &o.centre);
+        }
         Ok(NuScenesFrame {
             frame: Frame {
                 id: item.id.clone(),
@@ -289,6 +301,7 @@ impl NuScenes {
     ) -> Result<(Vec<SourceBox>, Vec<ObjectInfo>)> {
         let mut boxes = Vec::new();
         let mut infos = Vec::new();
+        let table = self.table("sample_annotation");
         for a in self.annotations.of(sample) {
             let info = self.object_info(a)?;
             if !options.keep_unseen && a.lidar_points + a.radar_points == 0 {
@@ -311,6 +324,11 @@ impl NuScenes {
                 truncation: None,
                 occlusion: Some(occlusion(info.visibility.as_deref())),
                 sensor_points: Some(a.lidar_points + a.radar_points),
+                velocity: self
+                    .tracks
+                    .velocity(&table, a, sample)?
+                    .map(|v| level_from_world.rotation * v),
+                time: None,
             });
             infos.push(info);
         }

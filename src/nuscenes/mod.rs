@@ -13,6 +13,7 @@ mod records;
 mod source;
 mod tables;
 mod token;
+mod velocity;
 
 pub use dataset::{
     table_path, versions, NuScenes, SceneEntry, Selection, NUSCENES_CAMERAS, REFERENCE_CAMERA,

@@ -46,7 +46,7 @@ pub mod raw {
         EgoPose { token, translation, rotation, timestamp });
     raw_record!(/// `sample_annotation.json`
         Annotation { token, sample_token, instance_token, visibility_token, attribute_tokens,
-            translation, size, rotation, num_lidar_pts, num_radar_pts });
+            translation, size, rotation, num_lidar_pts, num_radar_pts, prev, next });
     raw_record!(/// `instance.json`
         Instance { token, category_token });
     raw_record!(/// `category.json`, `attribute.json`
@@ -107,6 +107,8 @@ pub struct Sample {
     pub scene: Token,
     /// The next sample of the scene.
     pub next: Option<Token>,
+    /// Microseconds (its LiDAR keyframe's time).
+    pub timestamp: u64,
 }
 
 /// A sensor: a channel (`CAM_FRONT`, `LIDAR_TOP`) and its modality.
@@ -167,6 +169,10 @@ pub struct Annotation {
     pub lidar_points: u64,
     /// Radar points inside the box.
     pub radar_points: u64,
+    /// The same object's annotation in an earlier sample (None: its first).
+    pub prev: Option<Token>,
+    /// The same object's annotation in a later sample (None: its last).
+    pub next: Option<Token>,
 }
 
 /// A pose of the format: `translation` and the quaternion `rotation` ([w, x, y, z], normalised
@@ -207,12 +213,12 @@ impl Sample {
     /// Checks a raw record.
     pub fn read(path: &Path, index: usize, r: &raw::Sample) -> Result<(Token, Self)> {
         let (f, token) = Fields::new(path, index, &r.token)?;
-        f.integer("timestamp", &r.timestamp)?;
         Ok((
             token,
             Sample {
                 scene: f.token("scene_token", &r.scene_token)?,
                 next: f.link("next", &r.next)?,
+                timestamp: f.integer("timestamp", &r.timestamp)?,
             },
         ))
     }
@@ -316,6 +322,8 @@ impl Annotation {
                 size,
                 lidar_points: f.integer("num_lidar_pts", &r.num_lidar_pts)?,
                 radar_points: f.integer("num_radar_pts", &r.num_radar_pts)?,
+                prev: f.link("prev", &r.prev)?,
+                next: f.link("next", &r.next)?,
             },
         ))
     }

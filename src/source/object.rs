@@ -34,6 +34,12 @@ pub struct SourceBox {
     /// The sensor returns the dataset counted inside the box (nuScenes: LiDAR and radar
     /// points), where it counts them.
     pub sensor_points: Option<u64>,
+    /// Velocity over the ground, m/s, in the reference frame's axes (the frame is fixed to the
+    /// world at the frame's time), where the dataset gives it; None: unknown, taken as still.
+    pub velocity: Option<Vector3<f64>>,
+    /// When the box holds, seconds after the frame's time, where it differs (a rotating
+    /// LiDAR measures an object as its sweep passes it; None: at the frame's time).
+    pub time: Option<f64>,
 }
 
 impl SourceBox {
@@ -56,6 +62,8 @@ impl SourceBox {
             truncation: None,
             occlusion: None,
             sensor_points: None,
+            velocity: None,
+            time: None,
         }
     }
 

@@ -21,6 +21,9 @@ pub struct RigCamera {
     pub reference_from_camera: Pose,
     /// The image file.
     pub image: PathBuf,
+    /// When the image was taken, seconds after the frame's time (its LiDAR sweep's, at which
+    /// its boxes are given), where the dataset says; None: at the frame's time.
+    pub time: Option<f64>,
 }
 
 impl RigCamera {
@@ -70,6 +73,7 @@ mod tests {
             )),
             reference_from_camera: Pose::new(turn, Vector3::new(2.0, 0.0, 0.0)),
             image: PathBuf::from("side.png"),
+            time: None,
         };
         assert!((camera.optical_axis() - Vector3::x()).norm() < 1e-15);
         // 10 m along +x from the camera, 1 m down: straight below the principal point.

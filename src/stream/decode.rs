@@ -222,7 +222,13 @@ fn world_camera(v: &Value, field: &str) -> Checked<WorldCamera> {
             &format!("{field}.world_from_camera"),
         )?,
         image,
+        time: optional_number(get(c, "time"), &format!("{field}.time"))?,
     })
+}
+
+/// An optional finite number (absent or null: None).
+fn optional_number(v: Option<&Value>, field: &str) -> Checked<Option<f64>> {
+    v.map(|v| number(v, field)).transpose()
 }
 
 fn count(v: Option<&Value>, field: &str) -> Checked<Option<u64>> {
@@ -265,6 +271,11 @@ fn world_box(v: &Value, field: &str) -> Checked<WorldBox> {
         world_from_box,
         points: count(get(b, "points"), &f("points"))?,
         instance: count(get(b, "instance"), &f("instance"))?,
+        time: optional_number(get(b, "time"), &f("time"))?,
+        velocity: match get(b, "velocity") {
+            None => None,
+            Some(v) => Some(Vector3::from_column_slice(&numbers(v, &f("velocity"), 3)?)),
+        },
     })
 }
 
@@ -346,4 +357,42 @@ pub fn frame(m: &Map<String, Value>, payload: &[u8]) -> Checked<WorldFrame> {
         record,
         inputs,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn boxed(velocity: Value) -> Value {
+        json!({"type": "Car", "centre": [1, 2, 3], "size": [4, 2, 1.5], "yaw": 0.5,
+               "velocity": velocity})
+    }
+
+    #[test]
+    fn a_boxs_velocity_is_three_finite_numbers_and_may_be_left_out() {
+        let b = world_box(&boxed(json!([1.5, -2, 0])), "boxes[3]").unwrap();
+        assert_eq!(b.velocity, Some(Vector3::new(1.5, -2.0, 0.0)));
+        let b = world_box(&boxed(Value::Null), "boxes[3]").unwrap();
+        assert_eq!(b.velocity, None);
+        // the Python side sends a non-finite number as its text
+        let (field, message) = world_box(&boxed(json!([1, "nan", 0])), "boxes[3]").unwrap_err();
+        assert_eq!(field, "boxes[3].velocity[1]", "{message}");
+        let (field, message) = world_box(&boxed(json!([1, 2])), "boxes[3]").unwrap_err();
+        assert!(
+            field == "boxes[3].velocity" && message.contains("3 numbers"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn a_cameras_time_is_a_finite_number_and_may_be_left_out() {
+        assert_eq!(optional_number(None, "cameras[1].time"), Ok(None));
+        assert_eq!(
+            optional_number(Some(&json!(-0.04)), "cameras[1].time"),
+            Ok(Some(-0.04))
+        );
+        let (field, _) = optional_number(Some(&json!("inf")), "cameras[1].time").unwrap_err();
+        assert_eq!(field, "cameras[1].time");
+    }
 }

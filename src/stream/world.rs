@@ -22,6 +22,9 @@ pub struct WorldCamera {
     pub world_from_camera: Pose,
     /// The image file.
     pub image: PathBuf,
+    /// When the image was taken, seconds after the frame's time (the boxes' and the scan's),
+    /// where known.
+    pub time: Option<f64>,
 }
 
 /// A 3D object in the world frame.
@@ -41,6 +44,10 @@ pub struct WorldBox {
     pub points: Option<u64>,
     /// The dataset's instance id.
     pub instance: Option<u64>,
+    /// Velocity in the world frame, m/s, where known (None: taken as still).
+    pub velocity: Option<Vector3<f64>>,
+    /// When the box holds, seconds after the frame's time (None: at the frame's time).
+    pub time: Option<f64>,
 }
 
 /// A frame in the world frame.
@@ -98,6 +105,7 @@ impl WorldFrame {
                 model: c.model,
                 reference_from_camera: level_from_world.compose(&c.world_from_camera),
                 image: c.image,
+                time: c.time,
             })
             .collect();
         let objects = self
@@ -113,6 +121,8 @@ impl WorldFrame {
                 truncation: None,
                 occlusion: None,
                 sensor_points: b.points,
+                velocity: b.velocity.map(|v| level_from_world.rotation * v),
+                time: b.time,
             })
             .collect();
         let lidar = self
@@ -160,6 +170,7 @@ mod tests {
             )),
             world_from_camera: Pose::new(r, Vector3::new(0.0, 0.0, 1.5)),
             image: "front.png".into(),
+            time: None,
         }
     }
 
@@ -174,6 +185,8 @@ mod tests {
             world_from_box: box_from_yaw(std::f64::consts::FRAC_PI_2),
             points: Some(12),
             instance: Some(3),
+            velocity: Some(Vector3::new(0.0, 2.0, 0.0)),
+            time: Some(-0.02),
         };
         let frame = WorldFrame {
             cameras: vec![camera()],
@@ -203,6 +216,9 @@ mod tests {
             o.yaw()
         );
         assert!(o.is_upright(1e-12));
+        // its velocity along the world's +y: forward in the level frame
+        let v = o.velocity.unwrap();
+        assert!((v - Vector3::new(0.0, 0.0, 2.0)).norm() < 1e-12, "{v}");
         let p = frame.lidar[0].position;
         assert!((p - Vector3::new(1.0, 1.5, 5.0)).norm() < 1e-12, "{p}");
         assert_eq!(frame.provenance.len(), 2);

@@ -65,6 +65,12 @@ CYCLES = ("Bicycle", "Motorcycle", "Motorized Scooter", "Personal Mobility Devic
 # The Pandar64's azimuth step at 10 Hz, degrees.
 PANDAR64_AZIMUTH_STEP_DEG = 0.2
 
+# A cuboid's velocity: the centres of the same object (its uuid) in the nearest frames on disk
+# before and after, over their LiDAR times (a centred difference, one-sided where only one
+# holds it), as nuScenes' devkit gives `box_velocity`; a frame farther than this is not used,
+# seconds (the sequence's frames are 0.1 s apart; a copy holding every 20th, 2 s).
+MAX_GAP_S = 2.5
+
 
 def kitti_type(label: str, rider_status) -> Optional[str]:
     """The KITTI type of a PandaSet cuboid, or None (not written)."""
@@ -177,17 +183,27 @@ class PandaSet(RigSource):
         import pandas as pd
 
         k = int(frame_id)
+        # each camera's time from the LiDAR sweep's (the boxes'): PandaSet fires each camera as
+        # the sweep passes it, up to 0.1 s before the sweep's time
         cameras = [
-            RigCamera(name, self._image(name, frame_id), camera, pose_matrix(self.poses[name][k]))
+            RigCamera(
+                name,
+                self._image(name, frame_id),
+                camera,
+                pose_matrix(self.poses[name][k]),
+                time=float(self.times[name][k]) - float(self.timestamps[k]),
+            )
             for name, camera in self._cameras
         ]
         cuboids_file = os.path.join(self.root, "annotations", "cuboids", f"{frame_id}.pkl.gz")
-        boxes = self.boxes(pd.read_pickle(cuboids_file))
+        cuboids = pd.read_pickle(cuboids_file)
+        boxes = self.boxes(cuboids, self.velocities(k, cuboids))
         inputs = [cuboids_file]
         lidar = None
         if self.lidar is not None:
             lidar_file = os.path.join(self.root, "lidar", f"{frame_id}.pkl.gz")
             scan = pd.read_pickle(lidar_file)
+            self.time_boxes(boxes, scan, float(self.timestamps[k]))
             if self.lidar != "both":
                 scan = scan[scan["d"] == (0 if self.lidar == "pandar64" else 1)]
             lidar = self.without_vehicle(
@@ -210,6 +226,26 @@ class PandaSet(RigSource):
             inputs=inputs,
         )
 
+    @staticmethod
+    def time_boxes(boxes: list, scan, sweep_time: float) -> None:
+        """Sets each moving box's `time`: the median time of the Pandar64's returns inside it
+        (PandaSet's per-point `t`) after `sweep_time`; the sweep turns in 0.1 s and each camera
+        fires as it passes, so the box holds where the camera facing it saw it."""
+        ring = scan[scan["d"] == 0] if "d" in scan else scan
+        xyz = ring[["x", "y", "z"]].to_numpy(dtype=np.float64)
+        t = ring["t"].to_numpy(dtype=np.float64)
+        for b in boxes:
+            if b.velocity is None or not np.any(np.asarray(b.velocity)):
+                continue
+            # the box's axes: x along its length (yaw from the world's x), z up
+            c, s = math.cos(b.yaw), math.sin(b.yaw)
+            d = xyz - np.asarray(b.centre, dtype=np.float64)
+            along, across = d[:, 0] * c + d[:, 1] * s, -d[:, 0] * s + d[:, 1] * c
+            half = np.asarray(b.size, dtype=np.float64) / 2
+            inside = (np.abs(along) <= half[0]) & (np.abs(across) <= half[1]) & (np.abs(d[:, 2]) <= half[2])
+            if np.any(inside):
+                b.time = float(np.median(t[inside])) - sweep_time
+
     def without_vehicle(self, points: np.ndarray, world_from_lidar: np.ndarray) -> np.ndarray:
         """The world-frame `points` (N x 4) less those inside the vehicle box."""
         if self.vehicle_box is None:
@@ -220,9 +256,44 @@ class PandaSet(RigSource):
         inside = np.all((local >= least) & (local <= greatest), axis=1)
         return points[~inside]
 
-    def boxes(self, cuboids) -> list:
+    def _centres(self, frame: int) -> dict:
+        """uuid -> centre (world) of frame `frame`'s cuboids."""
+        import pandas as pd
+
+        c = pd.read_pickle(os.path.join(self.root, "annotations", "cuboids", f"{frame:02d}.pkl.gz"))
+        xyz = c[["position.x", "position.y", "position.z"]].to_numpy(dtype=np.float64)
+        return dict(zip(c["uuid"].to_numpy(), xyz))
+
+    def velocities(self, k: int, cuboids) -> dict:
+        """uuid -> world velocity (m/s) of frame `k`'s cuboids, from the nearest frames on disk
+        before and after within MAX_GAP_S (see MAX_GAP_S); an object in neither has none."""
+        on_disk = [int(f) for f in self.frames()]
+        t = float(self.timestamps[k])
+        before = [f for f in on_disk if f < k and t - float(self.timestamps[f]) <= MAX_GAP_S]
+        after = [f for f in on_disk if f > k and float(self.timestamps[f]) - t <= MAX_GAP_S]
+        here = dict(
+            zip(
+                cuboids["uuid"].to_numpy(),
+                cuboids[["position.x", "position.y", "position.z"]].to_numpy(dtype=np.float64),
+            )
+        )
+        ends = [(k, here)]
+        prev = (max(before), self._centres(max(before))) if before else None
+        nxt = (min(after), self._centres(min(after))) if after else None
+        out = {}
+        for uuid, p in here.items():
+            first = prev if prev is not None and uuid in prev[1] else ends[0]
+            last = nxt if nxt is not None and uuid in nxt[1] else ends[0]
+            if first[0] == last[0]:
+                continue
+            dt = float(self.timestamps[last[0]]) - float(self.timestamps[first[0]])
+            out[uuid] = tuple((last[1][uuid] - first[1][uuid]) / dt)
+        return out
+
+    def boxes(self, cuboids, velocities: Optional[dict] = None) -> list:
         """The cuboids with a KITTI type, an object annotated once per LiDAR (siblings) once:
-        the chosen LiDAR's annotation (the Pandar64's for both)."""
+        the chosen LiDAR's annotation (the Pandar64's for both); `velocities` (uuid -> world
+        m/s, [`PandaSet.velocities`]) where known."""
         prefer = 1 if self.lidar == "pandargt" else 0
         sensor = cuboids["cuboids.sensor_id"].to_numpy()
         uuid = cuboids["uuid"].to_numpy()
@@ -248,6 +319,7 @@ class PandaSet(RigSource):
                     yaw=float(c["yaw"]) + math.pi / 2,
                     label=label,
                     instance=str(uuid[i]),
+                    velocity=(velocities or {}).get(uuid[i]),
                 )
             )
         return out

@@ -18,12 +18,13 @@
 //! other box lies 5 % nearer on the rim of its footprint ([`RING_RAYS`] rays).
 //!
 //! Time: the scan is the reader's, motion-compensated to the frame's time (docs/kitti360.md,
-//! "The Velodyne sweep"), and a frame's cameras and boxes are at that time too, so the points
-//! need no further move; a reader with per-camera times would move them here.
+//! "The Velodyne sweep"), and the boxes are at that time too; a camera that fired at another
+//! time sees each moving box where it was then (`motion.rs`).
 
 #[cfg(test)]
 mod faults;
 mod grid;
+mod motion;
 mod splats;
 
 use super::ground::{Ground, GROUND_FIT};
@@ -33,6 +34,7 @@ use crate::reproject::depth::DepthMap;
 use crate::source::{Frame, SourceBox};
 use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
 use grid::BoxGrid;
+use motion::Motion;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 use splats::{angles, Splats};
@@ -222,6 +224,10 @@ pub struct SceneDepth {
     /// The boxes' grids seen from the centre, then from each eye.
     grids: Vec<BoxGrid>,
     nearest: f64,
+    /// The moving boxes and the cameras' times.
+    motion: Motion,
+    /// Per eye, the boxes where it saw them (empty: every box is still).
+    moved: Vec<Vec<Solid>>,
 }
 
 impl SceneDepth {
@@ -229,11 +235,13 @@ impl SceneDepth {
     pub fn new(frame: &Frame, centre: Vector3<f64>, eyes: Vec<Vector3<f64>>) -> Self {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
+        let motion = Motion::new(frame, &eyes);
         let ground = Ground::fit(&points, &centre);
         let residual: Vec<Vector3<f64>> = points
             .into_iter()
             .filter(|p| ground.is_none_or(|g| g.height(p) > GROUND_FIT * 2.0))
             .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
+            .filter(|p| !motion.swept(&solids, p))
             .collect();
         let splats = if residual.is_empty() {
             Vec::new()
@@ -243,11 +251,7 @@ impl SceneDepth {
                 .map(|o| Splats::new(*o, &residual))
                 .collect()
         };
-        let spheres: Vec<_> = solids.iter().map(|s| (s.centre, s.radius)).collect();
-        let grids = std::iter::once(&centre)
-            .chain(&eyes)
-            .map(|o| BoxGrid::new(o, &spheres))
-            .collect();
+        let (moved, grids) = motion::views(&motion, &solids, &centre, &eyes);
         let mut nearest = FAR;
         for s in &solids {
             nearest = nearest.min((s.centre - centre).norm() - s.radius);
@@ -266,6 +270,8 @@ impl SceneDepth {
             splats,
             grids,
             nearest: nearest.max(0.0),
+            motion,
+            moved,
         }
     }
 
@@ -281,8 +287,9 @@ impl SceneDepth {
             .ground
             .and_then(|g| g.hit(o, d))
             .unwrap_or(f64::INFINITY);
-        self.grids[view].any(d, self.solids.len(), |k| {
-            if let Some(h) = self.solids[k].hit(o, d) {
+        let solids = self.solids_of(view);
+        self.grids[view].any(d, solids.len(), |k| {
+            if let Some(h) = solids[k].hit(o, d) {
                 t = t.min(h);
             }
             false
@@ -316,8 +323,11 @@ impl SceneDepth {
         // the rim's rays, made for the first box that passes the sphere test (most samples
         // have none near)
         let mut rim: Option<[Vector3<f64>; RING_RAYS]> = None;
+        let solids = self.solids_of(camera + 1);
         let hides = |k: usize| {
-            let s = &self.solids[k];
+            let s = &solids[k];
+            // a box that moved by m since the centre saw it: as if the eye had moved by −m
+            let base = base - self.motion.shift(camera, k);
             if s.contains(x, SURFACE_TOLERANCE) {
                 return false;
             }
@@ -338,9 +348,9 @@ impl SceneDepth {
         };
         // the grid lists every box a rim ray within its reach may meet
         if radius <= grid::REACH {
-            self.grids[camera + 1].any(&d, self.solids.len(), hides)
+            self.grids[camera + 1].any(&d, solids.len(), hides)
         } else {
-            (0..self.solids.len()).any(hides)
+            (0..solids.len()).any(hides)
         }
     }
 
@@ -407,6 +417,14 @@ impl StitchDepth for SceneDepth {
     }
     fn nearest(&self) -> f64 {
         self.nearest
+    }
+
+    fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        self.moved_point(camera, x)
+    }
+
+    fn motion_bound(&self, camera: usize) -> f64 {
+        self.motion_reach(camera)
     }
 
     fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {

@@ -46,6 +46,22 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
         let _ = (d, radius);
         self.nearest()
     }
+
+    /// Where camera `camera` saw reference point `x` of the scene as the output centre sees it:
+    /// a point of an object that moved between the scene's time and the camera's lies moved
+    /// with it; [`StitchDepth::sees`] and [`StitchDepth::hidden_near`] are asked of that point.
+    /// By default `x` (a still scene).
+    fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        let _ = camera;
+        *x
+    }
+
+    /// An upper bound of |[`StitchDepth::seen_at`] − x| over every x, metres: it widens the
+    /// camera's reach bound. By default 0.
+    fn motion_bound(&self, camera: usize) -> f64 {
+        let _ = camera;
+        0.0
+    }
 }
 
 /// Camera `camera`'s reach bound for a depth-guided stitch. The scene point X = C + t·d, seen

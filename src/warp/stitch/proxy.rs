@@ -12,6 +12,10 @@ use nalgebra::{Point2, Vector3};
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Proxy<'a> {
     pub(super) camera: StitchCamera<'a>,
+    /// The camera's index in the stitch (a depth's cameras are asked by it).
+    index: usize,
+    /// Whether the depth moves points for this camera ([`StitchDepth::seen_at`]).
+    moves: bool,
     centre: Vector3<f64>,
     distance: f64,
     /// The scene's distance per output bearing, in place of the proxy distance (a
@@ -42,13 +46,14 @@ pub(super) const FOV_SLACK: f64 = 1e-6;
 impl<'a> Proxy<'a> {
     #[cfg(test)]
     pub(super) fn new(camera: StitchCamera<'a>, centre: Vector3<f64>, distance: f64) -> Self {
-        Self::guided(camera, centre, distance, None)
+        Self::guided((0, camera), centre, distance, None)
     }
 
-    /// [`Proxy::new`] whose point lies at the scene's distance along each bearing (`depth`),
-    /// or at the proxy distance without one.
+    /// [`Proxy::new`] of the stitch's camera `index`, whose point lies at the scene's distance
+    /// along each bearing (`depth`), where the camera saw it, or at the proxy distance without
+    /// one.
     pub(super) fn guided(
-        camera: StitchCamera<'a>,
+        (index, camera): (usize, StitchCamera<'a>),
         centre: Vector3<f64>,
         distance: f64,
         depth: Option<&'a dyn StitchDepth>,
@@ -59,6 +64,8 @@ impl<'a> Proxy<'a> {
             .map(|t| ((t - FOV_SLACK).cos(), (t + FOV_SLACK).cos()));
         Self {
             camera,
+            index,
+            moves: depth.is_some_and(|d| d.motion_bound(index) > 0.0),
             centre,
             distance,
             depth,
@@ -132,9 +139,19 @@ impl<'a> Proxy<'a> {
         }
     }
 
-    /// The reference point at `distance` along unit bearing `n` from the output centre.
+    /// The reference point at `distance` along unit bearing `n` from the output centre, where
+    /// the camera saw it ([`StitchDepth::seen_at`]).
     pub(super) fn point_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
-        self.centre + n * distance
+        let x = self.centre + n * distance;
+        match self.depth.filter(|_| self.moves) {
+            Some(depth) => depth.seen_at(self.index, &x),
+            None => x,
+        }
+    }
+
+    /// How far the depth moves a point for this camera at most, metres (0: no depth).
+    pub(super) fn motion_bound(&self) -> f64 {
+        self.depth.map_or(0.0, |d| d.motion_bound(self.index))
     }
 
     /// The camera point of the reference point at `distance` along unit bearing `n`.
@@ -293,7 +310,7 @@ mod tests {
         };
         let centre = Vector3::new(0.05, 0.0, 0.0);
         let sphere = Sphere(3.0);
-        let guided = Proxy::guided(camera, centre, 10.0, Some(&sphere));
+        let guided = Proxy::guided((0, camera), centre, 10.0, Some(&sphere));
         let fixed = Proxy::new(camera, centre, 3.0);
         let output = Equirect::new(
             Intrinsics::new(

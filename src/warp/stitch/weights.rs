@@ -109,7 +109,8 @@ impl Stitch {
         let size = output.size();
         let proxies: Vec<Proxy> = cameras
             .iter()
-            .map(|camera| Proxy::guided(*camera, *centre, options.distance, depth))
+            .enumerate()
+            .map(|(i, camera)| Proxy::guided((i, *camera), *centre, options.distance, depth))
             .collect();
         // with a depth, the bound works on the bearings' directions (see `guided_cone`)
         let locals: Vec<_> = proxies
@@ -217,6 +218,8 @@ fn cone_of<'a>(
     let inverse = camera.rotation.try_inverse();
     let baseline = inverse.map(|r| (-(r * camera.translation) - centre).norm());
     if guided {
+        // a moving object's point lies up to the motion bound further from the bearing
+        let baseline = baseline.map(|b| b + proxy.motion_bound());
         return super::guided::guided_cone(camera, local, baseline, bounded);
     }
     Cone {
