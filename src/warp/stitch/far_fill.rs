@@ -106,6 +106,18 @@ impl StitchDepth for FarScene<'_> {
         self.inner.nearest()
     }
 
+    fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
+        if self.is_far(&(x - self.centre).normalize()) {
+            *x // a point of no object
+        } else {
+            self.inner.seen_at(camera, x)
+        }
+    }
+
+    fn motion_bound(&self, camera: usize) -> f64 {
+        self.inner.motion_bound(camera)
+    }
+
     fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
         self.inner.nearest_within(d, radius)
     }

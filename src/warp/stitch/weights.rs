@@ -156,7 +156,8 @@ impl Stitch {
         };
         let proxies: Vec<Proxy> = cameras
             .iter()
-            .map(|camera| Proxy::guided(*camera, *centre, options.distance, depth))
+            .enumerate()
+            .map(|(i, camera)| Proxy::guided((i, *camera), *centre, options.distance, depth))
             .collect();
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
