@@ -135,7 +135,7 @@ pub(super) struct RigArgs {
     style_after_warp: bool,
     /// Also write mask_2/: 1-bit PNGs, white where the pixel's colour is trustworthy (a
     /// camera passed the depth-guided stitch's occlusion test; with `--stitch-mode fixed`, some
-    /// camera covers it): source_2 below 128.
+    /// camera covers it): source_2 below 64.
     #[arg(long)]
     mask: bool,
 }

@@ -46,7 +46,7 @@ pub struct RigSpec {
     pub stitch_mode: StitchMode,
     /// Write the distance each pixel was stitched at (`stitch_depth_2/`).
     pub stitch_depth: bool,
-    /// Write `mask_2/`: white where the pixel's colour is trustworthy (`source_2` below 128:
+    /// Write `mask_2/`: white where the pixel's colour is trustworthy (`source_2` below 64:
     /// a camera passed the occlusion test, or covers the pixel in a fixed stitch).
     pub mask: bool,
     /// The output centre C2 in the reference frame (default: the mean of the cameras'
