@@ -231,12 +231,13 @@ impl LocalGround {
 
     /// Distance along unit ray (o, d) to the local ground (None: it does not meet it going
     /// down from above): the ray is marched through the band between the lowest and highest
-    /// raise in steps of at most [`MARCH_STEP`], the crossing then bisected.
+    /// raise in steps of at most [`MARCH_STEP`], the crossing then found by false position.
     pub(super) fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
         let (lo, hi) = self.band;
         let along = self.plane.normal.dot(d);
         let h = self.plane.height(o);
-        if self.height(o) <= 0.0 {
+        // (above the band's top the viewpoint is above the ground: no lookup)
+        if h <= hi && self.height(o) <= 0.0 {
             // from below (a viewpoint under the ground, as the plane alone meets it): the plane
             // through the ground under it
             let t = -self.height(o) / along;
@@ -253,29 +254,30 @@ impl LocalGround {
         let t0 = ((h - hi) / -along).max(0.0);
         let t1 = ((h - lo) / -along).min(t0 + 1000.0);
         let steps = ((t1 - t0) / MARCH_STEP).ceil().clamp(1.0, 1000.0) as usize;
-        let mut a = t0;
+        let (mut a, mut fa) = (t0, f(t0));
         for k in 1..=steps {
             let b = t0 + (t1 - t0) * k as f64 / steps as f64;
-            if f(b) <= 0.0 {
-                let (mut a, mut b) = (a, b);
-                for _ in 0..12 {
-                    let m = (a + b) / 2.0;
-                    if f(m) > 0.0 {
-                        a = m;
+            let fb = f(b);
+            if fb <= 0.0 {
+                // the ground is bilinear between knots, near a plane over a step: a few steps
+                // of false position find the crossing
+                let (mut a, mut b, mut fa, mut fb) = (a, b, fa, fb);
+                let mut t = b;
+                for _ in 0..3 {
+                    if !(fa - fb > 0.0) {
+                        break;
+                    }
+                    t = a + (b - a) * fa / (fa - fb);
+                    let ft = f(t);
+                    if ft > 0.0 {
+                        (a, fa) = (t, ft);
                     } else {
-                        b = m;
+                        (b, fb) = (t, ft);
                     }
                 }
-                // the crossing between, the ground locally a plane
-                let (fa, fb) = (f(a), f(b));
-                let t = if fa - fb > 0.0 {
-                    a + (b - a) * fa / (fa - fb)
-                } else {
-                    b
-                };
                 return (t > 0.0).then_some(t);
             }
-            a = b;
+            (a, fa) = (b, fb);
         }
         None
     }
