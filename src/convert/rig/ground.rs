@@ -1,5 +1,7 @@
-//! The ground plane of a frame's scene ([`Ground`]): fitted to the scan's lowest dense layer,
-//! it holds near the vehicle where the scan has no returns (`scene_depth.rs`).
+//! The ground of a frame's scene: a plane ([`Ground`]) fitted to the scan's lowest dense layer,
+//! and the ground fitted locally ([`LocalGround`]), that plane raised to the scan's own ground
+//! returns per knot of a polar grid, which holds near the vehicle where the scan has no returns
+//! (`scene_depth.rs`).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -25,14 +27,6 @@ impl Ground {
     /// The signed height of `p` above the plane (the normal's side positive).
     pub fn height(&self, p: &Vector3<f64>) -> f64 {
         self.normal.dot(p) - self.offset
-    }
-
-    pub(super) fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
-        let along = self.normal.dot(d);
-        let h = self.height(o);
-        // a ray from above the plane meets it going down, one from below going up
-        let t = -h / along;
-        (t > 0.0 && t.is_finite()).then_some(t)
     }
 
     /// A lower bound of the hit distance over the unit rays from `o` within `radius` of unit
@@ -117,4 +111,253 @@ impl Ground {
             }
         }
     }
+}
+
+/// Sectors of the local ground's polar grid around the output centre.
+const SECTORS: usize = 16;
+/// Radial spacing of the local ground's knots, metres (knot k at k·KNOT from the centre).
+const KNOT: f64 = 2.5;
+/// Knots per sector: out to `GROUND_RANGE.1`; beyond it the last knot's height holds.
+const KNOTS: usize = (GROUND_RANGE.1 / KNOT) as usize + 1;
+/// Fewest ground returns that set a knot.
+const KNOT_MIN_POINTS: usize = 8;
+/// A knot's returns lie within this of the height its sector's nearer knots predict, metres:
+/// a grade change of 10 % over a knot's spacing.
+const KNOT_BAND: f64 = 0.25;
+/// Longest march step of a ray through the local ground's height band, metres.
+const MARCH_STEP: f64 = 1.0;
+
+/// The ground fitted locally: the plane ([`Ground::fit`]) raised by a height per knot of a
+/// polar grid around the output centre ([`SECTORS`] × [`KNOTS`], [`KNOT`] apart), bilinear
+/// between knots. A knot's height is the median of the returns near it that lie on the ground
+/// its sector's nearer knots predict (the first: its lowest dense layer), so a crest, a dip or
+/// a camber follows the scan; a knot without returns is interpolated between its sector's
+/// knots that have them, and those nearer than the first (no returns near the car) lie on a
+/// plane fitted through every sector's first knot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LocalGround {
+    /// The plane the heights are measured from.
+    pub plane: Ground,
+    centre: Vector3<f64>,
+    /// Height above the plane per sector, per knot (sector-major).
+    raise: Vec<f64>,
+    /// The least and largest raise.
+    band: (f64, f64),
+}
+
+impl LocalGround {
+    /// The local ground of `points` (see [`LocalGround`]), None without a plane; its knots
+    /// from the points `ground` lets through (those in no object's box: a parked car's low
+    /// returns would lift the road beside it).
+    pub fn fit(
+        points: &[Vector3<f64>],
+        centre: &Vector3<f64>,
+        ground: impl Fn(&Vector3<f64>) -> bool,
+    ) -> Option<LocalGround> {
+        let plane = Ground::fit(points, centre)?;
+        let mut heights = vec![Vec::new(); SECTORS * KNOTS];
+        for p in points.iter().filter(|p| ground(p)) {
+            let (sector, knot) = polar(centre, p);
+            let (j, k) = (sector.round() as usize % SECTORS, knot.round() as usize);
+            if (1..KNOTS).contains(&k) {
+                heights[j * KNOTS + k].push(plane.height(p));
+            }
+        }
+        let mut known: Vec<Vec<(usize, f64)>> = Vec::with_capacity(SECTORS);
+        for j in 0..SECTORS {
+            known.push(sector_knots(&mut heights[j * KNOTS..(j + 1) * KNOTS]));
+        }
+        // each sector's first two knots' grade continued inwards: one value at the centre
+        // where the ground near the car is a plane
+        let inward: Vec<Option<(usize, f64, f64)>> = known.iter().map(|k| inward(k)).collect();
+        let starts: Vec<f64> = inward.iter().flatten().map(|(_, h, _)| *h).collect();
+        let middle = match starts.len() {
+            0 => 0.0,
+            n => starts.iter().sum::<f64>() / n as f64,
+        };
+        let mut raise = vec![middle; SECTORS * KNOTS];
+        for (j, knots) in known.iter().enumerate() {
+            let Some((first, start, grade)) = inward[j] else {
+                continue;
+            };
+            for k in 0..KNOTS {
+                let before = knots.iter().rev().find(|(kk, _)| *kk <= k);
+                let after = knots.iter().find(|(kk, _)| *kk >= k);
+                raise[j * KNOTS + k] = match (before, after) {
+                    (Some(&(a, ha)), Some(&(b, hb))) if b > a => {
+                        ha + (hb - ha) * (k - a) as f64 / (b - a) as f64
+                    }
+                    (Some(&(_, h)), _) => h,
+                    // nearer than the first knot: the grade continued, bent to the centre's
+                    // value at the centre
+                    (None, _) => {
+                        let s = k as f64 * KNOT;
+                        start + grade * s + (middle - start) * (1.0 - k as f64 / first as f64)
+                    }
+                };
+            }
+        }
+        let band = raise
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &r| {
+                (lo.min(r), hi.max(r))
+            });
+        Some(LocalGround {
+            plane,
+            centre: *centre,
+            raise,
+            band,
+        })
+    }
+
+    /// The local ground's height above the plane under `p`.
+    fn raise_at(&self, p: &Vector3<f64>) -> f64 {
+        let (sector, knot) = polar(&self.centre, p);
+        let knot = knot.min((KNOTS - 1) as f64);
+        let (j0, k0) = (sector.floor(), knot.floor());
+        let (fj, fk) = (sector - j0, knot - k0);
+        let (j0, k0) = (j0 as usize % SECTORS, (k0 as usize).min(KNOTS - 1));
+        let (j1, k1) = ((j0 + 1) % SECTORS, (k0 + 1).min(KNOTS - 1));
+        let r = |j: usize, k: usize| self.raise[j * KNOTS + k];
+        let near = r(j0, k0) + (r(j1, k0) - r(j0, k0)) * fj;
+        let far = r(j0, k1) + (r(j1, k1) - r(j0, k1)) * fj;
+        near + (far - near) * fk
+    }
+
+    /// The signed height of `p` above the local ground (the centre's side positive).
+    pub fn height(&self, p: &Vector3<f64>) -> f64 {
+        self.plane.height(p) - self.raise_at(p)
+    }
+
+    /// Distance along unit ray (o, d) to the local ground (None: it does not meet it going
+    /// down from above): the ray is marched through the band between the lowest and highest
+    /// raise in steps of at most [`MARCH_STEP`], the crossing then found by false position.
+    pub(super) fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
+        let (lo, hi) = self.band;
+        let along = self.plane.normal.dot(d);
+        let h = self.plane.height(o);
+        // (above the band's top the viewpoint is above the ground: no lookup)
+        if h <= hi && self.height(o) <= 0.0 {
+            // from below (a viewpoint under the ground, as the plane alone meets it): the plane
+            // through the ground under it
+            let t = -self.height(o) / along;
+            return (t > 0.0 && t.is_finite()).then_some(t);
+        }
+        if !(along < 0.0) {
+            return None;
+        }
+        if hi - lo < 1e-9 {
+            let t = (h - hi) / -along;
+            return (t > 0.0 && t.is_finite()).then_some(t);
+        }
+        let f = |t: f64| self.height(&(o + d * t));
+        let t0 = ((h - hi) / -along).max(0.0);
+        let t1 = ((h - lo) / -along).min(t0 + 1000.0);
+        let steps = ((t1 - t0) / MARCH_STEP).ceil().clamp(1.0, 1000.0) as usize;
+        let (mut a, mut fa) = (t0, f(t0));
+        for k in 1..=steps {
+            let b = t0 + (t1 - t0) * k as f64 / steps as f64;
+            let fb = f(b);
+            if fb <= 0.0 {
+                // the ground is bilinear between knots, near a plane over a step: a few steps
+                // of false position find the crossing
+                let (mut a, mut b, mut fa, mut fb) = (a, b, fa, fb);
+                let mut t = b;
+                for _ in 0..3 {
+                    if !(fa - fb > 0.0) {
+                        break;
+                    }
+                    t = a + (b - a) * fa / (fa - fb);
+                    let ft = f(t);
+                    if ft > 0.0 {
+                        (a, fa) = (t, ft);
+                    } else {
+                        (b, fb) = (t, ft);
+                    }
+                }
+                return (t > 0.0).then_some(t);
+            }
+            (a, fa) = (b, fb);
+        }
+        None
+    }
+
+    /// A lower bound of [`LocalGround::hit`] over the unit rays from `o` within `radius` of
+    /// unit `d`: the plane raised by the largest raise bounds it.
+    pub(super) fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
+        let top = self.raised(self.band.1);
+        if top.height(o) <= 0.0 {
+            return 0.0;
+        }
+        top.nearest_within(o, d, radius)
+    }
+
+    /// A lower bound of the distance from `o` to the local ground.
+    pub(super) fn nearest(&self, o: &Vector3<f64>) -> f64 {
+        self.raised(self.band.1).height(o).max(0.0)
+    }
+
+    fn raised(&self, by: f64) -> Ground {
+        Ground {
+            normal: self.plane.normal,
+            offset: self.plane.offset + by,
+        }
+    }
+}
+
+/// `p`'s position in the polar grid around `centre`: fractional sector and knot.
+fn polar(centre: &Vector3<f64>, p: &Vector3<f64>) -> (f64, f64) {
+    let (x, z) = (p.x - centre.x, p.z - centre.z);
+    let angle = x.atan2(z).rem_euclid(std::f64::consts::TAU);
+    (
+        angle / std::f64::consts::TAU * SECTORS as f64,
+        x.hypot(z) / KNOT,
+    )
+}
+
+/// A sector's knots that its returns set, nearest first (`heights`: per knot the plane
+/// heights of the returns near it): walking outwards, a knot's returns within [`KNOT_BAND`]
+/// of the height its nearer knots predict (their grade continued; the first knot: its lowest
+/// fifth) are the ground, their median refined over those within [`GROUND_FIT`] · 2.
+fn sector_knots(heights: &mut [Vec<f64>]) -> Vec<(usize, f64)> {
+    let mut known: Vec<(usize, f64)> = Vec::new();
+    for (k, h) in heights.iter_mut().enumerate() {
+        if h.len() < KNOT_MIN_POINTS {
+            continue;
+        }
+        h.sort_by(f64::total_cmp);
+        let predicted = match known.as_slice() {
+            [] => h[h.len() / 5],
+            [(_, ha)] => *ha,
+            [.., (a, ha), (b, hb)] => {
+                let grade = ((hb - ha) / ((b - a) as f64 * KNOT)).clamp(-0.15, 0.15);
+                hb + grade * (k - b) as f64 * KNOT
+            }
+        };
+        let Some(first) = median_within(h, predicted, KNOT_BAND) else {
+            continue;
+        };
+        if let Some(value) = median_within(h, first, GROUND_FIT * 2.0) {
+            known.push((k, value));
+        }
+    }
+    known
+}
+
+/// The median of the sorted `h` within `band` of `around` (None: fewer than
+/// [`KNOT_MIN_POINTS`]).
+fn median_within(h: &[f64], around: f64, band: f64) -> Option<f64> {
+    let lo = h.partition_point(|x| *x < around - band);
+    let hi = h.partition_point(|x| *x <= around + band);
+    (hi - lo >= KNOT_MIN_POINTS).then(|| h[(lo + hi) / 2])
+}
+
+/// A sector's first set knot, the raise its grade (first two knots, else flat, at most 15 %)
+/// gives at the centre, and that grade (None: no knot).
+fn inward(knots: &[(usize, f64)]) -> Option<(usize, f64, f64)> {
+    let &(a, ha) = knots.first()?;
+    let grade = knots.get(1).map_or(0.0, |&(b, hb)| {
+        ((hb - ha) / ((b - a) as f64 * KNOT)).clamp(-0.15, 0.15)
+    });
+    Some((a, ha - grade * a as f64 * KNOT, grade))
 }

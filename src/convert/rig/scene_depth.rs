@@ -3,18 +3,22 @@
 //!
 //! - the 3D boxes (every class, not only those written): exact ray–box intersections, so a
 //!   labelled object's pixels are stitched at its faces' distance;
-//! - the ground: a plane fitted to the scan's lowest dense layer (least squares, twice, over
-//!   the points within a band then `GROUND_FIT` of it, `ground.rs`), which also holds near the
-//!   vehicle where the scan has no returns;
-//! - the rest of the scan (points neither on the ground nor in a box, [`BOX_MARGIN`]): each
-//!   point splatted as a disc of [`SPLAT_DEG`] into a spherical depth buffer per viewpoint
-//!   (the output centre and each camera), the nearest point per cell; the disc closes the
-//!   gaps between a sweep's beams and azimuth steps;
+//! - the ground, fitted locally (`ground.rs`): a plane fitted to the scan's lowest dense layer,
+//!   raised per knot of a polar grid around the centre to the scan's own ground returns there
+//!   (a crest, a dip, a camber), the knots nearer than the scan's first ground returns (near
+//!   the vehicle) continuing the grade of the first ones;
+//! - the rest of the scan (points neither on the ground nor in a box, [`BOX_MARGIN`]), without
+//!   its lone returns (`noise.rs`: one return is noise, not an occluder): each point splatted
+//!   as a disc of [`SPLAT_DEG`] into a spherical depth buffer per viewpoint (the output centre
+//!   and each camera), the nearest point per cell; the disc closes the gaps between a sweep's
+//!   beams and azimuth steps; in the centre's buffer a surface's edge against the sky is
+//!   carried out by the cameras' parallax ([`EDGE_DEG`] at most);
 //! - beyond all of them (the sky), [`FAR`].
 //!
 //! The distance along a ray is the nearest of these; a camera sees a point when none of them
-//! lies nearer on its own ray (within [`SURFACE_TOLERANCE`] for the exact surfaces, the
-//! LiDAR's [`SCAN_TOLERANCE`] for the splats), and its sample of the point is clean when no
+//! lies nearer on its own ray (within [`SURFACE_TOLERANCE`] for the exact surfaces; for the
+//! splats [`SCAN_TOLERANCE`] plus a share of the distance that grows with the scan's ring
+//! spacing, measured from the scan), and its sample of the point is clean when no
 //! other box lies 5 % nearer on the rim of its footprint ([`RING_RAYS`] rays).
 //!
 //! Time: the scan is the reader's, motion-compensated to the frame's time (docs/kitti360.md,
@@ -25,9 +29,10 @@
 mod faults;
 mod grid;
 mod motion;
+mod noise;
 mod splats;
 
-use super::ground::{Ground, GROUND_FIT};
+use super::ground::{Ground, LocalGround, GROUND_FIT};
 use crate::camera::{perpendiculars, CameraModel};
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
@@ -36,6 +41,7 @@ use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
 use grid::BoxGrid;
 use motion::Motion;
 use nalgebra::{Matrix3, Vector3};
+use noise::Noise;
 use serde::Serialize;
 use splats::{angles, Splats};
 use std::f64::consts::TAU;
@@ -55,6 +61,9 @@ pub const GAP_DEG: f64 = 3.0;
 /// Two splats across a gap agree (it lies on one surface) within this share of the farther's
 /// range.
 pub const GAP_AGREE: f64 = 0.1;
+/// The widest angle by which a surface's edge against the sky is carried out for the cameras'
+/// parallax ([`splats`]), degrees.
+pub const EDGE_DEG: f64 = 5.0;
 /// Cells per degree of the residual points' spherical depth buffers.
 const CELLS_PER_DEG: f64 = 4.0;
 /// An exact surface (box, ground) nearer than the point by more than this hides it, metres.
@@ -218,7 +227,9 @@ pub struct SceneDepth {
     centre: Vector3<f64>,
     eyes: Vec<Vector3<f64>>,
     solids: Vec<Solid>,
-    ground: Option<Ground>,
+    ground: Option<LocalGround>,
+    /// The scan's noise: the occlusion test's margin.
+    noise: Noise,
     /// The residual points' buffers seen from the centre, then from each eye (empty: none).
     splats: Vec<Splats>,
     /// The boxes' grids seen from the centre, then from each eye.
@@ -236,28 +247,29 @@ impl SceneDepth {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
         let motion = Motion::new(frame, &eyes);
-        let ground = Ground::fit(&points, &centre);
+        let ground = LocalGround::fit(&points, &centre, |p| {
+            !solids.iter().any(|s| s.contains(p, BOX_MARGIN))
+        });
+        let noise = Noise::measure(&centre, &points);
         let residual: Vec<Vector3<f64>> = points
             .into_iter()
-            .filter(|p| ground.is_none_or(|g| g.height(p) > GROUND_FIT * 2.0))
+            .filter(|p| {
+                ground
+                    .as_ref()
+                    .is_none_or(|g| g.height(p) > GROUND_FIT * 2.0)
+            })
             .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
             .filter(|p| !motion.swept(&solids, p))
             .collect();
-        let splats = if residual.is_empty() {
-            Vec::new()
-        } else {
-            std::iter::once(&centre)
-                .chain(&eyes)
-                .map(|o| Splats::new(*o, &residual))
-                .collect()
-        };
+        let residual = without_lone_returns(&noise, &centre, residual);
+        let splats = residual_splats(&centre, &eyes, &residual);
         let (moved, grids) = motion::views(&motion, &solids, &centre, &eyes);
         let mut nearest = FAR;
         for s in &solids {
             nearest = nearest.min((s.centre - centre).norm() - s.radius);
         }
-        if let Some(g) = ground {
-            nearest = nearest.min(g.height(&centre).abs());
+        if let Some(g) = &ground {
+            nearest = nearest.min(g.nearest(&centre));
         }
         for p in &residual {
             nearest = nearest.min((p - centre).norm());
@@ -267,6 +279,7 @@ impl SceneDepth {
             eyes,
             solids,
             ground,
+            noise,
             splats,
             grids,
             nearest: nearest.max(0.0),
@@ -275,9 +288,10 @@ impl SceneDepth {
         }
     }
 
-    /// The fitted ground plane, if the scan held one.
+    /// The fitted ground plane, if the scan held one (the plane the local ground is measured
+    /// from).
     pub fn ground(&self) -> Option<Ground> {
-        self.ground
+        self.ground.as_ref().map(|g| g.plane)
     }
 
     /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none:
@@ -285,6 +299,7 @@ impl SceneDepth {
     fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
         let mut t = self
             .ground
+            .as_ref()
             .and_then(|g| g.hit(o, d))
             .unwrap_or(f64::INFINITY);
         let solids = self.solids_of(view);
@@ -362,9 +377,49 @@ impl SceneDepth {
         }
         self.splats.get(camera + 1).is_none_or(|s| {
             let (lon, lat) = angles(d);
-            s.range(lon, lat) >= length * 0.95 - SCAN_TOLERANCE
+            s.range(lon, lat) >= length - self.noise.margin(*length)
         })
     }
+}
+
+/// `residual` without its lone returns ([`Noise::lone`] seen from `centre`): one return in
+/// front of a surface is noise, not an occluder.
+fn without_lone_returns(
+    noise: &Noise,
+    centre: &Vector3<f64>,
+    residual: Vec<Vector3<f64>>,
+) -> Vec<Vector3<f64>> {
+    let lone = noise.lone(centre, &residual);
+    residual
+        .into_iter()
+        .zip(lone)
+        .filter_map(|(p, lone)| (!lone).then_some(p))
+        .collect()
+}
+
+/// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
+/// carried out by the farthest eye's parallax, [`Splats::extend_edges`]), then from each of
+/// `eyes` (empty: no point).
+fn residual_splats(
+    centre: &Vector3<f64>,
+    eyes: &[Vector3<f64>],
+    residual: &[Vector3<f64>],
+) -> Vec<Splats> {
+    if residual.is_empty() {
+        return Vec::new();
+    }
+    let baseline = eyes.iter().map(|e| (e - centre).norm()).fold(0.0, f64::max);
+    std::iter::once(centre)
+        .chain(eyes)
+        .enumerate()
+        .map(|(view, o)| {
+            let mut s = Splats::new(*o, residual);
+            if view == 0 {
+                s.extend_edges(baseline);
+            }
+            s
+        })
+        .collect()
 }
 
 /// The [`RING_RAYS`] unit rays at angle atan(`spread`) around unit `d`.
@@ -430,6 +485,7 @@ impl StitchDepth for SceneDepth {
     fn nearest_within(&self, d: &Vector3<f64>, radius: f64) -> f64 {
         let mut t = self
             .ground
+            .as_ref()
             .map_or(f64::INFINITY, |g| g.nearest_within(&self.centre, d, radius));
         for s in &self.solids {
             t = t.min(s.nearest_within(&self.centre, d, radius));

@@ -1,7 +1,7 @@
 //! The residual scan points of a frame's scene as spherical depth buffers: the nearest splat
 //! per cell around a viewpoint (see the parent module).
 
-use super::{CELLS_PER_DEG, GAP_AGREE, GAP_DEG, SPLAT_DEG};
+use super::{CELLS_PER_DEG, EDGE_DEG, GAP_AGREE, GAP_DEG, SPLAT_DEG};
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
 
@@ -85,6 +85,36 @@ impl Splats {
         }
     }
 
+    /// Carries each surface's edge against the sky (no return) out by the parallax of a camera
+    /// `baseline` metres from the viewpoint, asin(baseline / range) (at most [`EDGE_DEG`]),
+    /// along columns then rows. Where the scan has no return beside a surface (the sky, or
+    /// above the scan's top ring) a camera beside the viewpoint sees that surface's edge moved
+    /// by its parallax; the sky next to it placed at the surface's distance is sampled through
+    /// the edge as the viewpoint sees it, not taken as hidden by it.
+    pub(super) fn extend_edges(&mut self, baseline: f64) {
+        if !(baseline > 0.0) {
+            return;
+        }
+        let (w, h) = (self.width, self.height);
+        let cells = |range: f32, stretch: f64| {
+            let angle = (baseline / range as f64)
+                .min(1.0)
+                .asin()
+                .min(EDGE_DEG.to_radians());
+            (angle.to_degrees() * CELLS_PER_DEG * stretch).ceil() as usize
+        };
+        for x in 0..w {
+            extend_line(&mut self.range, (x, w), h, |r| cells(r, 1.0));
+        }
+        for y in 0..h {
+            let lat = ((y as f64 + 0.5) / h as f64) * PI - PI / 2.0;
+            let stretch = 1.0 / lat.cos().max(0.05);
+            extend_line(&mut self.range[y * w..(y + 1) * w], (0, 1), w, |r| {
+                cells(r, stretch).min(w / 2)
+            });
+        }
+    }
+
     /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
     /// `d`, one cell wider on every side (a lower bound of [`Splats::range`] there). Such a
     /// bearing's latitude is within `radius` of d's, and its longitude within
@@ -126,6 +156,44 @@ impl Splats {
         let cx = (crate::warp::floor(x) as i64).rem_euclid(self.width as i64) as usize;
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
+    }
+}
+
+/// Carries the finite cells of one line of `range` (`n` cells from `start`, `step` apart) into
+/// the empty cells beside them, `reach(range)` cells at most: an empty cell takes the nearer
+/// (in cells) of the finite cells around it that reach it, the farther range on a tie.
+fn extend_line(
+    range: &mut [f32],
+    (start, step): (usize, usize),
+    n: usize,
+    reach: impl Fn(f32) -> usize,
+) {
+    let at = |k: usize| start + k * step;
+    let mut k = 0;
+    while k < n {
+        if range[at(k)].is_finite() {
+            k += 1;
+            continue;
+        }
+        let end = (k..n).find(|&m| range[at(m)].is_finite()).unwrap_or(n);
+        let before = k.checked_sub(1).map(|j| (j, range[at(j)]));
+        let after = (end < n).then(|| (end, range[at(end)]));
+        let (rb, ra) = (before.map(|b| reach(b.1)), after.map(|a| reach(a.1)));
+        for m in k..end {
+            let from_before = before.zip(rb).filter(|((j, _), r)| m - j <= *r);
+            let from_after = after.zip(ra).filter(|((j, _), r)| j - m <= *r);
+            range[at(m)] = match (from_before, from_after) {
+                (Some(((j, b), _)), Some(((l, a), _))) => match (m - j).cmp(&(l - m)) {
+                    std::cmp::Ordering::Less => b,
+                    std::cmp::Ordering::Greater => a,
+                    std::cmp::Ordering::Equal => a.max(b),
+                },
+                (Some(((_, b), _)), None) => b,
+                (None, Some(((_, a), _))) => a,
+                (None, None) => f32::INFINITY,
+            };
+        }
+        k = end;
     }
 }
 
