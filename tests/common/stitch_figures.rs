@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use panoconv::camera::CameraModel;
 use panoconv::image::RgbImage;
 use panoconv::tools::synth::Scene;
-use panoconv::warp::{Stitch, FALLBACK_SOURCE};
+use panoconv::warp::{Stitch, FALLBACK_SOURCE, FAR_SOURCE};
 use rayon::prelude::*;
 
 /// The scene a stitch is measured against, and how the reference is rendered.
@@ -157,11 +157,12 @@ impl Truth<'_> {
         let size = self.output.size();
         let w = size.width as usize;
         let stitched = stitch.apply(images);
-        // the fallback's pixels are not claimed to be right: measured as uncovered
+        // the fallback's and the far fill's pixels are not claimed to be right: measured as
+        // uncovered
         let source: &Vec<u8> = &stitched
             .source
             .iter()
-            .map(|&s| if s & FALLBACK_SOURCE != 0 { 255 } else { s })
+            .map(|&s| if s & (FALLBACK_SOURCE | FAR_SOURCE) != 0 { 255 } else { s })
             .collect();
         // the reference, each camera's region with its blur
         let mut direct = RgbImage::new(size.width, size.height);
