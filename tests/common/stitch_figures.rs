@@ -162,7 +162,13 @@ impl Truth<'_> {
         let source: &Vec<u8> = &stitched
             .source
             .iter()
-            .map(|&s| if s & (FALLBACK_SOURCE | FAR_SOURCE) != 0 { 255 } else { s })
+            .map(|&s| {
+                if s & (FALLBACK_SOURCE | FAR_SOURCE) != 0 {
+                    255
+                } else {
+                    s
+                }
+            })
             .collect();
         // the reference, each camera's region with its blur
         let mut direct = RgbImage::new(size.width, size.height);
