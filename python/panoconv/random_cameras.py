@@ -387,10 +387,11 @@ class RandomCameraDataset:
 
 
 def source_coverage(frame):
-    """Where a frame's image holds source data (HxW bool), or None where all of it does:
-    `mask_2` (white), else a rig's `source_2` (not 255)."""
+    """Where a frame's image holds trustworthy source data (HxW bool), or None where all of it
+    does: `mask_2` (white), else a rig's `source_2` below 64 (a camera seen to see the pixel's
+    point; the far fill's 64-127, the fallback's 128-254 and the uncovered 255 are not)."""
     if frame.mask is not None:
         return read_image(frame.mask)[..., 0] > 0
     if frame.source_map is not None:
-        return read_image(frame.source_map)[..., 0] != 255
+        return read_image(frame.source_map)[..., 0] < 64
     return None

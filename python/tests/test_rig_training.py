@@ -105,7 +105,8 @@ def test_the_mask_is_the_panorama_s_coverage(rig):
     uncovered_seen = 0
     for i in range(len(ds)):
         frame = ds.frames[i]
-        coverage = panoconv.read_image(frame.source_map)[..., 0] != 255
+        # the pixels a camera is seen to give (the far fill's and the fallback's aside)
+        coverage = panoconv.read_image(frame.source_map)[..., 0] < 64
         assert 0.2 < coverage.mean() < 0.9  # the cameras cover a band: black above and below
         for epoch in range(4):
             ds.set_epoch(epoch)

@@ -253,6 +253,42 @@ impl LocalGround {
         let f = |t: f64| self.height(&(o + d * t));
         let t0 = ((h - hi) / -along).max(0.0);
         let t1 = ((h - lo) / -along).min(t0 + 1000.0);
+        // beyond the knots' disc the raise varies only by sector, slowly along a ray: a grazing
+        // ray's crossing there is found by iterating the raised plane, not marched
+        let t_out = self.disc_exit(o, d);
+        if t1 > t_out {
+            if let Some(t) = self.march(&f, t0, t_out.max(t0)) {
+                return Some(t);
+            }
+            let mut t = t_out.max(t0);
+            for _ in 0..3 {
+                t = (h - self.raise_at(&(o + d * t))) / -along;
+            }
+            return (t > 0.0 && t.is_finite()).then_some(t);
+        }
+        self.march(&f, t0, t1)
+    }
+
+    /// Distance along unit ray (o, d) at which it leaves, horizontally, the disc of the knots
+    /// around the centre (0 when it starts outside).
+    fn disc_exit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
+        let radius = (KNOTS - 1) as f64 * KNOT;
+        let (px, pz) = (o.x - self.centre.x, o.z - self.centre.z);
+        let (a, b, c) = (
+            d.x * d.x + d.z * d.z,
+            px * d.x + pz * d.z,
+            px * px + pz * pz - radius * radius,
+        );
+        if !(a > 1e-18) {
+            return if c < 0.0 { f64::INFINITY } else { 0.0 };
+        }
+        ((-b + (b * b - a * c).max(0.0).sqrt()) / a).max(0.0)
+    }
+
+    /// The first crossing of the local ground between t0 and t1 along a ray whose height above
+    /// it is `f`: marched in steps of at most [`MARCH_STEP`], then a few steps of false
+    /// position.
+    fn march(&self, f: &impl Fn(f64) -> f64, t0: f64, t1: f64) -> Option<f64> {
         let steps = ((t1 - t0) / MARCH_STEP).ceil().clamp(1.0, 1000.0) as usize;
         let (mut a, mut fa) = (t0, f(t0));
         for k in 1..=steps {

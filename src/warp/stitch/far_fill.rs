@@ -49,7 +49,8 @@ pub(super) fn far_pixels(
                 let n = d.normalize();
                 let held =
                     |t: f64, rim: f64| proxies.iter().any(|p| p.holds(&p.local_at(&n, t), rim));
-                *flag = !held(t, RIM) && held(far, 0.0);
+                // (the far test first: most pixels no camera holds at either distance)
+                *flag = held(far, 0.0) && !held(t, RIM);
             }
         });
     out
