@@ -11,7 +11,7 @@
 
 use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
-use super::scene_depth::{distance_map, frame_stitch_in, StitchMode};
+use super::scene_depth::{at_proxy, distance_map, frame_stitch_in, StitchMode};
 use crate::camera::{CameraModel, ImageSize, OutputCamera, ProjectionReject};
 use crate::convert::view_depth::{view_depth, DepthDomain, ViewLidar};
 use crate::error::{Error, Result};
@@ -425,9 +425,7 @@ fn rig_stitch_in(
         .iter()
         .map(|&i| options.ego_masks.get(i).and_then(|m| m.as_deref()))
         .collect();
-    // frame_stitch_in's rule for a stitch at the proxy distance
-    let fixed =
-        options.stitch_mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras.len() < 2;
+    let fixed = at_proxy(frame, cameras.len(), options.stitch_mode);
     if let Some(kept) = cache.stitches.as_ref().filter(|_| fixed) {
         return Ok(RigStitch {
             stitch: kept.fixed(camera, &centre, &cameras, &masks, options.stitch)?,

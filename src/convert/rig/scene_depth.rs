@@ -111,6 +111,12 @@ pub fn frame_stitch(
     )
 }
 
+/// Whether a frame's stitch is at the proxy distance whatever `mode` asks: without a scan, or
+/// of one camera, there is no scene to guide it.
+pub(super) fn at_proxy(frame: &Frame, cameras: usize, mode: StitchMode) -> bool {
+    mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras < 2
+}
+
 /// [`frame_stitch`] with the frame's scene built on first use into `scene`, so that the views
 /// of one frame (same centre, same eyes) share it.
 pub(super) fn frame_stitch_in(
@@ -122,7 +128,7 @@ pub(super) fn frame_stitch_in(
     options: StitchOptions,
     mode: StitchMode,
 ) -> Result<(Stitch, StitchMode)> {
-    if mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras.len() < 2 {
+    if at_proxy(frame, cameras.len(), mode) {
         let stitch = Stitch::build_masked(output, centre, cameras, masks, options)?;
         return Ok((stitch, StitchMode::Fixed));
     }

@@ -128,25 +128,10 @@ impl StitchDepth for FarScene<'_> {
 mod tests {
     use super::*;
     use crate::camera::{Equirect, Intrinsics, Perspective};
+    use crate::warp::stitch::proxy::tests::Sphere;
     use crate::warp::stitch::{Stitch, StitchCamera, StitchOptions};
     use crate::warp::NO_SOURCE;
     use nalgebra::Rotation3;
-
-    /// A wall at one distance everywhere, seen by every camera: nothing occludes.
-    #[derive(Debug)]
-    struct Sphere(f64);
-
-    impl StitchDepth for Sphere {
-        fn distance(&self, _: &Vector3<f64>) -> f64 {
-            self.0
-        }
-        fn sees(&self, _: usize, _: &Vector3<f64>) -> bool {
-            true
-        }
-        fn nearest(&self) -> f64 {
-            self.0
-        }
-    }
 
     #[test]
     fn a_near_scene_between_two_cameras_is_stitched_at_the_proxy_distance_not_left_black() {

@@ -273,7 +273,7 @@ impl CameraModel for Proxy<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::camera::{Equirect, Intrinsics, Perspective};
     use crate::image::RgbImage;
@@ -282,7 +282,7 @@ mod tests {
 
     /// A scene at one distance everywhere, seen by every camera.
     #[derive(Debug)]
-    struct Sphere(f64);
+    pub(in crate::warp::stitch) struct Sphere(pub(in crate::warp::stitch) f64);
 
     impl StitchDepth for Sphere {
         fn distance(&self, _: &Vector3<f64>) -> f64 {

@@ -143,7 +143,9 @@ impl Stitch {
             }
             far
         });
-        let far_scene = depth.zip(far.as_deref()).map(|(inner, far)| FarScene {
+        // (no far pixel: the scene as it is, without a lookup per ray)
+        let far_pixels_of = far.as_deref().filter(|f| f.contains(&true));
+        let far_scene = depth.zip(far_pixels_of).map(|(inner, far)| FarScene {
             inner,
             output,
             centre: *centre,
