@@ -106,6 +106,18 @@ pub struct Object {
     pub category: usize,
     /// The box with its full rotation, where the conversion wrote one (`objects/ID.json`).
     pub exact: Option<ExactBox>,
+    /// The line of `label_2/ID.txt` it was read from, from 1.
+    pub line: usize,
+}
+
+/// A region whose detections count neither way: a DontCare line, or an object the
+/// visibility rule leaves out.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IgnoreRegion {
+    /// The line of `label_2/ID.txt` it was read from, from 1.
+    pub line: usize,
+    /// [left, top, right, bottom], KITTI's pixel convention.
+    pub bbox: [f64; 4],
 }
 
 /// One image of the export with everything the formats need.
@@ -130,8 +142,8 @@ pub struct Frame {
     pub centre: Vector3<f64>,
     /// Objects of a mapped class, in `label_2` order (DontCare and dropped classes aside).
     pub objects: Vec<Object>,
-    /// DontCare rectangles [left, top, right, bottom].
-    pub ignore_regions: Vec<[f64; 4]>,
+    /// DontCare rectangles and the objects `--min-visible` leaves out, in `label_2` order.
+    pub ignore_regions: Vec<IgnoreRegion>,
 }
 
 /// A dataset read for export: frames in export order (train, val, test; ids sorted).
@@ -273,7 +285,7 @@ type FrameParts = (
     Box<dyn OutputCamera>,
     Vector3<f64>,
     Vec<Object>,
-    Vec<[f64; 4]>,
+    Vec<IgnoreRegion>,
 );
 
 fn read_frame(
@@ -313,7 +325,10 @@ fn read_frame(
             let label = Label::parse(&path, i + 1, line)?;
             let hidden = label.truncated.clamp(0.0, 1.0);
             if label.is_dont_care() || !options.visibility.accepts(label.bbox, hidden) {
-                ignore_regions.push(label.bbox);
+                ignore_regions.push(IgnoreRegion {
+                    line: i + 1,
+                    bbox: label.bbox,
+                });
                 continue;
             }
             match classes.lookup(&label.kind) {
@@ -321,6 +336,7 @@ fn read_frame(
                     label,
                     category,
                     exact,
+                    line: i + 1,
                 }),
                 ClassLookup::Dropped => {}
                 ClassLookup::Unknown => {
