@@ -134,3 +134,88 @@ fn every_coco_annotation_names_its_label_line() {
     let (images, _, _) = convert_and_check(&s, "views", &augment);
     assert_eq!(images, 2, "two views of the frame");
 }
+
+/// A rig conversion writes the objects its `--min-visible` leaves out as DontCare lines and
+/// records them as dropped in `objects/ID.json`: the export pairs that file's exact boxes with
+/// the other lines, exports every frame, and each Omni3D box is its own line's.
+#[test]
+fn a_rig_output_with_dont_care_lines_exports_each_box_with_its_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let fixture = repo().join("fixtures/nuscenes");
+    let args = ["nuscenes", "--input", fixture.to_str().unwrap()];
+    let mut args: Vec<&str> = args.to_vec();
+    args.extend([
+        "--version",
+        "v1.0-mini",
+        "--to",
+        "equirect",
+        "--pano-width",
+        "512",
+    ]);
+    args.extend([
+        "--min-visible",
+        "40,0.9",
+        "--quiet",
+        "--output",
+        out.to_str().unwrap(),
+    ]);
+    assert_success(&panoconv(args));
+    let coco_dir = tmp.path().join("coco");
+    assert_success(&export(&out, "coco", &coco_dir, &[]));
+    assert_success(&export(&out, "omni3d", &coco_dir, &[]));
+    let coco = read_json(&coco_dir.join("instances_train.json"));
+    let omni = read_json(&coco_dir.join("Omni3D_train.json"));
+    let images = coco["images"].as_array().unwrap();
+    assert_eq!(images.len(), 3, "every frame is exported");
+    let (mut dont_care, mut boxes) = (0, 0);
+    for image in images {
+        let name = image["file_name"].as_str().unwrap();
+        let text = read_text(&out.join(name.replace("image_2", "label_2").replace(".png", ".txt")));
+        dont_care += check_image(&coco, image, &text).1;
+        let objects: Vec<Vec<&str>> = label_lines(&text)
+            .into_iter()
+            .map(tokens)
+            .filter(|t| t[0] != "DontCare")
+            .collect();
+        let c2 = calib_values(
+            &read_text(&out.join(name.replace("image_2", "calib").replace(".png", ".txt"))),
+            "C2",
+        )
+        .unwrap();
+        let placed: Vec<&Value> = omni["annotations"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|a| a["image_id"] == image["id"])
+            .collect();
+        assert_eq!(
+            placed.len(),
+            objects.len(),
+            "{name}: one Omni3D box per object line"
+        );
+        for (a, t) in placed.iter().zip(&objects) {
+            let v = |i: usize| t[i].parse::<f64>().unwrap();
+            let (h, w, l) = (v(8), v(9), v(10));
+            let dims = floats(&a["dimensions"]);
+            let want = [w, h, l];
+            assert!(
+                dims.iter().zip(want).all(|(d, w)| (d - w).abs() <= 0.006),
+                "{name}: {dims:?} against its line's {want:?}"
+            );
+            // the line's bottom centre, lifted half a height, from C2 (a lean moves it by
+            // millimetres; the line's 0.01 m rounding by as much)
+            let centre = [v(11) - c2[0], v(12) - h / 2.0 - c2[1], v(13) - c2[2]];
+            let got = floats(&a["center_cam"]);
+            assert!(
+                got.iter().zip(centre).all(|(g, c)| (g - c).abs() <= 0.03),
+                "{name}: centre {got:?} against its line's {centre:?}"
+            );
+            boxes += 1;
+        }
+    }
+    assert!(
+        dont_care > 0 && boxes > 0,
+        "DontCare lines {dont_care}, boxes {boxes}"
+    );
+}
