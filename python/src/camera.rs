@@ -2,15 +2,15 @@
 //! centre in rect, projecting numpy arrays of rect points and unprojecting pixels; and
 //! `crop_resize`, the camera of a cropped and resized image (half-pixel rule).
 
+pub use crate::camera_core::Camera;
 use crate::errors::usage;
 use crate::models;
 use crate::vectors::{floats, int_array, size_array, vector3};
-use nalgebra::Matrix3;
 use nalgebra::{Point2, Vector3};
 use ndarray::{Array1, Array2, ArrayView2};
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use panoconv::camera::ImageSize;
 use panoconv::camera::Projection;
-use panoconv::camera::{ImageSize, OutputCamera};
 use panoconv::geometry::{crop_intrinsics, resize_intrinsics, Crop};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -19,44 +19,6 @@ use serde_json::{json, Map};
 
 /// Rows per rayon task: small arrays stay on the calling thread's task.
 const ROWS_PER_TASK: usize = 4096;
-
-/// The camera an image was written in: pixel = K · Γ(X − C) for a rect point X.
-#[pyclass(module = "panoconv", frozen)]
-pub struct Camera {
-    pub camera: Box<dyn OutputCamera>,
-    pub centre: Vector3<f64>,
-    /// The axes of a turned linear camera in rect (`models::linear`); None: rect's own, or a
-    /// fisheye's (which its lens carries).
-    pub turn: Option<Matrix3<f64>>,
-}
-
-impl Camera {
-    pub fn new(camera: Box<dyn OutputCamera>, centre: Vector3<f64>) -> Self {
-        Self {
-            camera,
-            centre,
-            turn: None,
-        }
-    }
-
-    /// A turned linear camera (a `Turned`) whose axes in rect are `turn`.
-    pub fn turned(camera: Box<dyn OutputCamera>, centre: Vector3<f64>, turn: Matrix3<f64>) -> Self {
-        Self {
-            camera,
-            centre,
-            turn: Some(turn),
-        }
-    }
-
-    /// A copy of this camera at another optical centre.
-    pub fn at(&self, centre: Vector3<f64>) -> Self {
-        Self {
-            camera: self.camera.boxed_output(),
-            centre,
-            turn: self.turn,
-        }
-    }
-}
 
 /// Yaw, pitch and roll of a constructor's arguments.
 fn ypr(yaw_deg: f64, pitch_deg: f64, roll_deg: f64) -> models::Angles {

@@ -5,6 +5,7 @@ use pyo3::prelude::*;
 
 mod calib;
 mod camera;
+mod camera_core;
 mod dataset;
 mod errors;
 mod io;

@@ -3,7 +3,7 @@
 //! a camera built here is, bit for bit, the camera the command reads from a description file
 //! with the same values (`--to fisheye --camera FILE`); and `read_camera`.
 
-use crate::camera::Camera;
+use crate::camera_core::Camera;
 use crate::errors::{usage, IntoPy};
 use crate::turned::Turned;
 use nalgebra::{Matrix3, Vector3};

@@ -184,4 +184,23 @@ impl<M: LensModel> CameraModel for Lens<M> {
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
         front_halfspace_of(self.max_theta)
     }
+
+    /// The model by its name and parameters (what makes two models equal), then every field.
+    fn exact_key(&self, key: &mut super::ExactKey) -> bool {
+        let Lens {
+            model,
+            k,
+            size,
+            max_theta,
+            edge,
+        } = self;
+        key.name(model.name());
+        for (name, value) in model.parameters() {
+            key.name(name);
+            key.float(value);
+        }
+        key.intrinsics(k, *size);
+        key.floats(&[*max_theta, *edge]);
+        true
+    }
 }

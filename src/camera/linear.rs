@@ -138,6 +138,13 @@ impl<M: Mapping> CameraModel for Linear<M> {
         M::FRONT_ONLY && M::WHOLE_FRONT
     }
 
+    fn exact_key(&self, key: &mut super::ExactKey) -> bool {
+        let Linear { k, size, mapping } = self;
+        key.name(std::any::type_name_of_val(mapping));
+        key.intrinsics(k, *size);
+        true
+    }
+
     fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
         // the same `project`, inlined here rather than called through the trait object
         out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok()));

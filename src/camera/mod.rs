@@ -16,6 +16,7 @@ pub mod description;
 mod double_sphere;
 mod equirect;
 mod eucm;
+mod exact_key;
 mod fisheye;
 pub mod fit;
 mod intrinsics;
@@ -36,6 +37,7 @@ pub use cylindrical::Cylindrical;
 pub use double_sphere::{DoubleSphere, DoubleSphereModel};
 pub use equirect::Equirect;
 pub use eucm::{Eucm, EucmModel};
+pub use exact_key::ExactKey;
 pub use fisheye::{Fisheye, RadialModel};
 pub use intrinsics::{ImageSize, Intrinsics};
 pub use lens::Lens;
@@ -151,6 +153,13 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
     /// then need not look for a rim). Conservative: false unless the model guarantees it, and
     /// always false for a model without a front half-space.
     fn sees_whole_front(&self) -> bool {
+        false
+    }
+
+    /// Feeds `key` the exact bits of everything this camera's projections read and says true;
+    /// false (the default) where it cannot (a wrapper of parts it does not know): what is built
+    /// from such a camera is never reused for another (a rig run's kept stitches).
+    fn exact_key(&self, _key: &mut ExactKey) -> bool {
         false
     }
 

@@ -68,6 +68,12 @@ impl CameraModel for FisheyeCamera {
             .front_halfspace()
             .map(|n| self.rect_from_camera * n)
     }
+
+    fn exact_key(&self, key: &mut super::ExactKey) -> bool {
+        key.name("fisheye camera");
+        key.matrix(&self.rect_from_camera);
+        self.lens.exact_key(key)
+    }
 }
 
 impl OutputCamera for FisheyeCamera {

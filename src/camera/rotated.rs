@@ -79,6 +79,12 @@ impl<C: CameraModel> CameraModel for Rotated<C> {
         self.inner.size()
     }
 
+    fn exact_key(&self, key: &mut super::ExactKey) -> bool {
+        key.name("rotated");
+        key.matrix(&self.reference_from_camera);
+        self.inner.exact_key(key)
+    }
+
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
         self.inner
             .front_halfspace()

@@ -10,6 +10,7 @@ use super::shared::target::{projection_of, To};
 use anyhow::{bail, Result};
 use clap::Args;
 use panoconv::camera::ImageSize;
+use panoconv::convert::canvas_flags::CanvasFlags;
 use panoconv::convert::kitti::{run_kitti, KittiOptions, KittiSource, KittiSummary};
 use panoconv::convert::run_options::{DepthJob, RunOptions, StyleJob, StyleOrder};
 use panoconv::error::Error;
@@ -265,12 +266,14 @@ fn convert(
         source,
         to: projection_of(args.to),
         camera: args.camera,
-        pano_width: args.pano_width,
-        px_per_deg: args.px_per_deg,
-        full_360: args.full_360,
-        size: args.size,
-        crop: args.crop,
-        resize: args.resize,
+        canvas: CanvasFlags {
+            pano_width: args.pano_width,
+            px_per_deg: args.px_per_deg,
+            full_360: args.full_360,
+            size: args.size,
+            crop: args.crop,
+            resize: args.resize,
+        },
         mask: args.mask,
         frames,
         cameras: args.cameras.clone(),

@@ -211,10 +211,17 @@ impl RigArgs {
     /// The output camera. A panorama of several cameras covers 360°; one camera, or a
     /// perspective view, the first camera's field of view.
     fn target(&self, cameras: usize) -> Result<Target> {
+        let flags = CanvasFlags {
+            pano_width: self.pano_width,
+            px_per_deg: self.px_per_deg,
+            full_360: self.full_360,
+            size: self.size,
+            crop: self.crop,
+            resize: self.resize,
+        };
         Ok(match (projection_of(self.to), &self.camera) {
             (OutputProjection::Fisheye, Some(file)) => {
-                let sized = self.full_360 || self.size.is_some();
-                if self.pano_width.is_some() || self.px_per_deg.is_some() || sized {
+                if flags.sized_flag().is_some() {
                     bail!(setup(
                         "--pano-width/--px-per-deg/--full-360/--size: a fisheye target has the \
                          size and scale of its camera file"
@@ -223,8 +230,8 @@ impl RigArgs {
                 }
                 Target::Fisheye {
                     camera: Box::new(FisheyeTarget::read(file)?),
-                    crop: self.crop,
-                    resize: self.resize,
+                    crop: flags.crop,
+                    resize: flags.resize,
                 }
             }
             (OutputProjection::Fisheye, None) => bail!(setup(
@@ -234,14 +241,6 @@ impl RigArgs {
                 "--camera describes the camera of --to fisheye".into()
             )),
             (OutputProjection::Linear(projection), None) => {
-                let flags = CanvasFlags {
-                    pano_width: self.pano_width,
-                    px_per_deg: self.px_per_deg,
-                    full_360: self.full_360,
-                    size: self.size,
-                    crop: self.crop,
-                    resize: self.resize,
-                };
                 Target::Linear(rig_output_spec(projection, cameras, &flags)?)
             }
         })

@@ -3,6 +3,7 @@
 //! images to views.
 
 mod augment_draw;
+pub mod canvas_flags;
 pub mod folder;
 pub mod kitti;
 pub mod pano;

@@ -8,7 +8,7 @@
 
 use crate::error::{Error, Result};
 use crate::export::boxes::{image_boxes, PixelBox};
-use crate::export::{round_to, ExportData, Frame};
+use crate::export::{round_to, ExportData, Frame, Object};
 use crate::reproject::source_box::box_distance;
 use serde::Serialize;
 
@@ -70,6 +70,9 @@ struct Annotation {
     /// True on both boxes of an object cut by the ±180° seam of a 360° image.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     wraps_seam: bool,
+    /// The line of the image's `label_2` file the annotation comes from, from 1: shared by
+    /// both boxes of a seam-cut object and by the per-category copies of an ignore region.
+    label_line: usize,
 }
 
 #[derive(Serialize)]
@@ -100,13 +103,13 @@ pub fn coco_bbox(b: PixelBox) -> [f64; 4] {
 
 /// The detection boxes of a frame: (category index, KITTI-convention box, wraps the seam,
 /// object), in label order. YOLO writes the same list.
-pub(crate) fn frame_boxes(frame: &Frame) -> Vec<(usize, PixelBox, bool, &crate::kitti::Label)> {
+pub(crate) fn frame_boxes(frame: &Frame) -> Vec<(usize, PixelBox, bool, &Object)> {
     let mut out = Vec::new();
     for o in &frame.objects {
         let parts = image_boxes(&o.label, frame.camera.as_ref(), &frame.centre);
         let wraps = parts.len() > 1;
         for b in parts {
-            out.push((o.category, b, wraps, &o.label));
+            out.push((o.category, b, wraps, o));
         }
     }
     out
@@ -143,8 +146,8 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
             height: f.size.height,
             camera: camera_of(f),
         });
-        for (category, b, wraps_seam, label) in frame_boxes(f) {
-            let bbox = coco_bbox(b);
+        for (category, b, wraps_seam, object) in frame_boxes(f) {
+            let (bbox, label) = (coco_bbox(b), &object.label);
             file.annotations.push(Annotation {
                 id: next_id,
                 image_id: f.image_id,
@@ -159,11 +162,12 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
                     .map(|b| box_distance(&b, f.camera.as_ref(), &f.centre))
                     .map(|d| round_to(d, 4)),
                 wraps_seam,
+                label_line: object.line,
             });
             next_id += 1;
         }
         for region in &f.ignore_regions {
-            let bbox = coco_bbox(*region);
+            let bbox = coco_bbox(region.bbox);
             for category in 0..data.categories.len() {
                 file.annotations.push(Annotation {
                     id: next_id,
@@ -176,6 +180,7 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
                     occluded: -1,
                     distance: None,
                     wraps_seam: false,
+                    label_line: region.line,
                 });
                 next_id += 1;
             }

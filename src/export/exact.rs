@@ -2,7 +2,8 @@
 //! docs/formats.md). KITTI's label line holds one angle, so a box that leans (KITTI-360 has a
 //! few) loses its pitch and roll there; the Omni3D export takes the box from this file instead.
 //! Only the written objects (`"dropped": null`) are kept, in file order: the order of the
-//! frame's `label_2` lines.
+//! frame's `label_2` lines other than DontCare (an object the visibility rule leaves out is
+//! a DontCare line there and dropped here).
 
 use crate::error::{Error, Result};
 use nalgebra::{Matrix3, Vector3};

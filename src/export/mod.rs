@@ -106,6 +106,18 @@ pub struct Object {
     pub category: usize,
     /// The box with its full rotation, where the conversion wrote one (`objects/ID.json`).
     pub exact: Option<ExactBox>,
+    /// The line of `label_2/ID.txt` it was read from, from 1.
+    pub line: usize,
+}
+
+/// A region whose detections count neither way: a DontCare line, or an object the
+/// visibility rule leaves out.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IgnoreRegion {
+    /// The line of `label_2/ID.txt` it was read from, from 1.
+    pub line: usize,
+    /// [left, top, right, bottom], KITTI's pixel convention.
+    pub bbox: [f64; 4],
 }
 
 /// One image of the export with everything the formats need.
@@ -130,8 +142,8 @@ pub struct Frame {
     pub centre: Vector3<f64>,
     /// Objects of a mapped class, in `label_2` order (DontCare and dropped classes aside).
     pub objects: Vec<Object>,
-    /// DontCare rectangles [left, top, right, bottom].
-    pub ignore_regions: Vec<[f64; 4]>,
+    /// DontCare rectangles and the objects `--min-visible` leaves out, in `label_2` order.
+    pub ignore_regions: Vec<IgnoreRegion>,
 }
 
 /// A dataset read for export: frames in export order (train, val, test; ids sorted).
@@ -273,7 +285,7 @@ type FrameParts = (
     Box<dyn OutputCamera>,
     Vector3<f64>,
     Vec<Object>,
-    Vec<[f64; 4]>,
+    Vec<IgnoreRegion>,
 );
 
 fn read_frame(
@@ -281,59 +293,80 @@ fn read_frame(
     id: &str,
     options: &ExportOptions,
 ) -> Result<FrameParts> {
-    let classes = &options.classes;
     let image = split.image_path(Cam::C2, id);
     let (w, h) = png::read_file_size(&image)?;
     let size = ImageSize::new(w, h);
     let calib = Calib::read(&split.calib_path(id))?;
     let (camera, centre) = calib.image_camera(Cam::C2, size)?;
-    let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
-    if split.has_labels {
-        let path = split.label_path(id);
-        let exact_path = split.dir.join("objects").join(format!("{id}.json"));
-        let exact = exact::read_exact_boxes(&exact_path)?;
-        let lines = read_lines(&path)?;
-        let labelled = lines.iter().filter(|l| !l.trim().is_empty()).count();
-        if let Some(e) = exact.as_ref().filter(|e| e.len() != labelled) {
-            return Err(Error::file(
-                &exact_path,
-                format!(
-                    "lists {} written objects but {} has {labelled} label lines",
-                    e.len(),
-                    path.display()
-                ),
-            ));
+    let (objects, ignore_regions) = if split.has_labels {
+        read_labels(split, id, options)?
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    Ok((size, camera, centre, objects, ignore_regions))
+}
+
+/// The objects and ignore regions of frame `id`'s `label_2` file, each object with its exact
+/// box where the conversion wrote `objects/ID.json`. That file lists the written objects in
+/// label order and no DontCare region (a rig conversion writes an object its `--min-visible`
+/// leaves out as a DontCare line, and records it as dropped), so its boxes pair with the
+/// lines other than DontCare.
+fn read_labels(
+    split: &crate::kitti::Split,
+    id: &str,
+    options: &ExportOptions,
+) -> Result<(Vec<Object>, Vec<IgnoreRegion>)> {
+    let path = split.label_path(id);
+    let exact_path = split.dir.join("objects").join(format!("{id}.json"));
+    let exact = exact::read_exact_boxes(&exact_path)?;
+    let mut labels = Vec::new();
+    for (i, line) in read_lines(&path)?.iter().enumerate() {
+        if !line.trim().is_empty() {
+            labels.push((i + 1, Label::parse(&path, i + 1, line)?));
         }
-        let mut exact = exact.map(Vec::into_iter);
-        for (i, line) in lines.iter().enumerate() {
-            if line.trim().is_empty() {
-                continue;
-            }
-            let exact = exact.as_mut().and_then(Iterator::next);
-            let label = Label::parse(&path, i + 1, line)?;
-            let hidden = label.truncated.clamp(0.0, 1.0);
-            if label.is_dont_care() || !options.visibility.accepts(label.bbox, hidden) {
-                ignore_regions.push(label.bbox);
-                continue;
-            }
-            match classes.lookup(&label.kind) {
-                ClassLookup::Category(category) => objects.push(Object {
-                    label,
-                    category,
-                    exact,
-                }),
-                ClassLookup::Dropped => {}
-                ClassLookup::Unknown => {
-                    let hint = format!(
-                        "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
-                        label.kind
-                    );
-                    return Err(Error::parse(&path, i + 1, "type", hint));
-                }
+    }
+    let written = labels.iter().filter(|(_, l)| !l.is_dont_care()).count();
+    if let Some(e) = exact.as_ref().filter(|e| e.len() != written) {
+        return Err(Error::file(
+            &exact_path,
+            format!(
+                "lists {} written objects but {} has {written} label lines other than DontCare",
+                e.len(),
+                path.display()
+            ),
+        ));
+    }
+    let mut exact = exact.map(Vec::into_iter);
+    let (mut objects, mut ignore_regions) = (Vec::new(), Vec::new());
+    for (line, label) in labels {
+        let exact = match label.is_dont_care() {
+            true => None,
+            false => exact.as_mut().and_then(Iterator::next),
+        };
+        let hidden = label.truncated.clamp(0.0, 1.0);
+        if label.is_dont_care() || !options.visibility.accepts(label.bbox, hidden) {
+            let bbox = label.bbox;
+            ignore_regions.push(IgnoreRegion { line, bbox });
+            continue;
+        }
+        match options.classes.lookup(&label.kind) {
+            ClassLookup::Category(category) => objects.push(Object {
+                label,
+                category,
+                exact,
+                line,
+            }),
+            ClassLookup::Dropped => {}
+            ClassLookup::Unknown => {
+                let hint = format!(
+                    "unknown class {:?}: map it with --classes {0}=NAME (or {0}=- to drop it)",
+                    label.kind
+                );
+                return Err(Error::parse(&path, line, "type", hint));
             }
         }
     }
-    Ok((size, camera, centre, objects, ignore_regions))
+    Ok((objects, ignore_regions))
 }
 
 /// Writes a format's export of the dataset at `root` into `output`.

@@ -5,6 +5,7 @@
 
 mod coco_yolo;
 mod errors;
+mod label_lines;
 mod layout;
 mod omni3d;
 

@@ -4,10 +4,11 @@
 //! locked or a style model loaded, and each can be tested without the binary.
 
 use super::{KittiJob, KittiSource};
-use crate::camera::{ImageSize, OutputProjection};
+use crate::camera::OutputProjection;
+use crate::convert::canvas_flags::CanvasFlags;
 use crate::convert::run_options::RunOptions;
 use crate::error::{Error, Result};
-use crate::geometry::{Canvas, Crop, FisheyeTarget, OutputSpec, Scale, Target};
+use crate::geometry::{FisheyeTarget, Target};
 use crate::kitti::Cam;
 use crate::reproject::visibility::Visibility;
 use std::path::PathBuf;
@@ -25,18 +26,8 @@ pub struct KittiOptions {
     pub to: OutputProjection,
     /// `--camera FILE`: the fisheye target's camera.
     pub camera: Option<PathBuf>,
-    /// `--pano-width`.
-    pub pano_width: Option<u32>,
-    /// `--px-per-deg`.
-    pub px_per_deg: Option<f64>,
-    /// `--full-360`.
-    pub full_360: bool,
-    /// `--size`.
-    pub size: Option<ImageSize>,
-    /// `--crop`.
-    pub crop: Option<Crop>,
-    /// `--resize`.
-    pub resize: Option<ImageSize>,
+    /// `--pano-width`, `--px-per-deg`, `--full-360`, `--size`, `--crop`, `--resize`.
+    pub canvas: CanvasFlags,
     /// `--mask`.
     pub mask: bool,
     /// The frames asked for (`--frames`, `--frames-from`, `--image-set`); None: all.
@@ -97,23 +88,16 @@ impl KittiOptions {
     fn target(&self) -> Result<Target> {
         match (self.to, &self.camera) {
             (OutputProjection::Fisheye, Some(file)) => {
-                for (given, flag) in [
-                    (self.pano_width.is_some(), "--pano-width"),
-                    (self.px_per_deg.is_some(), "--px-per-deg"),
-                    (self.full_360, "--full-360"),
-                    (self.size.is_some(), "--size"),
-                ] {
-                    if given {
-                        return Err(Error::Setup(format!(
-                            "{flag}: a fisheye target has the size and scale of its camera file \
-                             (--crop and --resize apply)"
-                        )));
-                    }
+                if let Some(flag) = self.canvas.sized_flag() {
+                    return Err(Error::Setup(format!(
+                        "{flag}: a fisheye target has the size and scale of its camera file \
+                         (--crop and --resize apply)"
+                    )));
                 }
                 Ok(Target::Fisheye {
                     camera: Box::new(FisheyeTarget::read(file)?),
-                    crop: self.crop,
-                    resize: self.resize,
+                    crop: self.canvas.crop,
+                    resize: self.canvas.resize,
                 })
             }
             (OutputProjection::Fisheye, None) => Err(Error::Setup(
@@ -125,17 +109,9 @@ impl KittiOptions {
             (OutputProjection::Linear(_), Some(_)) => Err(Error::Setup(
                 "--camera describes the camera of --to fisheye".into(),
             )),
-            (OutputProjection::Linear(projection), None) => Ok(Target::Linear(OutputSpec {
-                projection,
-                scale: Scale::from_flags(self.pano_width, self.px_per_deg)?,
-                canvas: match (self.full_360, self.size) {
-                    (true, _) => Canvas::Full360,
-                    (false, Some(s)) => Canvas::Size(s),
-                    (false, None) => Canvas::Tight,
-                },
-                crop: self.crop,
-                resize: self.resize,
-            })),
+            (OutputProjection::Linear(projection), None) => {
+                Ok(Target::Linear(self.canvas.single_camera_spec(projection)?))
+            }
         }
     }
 }
@@ -143,9 +119,10 @@ impl KittiOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Projection;
+    use crate::camera::{ImageSize, Projection};
     use crate::codec::png::PngCompression;
     use crate::geometry::augment::Augment;
+    use crate::geometry::{Canvas, Scale};
     use crate::run::{OutputMode, Shard};
 
     fn options() -> KittiOptions {
@@ -164,12 +141,7 @@ mod tests {
             source: KittiSource::Object { split: None },
             to: Projection::Equirect.into(),
             camera: None,
-            pano_width: None,
-            px_per_deg: None,
-            full_360: false,
-            size: None,
-            crop: None,
-            resize: None,
+            canvas: CanvasFlags::default(),
             mask: false,
             frames: None,
             cameras: vec![Cam::C3, Cam::C2, Cam::C3],
@@ -191,8 +163,11 @@ mod tests {
         assert_eq!(job.target.projection(), Projection::Equirect);
         assert_eq!(job.target.scale(), Scale::SourceFocal);
         let job = KittiOptions {
-            pano_width: Some(2048),
-            full_360: true,
+            canvas: CanvasFlags {
+                pano_width: Some(2048),
+                full_360: true,
+                ..Default::default()
+            },
             ..options()
         }
         .validate()
@@ -213,13 +188,23 @@ mod tests {
             camera: Some("no/such/camera.json".into()),
             ..options()
         };
+        let canvas = |flags: CanvasFlags| KittiOptions {
+            canvas: flags,
+            ..options()
+        };
         let m = refusal(KittiOptions {
-            pano_width: Some(2048),
+            canvas: CanvasFlags {
+                pano_width: Some(2048),
+                ..Default::default()
+            },
             ..fisheye()
         });
         assert!(m.starts_with("--pano-width: a fisheye target"), "{m}");
         let m = refusal(KittiOptions {
-            size: Some(ImageSize::new(10, 10)),
+            canvas: CanvasFlags {
+                size: Some(ImageSize::new(10, 10)),
+                ..Default::default()
+            },
             ..fisheye()
         });
         assert!(m.starts_with("--size:"), "{m}");
@@ -251,15 +236,15 @@ mod tests {
             ..options()
         });
         assert!(m.starts_with("--cameras must include 2"), "{m}");
-        let m = refusal(KittiOptions {
+        let m = refusal(canvas(CanvasFlags {
             pano_width: Some(0),
-            ..options()
-        });
+            ..Default::default()
+        }));
         assert_eq!(m, "--pano-width must be positive");
-        let m = refusal(KittiOptions {
+        let m = refusal(canvas(CanvasFlags {
             px_per_deg: Some(f64::NAN),
-            ..options()
-        });
+            ..Default::default()
+        }));
         assert_eq!(m, "--px-per-deg must be positive");
         let augment = Augment {
             count: 2,

@@ -4,30 +4,14 @@
 //! asks for the whole sphere, `--size` for an explicit canvas, and an explicit scale alone
 //! keeps the whole sphere as before.
 
-use crate::camera::{ImageSize, Projection};
+use crate::camera::Projection;
+pub use crate::convert::canvas_flags::CanvasFlags;
 use crate::error::{Error, Result};
-use crate::geometry::{Canvas, Crop, OutputSpec, Scale};
+use crate::geometry::{Canvas, OutputSpec, Scale};
 use std::path::{Path, PathBuf};
 
 /// The width of a rig panorama's 360° when no scale is given: a size trainers take.
 pub const DEFAULT_PANO_WIDTH: u32 = 2048;
-
-/// The flags of a rig command that shape its linear output camera.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct CanvasFlags {
-    /// `--pano-width`.
-    pub pano_width: Option<u32>,
-    /// `--px-per-deg`.
-    pub px_per_deg: Option<f64>,
-    /// `--full-360`.
-    pub full_360: bool,
-    /// `--size`.
-    pub size: Option<ImageSize>,
-    /// `--crop`.
-    pub crop: Option<Crop>,
-    /// `--resize`.
-    pub resize: Option<ImageSize>,
-}
 
 /// The output spec of `projection` for a rig of `cameras` chosen cameras: one camera, or a
 /// perspective view, is converted as `kitti` converts one (the first camera's scale, its
@@ -43,7 +27,7 @@ pub fn rig_output_spec(
             "--full-360 and --size exclude each other".into(),
         ));
     }
-    let given = Scale::from_flags(flags.pano_width, flags.px_per_deg)?;
+    let given = flags.scale()?;
     let panorama = cameras > 1 && projection != Projection::Perspective;
     let (scale, canvas) = match (flags.full_360, flags.size) {
         (true, _) => (given, Canvas::Full360),

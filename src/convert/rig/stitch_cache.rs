@@ -3,11 +3,13 @@
 //! without odometry, a parked vehicle, a dataset that gives the rig in its vehicle frame)
 //! builds its tables and weights once and applies them to every frame.
 //!
-//! The key is the exact geometry the build reads: the output camera's and each source
-//! camera's parameters (their `Debug` text, whose floats print round-trip exact), the bit
-//! patterns of the output centre, of each camera's rotation, translation and field of view and
-//! of the stitch options, and which ego mask each camera has (the run's masks, by address).
-//! Equal keys give the same build, so a reused stitch writes the same bytes as a fresh one.
+//! The key is the exact geometry the build reads, as the bit patterns of its floats
+//! ([`ExactKey`]): every field of the output camera and of each source camera (each model feeds
+//! its own, [`CameraModel::exact_key`]; a camera that cannot is never kept), the output centre,
+//! each camera's rotation, translation and field of view, every stitch option, and which ego
+//! mask each camera has (the run's masks, by address). Equal keys give the same build, so a
+//! reused stitch writes the same bytes as a fresh one; no printed form is compared, so two
+//! geometries that print alike (a rounded float, a field a `Debug` leaves out) stay apart.
 //! Where the geometry moves, even by one bit (nuScenes, PandaSet and KITTI-360 place the rig in
 //! a level frame that follows the vehicle's pitch and roll, and nuScenes' cameras each at their
 //! own time), every frame misses and builds as without the cache.
@@ -15,11 +17,10 @@
 //! The depth-guided stitch is not kept: its tables and weights follow the frame's scan.
 //! `PANOCONV_STITCH_CACHE=off` in the environment turns the cache off (the tests compare).
 
-use crate::camera::CameraModel;
+use crate::camera::{CameraModel, ExactKey};
 use crate::error::Result;
 use crate::warp::{EgoMask, Stitch, StitchCamera, StitchOptions};
 use nalgebra::Vector3;
-use std::fmt::Write;
 use std::sync::{Arc, Mutex};
 
 /// Builds without a single reuse after which a run stops keeping stitches: its geometry
@@ -39,7 +40,7 @@ pub(super) struct StitchCache {
 #[derive(Debug, Default)]
 struct Kept {
     /// The latest build and its key.
-    latest: Option<(String, Arc<Stitch>)>,
+    latest: Option<(ExactKey, Arc<Stitch>)>,
     builds: usize,
     reuses: usize,
 }
@@ -60,7 +61,12 @@ impl StitchCache {
         masks: &[Option<&EgoMask>],
         options: StitchOptions,
     ) -> Result<Arc<Stitch>> {
-        let key = geometry_key(output, centre, cameras, masks, options);
+        let Some(key) = geometry_key(output, centre, cameras, masks, options) else {
+            // a camera that cannot say its geometry exactly: built for this frame alone
+            return Ok(Arc::new(Stitch::build_masked(
+                output, centre, cameras, masks, options,
+            )?));
+        };
         {
             let mut kept = self.lock();
             if let Some((_, found)) = kept.latest.as_ref().filter(|(k, _)| *k == key) {
@@ -87,35 +93,46 @@ impl StitchCache {
     }
 }
 
-/// Everything a fixed stitch's build reads, exactly.
+/// Everything a fixed stitch's build reads, exactly; None where a camera cannot say its own.
+/// The options and cameras are taken apart field by field, so that a field added to either
+/// does not compile until it is keyed here.
 fn geometry_key(
     output: &dyn CameraModel,
     centre: &Vector3<f64>,
     cameras: &[StitchCamera],
     masks: &[Option<&EgoMask>],
     options: StitchOptions,
-) -> String {
-    let mut key = String::new();
-    let bits = |key: &mut String, values: &[f64]| {
-        for v in values {
-            let _ = write!(key, "{:x},", v.to_bits());
-        }
-    };
-    let _ = write!(key, "{output:?};");
-    bits(&mut key, centre.as_slice());
-    let o = options;
-    bits(&mut key, &[o.distance, o.blend_width]);
-    let _ = write!(key, "{};", o.even_exposure);
-    for (i, c) in cameras.iter().enumerate() {
-        let _ = write!(key, "|{:?};", c.model);
-        bits(&mut key, c.rotation.as_slice());
-        bits(&mut key, c.translation.as_slice());
-        bits(&mut key, &[c.max_theta.map_or(f64::NAN, |t| t)]);
-        let _ = write!(key, "{};", c.max_theta.is_some());
-        let mask = masks.get(i).copied().flatten();
-        let _ = write!(key, "{:?}", mask.map(|m| m as *const EgoMask));
+) -> Option<ExactKey> {
+    let mut key = ExactKey::new();
+    if !output.exact_key(&mut key) {
+        return None;
     }
-    key
+    key.floats(centre.as_slice());
+    let StitchOptions {
+        distance,
+        blend_width,
+        even_exposure,
+    } = options;
+    key.floats(&[distance, blend_width]);
+    key.count(even_exposure as usize);
+    key.count(cameras.len());
+    for (i, camera) in cameras.iter().enumerate() {
+        let StitchCamera {
+            model,
+            rotation,
+            translation,
+            max_theta,
+        } = camera;
+        if !model.exact_key(&mut key) {
+            return None;
+        }
+        key.matrix(rotation);
+        key.floats(translation.as_slice());
+        key.floats(max_theta.as_slice());
+        let mask = masks.get(i).copied().flatten();
+        key.count(mask.map_or(0, |m| m as *const EgoMask as usize));
+    }
+    Some(key)
 }
 
 #[cfg(test)]
@@ -192,6 +209,131 @@ mod tests {
         }
     }
 
+    /// A pinhole whose `Debug` prints its focal length to 0.01 px, as a printed key would
+    /// have compared it; it says nothing of its exact geometry.
+    struct Rounded(Perspective);
+
+    impl std::fmt::Debug for Rounded {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "Rounded({:.2})", self.0.k.fu)
+        }
+    }
+
+    impl CameraModel for Rounded {
+        fn project(
+            &self,
+            d: &Vector3<f64>,
+        ) -> std::result::Result<nalgebra::Point2<f64>, crate::camera::ProjectionReject> {
+            self.0.project(d)
+        }
+        fn unproject(
+            &self,
+            p: &nalgebra::Point2<f64>,
+        ) -> std::result::Result<Vector3<f64>, crate::camera::ProjectionReject> {
+            self.0.unproject(p)
+        }
+        fn distance(&self, p: &Vector3<f64>) -> f64 {
+            self.0.distance(p)
+        }
+        fn size(&self) -> ImageSize {
+            self.0.size
+        }
+    }
+
+    #[test]
+    fn cameras_that_print_alike_do_not_share_a_stitch() {
+        let (output, _) = scene();
+        let pinhole = |fu: f64| {
+            Rounded(Perspective::new(
+                Intrinsics::new(fu, 60.0, 59.5, 39.5),
+                ImageSize::new(120, 80),
+            ))
+        };
+        let (a, b) = (pinhole(60.0), pinhole(60.001));
+        assert_eq!(
+            format!("{a:?}"),
+            format!("{b:?}"),
+            "their Debug texts agree"
+        );
+        let cache = StitchCache::default();
+        let build = |model: &Rounded| {
+            let camera = StitchCamera {
+                model,
+                rotation: nalgebra::Matrix3::identity(),
+                translation: Vector3::zeros(),
+                max_theta: None,
+            };
+            let options = StitchOptions::default();
+            cache
+                .fixed(&output, &Vector3::zeros(), &[camera], &[], options)
+                .unwrap()
+        };
+        let (first, second) = (build(&a), build(&b));
+        assert!(!Arc::ptr_eq(&first, &second), "60.001 px built its own");
+        // and the stitch is 60.001's: a fresh build of it writes the same weights
+        let fresh = Stitch::build(
+            &output,
+            &Vector3::zeros(),
+            &[StitchCamera {
+                model: &b.0,
+                rotation: nalgebra::Matrix3::identity(),
+                translation: Vector3::zeros(),
+                max_theta: None,
+            }],
+            StitchOptions::default(),
+        );
+        let mut image = RgbImage::new(120, 80);
+        for (i, px) in image.as_raw_mut().iter_mut().enumerate() {
+            *px = (i * 13 % 251) as u8;
+        }
+        let (kept, new) = (second.apply(&[&image]), fresh.apply(&[&image]));
+        assert_eq!(kept.image.as_raw(), new.image.as_raw());
+    }
+
+    #[test]
+    fn one_ulp_of_a_rotation_a_translation_or_a_lens_is_another_key() {
+        let (output, pinhole) = scene();
+        let o = StitchOptions::default();
+        let key = |cameras: &[StitchCamera]| {
+            geometry_key(&output, &Vector3::zeros(), cameras, &[], o).expect("exact cameras")
+        };
+        let base = rig(&pinhole, 0.0);
+        let ulp = |v: f64| f64::from_bits(v.to_bits() + 1);
+        let mut turned = rig(&pinhole, 0.0);
+        turned[1].rotation[(0, 2)] = ulp(turned[1].rotation[(0, 2)]);
+        let mut moved = rig(&pinhole, 0.0);
+        moved[2].translation.z = ulp(moved[2].translation.z);
+        assert_eq!(key(&base), key(&rig(&pinhole, 0.0)));
+        assert_ne!(key(&base), key(&turned));
+        assert_ne!(key(&base), key(&moved));
+        // a fisheye lens: one ULP of one parameter, and its field of view
+        let lens = |xi: f64, fov: f64| {
+            crate::camera::Lens::with_model(
+                crate::camera::MeiModel {
+                    xi,
+                    distortion: crate::camera::MeiDistortion::NONE,
+                    skew: 0.0,
+                },
+                Intrinsics::new(300.0, 300.0, 59.5, 39.5),
+                ImageSize::new(120, 80),
+                fov,
+            )
+            .unwrap()
+        };
+        let one = |l: &crate::camera::Unified| {
+            key(&[StitchCamera {
+                model: l,
+                rotation: nalgebra::Matrix3::identity(),
+                translation: Vector3::zeros(),
+                max_theta: Some(1.2),
+            }])
+        };
+        let (a, b, c) = (lens(0.9, 1.5), lens(ulp(0.9), 1.5), lens(0.9, ulp(1.5)));
+        assert_eq!(one(&a), one(&lens(0.9, 1.5)));
+        assert_ne!(one(&a), one(&b));
+        assert_ne!(one(&a), one(&c));
+    }
+
     #[test]
     fn the_key_tells_masks_options_and_models_apart() {
         let (output, pinhole) = scene();
@@ -204,7 +346,7 @@ mod tests {
         let centre = Vector3::zeros();
         let o = StitchOptions::default();
         let key = |model: &Perspective, masks: &[Option<&EgoMask>], o: StitchOptions| {
-            geometry_key(&output, &centre, &rig(model, 0.0), masks, o)
+            geometry_key(&output, &centre, &rig(model, 0.0), masks, o).unwrap()
         };
         let base = key(&pinhole, &[], o);
         assert_eq!(base, key(&pinhole, &[None, None], o));
