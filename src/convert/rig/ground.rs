@@ -5,6 +5,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+mod walk;
+
 /// Half-height of the band around the first fit whose cells the ground's second fit uses, m.
 pub const GROUND_BAND: f64 = 0.15;
 /// Points within this of the first fit make the second, and are the ground, metres.
@@ -143,6 +145,8 @@ pub struct LocalGround {
     raise: Vec<f64>,
     /// The least and largest raise.
     band: (f64, f64),
+    /// The raise's bounds per cell of a Cartesian grid, which a ray is walked through.
+    bounds: walk::Bounds,
 }
 
 impl LocalGround {
@@ -197,17 +201,24 @@ impl LocalGround {
                 };
             }
         }
+        Some(LocalGround::with_raise(plane, *centre, raise))
+    }
+
+    /// The local ground of `plane` raised by `raise` (sector-major knot heights) around
+    /// `centre`.
+    fn with_raise(plane: Ground, centre: Vector3<f64>, raise: Vec<f64>) -> LocalGround {
         let band = raise
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &r| {
                 (lo.min(r), hi.max(r))
             });
-        Some(LocalGround {
+        LocalGround {
             plane,
-            centre: *centre,
+            centre,
+            bounds: walk::Bounds::new(&centre, &raise),
             raise,
             band,
-        })
+        }
     }
 
     /// The local ground's height above the plane under `p`.
@@ -237,7 +248,7 @@ impl LocalGround {
         let along = self.plane.normal.dot(d);
         let h = self.plane.height(o);
         // (above the band's top the viewpoint is above the ground: no lookup)
-        if h <= hi && self.height(o) <= 0.0 {
+        if h <= hi && !self.above_cell(o, h) && self.height(o) <= 0.0 {
             // from below (a viewpoint under the ground, as the plane alone meets it): the plane
             // through the ground under it
             let t = -self.height(o) / along;
@@ -254,19 +265,22 @@ impl LocalGround {
         let t0 = ((h - hi) / -along).max(0.0);
         let t1 = ((h - lo) / -along).min(t0 + 1000.0);
         // beyond the knots' disc the raise varies only by sector, slowly along a ray: a grazing
-        // ray's crossing there is found by iterating the raised plane, not marched
+        // ray's crossing there is found by iterating the raised plane, not walked
         let t_out = self.disc_exit(o, d);
-        if t1 > t_out {
-            if let Some(t) = self.march(&f, t0, t_out.max(t0)) {
-                return Some(t);
-            }
-            let mut t = t_out.max(t0);
-            for _ in 0..3 {
-                t = (h - self.raise_at(&(o + d * t))) / -along;
-            }
-            return (t > 0.0 && t.is_finite()).then_some(t);
+        let end = t1.min(t_out.max(t0));
+        // walked through the bound grid (marched where the ray starts off it)
+        let found = match self.walk(o, d, (h, along), (t0, end)) {
+            Some(found) => found,
+            None => self.march(&f, t0, end),
+        };
+        if found.is_some() || t1 <= t_out {
+            return found;
         }
-        self.march(&f, t0, t1)
+        let mut t = t_out.max(t0);
+        for _ in 0..3 {
+            t = (h - self.raise_at(&(o + d * t))) / -along;
+        }
+        (t > 0.0 && t.is_finite()).then_some(t)
     }
 
     /// Distance along unit ray (o, d) at which it leaves, horizontally, the disc of the knots
@@ -344,10 +358,9 @@ impl LocalGround {
 /// `p`'s position in the polar grid around `centre`: fractional sector and knot.
 fn polar(centre: &Vector3<f64>, p: &Vector3<f64>) -> (f64, f64) {
     let (x, z) = (p.x - centre.x, p.z - centre.z);
-    let angle = x.atan2(z).rem_euclid(std::f64::consts::TAU);
     (
-        angle / std::f64::consts::TAU * SECTORS as f64,
-        x.hypot(z) / KNOT,
+        walk::turn(x, z) * (SECTORS as f64 / std::f64::consts::TAU),
+        (x * x + z * z).sqrt() * (1.0 / KNOT),
     )
 }
 

@@ -30,19 +30,21 @@ mod faults;
 mod grid;
 mod motion;
 mod noise;
+mod solid;
 mod splats;
 
 use super::ground::{Ground, LocalGround, GROUND_FIT};
 use crate::camera::{perpendiculars, CameraModel};
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
-use crate::source::{Frame, SourceBox};
+use crate::source::Frame;
 use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
 use grid::BoxGrid;
 use motion::Motion;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use noise::Noise;
 use serde::Serialize;
+use solid::Solid;
 use splats::{angles, Splats};
 use std::f64::consts::TAU;
 use std::sync::OnceLock;
@@ -151,80 +153,6 @@ pub fn distance_map(stitch: &Stitch) -> Option<DepthMap> {
         height: size.height,
         values,
     })
-}
-
-/// A box as rays meet it.
-#[derive(Debug, Clone)]
-struct Solid {
-    centre: Vector3<f64>,
-    /// box_from_reference.
-    box_from_reference: Matrix3<f64>,
-    half: Vector3<f64>,
-    /// Radius of the bounding sphere.
-    radius: f64,
-}
-
-impl Solid {
-    fn new(b: &SourceBox) -> Self {
-        let half = b.size / 2.0;
-        Self {
-            centre: b.centre,
-            box_from_reference: b.rotation.transpose(),
-            half,
-            radius: half.norm(),
-        }
-    }
-
-    /// Distance along unit ray (o, d) to where it enters the box (None: it misses, or starts
-    /// inside).
-    fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
-        let oc = self.centre - o;
-        let along = oc.dot(d);
-        if along < -self.radius || oc.norm_squared() - along * along > self.radius * self.radius {
-            return None;
-        }
-        let lo = self.box_from_reference * (o - self.centre);
-        let ld = self.box_from_reference * d;
-        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
-        for a in 0..3 {
-            if ld[a].abs() < 1e-15 {
-                if lo[a].abs() > self.half[a] {
-                    return None;
-                }
-                continue;
-            }
-            let (ta, tb) = (
-                (-self.half[a] - lo[a]) / ld[a],
-                (self.half[a] - lo[a]) / ld[a],
-            );
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
-        }
-        (t0 <= t1 && t0 > 0.0).then_some(t0)
-    }
-
-    /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit
-    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it.
-    fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
-        let oc = self.centre - o;
-        let far = oc.norm();
-        if !(far > self.radius) {
-            return 0.0;
-        }
-        let off_axis = (oc.dot(d) / far).clamp(-1.0, 1.0).acos();
-        if off_axis > radius + (self.radius / far).asin() + 1e-9 {
-            return f64::INFINITY;
-        }
-        (far - self.radius) * (1.0 - 1e-9)
-    }
-
-    fn contains(&self, p: &Vector3<f64>, margin: f64) -> bool {
-        if (p - self.centre).norm() > self.radius + margin {
-            return false;
-        }
-        let l = self.box_from_reference * (p - self.centre);
-        (0..3).all(|a| l[a].abs() <= self.half[a] + margin)
-    }
 }
 
 /// A frame's scene for a depth-guided stitch from `centre`, its cameras at `eyes`.
@@ -506,7 +434,7 @@ impl StitchDepth for SceneDepth {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::source::LidarPoint;
+    use crate::source::{LidarPoint, SourceBox};
 
     fn frame(points: Vec<Vector3<f64>>, objects: Vec<SourceBox>) -> Frame {
         Frame {

@@ -26,8 +26,11 @@ pub(super) struct Proxy<'a> {
     /// no lens bound, or one too near 0 or π for the shortcut).
     fov_cos: Option<(f64, f64)>,
     /// The scene's distances at the output's pixel centres, computed once for the distance
-    /// map: a table's centres take them instead of casting their rays again.
+    /// map: a table's centres take them instead of casting their rays again, and its taps
+    /// between centres on one surface interpolate them ([`Proxy::between_centres`]).
     centres: Option<Centres<'a>>,
+    /// The distance from the output centre to the camera's, metres (infinite: unknown).
+    baseline: f64,
 }
 
 /// The distances of a depth-guided stitch's output pixel centres.
@@ -38,6 +41,13 @@ pub(super) struct Centres<'a> {
     /// Row-major, as [`super::guided::pixel_distances`] gives them.
     pub(super) distances: &'a [f64],
 }
+
+/// A tap between output pixel centres takes their distances interpolated (in inverse distance)
+/// where the four around it lie on one surface: moving the tap's point from one of their
+/// distances to another moves it in the camera by at most this share of an output pixel (the
+/// baseline times the spread of their inverse distances, against the pixel's angle); beyond
+/// it (a depth edge, a splat's step) the tap casts its own ray.
+pub(super) const TAP_AGREE: f64 = 1.0;
 
 /// Radians between the half field of view and the angles the shortcut of [`Proxy::within`]
 /// decides: far beyond the rounding of a cosine, so its answer is `atan2`'s.
@@ -62,6 +72,9 @@ impl<'a> Proxy<'a> {
             .max_theta
             .filter(|t| *t > 1e-3 && *t < 3.0)
             .map(|t| ((t - FOV_SLACK).cos(), (t + FOV_SLACK).cos()));
+        let baseline = camera.rotation.try_inverse().map_or(f64::INFINITY, |r| {
+            (-(r * camera.translation) - centre).norm()
+        });
         Self {
             camera,
             index,
@@ -71,6 +84,11 @@ impl<'a> Proxy<'a> {
             depth,
             fov_cos,
             centres: None,
+            baseline: if baseline.is_finite() {
+                baseline
+            } else {
+                f64::INFINITY
+            },
         }
     }
 
@@ -109,6 +127,54 @@ impl<'a> Proxy<'a> {
             let stored = c.reach.bearing(u, v)?;
             same(d.as_ref()?, &stored).then(|| c.distances[v * w + u])
         }))
+    }
+
+    /// The scene's distance along unit bearing `n` (a table's tap) from the distances of the
+    /// four output pixel centres around it, bilinear in inverse distance, where they lie on one
+    /// surface ([`TAP_AGREE`]); None where they do not, or a centre has no distance.
+    fn between_centres(&self, n: &Vector3<f64>) -> Option<f64> {
+        let c = self.centres?;
+        let size = c.output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let p = c.output.project(n).ok()?;
+        let (x, y) = (crate::warp::floor(p.x), crate::warp::floor(p.y));
+        if !(x >= 0.0 && y >= 0.0 && x + 1.0 < w as f64 && y + 1.0 < h as f64) {
+            return None;
+        }
+        let (fx, fy) = (p.x - x, p.y - y);
+        let (u, v) = (x as usize, y as usize);
+        let i = v * w + u;
+        let t = [
+            c.distances[i],
+            c.distances[i + 1],
+            c.distances[i + w],
+            c.distances[i + w + 1],
+        ];
+        if !t.iter().all(|t| *t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let s = t.map(|t| 1.0 / t);
+        let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
+            (lo.min(*s), hi.max(*s))
+        });
+        // the pixel's angle: its diagonal's chord over √2
+        let (a, b) = (c.reach.bearing(u, v)?, c.reach.bearing(u + 1, v + 1)?);
+        let pixel = (a.normalize() - b.normalize()).norm() * std::f64::consts::FRAC_1_SQRT_2;
+        if !((hi - lo) * self.baseline <= TAP_AGREE * pixel) {
+            return None;
+        }
+        let top = s[0] + (s[1] - s[0]) * fx;
+        let bottom = s[2] + (s[3] - s[2]) * fx;
+        Some(1.0 / (top + (bottom - top) * fy))
+    }
+
+    /// [`CameraModel::project`] of bearing `d`, a table's tap: at the distance interpolated
+    /// between the centres around it where they lie on one surface, else at its own cast.
+    fn project_tap(&self, d: &Vector3<f64>) -> std::result::Result<Point2<f64>, ProjectionReject> {
+        match self.between_centres(&d.normalize()) {
+            Some(t) => self.project_at(d, t),
+            None => self.project(d),
+        }
     }
 
     /// [`CameraModel::project`] of bearing `d` through the scene's point at `distance`.
@@ -170,7 +236,7 @@ impl<'a> Proxy<'a> {
                 }
                 .ok()
             })),
-            None => out.extend(bearings.iter().map(|d| self.project(d.as_ref()?).ok())),
+            None => out.extend(bearings.iter().map(|d| self.project_tap(d.as_ref()?).ok())),
         }
     }
 
