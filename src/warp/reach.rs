@@ -154,6 +154,26 @@ impl Reach {
         reach[y as usize * gw + x as usize]
     }
 
+    /// Appends the stored bearings of row `v`'s positions -1..=width to `out`, None where
+    /// the output gave none or camera `i` cannot reach: what [`Gated`]'s `unproject` gives
+    /// at those centres; false, `out` unchanged, for a row beyond the bound's.
+    fn gated_row(&self, i: usize, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
+        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
+        let Some(j) = usize::try_from(v + 1).ok().filter(|j| *j < gh) else {
+            return false;
+        };
+        let row = &self.bearings[j * gw..(j + 1) * gw];
+        let stored = |d: &Vector3<f64>| d.x.is_finite().then_some(*d);
+        match &self.reach[i] {
+            None => out.extend(row.iter().map(stored)),
+            Some(reach) => {
+                let reach = &reach[j * gw..(j + 1) * gw];
+                out.extend(row.iter().zip(reach).map(|(d, r)| stored(d).filter(|_| *r)));
+            }
+        }
+        true
+    }
+
     /// Whether camera `i` may reach output pixel (u, v).
     pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
         self.reach[i]
@@ -474,6 +494,10 @@ impl CameraModel for Gated<'_> {
             return d.ok_or(ProjectionReject::OutsideDomain);
         }
         self.output.unproject(p)
+    }
+
+    fn stored_centres(&self, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
+        self.reach.gated_row(self.camera, v, out)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {
