@@ -13,7 +13,12 @@
 //! centre, so a pixel with a tap in the image has θ(q_i) ≤ c_i + δ_i at its centre, with
 //! δ_i = 2·A·s/(s − b_i): those centres are the candidates, and a centre without a bearing is
 //! one too. Widened by two pixels (a pixel's scale estimate reads its neighbours' centres),
-//! they are the pixels the table maps; the others take nothing from the camera.
+//! they are the pixels the table maps; the others take nothing from the camera. The test runs
+//! per tile of [`TILE`]×[`TILE`] positions at its middle position: a tile whose middle lies
+//! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
+//! positions from the middle) is decided whole, the others position by position; the set is
+//! the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
+//! reachable centres ([`CameraModel::stored_centres`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
 //! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened
@@ -167,8 +172,22 @@ impl Reach {
         match &self.reach[i] {
             None => out.extend(row.iter().map(stored)),
             Some(reach) => {
+                // by runs: most of a row lies beyond a camera's reach
                 let reach = &reach[j * gw..(j + 1) * gw];
-                out.extend(row.iter().zip(reach).map(|(d, r)| stored(d).filter(|_| *r)));
+                let mut i = 0;
+                while i < gw {
+                    let on = reach[i];
+                    let end = reach[i..]
+                        .iter()
+                        .position(|r| *r != on)
+                        .map_or(gw, |n| i + n);
+                    if on {
+                        out.extend(row[i..end].iter().map(stored));
+                    } else {
+                        out.resize(out.len() + end - i, None);
+                    }
+                    i = end;
+                }
             }
         }
         true
