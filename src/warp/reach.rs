@@ -295,6 +295,12 @@ struct Grid<'a> {
 /// The positions of the grid where `cone`'s camera may give a sample (widened by one), None
 /// for every position.
 fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
+    cone_reach_by(cone, grid, true)
+}
+
+/// [`cone_reach`], deciding the tiles it settles whole (`whole_tiles`) or every position
+/// alone (the tests' reference).
+fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool>> {
     let Grid {
         bearings,
         gw,
@@ -357,7 +363,9 @@ fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
                 };
                 let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
                 let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
-                let whole = whole_tile(cone, k, grid, limits[tile], (i0, i1), (j0, j1));
+                let whole = whole_tiles
+                    .then(|| whole_tile(cone, k, grid, limits[tile], (i0, i1), (j0, j1)))
+                    .flatten();
                 for j in j0..j1 {
                     let row = &mut rows[(j - j0) * gw..][i0..i1];
                     match whole {
@@ -527,3 +535,6 @@ impl CameraModel for Gated<'_> {
         self.output.size()
     }
 }
+
+#[cfg(test)]
+mod tests;
