@@ -118,6 +118,15 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
         None
     }
 
+    /// Appends to `out` the bearings of the pixel centres of row `v`, columns -1..=width,
+    /// exactly as [`CameraModel::unproject`] gives them (None for its errors), and gives true
+    /// where this camera holds them already (a stitch's output gated by its reach bound: a
+    /// remap table reads them instead of unprojecting each centre); false, `out` unchanged,
+    /// for the others (this default).
+    fn stored_centres(&self, _v: isize, _out: &mut Vec<Option<Vector3<f64>>>) -> bool {
+        false
+    }
+
     /// `Some(K)` where this camera is a pinhole of intrinsics K in its own axes: its
     /// [`CameraModel::project`] is exactly [`Perspective`]'s (the front test, then K · (x/z,
     /// y/z)), so that a remap table may project many bearings in batches of its own. None

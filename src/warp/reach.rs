@@ -13,7 +13,12 @@
 //! centre, so a pixel with a tap in the image has θ(q_i) ≤ c_i + δ_i at its centre, with
 //! δ_i = 2·A·s/(s − b_i): those centres are the candidates, and a centre without a bearing is
 //! one too. Widened by two pixels (a pixel's scale estimate reads its neighbours' centres),
-//! they are the pixels the table maps; the others take nothing from the camera.
+//! they are the pixels the table maps; the others take nothing from the camera. The test runs
+//! per tile of [`TILE`]×[`TILE`] positions at its middle position: a tile whose middle lies
+//! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
+//! positions from the middle) is decided whole, the others position by position; the set is
+//! the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
+//! reachable centres ([`CameraModel::stored_centres`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
 //! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened
@@ -154,6 +159,40 @@ impl Reach {
         reach[y as usize * gw + x as usize]
     }
 
+    /// Appends the stored bearings of row `v`'s positions -1..=width to `out`, None where
+    /// the output gave none or camera `i` cannot reach: what [`Gated`]'s `unproject` gives
+    /// at those centres; false, `out` unchanged, for a row beyond the bound's.
+    fn gated_row(&self, i: usize, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
+        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
+        let Some(j) = usize::try_from(v + 1).ok().filter(|j| *j < gh) else {
+            return false;
+        };
+        let row = &self.bearings[j * gw..(j + 1) * gw];
+        let stored = |d: &Vector3<f64>| d.x.is_finite().then_some(*d);
+        match &self.reach[i] {
+            None => out.extend(row.iter().map(stored)),
+            Some(reach) => {
+                // by runs: most of a row lies beyond a camera's reach
+                let reach = &reach[j * gw..(j + 1) * gw];
+                let mut i = 0;
+                while i < gw {
+                    let on = reach[i];
+                    let end = reach[i..]
+                        .iter()
+                        .position(|r| *r != on)
+                        .map_or(gw, |n| i + n);
+                    if on {
+                        out.extend(row[i..end].iter().map(stored));
+                    } else {
+                        out.resize(out.len() + end - i, None);
+                    }
+                    i = end;
+                }
+            }
+        }
+        true
+    }
+
     /// Whether camera `i` may reach output pixel (u, v).
     pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
         self.reach[i]
@@ -163,16 +202,31 @@ impl Reach {
 }
 
 /// The bearings of `output`'s positions -1..=width × -1..=height (`gw` × `gh`), row-major,
-/// NaN where it has none.
+/// NaN where it has none: by column and row shares where the output separates (the same
+/// values as its `unproject`, bit for bit, without the trigonometry of every position).
 fn grid_bearings(output: &dyn CameraModel, gw: usize, gh: usize) -> Vec<Vector3<f64>> {
     let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
+    let sep = output.separable();
+    let columns: Vec<_> = sep.map_or(Vec::new(), |sep| {
+        (0..gw).map(|i| sep.column(i as f64 - 1.0)).collect()
+    });
     bearings
         .par_chunks_mut(gw)
         .enumerate()
-        .for_each(|(j, row)| {
+        .for_each_init(Vec::new, |row_bearings, (j, row)| {
+            let v = j as f64 - 1.0;
+            if let Some(sep) = sep {
+                row_bearings.clear();
+                sep.bearings(&columns, sep.row(v), row_bearings);
+                for (out, d) in row.iter_mut().zip(row_bearings.iter()) {
+                    if let Some(d) = d {
+                        *out = *d;
+                    }
+                }
+                return;
+            }
             for (i, out) in row.iter_mut().enumerate() {
-                let p = Point2::new(i as f64 - 1.0, j as f64 - 1.0);
-                if let Ok(d) = output.unproject(&p) {
+                if let Ok(d) = output.unproject(&Point2::new(i as f64 - 1.0, v)) {
                     *out = d;
                 }
             }
@@ -183,38 +237,48 @@ fn grid_bearings(output: &dyn CameraModel, gw: usize, gh: usize) -> Vec<Vector3<
 /// A: the largest turn between adjacent centres of the grid (across, down and both
 /// diagonals), radians.
 fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f64 {
-    // the turn 2·asin(chord/2) of the longest chord (asin grows with its argument)
-    let turn = |a: &Vector3<f64>, b: &Vector3<f64>| {
-        let chord = (a.normalize() - b.normalize()).norm();
-        if chord.is_finite() {
-            chord
+    // the turn 2·asin(chord/2) of the longest chord (asin grows with its argument); each
+    // bearing normalised once per row it is read in, the chords compared squared (the
+    // square root is monotonic: the same largest chord)
+    let unit = |row: &[Vector3<f64>], out: &mut Vec<Vector3<f64>>| {
+        out.clear();
+        out.extend(row.iter().map(|d| d.normalize()));
+    };
+    let chord2 = |a: &Vector3<f64>, b: &Vector3<f64>| {
+        let c = (a - b).norm_squared();
+        if c.is_finite() {
+            c
         } else {
             0.0
         }
     };
-    let step = (0..gh)
+    let step2 = (0..gh)
         .into_par_iter()
-        .map(|j| {
-            let mut a: f64 = 0.0;
-            for i in 0..gw {
-                let here = &bearings[j * gw + i];
-                if i + 1 < gw {
-                    a = a.max(turn(here, &bearings[j * gw + i + 1]));
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(here, below), j| {
+                unit(&bearings[j * gw..(j + 1) * gw], here);
+                let mut a: f64 = 0.0;
+                for i in 0..gw - 1 {
+                    a = a.max(chord2(&here[i], &here[i + 1]));
                 }
                 if j + 1 < gh {
-                    a = a.max(turn(here, &bearings[(j + 1) * gw + i]));
-                    if i + 1 < gw {
-                        a = a.max(turn(here, &bearings[(j + 1) * gw + i + 1]));
-                    }
-                    if i > 0 {
-                        a = a.max(turn(here, &bearings[(j + 1) * gw + i - 1]));
+                    unit(&bearings[(j + 1) * gw..(j + 2) * gw], below);
+                    for i in 0..gw {
+                        a = a.max(chord2(&here[i], &below[i]));
+                        if i + 1 < gw {
+                            a = a.max(chord2(&here[i], &below[i + 1]));
+                        }
+                        if i > 0 {
+                            a = a.max(chord2(&here[i], &below[i - 1]));
+                        }
                     }
                 }
-            }
-            a
-        })
+                a
+            },
+        )
         .reduce(|| 0.0, f64::max);
-    2.0 * (step / 2.0).min(1.0).asin()
+    2.0 * (step2.sqrt() / 2.0).min(1.0).asin()
 }
 
 /// The output's grid as a cone's bound reads it.
@@ -231,6 +295,12 @@ struct Grid<'a> {
 /// The positions of the grid where `cone`'s camera may give a sample (widened by one), None
 /// for every position.
 fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
+    cone_reach_by(cone, grid, true)
+}
+
+/// [`cone_reach`], deciding the tiles it settles whole (`whole_tiles`) or every position
+/// alone (the tests' reference).
+fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool>> {
     let Grid {
         bearings,
         gw,
@@ -268,31 +338,94 @@ fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
         .iter()
         .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
         .collect();
-    let candidate: Vec<bool> = bearings
-        .par_iter()
+    let position = |d: &Vector3<f64>, tile: usize| -> bool {
+        let limit = limits[tile];
+        if !d.x.is_finite() || !(limit < std::f64::consts::PI) {
+            return true;
+        }
+        let q = (cone.local)(d);
+        // NaN compares false: such a point is a candidate too
+        match cos_limits[tile] {
+            Some(c) => !(q.z < c * q.norm()),
+            None => !(q.x.hypot(q.y).atan2(q.z) > limit),
+        }
+    };
+    let mut candidate = vec![false; bearings.len()];
+    candidate
+        .par_chunks_mut(gw * TILE)
         .enumerate()
-        .map(|(at, d)| {
-            if !d.x.is_finite() {
-                return true;
+        .for_each(|(tj, rows)| {
+            for ti in 0..tiles_across {
+                let tile = if limits.len() == 1 {
+                    0
+                } else {
+                    tj * tiles_across + ti
+                };
+                let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
+                let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
+                let whole = whole_tiles
+                    .then(|| whole_tile(cone, k, grid, limits[tile], (i0, i1), (j0, j1)))
+                    .flatten();
+                for j in j0..j1 {
+                    let row = &mut rows[(j - j0) * gw..][i0..i1];
+                    match whole {
+                        Some(all) => row.fill(all),
+                        None => {
+                            for (i, out) in (i0..i1).zip(row) {
+                                *out = position(&bearings[j * gw + i], tile);
+                            }
+                        }
+                    }
+                }
             }
-            let tile = if limits.len() == 1 {
-                0
-            } else {
-                (at / gw / TILE) * tiles_across + at % gw / TILE
-            };
-            let limit = limits[tile];
-            if !(limit < std::f64::consts::PI) {
-                return true;
-            }
-            let q = (cone.local)(d);
-            // NaN compares false: such a point is a candidate too
-            match cos_limits[tile] {
-                Some(c) => !(q.z < c * q.norm()),
-                None => !(q.x.hypot(q.y).atan2(q.z) > limit),
-            }
-        })
-        .collect();
+        });
     Some(widen(&candidate, gw, gh))
+}
+
+/// Radians a tile's decision keeps clear of the cone's limit (and of the 1e-6 rad the
+/// per-position test adds to it): far beyond the rounding of the angles compared.
+const TILE_CLEARANCE: f64 = 1e-7;
+
+/// The per-position decision of every position of the tile `is` × `js` at once, where the
+/// cone test at its middle position's bearing settles them all: every position lies within
+/// k·A of the middle (k the most positions between them, A the largest turn between adjacent
+/// ones), so its camera point within k·A·`parallax` of the middle's; None where it does not
+/// settle them (or a position has no bearing).
+fn whole_tile(
+    cone: &Cone,
+    parallax: f64,
+    grid: &Grid,
+    limit: f64,
+    (i0, i1): (usize, usize),
+    (j0, j1): (usize, usize),
+) -> Option<bool> {
+    if !(limit < std::f64::consts::PI) {
+        return Some(true);
+    }
+    let gw = grid.gw;
+    let every = (j0..j1).all(|j| {
+        grid.bearings[j * gw + i0..j * gw + i1]
+            .iter()
+            .all(|d| d.x.is_finite())
+    });
+    if !every {
+        return None;
+    }
+    let (mi, mj) = ((i0 + i1 - 1) / 2, (j0 + j1 - 1) / 2);
+    let k = (mi - i0).max(i1 - 1 - mi).max(mj - j0).max(j1 - 1 - mj);
+    let radius = k as f64 * grid.step * parallax + 1e-9;
+    let q = (cone.local)(&grid.bearings[mj * gw + mi]);
+    let theta = q.x.hypot(q.y).atan2(q.z);
+    if !(theta.is_finite() && radius.is_finite()) {
+        return None;
+    }
+    if theta - radius > limit + 1e-6 + TILE_CLEARANCE {
+        Some(false)
+    } else if theta + radius < limit - TILE_CLEARANCE {
+        Some(true)
+    } else {
+        None
+    }
 }
 
 /// Per tile of [`TILE`]×[`TILE`] positions (row-major), a lower bound of the scene's distance
@@ -330,25 +463,33 @@ fn tile_nearest(
         .collect()
 }
 
-/// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter).
+/// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter), as ORs of
+/// shifted rows (no branch per position).
 fn widen(set: &[bool], w: usize, h: usize) -> Vec<bool> {
     let mut across = vec![false; set.len()];
     across
         .par_chunks_mut(w)
         .zip(set.par_chunks(w))
-        .for_each(|(out, row)| {
-            for (i, o) in out.iter_mut().enumerate() {
-                let lo = i.saturating_sub(WIDEN);
-                let hi = (i + WIDEN).min(w - 1);
-                *o = row[lo..=hi].iter().any(|b| *b);
-            }
-        });
+        .for_each_init(
+            || vec![false; w + 2 * WIDEN],
+            |padded, (out, row)| {
+                padded[WIDEN..WIDEN + w].copy_from_slice(row);
+                out.copy_from_slice(&padded[..w]);
+                for s in 1..=2 * WIDEN {
+                    for (o, x) in out.iter_mut().zip(&padded[s..s + w]) {
+                        *o |= *x;
+                    }
+                }
+            },
+        );
     let mut out = vec![false; set.len()];
     out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
         let lo = j.saturating_sub(WIDEN);
         let hi = (j + WIDEN).min(h - 1);
-        for (i, o) in row.iter_mut().enumerate() {
-            *o = (lo..=hi).any(|k| across[k * w + i]);
+        for k in lo..=hi {
+            for (o, x) in row.iter_mut().zip(&across[k * w..(k + 1) * w]) {
+                *o |= *x;
+            }
         }
     });
     out
@@ -382,6 +523,10 @@ impl CameraModel for Gated<'_> {
         self.output.unproject(p)
     }
 
+    fn stored_centres(&self, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
+        self.reach.gated_row(self.camera, v, out)
+    }
+
     fn distance(&self, p: &Vector3<f64>) -> f64 {
         self.output.distance(p)
     }
@@ -390,3 +535,6 @@ impl CameraModel for Gated<'_> {
         self.output.size()
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -4,12 +4,13 @@
 use super::far_fill::{far_pixels, FarScene};
 use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
-use crate::camera::{perpendiculars, CameraModel};
+use crate::camera::{perpendiculars, CameraModel, Intrinsics};
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
 use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
-use nalgebra::{Matrix3, Point2, Vector3};
+use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
+use std::sync::LazyLock;
 
 /// A depth-guided sample's footprint radius, source pixels: the source's blur (σ 0.55 px,
 /// reaching 1.5 px) and the bilinear taps' reach.
@@ -27,16 +28,19 @@ fn smoothstep(t: f64) -> f64 {
 /// image.
 #[cfg(test)]
 fn margin(camera: &StitchCamera, q: &Vector3<f64>) -> Option<f64> {
-    margin_capped(camera, q, None)
+    margin_capped(camera, q, None, None)
 }
 
 /// [`margin`], or any value ≥ `cap` where the margin is at least `cap`: with `inner_cos` =
 /// cos(θ_max − cap − [`FOV_SLACK`]), a point at a cosine above it has a field-of-view margin
 /// beyond the cap, and its angle is not computed (the weight saturates there).
+/// With `saturation`, any value ≥ its width where the border's margin certainly reaches it
+/// (see [`saturated`]).
 fn margin_capped(
     camera: &StitchCamera,
     q: &Vector3<f64>,
     inner_cos: Option<(f64, f64)>,
+    saturation: Option<&Saturation>,
 ) -> Option<f64> {
     let deep = inner_cos.is_some_and(|(c, cap)| {
         let n = q.norm();
@@ -53,13 +57,14 @@ fn margin_capped(
         .min(size.width as f64 - 0.5 - p.x)
         .min(p.y + 0.5)
         .min(size.height as f64 - 0.5 - p.y);
+    if let Some(s) = saturation.filter(|s| fov >= s.width && saturated(s, &p, border)) {
+        return Some(s.width);
+    }
     let n = q.normalize();
     let (a, b) = perpendiculars(&n);
     let mut scale: f64 = 0.0;
     for axis in [a, b] {
-        let turned =
-            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), SCALE_PROBE)
-                * n;
+        let turned = probe_turn(&Unit::new_normalize(axis)) * n;
         if let Ok(t) = camera.model.project_point(&turned) {
             scale = scale.max((t - p).norm() / SCALE_PROBE);
         }
@@ -68,6 +73,53 @@ fn margin_capped(
         return None;
     }
     Some(fov.min(border / scale))
+}
+
+/// A pinhole camera's intrinsics and the blend width: where its margin certainly reaches
+/// the width, the weight saturates and the local scale need not be measured.
+#[derive(Debug, Clone, Copy)]
+struct Saturation {
+    width: f64,
+    k: Intrinsics,
+}
+
+/// Whether a pinhole's border margin at pixel `p` (`border` pixels from the nearest edge)
+/// certainly reaches the width, whatever the local scale measures: a turn by ε moves the
+/// normalised image point by at most ε·max(1 + r²) over the turn (sec² θ, the gnomonic
+/// projection's largest stretch; r = tan θ grows by less than 0.01 over ε at r ≤ 3), so the
+/// scale is at most max(|fu|, |fv|)·(1 + (r + 0.01)²), here with 0.1 % to spare.
+fn saturated(s: &Saturation, p: &Point2<f64>, border: f64) -> bool {
+    let k = &s.k;
+    let r = ((p.x - k.cu) / k.fu).hypot((p.y - k.cv) / k.fv);
+    if !(r <= 3.0) {
+        return false;
+    }
+    let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
+    border >= s.width * most
+}
+
+/// sin and cos of [`SCALE_PROBE`], computed once.
+static PROBE_SIN_COS: LazyLock<(f64, f64)> = LazyLock::new(|| SCALE_PROBE.sin_cos());
+
+/// The turn by [`SCALE_PROBE`] about `axis`: nalgebra's `Rotation3::from_axis_angle`, the
+/// same arithmetic term by term (so the same bits), with the angle's sine and cosine computed
+/// once instead of at every pixel.
+fn probe_turn(axis: &Unit<Vector3<f64>>) -> Rotation3<f64> {
+    let (sin, cos) = *PROBE_SIN_COS;
+    let (ux, uy, uz) = (axis[0], axis[1], axis[2]);
+    let (sqx, sqy, sqz) = (ux * ux, uy * uy, uz * uz);
+    let one_m_cos = 1.0 - cos;
+    Rotation3::from_matrix_unchecked(Matrix3::new(
+        sqx + (1.0 - sqx) * cos,
+        ux * uy * one_m_cos - uz * sin,
+        ux * uz * one_m_cos + uy * sin,
+        ux * uy * one_m_cos + uz * sin,
+        sqy + (1.0 - sqy) * cos,
+        uy * uz * one_m_cos - ux * sin,
+        ux * uz * one_m_cos - uy * sin,
+        uy * uz * one_m_cos + ux * sin,
+        sqz + (1.0 - sqz) * cos,
+    ))
 }
 
 /// Step 6 of the model: whether camera `proxy`'s sample for output pixel (u, v), seeing camera
@@ -156,11 +208,15 @@ impl Stitch {
             Some(scene) => Some(scene),
             None => depth,
         };
-        let proxies: Vec<Proxy> = cameras
-            .iter()
-            .enumerate()
-            .map(|(i, camera)| Proxy::guided((i, *camera), *centre, options.distance, depth))
-            .collect();
+        // (the bound's proxies serve unless the far fill changed the depth)
+        let refilled: Option<Vec<Proxy>> = far_scene.as_ref().map(|_| {
+            cameras
+                .iter()
+                .enumerate()
+                .map(|(i, camera)| Proxy::guided((i, *camera), *centre, options.distance, depth))
+                .collect()
+        });
+        let proxies = refilled.as_deref().unwrap_or(&proxies);
         let mut tables = Vec::with_capacity(cameras.len());
         let mut weights = Vec::with_capacity(cameras.len());
         let pass = WeightPass {
@@ -170,7 +226,7 @@ impl Stitch {
             depth,
             options,
         };
-        for (i, (camera, proxy)) in cameras.iter().zip(&proxies).enumerate() {
+        for (i, (camera, proxy)) in cameras.iter().zip(proxies).enumerate() {
             let gated = Gated {
                 output,
                 reach: &reach,
@@ -285,6 +341,9 @@ impl WeightPass<'_> {
             .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
             .map(|a| (a.cos(), b));
         let footprint = footprint_angle(camera);
+        let saturation = (camera.model.pinhole())
+            .filter(|_| b > 0.0 && b.is_finite())
+            .map(|k| Saturation { width: b, k });
         let mut wi = vec![0f32; w * h];
         wi.par_chunks_mut(w.max(1))
             .enumerate()
@@ -309,7 +368,7 @@ impl WeightPass<'_> {
                         }
                         _ => (proxy.local(&d), true),
                     };
-                    if let Some(m) = margin_capped(camera, &q, deep) {
+                    if let Some(m) = margin_capped(camera, &q, deep, saturation.as_ref()) {
                         let wm = smoothstep(m / options.blend_width) as f32;
                         *out = if seen { wm } else { -wm };
                     }
@@ -408,6 +467,64 @@ mod tests {
     }
 
     #[test]
+    fn the_probe_turn_is_nalgebras_to_the_bit() {
+        // axes over the sphere, as the margins' perpendiculars give them
+        let mut differ = 0;
+        for k in 0..20000 {
+            let z = 1.0 - 2.0 * (k as f64 + 0.5) / 20000.0;
+            let phi = k as f64 * 2.399963229728653;
+            let r = (1.0 - z * z).sqrt();
+            let n = Vector3::new(r * phi.cos(), r * phi.sin(), z);
+            let (a, b) = perpendiculars(&n);
+            for axis in [a, b] {
+                let axis = Unit::new_normalize(axis);
+                let ours = probe_turn(&axis) * n;
+                let theirs = Rotation3::from_axis_angle(&axis, SCALE_PROBE) * n;
+                let bits = |v: Vector3<f64>| v.map(f64::to_bits);
+                differ += usize::from(bits(ours) != bits(theirs));
+            }
+        }
+        assert_eq!(differ, 0);
+    }
+
+    #[test]
+    fn a_saturated_pinhole_weight_is_the_measured_one() {
+        // a wide and a narrow pinhole, off-centre principal points, points over the whole
+        // image and beyond it
+        let b = 5f64.to_radians();
+        let (mut shortcut, mut measured) = (0, 0);
+        for k in [
+            Intrinsics::new(400.0, 380.0, 300.5, 170.0),
+            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
+        ] {
+            let model = Perspective::new(k, ImageSize::new(640 + k.fu as u32, 360));
+            let camera = StitchCamera {
+                model: &model,
+                rotation: Matrix3::identity(),
+                translation: Vector3::zeros(),
+                max_theta: None,
+            };
+            let s = Saturation { width: b, k };
+            for i in 0..40000 {
+                let (x, y) = (
+                    (i % 200) as f64 / 100.0 - 1.0,
+                    (i / 200) as f64 / 100.0 - 1.0,
+                );
+                let q = Vector3::new(x * 1.3, y * 0.9, 1.0) * (1.0 + (i % 3) as f64);
+                let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
+                let fast = margin_capped(&camera, &q, None, Some(&s));
+                assert_eq!(w(fast), w(margin(&camera, &q)), "{q}");
+                if fast == Some(b) {
+                    shortcut += 1;
+                } else {
+                    measured += 1;
+                }
+            }
+        }
+        assert!(shortcut > 5000 && measured > 5000, "{shortcut} {measured}");
+    }
+
+    #[test]
     fn the_cosine_shortcuts_decide_as_the_angle_does() {
         let model = crate::camera::Unified::new(
             2.0,
@@ -455,7 +572,11 @@ mod tests {
             }
             let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
             let full = margin(&camera, &q);
-            assert_eq!(w(margin_capped(&camera, &q, deep)), w(full), "θ = {theta}");
+            assert_eq!(
+                w(margin_capped(&camera, &q, deep, None)),
+                w(full),
+                "θ = {theta}"
+            );
             saturated += usize::from(full.is_some_and(|m| m >= b));
         }
         assert!(

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use std::sync::OnceLock;
 
 mod dense;
+mod gate;
 mod lanes;
 mod local;
 mod plain;
@@ -208,6 +209,7 @@ impl<'a> Builder<'a> {
                 }
                 parts.bearings.resize((w + 2) as usize, None);
             }
+            None if gate::stored_centres(self.dst, v, self.seen, &mut parts.bearings) => {}
             // a lens is unprojected only where the source may be seen (most of it is not)
             None => parts.bearings.extend(
                 (-1..=w).map(|u| sees(u).then(|| self.bearing(u as f64, v as f64)).flatten()),

@@ -1,0 +1,113 @@
+//! The bound's shortcuts against the per-position computation they replace.
+
+use super::*;
+use crate::camera::{Equirect, Intrinsics, Perspective, Rotated};
+use nalgebra::Rotation3;
+
+/// A 400×200 equirect output (separable) and the same turned (not separable).
+fn outputs() -> (Equirect, Rotated<Equirect>) {
+    let equirect = || {
+        let f = 400.0 / (2.0 * std::f64::consts::PI);
+        Equirect::new(
+            Intrinsics::new(f, f, 200.0, 100.0),
+            ImageSize::new(400, 200),
+        )
+    };
+    let turn = *Rotation3::from_euler_angles(0.3, -0.2, 0.1).matrix();
+    (equirect(), Rotated::new(equirect(), turn))
+}
+
+/// Proxy-point maps of three cameras (10 m sphere, baselines up to 0.5 m), turned apart.
+fn locals() -> Vec<impl Fn(&Vector3<f64>) -> Vector3<f64> + Sync> {
+    [(0.0, 0.3), (1.9, -0.5), (-2.6, 0.2)]
+        .into_iter()
+        .map(|(yaw, x)| {
+            let r = *Rotation3::from_euler_angles(0.1, yaw, 0.0).matrix();
+            let t = Vector3::new(x, 0.1, -0.2);
+            move |d: &Vector3<f64>| r * (d.normalize() * 10.0) + t
+        })
+        .collect()
+}
+
+#[test]
+fn the_tiles_decide_every_position_as_the_positions_alone_do() {
+    let (plain, turned) = outputs();
+    let locals = locals();
+    let near = |d: &Vector3<f64>, _radius: f64| 2.0 + 1.5 * d.y;
+    for output in [&plain as &dyn CameraModel, &turned] {
+        let size = output.size();
+        let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
+        let bearings = grid_bearings(output, gw, gh);
+        let step = largest_turn(&bearings, gw, gh);
+        let tiles = tile_nearest(&bearings, gw, gh, step, &near);
+        for (half_angle, guided) in [(0.45, false), (1.1, false), (0.6, true)] {
+            let grid = Grid {
+                bearings: &bearings,
+                gw,
+                gh,
+                step,
+                tiles: guided.then_some(&tiles[..]),
+            };
+            for local in &locals {
+                let cone = Cone {
+                    local,
+                    half_angle: Some(half_angle),
+                    parallax: Some(if guided { 1.0 } else { 10.0 / 9.5 }),
+                    baseline: guided.then_some(0.5),
+                };
+                let tiled = cone_reach_by(&cone, &grid, true).unwrap();
+                let alone = cone_reach_by(&cone, &grid, false).unwrap();
+                assert!(tiled == alone, "{output:?} {half_angle} {guided}");
+                // the cone holds some positions and leaves others
+                let held = tiled.iter().filter(|r| **r).count();
+                assert!(held > 500 && held < tiled.len() - 500, "{held}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_gated_row_is_what_the_gated_unproject_gives() {
+    let (plain, turned) = outputs();
+    let locals = locals();
+    let camera = Perspective::new(
+        Intrinsics::new(200.0, 200.0, 150.0, 100.0),
+        ImageSize::new(300, 200),
+    );
+    for output in [&plain as &dyn CameraModel, &turned] {
+        let cones: Vec<Cone> = locals
+            .iter()
+            .enumerate()
+            .map(|(i, local)| Cone {
+                local,
+                half_angle: (i > 0).then(|| border_cone(&camera)).flatten(),
+                parallax: Some(10.0 / 9.5),
+                baseline: None,
+            })
+            .collect();
+        let reach = Reach::new(output, &cones, None);
+        let size = output.size();
+        let (w, h) = (size.width as isize, size.height as isize);
+        let mut refused = 0;
+        for i in 0..cones.len() {
+            let gated = Gated {
+                output,
+                reach: &reach,
+                camera: i,
+            };
+            let mut row = Vec::new();
+            for v in -1..=h {
+                row.clear();
+                assert!(gated.stored_centres(v, &mut row));
+                let each: Vec<_> = (-1..=w)
+                    .map(|u| gated.unproject(&Point2::new(u as f64, v as f64)).ok())
+                    .collect();
+                assert_eq!(row, each, "camera {i}, row {v}");
+                refused += row.iter().filter(|d| d.is_none()).count();
+            }
+            assert!(!gated.stored_centres(h + 1, &mut row));
+        }
+        // the first camera's cone is unbounded, the others refuse most positions
+        assert!(refused > (w * h) as usize, "{refused}");
+    }
+}
