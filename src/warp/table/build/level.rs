@@ -1,0 +1,52 @@
+//! The pyramid level a coarse output pixel samples (see `table/pyramid.rs`), and a tap's
+//! bilinear block at a level. A pixel s source pixels wide (the smaller of its two axes' scales)
+//! samples level k, 2^k ≤ s < 2^(k+1), where its footprint is one to two level pixels: one tap
+//! along an axis where it spans under 1.5 of them, two up to 2 (more along a longer axis of an
+//! anisotropic footprint), each a bilinear block of the level. The pyramid's box filter and
+//! the bilinear weights together blur about as a Gaussian of 0.5 output pixel, what an exact
+//! render's footprint is; the taps per source pixel of level 0 blur less and cost s² taps.
+
+use super::Builder;
+use crate::warp::table::{column_inside, row_inside};
+use nalgebra::Point2;
+
+impl Builder<'_> {
+    /// The level of a pixel whose smaller squared scale is `scale2`: the largest k with
+    /// 4^k ≤ `scale2` among the levels the table may sample (0 where it samples the source
+    /// alone). Exact comparisons, so that the choice is the same on every machine.
+    #[inline]
+    pub(super) fn level_of(&self, scale2: f64) -> u32 {
+        let mut k = 0;
+        while k + 1 < self.shapes.len() && scale2 >= (1u64 << (2 * (k + 1))) as f64 {
+            k += 1;
+        }
+        k as u32
+    }
+
+    /// The bilinear block at pyramid level `level` of a tap at source position `p` (level-0
+    /// pixels): its top-left pixel's column and buffer row, and the weights of top-left,
+    /// bottom-left, top-right, bottom-right; None outside the source (level 0's border: which
+    /// taps are inside does not depend on the level).
+    #[inline(always)]
+    pub(super) fn block_at(&self, p: Point2<f64>, level: u32) -> Option<(u32, u32, [f64; 4])> {
+        if level == 0 {
+            return self.block(p);
+        }
+        let size = self.source_size;
+        if !column_inside(p.x, size.width as f64) || !row_inside(p.y, size.height as f64) {
+            return None;
+        }
+        let (lw, lh, row) = self.shapes[level as usize];
+        // level pixel x covers level-0 pixels 2^k·x to 2^k·(x + 1) - 1: its centre is at
+        // 2^k·(x + 0.5) - 0.5
+        let f = (1u32 << level) as f64;
+        let x = ((p.x + 0.5) / f - 0.5).clamp(0.0, lw as f64 - 1.0);
+        let y = ((p.y + 0.5) / f - 0.5).clamp(0.0, lh as f64 - 1.0);
+        // (x, y >= 0: truncation is floor; a level is at least 2×2)
+        let (x0, y0) = ((x as u32).min(lw - 2), (y as u32).min(lh - 2));
+        let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+        let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
+        let (tr, br) = (fx * (1.0 - fy), fx * fy);
+        Some((x0, row + y0, [tl, bl, tr, br]))
+    }
+}
