@@ -9,6 +9,10 @@
 //! (`build/local.rs`; each tap is mapped through the cameras only where the mapping bends too
 //! sharply for that, near a pole or a lens's rim), and merged into a dense grid of the source
 //! pixels under them instead of being sorted (`build/dense.rs`).
+//! A table built by [`RemapTable::build_pyramid_within`] samples a pixel two or more source
+//! pixels wide along both axes in the source's pyramid instead (`table/pyramid.rs`,
+//! `build/level.rs`): one to a few bilinear taps at the level where it spans one to two level
+//! pixels, about a bilinear lookup's cost to build and to apply.
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path. The finished table holds them in groups of
@@ -24,7 +28,7 @@ mod blocks;
 mod build;
 mod pyramid;
 
-pub use pyramid::{average_u8, pyramid};
+pub use pyramid::{narrow_u8, pyramid};
 
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
@@ -205,7 +209,7 @@ impl RemapTable {
         if self.levels <= 1 {
             return src.into();
         }
-        pyramid(src, self.source_size, 3, self.levels, average_u8).into()
+        pyramid::pyramid_u8(src, self.source_size, self.levels).into()
     }
 
     /// Resamples output row `v` into `row` (the table's width × 3 bytes), on the calling

@@ -31,16 +31,22 @@ pub(crate) fn pyramid_rows(size: ImageSize, levels: u32) -> u32 {
 }
 
 /// The pyramid of `levels` levels of `src` (`size`, `channels` values a pixel, rows top to
-/// bottom) in one buffer of the source's width (see the module's notes); `average` gives a
-/// coarser pixel's value from its four finer ones (top-left, top-right, bottom-left,
-/// bottom-right). Level 0 is `src`'s values, copied.
-pub fn pyramid<T: Copy + Default>(
+/// bottom) in one buffer of the source's width (see the module's notes). A level-k pixel is
+/// the mean of the source pixels under it, rounded once: each level's 2×2 sums of the one
+/// above are kept in the wider type `A` (`widen` of a source value) and `narrow(sum, k)` makes
+/// a level-k value of the sum of its 4^k source values. Level 0 is `src`'s values, copied.
+pub fn pyramid<T, A>(
     src: &[T],
     size: ImageSize,
     channels: usize,
     levels: u32,
-    average: impl Fn(T, T, T, T) -> T,
-) -> Vec<T> {
+    widen: impl Fn(T) -> A,
+    narrow: impl Fn(A, u32) -> T,
+) -> Vec<T>
+where
+    T: Copy + Default,
+    A: Copy + Default + std::ops::Add<Output = A>,
+{
     let width = size.width as usize;
     let stride = width * channels;
     assert_eq!(
@@ -52,33 +58,48 @@ pub fn pyramid<T: Copy + Default>(
     let rows = pyramid_rows(size, levels) as usize;
     let mut out = vec![T::default(); stride * rows];
     out[..src.len()].copy_from_slice(src);
-    for pair in shapes.windows(2) {
-        let [(fw, fh, frow), (lw, lh, lrow)] = [pair[0], pair[1]];
-        let (fine, coarse) = out.split_at_mut(lrow as usize * stride);
-        let fine = &fine[frow as usize * stride..];
+    if shapes.len() < 2 {
+        return out;
+    }
+    let mut fine: Vec<A> = src.iter().map(|&v| widen(v)).collect();
+    let mut coarse: Vec<A> = Vec::new();
+    for (k, pair) in shapes.windows(2).enumerate() {
+        let [(fw, fh, _), (lw, lh, lrow)] = [pair[0], pair[1]];
+        let (fs, ls) = (fw as usize * channels, lw as usize * channels);
+        coarse.clear();
+        coarse.resize(ls * lh as usize, A::default());
         for y in 0..lh as usize {
             let (y0, y1) = (2 * y, (2 * y + 1).min(fh as usize - 1));
-            let (top, bottom) = (&fine[y0 * stride..], &fine[y1 * stride..]);
-            let row = &mut coarse[y * stride..];
+            let (top, bottom) = (&fine[y0 * fs..], &fine[y1 * fs..]);
+            let sums = &mut coarse[y * ls..(y + 1) * ls];
+            let row = &mut out[(lrow as usize + y) * stride..];
             for x in 0..lw as usize {
                 let (x0, x1) = (
                     2 * x * channels,
                     (2 * x + 1).min(fw as usize - 1) * channels,
                 );
                 for c in 0..channels {
-                    row[x * channels + c] =
-                        average(top[x0 + c], top[x1 + c], bottom[x0 + c], bottom[x1 + c]);
+                    let sum = top[x0 + c] + top[x1 + c] + bottom[x0 + c] + bottom[x1 + c];
+                    sums[x * channels + c] = sum;
+                    row[x * channels + c] = narrow(sum, k as u32 + 1);
                 }
             }
         }
+        std::mem::swap(&mut fine, &mut coarse);
     }
     out
 }
 
-/// The rounded mean of four 8-bit values (the integer rule of the RGB pyramid).
+/// The rule of 8-bit pyramids ([`pyramid`]'s `narrow` for values summed in a `u32`): the sum
+/// of 4^`level` values (`level` >= 1), divided and rounded half up.
 #[inline]
-pub fn average_u8(a: u8, b: u8, c: u8, d: u8) -> u8 {
-    ((a as u16 + b as u16 + c as u16 + d as u16 + 2) >> 2) as u8
+pub fn narrow_u8(sum: u32, level: u32) -> u8 {
+    ((sum + (1 << (2 * level - 1))) >> (2 * level)) as u8
+}
+
+/// The RGB pyramid the kernels of a [`RemapTable`](super::RemapTable) read.
+pub(crate) fn pyramid_u8(src: &[u8], size: ImageSize, levels: u32) -> Vec<u8> {
+    pyramid(src, size, 3, levels, u32::from, narrow_u8)
 }
 
 #[cfg(test)]
@@ -91,12 +112,60 @@ mod tests {
         let size = ImageSize::new(5, 3);
         let src: Vec<u8> = (0..15).map(|i| (i * 10) as u8).collect();
         assert_eq!(level_shapes(size, 4), vec![(5, 3, 0), (3, 2, 3)]);
-        let p = pyramid(&src, size, 1, 4, average_u8);
+        let p = pyramid(&src, size, 1, 4, u32::from, narrow_u8);
         assert_eq!(p.len(), 5 * 5);
         assert_eq!(&p[..15], &src[..]);
         // (0 + 10 + 50 + 60 + 2) / 4 = 30; the odd column repeated: (40 + 40 + 90 + 90) / 4
         assert_eq!(&p[15..20], &[30, 50, 65, 0, 0]);
         // the odd last row repeated: (100 + 110 + 100 + 110 + 2) / 4 = 105
         assert_eq!(&p[20..25], &[105, 125, 140, 0, 0]);
+    }
+
+    #[test]
+    fn a_level_is_the_mean_of_its_source_pixels_rounded_once() {
+        // 8×8 → 4×4 → 2×2: in each 4×4 block three 2×2 blocks of mean 0.5 (rounded up to 1 at
+        // level 1) and one of 0: the block's mean is 0.375 (0), its rounded level-1 values'
+        // 0.75 (1): a level made of the rounded level above drifts
+        let size = ImageSize::new(8, 8);
+        let src: Vec<u8> = (0..64)
+            .map(|i| {
+                let (x, y) = (i % 8, i / 8);
+                let corner = x % 2 == 0 && y % 2 == 0 && !(x % 4 >= 2 && y % 4 >= 2);
+                if corner {
+                    2
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let p = pyramid(&src, size, 1, 3, u32::from, narrow_u8);
+        let shapes = level_shapes(size, 3);
+        assert_eq!(shapes.len(), 3);
+        let mut drifted = false;
+        for (k, &(lw, lh, row)) in shapes.iter().enumerate().skip(1) {
+            let n = 1usize << k;
+            for y in 0..lh as usize {
+                for x in 0..lw as usize {
+                    let sum: u32 = (0..n * n)
+                        .map(|i| src[(y * n + i / n) * 8 + x * n + i % n] as u32)
+                        .sum();
+                    let got = p[(row as usize + y) * 8 + x];
+                    assert_eq!(got, narrow_u8(sum, k as u32), "level {k} ({x}, {y})");
+                    if k == 2 {
+                        // what level 1's rounded values would give
+                        let l1 = |xx: usize, yy: usize| p[(4 + yy) * 8 + xx] as u32;
+                        let from_above = narrow_u8(
+                            l1(2 * x, 2 * y)
+                                + l1(2 * x + 1, 2 * y)
+                                + l1(2 * x, 2 * y + 1)
+                                + l1(2 * x + 1, 2 * y + 1),
+                            1,
+                        );
+                        drifted |= from_above != got;
+                    }
+                }
+            }
+        }
+        assert!(drifted, "the case tells the two rules apart");
     }
 }
