@@ -370,7 +370,7 @@ impl<'a> Builder<'a> {
         quads: &mut Vec<Quad>,
     ) -> u32 {
         parts.taps.clear();
-        if !self.local_taps(near, nu, nv, &mut parts.taps) {
+        if !self.local_taps(near, (nu, nv, level), &mut parts.taps) {
             // the taps row by row, each row's columns left to right
             parts.bearings.clear();
             match self.by_parts {

