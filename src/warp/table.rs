@@ -9,10 +9,10 @@
 //! (`build/local.rs`; each tap is mapped through the cameras only where the mapping bends too
 //! sharply for that, near a pole or a lens's rim), and merged into a dense grid of the source
 //! pixels under them instead of being sorted (`build/dense.rs`).
-//! A table built by [`RemapTable::build_pyramid_within`] samples a pixel two or more source
+//! A table built by [`RemapTable::build_pyramid_within`] samples a pixel 1.5 or more source
 //! pixels wide along both axes in the source's pyramid instead (`table/pyramid.rs`,
-//! `build/level.rs`): one to a few bilinear taps at the level where it spans one to two level
-//! pixels, about a bilinear lookup's cost to build and to apply.
+//! `build/level.rs`): one bilinear tap at the level where it spans 0.75 to 1.5 level pixels,
+//! about a bilinear lookup's cost to build and to apply.
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path. The finished table holds them in groups of

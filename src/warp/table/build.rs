@@ -40,11 +40,12 @@ impl RemapTable {
         b.build(parallel)
     }
 
-    /// As [`RemapTable::build_within`], where an output pixel two or more source pixels wide
-    /// along both of its axes samples the source's pyramid instead (see [`pyramid`]): one to
-    /// a few bilinear taps at the level where its footprint is one to two level pixels, about
-    /// what a bilinear lookup costs to build and apply, against a tap for each source pixel
-    /// under it. Pixels finer than that are exactly [`RemapTable::build_within`]'s. Apply the
+    /// As [`RemapTable::build_within`], where an output pixel 1.5 or more source pixels wide
+    /// along both of its axes samples the source's pyramid instead (see [`pyramid`]): one
+    /// bilinear tap (more along the longer axis of an anisotropic footprint) at the level
+    /// where it spans 0.75 to 1.5 level pixels, about what a bilinear lookup costs to build
+    /// and apply, against a tap for each source pixel under it. Pixels finer than that are
+    /// exactly [`RemapTable::build_within`]'s. Apply the
     /// table to [`RemapTable::input`]'s buffer (`apply` and `apply_into` build it). A 360°
     /// source (its columns wrap) takes the taps of [`RemapTable::build_within`].
     ///
