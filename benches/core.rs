@@ -65,7 +65,7 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
-    pyramid_tables(c, &src, &image);
+    pyramid_tables(c, &src, k, &image);
 
     // Elements are output pixels: "bilinear" is one tap a pixel (antialiasing off), the others
     // the tables the CLI builds (supersampled where the output is coarser than the source).
@@ -268,8 +268,12 @@ fn bench(c: &mut Criterion) {
 /// default; applying builds the pyramid), against plain bilinear: KITTI's frame to the 2048
 /// equirect (finer than the source but at its sides) and to a 640x480 190° fisheye turned as a
 /// drawn camera is (about 5 source pixels a pixel), serially, as the Python package builds.
-fn pyramid_tables(c: &mut Criterion, src: &Perspective, image: &panoconv::image::RgbImage) {
-    let k = src.intrinsics();
+fn pyramid_tables(
+    c: &mut Criterion,
+    src: &Perspective,
+    k: Intrinsics,
+    image: &panoconv::image::RgbImage,
+) {
     let spec = OutputSpec {
         projection: Projection::Equirect,
         scale: Scale::PanoWidth(2048),
