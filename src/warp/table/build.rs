@@ -16,6 +16,8 @@ use std::sync::OnceLock;
 mod dense;
 mod lanes;
 mod level;
+
+use level::{count, scales2};
 mod local;
 mod plain;
 
@@ -583,47 +585,4 @@ fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
     // no store to q[big]: an indexed store sends the weights through memory
     let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
     Quad { offset, w }
-}
-
-/// Squared scale of an output pixel along its u and v axes: the squared distance (source
-/// pixels) one output step spans in each direction, from the table's own mapping of the
-/// pixel's centre and its neighbours' (a central difference; one-sided where a neighbour has
-/// no image). [`count`] makes a supersampling of it, anisotropic: at a KITTI frame's edges an
-/// equirect pixel spans 1.8 source pixels across but 1.3 down, and needs 2×1 samples, not 2×2.
-/// `period`: the source width of a 360° source, across whose wrap a step is taken the short
-/// way.
-fn scales2(
-    centre: Option<Point2<f64>>,
-    across: [Option<Point2<f64>>; 2],
-    down: [Option<Point2<f64>>; 2],
-    period: Option<f64>,
-) -> (f64, f64) {
-    let Some(c) = centre else {
-        return (0.0, 0.0);
-    };
-    // Squared distances: the square root is needed only for the (rare) counts above 1.
-    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
-        let mut d = b - a;
-        if let Some(w) = period {
-            d.x -= w * (d.x / w).round();
-        }
-        d.norm_squared()
-    };
-    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
-        (Some(a), Some(b)) => dist2(a, b) / 4.0,
-        (Some(a), None) => dist2(a, c),
-        (None, Some(b)) => dist2(c, b),
-        (None, None) => 0.0,
-    };
-    (step2(across), step2(down))
-}
-
-/// Taps along an axis whose squared scale is `scale2`: the scale rounded, 1 below 1.5 (and
-/// where it is not finite), at most [`MAX_SUPERSAMPLE`].
-fn count(scale2: f64) -> u32 {
-    if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
-        1
-    } else {
-        (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
-    }
 }

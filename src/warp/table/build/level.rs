@@ -1,5 +1,5 @@
-//! The pyramid level a coarse output pixel samples (see `table/pyramid.rs`), and a tap's
-//! bilinear block at a level. A pixel s source pixels wide (the smaller of its two axes'
+//! An output pixel's scale, the pyramid level a coarse one samples (see `table/pyramid.rs`),
+//! and a tap's bilinear block at a level. A pixel s source pixels wide (the smaller of its two axes'
 //! scales) samples level k, 1.5 · 2^(k-1) ≤ s < 1.5 · 2^k (level 0, the source, below 1.5:
 //! there it is the table of `RemapTable::build_within`), where it spans 0.75 to 1.5 level
 //! pixels: one bilinear tap of the level (more along the longer axis of an anisotropic
@@ -12,7 +12,7 @@
 //! pixel, 44.31, 47.59, 49.12 dB and 25.2, at several times the build cost.
 
 use super::Builder;
-use crate::warp::table::{column_inside, row_inside};
+use crate::warp::table::{column_inside, row_inside, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
 
 /// The squared smaller scale (source pixels an output pixel) from which level 1 is sampled,
@@ -57,5 +57,48 @@ impl Builder<'_> {
         let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
         let (tr, br) = (fx * (1.0 - fy), fx * fy);
         Some((x0, row + y0, [tl, bl, tr, br]))
+    }
+}
+
+/// Squared scale of an output pixel along its u and v axes: the squared distance (source
+/// pixels) one output step spans in each direction, from the table's own mapping of the
+/// pixel's centre and its neighbours' (a central difference; one-sided where a neighbour has
+/// no image). [`count`] makes a supersampling of it, anisotropic: at a KITTI frame's edges an
+/// equirect pixel spans 1.8 source pixels across but 1.3 down, and needs 2×1 samples, not 2×2.
+/// `period`: the source width of a 360° source, across whose wrap a step is taken the short
+/// way.
+pub(super) fn scales2(
+    centre: Option<Point2<f64>>,
+    across: [Option<Point2<f64>>; 2],
+    down: [Option<Point2<f64>>; 2],
+    period: Option<f64>,
+) -> (f64, f64) {
+    let Some(c) = centre else {
+        return (0.0, 0.0);
+    };
+    // Squared distances: the square root is needed only for the (rare) counts above 1.
+    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
+        let mut d = b - a;
+        if let Some(w) = period {
+            d.x -= w * (d.x / w).round();
+        }
+        d.norm_squared()
+    };
+    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
+        (Some(a), Some(b)) => dist2(a, b) / 4.0,
+        (Some(a), None) => dist2(a, c),
+        (None, Some(b)) => dist2(c, b),
+        (None, None) => 0.0,
+    };
+    (step2(across), step2(down))
+}
+
+/// Taps along an axis whose squared scale is `scale2`: the scale rounded, 1 below 1.5 (and
+/// where it is not finite), at most [`MAX_SUPERSAMPLE`].
+pub(super) fn count(scale2: f64) -> u32 {
+    if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
+        1
+    } else {
+        (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
     }
 }
