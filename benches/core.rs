@@ -65,6 +65,8 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
+    pyramid_tables(c, &src, k, &image);
+
     // Elements are output pixels: "bilinear" is one tap a pixel (antialiasing off), the others
     // the tables the CLI builds (supersampled where the output is coarser than the source).
     let mut g = c.benchmark_group("remap");
@@ -255,6 +257,73 @@ fn bench(c: &mut Criterion) {
         for comp in [PngCompression::Fast, PngCompression::Default] {
             g.bench_function(BenchmarkId::new(format!("encode_{comp:?}"), name), |b| {
                 b.iter(|| encode_rgb8(black_box(img), comp))
+            });
+        }
+    }
+    g.finish();
+}
+
+/// The antialiased table of a drawn view built and applied with a tap per source pixel
+/// (`taps`, the command's) and through the source's pyramid (`pyramid`, the Python package's
+/// default; applying builds the pyramid), against plain bilinear: KITTI's frame to the 2048
+/// equirect (finer than the source but at its sides) and to a 640x480 190° fisheye turned as a
+/// drawn camera is (about 5 source pixels a pixel; within the source's footprint), serially,
+/// as the Python package builds.
+fn pyramid_tables(
+    c: &mut Criterion,
+    src: &Perspective,
+    k: Intrinsics,
+    image: &panoconv::image::RgbImage,
+) {
+    let spec = OutputSpec {
+        projection: Projection::Equirect,
+        scale: Scale::PanoWidth(2048),
+        canvas: Canvas::Tight,
+        ..OutputSpec::new(Projection::Equirect)
+    };
+    let equirect = output_camera(&spec, k, src).unwrap();
+    let lens = panoconv::camera::Fisheye::new(
+        panoconv::camera::RadialModel::Equidistant,
+        Intrinsics::new(150.0, 150.0, 321.3, 238.6),
+        ImageSize::new(640, 480),
+        190f64.to_radians(),
+    )
+    .unwrap();
+    let turn = panoconv::camera::rotation_ypr(0.05, -0.04, 0.03);
+    let id = Matrix3::identity();
+    // only the part of the lens the source reaches is mapped, as the Python package does
+    let blind = -nalgebra::Vector3::z();
+    let seen = panoconv::warp::Footprint::new(&lens, src, &turn, &blind);
+    assert!(seen.is_some(), "the lens's footprint");
+    let cases: [(&str, &dyn CameraModel, &Matrix3<f64>, _); 2] = [
+        ("equirect_2048", equirect.as_ref(), &id, None),
+        ("fisheye_640", &lens, &turn, seen.as_ref()),
+    ];
+    let mut g = c.benchmark_group("pyramid_table");
+    g.sample_size(10);
+    for (name, dst, rot, seen) in cases {
+        type Build = fn(
+            &dyn CameraModel,
+            &dyn CameraModel,
+            &Matrix3<f64>,
+            Wrap,
+            u32,
+            Option<&panoconv::warp::Footprint>,
+            bool,
+        ) -> RemapTable;
+        let builds: [(&str, Build, u32); 3] = [
+            ("taps", RemapTable::build_within, 8),
+            ("pyramid", RemapTable::build_pyramid_within, 8),
+            ("bilinear", RemapTable::build_within, 1),
+        ];
+        for (kind, build, ss) in builds {
+            g.bench_function(format!("{name}/{kind}/build"), |b| {
+                b.iter(|| build(dst, src, rot, Wrap::None, ss, seen, false))
+            });
+            let table = build(dst, src, rot, Wrap::None, ss, seen, false);
+            let mut buf = table.apply(image);
+            g.bench_function(format!("{name}/{kind}/apply"), |b| {
+                b.iter(|| table.apply_into(black_box(image), &mut buf))
             });
         }
     }

@@ -6,8 +6,9 @@ Real KITTI frames (image_2, label_2) to a drawn 190° Kannala-Brandt fisheye, an
 and a cylindrical view at 640x480 (yaw, pitch, roll, principal point and lens drawn per sample):
 
 - panoconv: `Warp(src, drawn)`: the table built for the drawn camera, the image, the mask and
-  the exact labels (the defaults, supersample 1: bilinear as cv2.remap; 8: the command's
-  antialiasing);
+  the exact labels (the defaults: supersample 8 through the source's pyramid; the command's
+  antialiasing, a tap per source pixel, `antialias="taps"`; supersample 1: bilinear as
+  cv2.remap);
 - numpy + cv2: every pixel unprojected with numpy (Newton on the fisheye's polynomial),
   projected into the source, `cv2.remap` (bilinear, float maps), boxes from the 8 corners;
 - cached: one table applied again and again (panoconv's `Warp.image`, `cv2.remap` with the
@@ -191,9 +192,8 @@ def bench_family(name, sampler, frames, n):
     draws = [sampler.draw(sample_seed(7, 0, i)) for i in range(n)]
     cams = [panoconv.random_cameras.camera_of(d) for d in draws]
 
-    def ours(ss):
-        # (None: Warp's defaults, what docs/python.md's examples use)
-        kw = {} if ss is None else {"supersample": ss}
+    def ours(kw):
+        # ({}: Warp's defaults, what docs/python.md's examples use)
 
         def run(i):
             src, image, labels, _, _ = frames[i % len(frames)]
@@ -207,8 +207,9 @@ def bench_family(name, sampler, frames, n):
         numpy_sample(src, cams[i], draws[i], image, objs)
 
     rates = {
-        "panoconv, defaults (supersample 1)": per_core(ours(None), n),
-        "panoconv, supersample 8": per_core(ours(8), n),
+        "panoconv, defaults (pyramid)": per_core(ours({}), n),
+        "panoconv, antialias='taps'": per_core(ours({"antialias": "taps"}), n),
+        "panoconv, supersample 1": per_core(ours({"supersample": 1}), n),
         "numpy + cv2.remap": per_core(theirs, n),
     }
     # one table kept: apply only
@@ -218,6 +219,9 @@ def bench_family(name, sampler, frames, n):
     m1, m2 = cv2.convertMaps(mx, my, cv2.CV_16SC2)
     reps = 10 * n
     rates["cached: Warp.image"] = per_core(lambda i: warp.image(image), reps)
+    # the default warp: each image's pyramid is built, then the table applied
+    pyr = panoconv.Warp(src, cams[0]).build()
+    rates["cached: Warp.image, pyramid"] = per_core(lambda i: pyr.image(image), reps)
     rates["cached: cv2.remap float maps"] = per_core(
         lambda i: cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT),
         reps,
@@ -271,7 +275,7 @@ def loader(kitti, n, workers):
         pitch_deg=(-5, 5),
         params={"kannala_brandt": {"k": [(-0.03, 0.03)]}},
     )
-    ds = RandomCameraDataset(kitti, sampler, seed=1)  # the defaults: supersample 1
+    ds = RandomCameraDataset(kitti, sampler, seed=1)  # the defaults: the pyramid
     indices = [i % len(ds) for i in range(n)]
     t = time.perf_counter()
     one = load(ds, indices, 1)

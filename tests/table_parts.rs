@@ -9,7 +9,7 @@ use panoconv::camera::{
     rotation_ypr, CameraModel, Fisheye, FisheyeCamera, ImageSize, Intrinsics, Lens, Perspective,
     Projection, ProjectionReject, RadialModel,
 };
-use panoconv::warp::{Footprint, RemapTable, Wrap};
+use panoconv::warp::{Footprint, Kernel, RemapTable, Wrap};
 use std::f64::consts::{PI, TAU};
 
 /// `inner` with only the per-pixel methods: no `separable`, the default `project_all`.
@@ -251,4 +251,142 @@ fn a_fine_checkerboard_warped_coarser_shows_no_more_moire_than_the_per_tap_build
     );
     // the measure sees aliasing: the plain lookup fails the bound above by far
     assert!(plain > 3.0 * (PER_TAP + 0.3), "{plain:.2}");
+}
+
+/// The pyramid's moiré on [`moire`]'s checkerboard and cameras.
+fn moire_pyramid() -> f64 {
+    let (w, h) = (800u32, 600u32);
+    let src = Perspective::new(
+        Intrinsics::new(600.0, 600.0, 399.5, 299.5),
+        ImageSize::new(w, h),
+    );
+    let out = Perspective::new(
+        Intrinsics::new(180.0, 180.0, 119.5, 89.5),
+        ImageSize::new(240, 180),
+    );
+    let mut image = panoconv::image::RgbImage::new(w, h);
+    for (i, px) in image.as_raw_mut().chunks_mut(3).enumerate() {
+        let (x, y) = ((i as u32 % w) as f64, (i as u32 / w) as f64);
+        let (a, b) = (x * 0.8 + y * 0.6, -x * 0.6 + y * 0.8);
+        let white = ((a / 2.0).floor() + (b / 2.0).floor()).rem_euclid(2.0) == 0.0;
+        px.fill(if white { 255 } else { 0 });
+    }
+    let id = Matrix3::identity();
+    let table = RemapTable::build_pyramid_within(&out, &src, &id, Wrap::None, 8, None, false);
+    assert!(table.levels() > 1, "the view samples the pyramid");
+    let warped = table.apply(&image);
+    let values: Vec<f64> = (2..178)
+        .flat_map(|v| (2..238).map(move |u| (u, v)))
+        .map(|(u, v)| warped.pixel(u, v)[0] as f64)
+        .collect();
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    let se: f64 = values.iter().map(|x| (x - mean) * (x - mean)).sum();
+    (se / values.len() as f64).sqrt()
+}
+
+#[test]
+fn the_pyramid_shows_no_more_moire_than_the_per_tap_builder() {
+    // 26.58: the per-tap builder's figure (the test above)
+    let pyramid = moire_pyramid();
+    eprintln!("moiré: {pyramid:.2} grey levels RMS through the pyramid");
+    assert!(pyramid <= 26.58, "{pyramid:.2}");
+}
+
+/// PSNR (dB) against the exact render of a synthetic KITTI frame warped to coarser 640×480
+/// views (a 190° fisheye, an equirect crop of 120°, a cylindrical view of 100°, turned as a
+/// drawn camera is), per-tap supersampled and through the pyramid, over the pixels both
+/// tables have wholly inside the source.
+#[test]
+fn coarse_views_through_the_pyramid_match_the_exact_render_as_the_taps_do() {
+    use crate::common::{psnr, render_where};
+    use panoconv::tools::synth::{frames, SynthCalib};
+    let calib = SynthCalib::standard();
+    let scene = &frames()[0].scene;
+    let src = Perspective::new(calib.intrinsics(), calib.size);
+    let image = scene.render(&src, &calib.centre());
+    let lens = Fisheye::new(
+        RadialModel::Equidistant,
+        Intrinsics::new(150.0, 150.0, 321.3, 238.6),
+        ImageSize::new(640, 480),
+        190f64.to_radians(),
+    )
+    .expect("lens");
+    let crop = Projection::Equirect.camera(
+        Intrinsics::new(305.6, 305.6, 317.2, 241.9),
+        ImageSize::new(640, 480),
+    );
+    let cylinder = Projection::Cylindrical.camera(
+        Intrinsics::new(366.7, 366.7, 322.1, 236.4),
+        ImageSize::new(640, 480),
+    );
+    let turn = rotation_ypr(0.05, -0.04, 0.03);
+    let cases: [(&str, &dyn CameraModel); 3] = [
+        ("fisheye 190°", &lens),
+        ("equirect crop 120°", crop.as_ref()),
+        ("cylindrical 100°", cylinder.as_ref()),
+    ];
+    for (name, dst) in cases {
+        let taps = RemapTable::build_within(dst, &src, &turn, Wrap::None, 8, None, false);
+        let pyr = RemapTable::build_pyramid_within(dst, &src, &turn, Wrap::None, 8, None, false);
+        let plain = RemapTable::build_within(dst, &src, &turn, Wrap::None, 1, None, false);
+        let kept = |u, v| taps.is_inside(u, v) && pyr.is_inside(u, v);
+        // the render in the output's axes: the source's bearings turned back
+        let turned = Turned(dst, turn.transpose());
+        let exact = render_where(scene, &turned, &calib.centre(), 0.55, 6, kept);
+        let (db_taps, n) = psnr(&taps.apply(&image), &exact, kept);
+        let (db_pyr, _) = psnr(&pyr.apply(&image), &exact, kept);
+        let (db_plain, _) = psnr(&plain.apply(&image), &exact, kept);
+        eprintln!(
+            "{name}: PSNR taps {db_taps:.2} dB, pyramid {db_pyr:.2} dB ({} levels), \
+             bilinear {db_plain:.2} dB over {n} px",
+            pyr.levels()
+        );
+        assert!(pyr.levels() > 1, "{name}: the view samples the pyramid");
+        assert!(n > 5000, "{name}: {n} px compared");
+        // the same table from bands built in parallel, the same bytes from every kernel
+        let parallel =
+            RemapTable::build_pyramid_within(dst, &src, &turn, Wrap::None, 8, None, true);
+        assert!(parallel == pyr, "{name}: the parallel build differs");
+        let want = pyr.apply(&image);
+        for kernel in [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2] {
+            let mut got = panoconv::image::RgbImage::new(1, 1);
+            pyr.apply_with(&image, &mut got, kernel);
+            assert!(got == want, "{name}: {kernel:?} gives other bytes");
+        }
+        // row by row from the input buffer, as the Python package applies it
+        let input = pyr.input(image.as_raw());
+        let w3 = dst.size().width as usize * 3;
+        let mut rows = vec![0u8; want.as_raw().len()];
+        for (v, row) in rows.chunks_mut(w3).enumerate() {
+            pyr.apply_row_data(&input, v, row);
+        }
+        assert!(rows == *want.as_raw(), "{name}: apply_row_data differs");
+        assert!(
+            db_pyr >= db_taps - 0.2,
+            "{name}: {db_pyr:.2} < {db_taps:.2} - 0.2"
+        );
+    }
+}
+
+/// `inner` whose bearings are turned by `1` (its own axes to the source's), for a reference
+/// render in the source's axes.
+#[derive(Debug)]
+struct Turned<'a>(&'a dyn CameraModel, Matrix3<f64>);
+
+impl CameraModel for Turned<'_> {
+    fn project(&self, d: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
+        self.0.project(&(self.1 * d))
+    }
+
+    fn unproject(&self, p: &Point2<f64>) -> Result<Vector3<f64>, ProjectionReject> {
+        self.0.unproject(p).map(|d| self.1.transpose() * d)
+    }
+
+    fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.0.distance(&(self.1 * p))
+    }
+
+    fn size(&self) -> ImageSize {
+        self.0.size()
+    }
 }

@@ -116,10 +116,15 @@ class Warp:
     """A source camera's image, labels and LiDAR in a target camera placed at the source's
     optical centre, as `panoconv kitti` writes them; the table is built once and kept."""
 
-    def __init__(self, src: Camera, dst: Camera, supersample: int = 1) -> None:
-        """supersample: 1 plain bilinear (fast), up to 8 the command's antialiasing."""
+    def __init__(
+        self, src: Camera, dst: Camera, supersample: int = 8, antialias: str = "pyramid"
+    ) -> None:
+        """supersample: 1 plain bilinear, up to 8 antialiased; antialias: "pyramid" (about
+        bilinear's cost) or "taps" (the command's bytes)."""
     @property
     def supersample(self) -> int: ...
+    @property
+    def antialias(self) -> str: ...
     def build(self) -> Warp: ...
     @property
     def src(self) -> Camera: ...

@@ -274,8 +274,10 @@ class RandomCameraDataset:
     `--augment`, by the same code: an object whose 2D box is narrower than `px` pixels or has
     less than `share` of its full box in the image is a DontCare region, and a camera holding
     fewer than `min_objects` objects is drawn again (up to 16 draws, the next ones from the
-    same generator), else the draw holding most is kept. `supersample`: the largest n of the
-    n×n antialiasing grid (1: plain bilinear, the fast one; 8: the command's antialiasing).
+    same generator), else the draw holding most is kept. `supersample` and `antialias` are
+    `Warp`'s: a target pixel up to `supersample` source pixels wide averages them (1: plain
+    bilinear; 8, the default), through the source's pyramid (`"pyramid"`, the default, about
+    the cost of bilinear) or a tap per source pixel (`"taps"`, the command's bytes).
     """
 
     def __init__(
@@ -285,9 +287,10 @@ class RandomCameraDataset:
         seed: int = 0,
         split: str = "training",
         depth: bool = True,
-        supersample: int = 1,
+        supersample: int = 8,
         min_visible=(2.0, 0.1),
         min_objects: int = 0,
+        antialias: str = "pyramid",
     ):
         self.root = Path(os.fspath(root))
         self.sampler = sampler
@@ -295,6 +298,7 @@ class RandomCameraDataset:
         self.split = split
         self.depth = depth
         self.supersample = supersample
+        self.antialias = antialias
         self.min_visible = None if min_visible is None else tuple(float(v) for v in min_visible)
         self.min_objects = int(min_objects)
         self.epoch = 0
@@ -325,7 +329,11 @@ class RandomCameraDataset:
 
         def draw(attempt):
             drawn = self.sampler.draw(rng)
-            return drawn, Warp(src, camera_of(drawn), supersample=self.supersample), attempt
+            return (
+                drawn,
+                Warp(src, camera_of(drawn), self.supersample, self.antialias),
+                attempt,
+            )
 
         def count(drawn):
             return drawn[1].count_objects(labels, self.min_visible)

@@ -17,9 +17,10 @@ use panoconv::convert::kitti::{move_label, MovedLabel};
 use panoconv::kitti::Label as KittiLabel;
 use panoconv::reproject::depth::{depth_map, OcclusionFilter};
 use panoconv::reproject::visibility::Visibility;
-use panoconv::warp::{Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use panoconv::warp::{narrow_u8, pyramid, Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use std::borrow::Cow;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -31,6 +32,8 @@ pub struct Warp {
     source: Camera,
     target: Camera,
     supersample: u32,
+    /// Coarse pixels sample the source's pyramid (else a tap per source pixel: the command's).
+    pyramid: bool,
     table: OnceLock<RemapTable>,
 }
 
@@ -130,7 +133,11 @@ impl Warp {
             Some((camera, turn)) => (camera.as_ref(), *turn),
             None => (dst, identity),
         };
-        RemapTable::build_within(
+        let build = match self.pyramid {
+            true => RemapTable::build_pyramid_within,
+            false => RemapTable::build_within,
+        };
+        build(
             dst,
             src,
             &src_from_dst,
@@ -143,11 +150,16 @@ impl Warp {
 }
 
 /// The pixel formats `image` takes.
-trait Pixel: Element + Copy + Send + Sync + 'static {
+trait Pixel: Element + Copy + Default + Send + Sync + 'static {
     /// The weighted sum of a pixel's taps, in this format's arithmetic.
     type Sum: Copy + Default + Send;
     fn add(sum: &mut Self::Sum, value: Self, weight: i16);
     fn finish(sum: Self::Sum) -> Self;
+    /// The pyramid's wider sums of this format, and a level-k value of the sum of 4^k values
+    /// (see `panoconv::warp::pyramid`).
+    type Wide: Copy + Default + std::ops::Add<Output = Self::Wide>;
+    fn widen(value: Self) -> Self::Wide;
+    fn narrow(sum: Self::Wide, level: u32) -> Self;
     /// The image through the 8-bit RGB kernels, where they take this format.
     fn kernel(_table: &RemapTable, _src: &[Self], _channels: usize) -> Option<Vec<Self>> {
         None
@@ -163,14 +175,23 @@ impl Pixel for u8 {
     fn finish(sum: i64) -> u8 {
         ((sum + (RemapTable::WEIGHT_ONE as i64 >> 1)) >> RemapTable::WEIGHT_BITS) as u8
     }
+    type Wide = u32;
+    fn widen(value: u8) -> u32 {
+        value.into()
+    }
+    // the kernels' pyramid (`RemapTable::input`)
+    fn narrow(sum: u32, level: u32) -> u8 {
+        narrow_u8(sum, level)
+    }
     fn kernel(table: &RemapTable, src: &[u8], channels: usize) -> Option<Vec<u8>> {
         if channels != 3 {
             return None;
         }
+        let input = table.input(src);
         let w3 = table.size().width as usize * 3;
         let mut out = vec![0u8; w3 * table.size().height as usize];
         for (v, row) in out.chunks_mut(w3.max(1)).enumerate() {
-            table.apply_row_data(src, v, row);
+            table.apply_row_data(&input, v, row);
         }
         Some(out)
     }
@@ -184,6 +205,13 @@ impl Pixel for u16 {
     fn finish(sum: i64) -> u16 {
         ((sum + (RemapTable::WEIGHT_ONE as i64 >> 1)) >> RemapTable::WEIGHT_BITS) as u16
     }
+    type Wide = u64;
+    fn widen(value: u16) -> u64 {
+        value.into()
+    }
+    fn narrow(sum: u64, level: u32) -> u16 {
+        ((sum + (1 << (2 * level - 1))) >> (2 * level)) as u16
+    }
 }
 
 impl Pixel for f32 {
@@ -194,14 +222,34 @@ impl Pixel for f32 {
     fn finish(sum: f64) -> f32 {
         (sum / RemapTable::WEIGHT_ONE as f64) as f32
     }
+    type Wide = f64;
+    fn widen(value: f32) -> f64 {
+        value.into()
+    }
+    fn narrow(sum: f64, level: u32) -> f32 {
+        (sum / (1u64 << (2 * level)) as f64) as f32
+    }
+}
+
+/// `src` (H×W×C, standard layout, the table's source size) or its pyramid: what the table's
+/// blocks address.
+fn input<'a, T: Pixel>(table: &RemapTable, src: &'a [T], channels: usize) -> Cow<'a, [T]> {
+    match table.levels() {
+        1 => src.into(),
+        levels => {
+            let size = table.source_size();
+            pyramid(src, size, channels, levels, T::widen, T::narrow).into()
+        }
+    }
 }
 
 /// Resamples `src` (H×W×C, standard layout) through the table's blocks.
 fn resample<T: Pixel>(table: &RemapTable, src: &[T], channels: usize) -> Vec<T> {
     let (sw, sh) = (
         table.source_size().width as usize,
-        table.source_size().height as usize,
+        table.input_rows() as usize,
     );
+    let src = input(table, src, channels);
     let (w, h) = (table.size().width as usize, table.size().height as usize);
     let mut out = Vec::with_capacity(w * h * channels);
     let mut sums = vec![T::Sum::default(); w * channels];
@@ -224,8 +272,22 @@ fn resample<T: Pixel>(table: &RemapTable, src: &[T], channels: usize) -> Vec<T> 
 }
 
 /// The table's inside pixels whose every tap of non-zero weight falls on a `covered` source
-/// pixel (row-major over the source).
+/// pixel (row-major over the source; a pyramid level's pixel is covered where its four finer
+/// ones are).
 fn within(table: &RemapTable, covered: &[bool]) -> Vec<bool> {
+    let covered = match table.levels() {
+        1 => Cow::from(covered),
+        // (covered where all 4^k are: a count of them)
+        levels => pyramid(
+            covered,
+            table.source_size(),
+            1,
+            levels,
+            u32::from,
+            |n, k| n == 1 << (2 * k),
+        )
+        .into(),
+    };
     let sw = table.source_size().width as usize;
     let w = table.size().width as usize;
     let mut mask = table.inside();
@@ -272,24 +334,46 @@ fn image_of<'py, T: Pixel>(
 #[pymethods]
 impl Warp {
     /// The warp from camera `src` to camera `dst`, with `dst` placed at `src`'s optical
-    /// centre. `supersample`: the largest n of the n×n antialiasing grid (1, the default: plain
-    /// bilinear, the fast one for a training loop; 8: the command's antialiasing, several
-    /// times slower to build). The table is built on first use (`image`, `mask`, `build`) and
-    /// kept.
+    /// centre. `supersample`: the largest source-pixel footprint of a target pixel that is
+    /// averaged (1: plain bilinear; 8, the default: antialiased up to 8 source pixels a
+    /// pixel). `antialias`: how a target pixel two or more source pixels wide averages them:
+    /// `"pyramid"` (the default: one to a few bilinear taps in the source's 2×2-box pyramid,
+    /// about the cost of bilinear) or `"taps"` (a tap per source pixel, the command's bytes).
+    /// The table is built on first use (`image`, `mask`, `build`) and kept.
     #[new]
-    #[pyo3(signature = (src, dst, supersample=1))]
-    fn new(src: &Camera, dst: &Camera, supersample: u32) -> PyResult<Self> {
+    #[pyo3(signature = (src, dst, supersample=8, antialias="pyramid"))]
+    fn new(src: &Camera, dst: &Camera, supersample: u32, antialias: &str) -> PyResult<Self> {
         if !(1..=MAX_SUPERSAMPLE).contains(&supersample) {
             return Err(PyValueError::new_err(format!(
                 "supersample must be 1 to {MAX_SUPERSAMPLE}, not {supersample}"
             )));
         }
+        let pyramid = match antialias {
+            "pyramid" => true,
+            "taps" => false,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "antialias must be \"pyramid\" or \"taps\", not {other:?}"
+                )))
+            }
+        };
         Ok(Warp {
             source: src.at(src.centre),
             target: dst.at(src.centre),
             supersample,
+            pyramid,
             table: OnceLock::new(),
         })
+    }
+
+    /// How a target pixel two or more source pixels wide is antialiased: `"pyramid"` or
+    /// `"taps"`.
+    #[getter]
+    fn antialias(&self) -> &'static str {
+        match self.pyramid {
+            true => "pyramid",
+            false => "taps",
+        }
     }
 
     /// Builds the table now (else on first use). Returns self.
@@ -310,7 +394,7 @@ impl Warp {
         self.target.at(self.target.centre)
     }
 
-    /// The largest n of the n×n antialiasing grid.
+    /// The largest source-pixel footprint of a target pixel that is averaged.
     #[getter]
     fn supersample(&self) -> u32 {
         self.supersample

@@ -2,8 +2,8 @@
 the depth of `RandomCameraDataset` from `depth_2`, warped exactly (each source depth pixel's
 own 3D point, the nearest per target pixel, against numpy over the cameras' projections); its
 mask within the panorama's coverage (`source_2`), exactly the pixels every tap of which is
-covered; the command's `--min-visible` rule and `--min-objects` redraw; `supersample` 1 by
-default."""
+covered; the command's `--min-visible` rule and `--min-objects` redraw; the defaults
+(`supersample` 8 through the pyramid)."""
 
 from __future__ import annotations
 
@@ -225,21 +225,21 @@ def test_best_draw_is_the_command_s_rule():
         panoconv.best_draw(1, fails, lambda n: n)
 
 
-def test_the_default_is_the_fast_path(nuscenes_equirect):
+def test_the_default_is_the_pyramid(nuscenes_equirect):
     frame = panoconv.Dataset(nuscenes_equirect)[0]
     src = frame.camera
-    # 30 px a radian against the panorama's 81: coarser, where antialiasing takes more taps
+    # 30 px a radian against the panorama's 81: coarser, where antialiasing matters
     dst = panoconv.Camera.kannala_brandt(200, 150, 30.0, 30.0, 99.5, 74.5, [0.01], max_fov_deg=190)
     image = panoconv.read_image(frame.image)
     warp = panoconv.Warp(src, dst)
-    assert warp.supersample == 1
-    assert np.array_equal(warp.image(image), panoconv.Warp(src, dst, supersample=1).image(image))
-    # the antialiased warp is one argument away, and differs (the target is coarser here)
-    assert not np.array_equal(warp.image(image), panoconv.Warp(src, dst, supersample=8).image(image))
+    assert (warp.supersample, warp.antialias) == (8, "pyramid")
+    assert np.array_equal(warp.image(image), panoconv.Warp(src, dst, 8, "pyramid").image(image))
+    # plain bilinear is one argument away, and differs (the target is coarser here)
+    assert not np.array_equal(warp.image(image), panoconv.Warp(src, dst, supersample=1).image(image))
     ds = RandomCameraDataset(nuscenes_equirect, sampler(), seed=2)
-    assert ds.supersample == 1
+    assert (ds.supersample, ds.antialias) == (8, "pyramid")
     x = ds[0]
-    fast = panoconv.Warp(src, camera_of(x["camera"]), supersample=1)
+    fast = panoconv.Warp(src, camera_of(x["camera"]))
     assert np.array_equal(x["image"], fast.image(image))
 
 

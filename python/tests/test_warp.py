@@ -51,7 +51,7 @@ def source():
 
 def assert_same_as_the_command(out, dst):
     split, calib, src = source()
-    warp = panoconv.Warp(src, dst, supersample=8)  # the command's antialiasing
+    warp = panoconv.Warp(src, dst, supersample=8, antialias="taps")  # the command's antialiasing
     written = panoconv.read_calib(out / "calib" / f"{FRAME}.txt").camera
     assert (dst.size, dst.projection, dst.model) == (written.size, written.projection, written.model)
     image = warp.image(panoconv.read_image(split / "image_2" / f"{FRAME}.png"))
@@ -139,13 +139,19 @@ def test_other_pixel_formats_take_the_same_taps():
     rgba = np.dstack([rgb, rgb[:, :, :1]])
     assert np.array_equal(warp.image(rgba), np.dstack([want, want[:, :, :1]]))
     assert np.array_equal(warp.image(rgb[:, :, ::-1]), want[:, :, ::-1])
-    # 16-bit: the same weights in integers (x257 is exact: the rounding agrees within 1)
+    # 16-bit: the same weights in integers (x257 is exact; each of the 8-bit pyramid's levels
+    # and the result are rounded to 8 bits: within 0.5 + 0.5 grey level, 257 x 16-bit units)
     wide = warp.image(rgb.astype(np.uint16) * 257)
-    assert wide.dtype == np.uint16 and np.abs(wide.astype(int) - want.astype(int) * 257).max() <= 257
-    # float: the exact weighted mean, which the 8-bit kernel rounds
+    assert wide.dtype == np.uint16 and np.abs(wide.astype(int) - want.astype(int) * 257).max() <= 258
+    # float: the exact weighted mean of exact pyramid means, which the 8-bit kernel rounds
+    # (its pyramid's levels rounded too: within 0.5 + 0.5)
     flt = warp.image(rgb.astype(np.float32))
-    assert flt.dtype == np.float32 and np.abs(flt - want).max() <= 0.5 + 1e-4
+    assert flt.dtype == np.float32 and np.abs(flt - want).max() <= 1.0 + 1e-4
     assert np.abs(np.round(flt) - want).max() <= 1
+    # with the command's taps (no pyramid) the float result is within the kernel's rounding
+    taps = panoconv.Warp(src, dst, antialias="taps")
+    flt = taps.image(rgb.astype(np.float32))
+    assert np.abs(flt - taps.image(rgb)).max() <= 0.5 + 1e-4
     # outside the source: black, and not in the mask
     assert (want[~warp.mask] == 0).mean() > 0.99
     with pytest.raises(ValueError, match="1242x375"):

@@ -9,6 +9,10 @@
 //! (`build/local.rs`; each tap is mapped through the cameras only where the mapping bends too
 //! sharply for that, near a pole or a lens's rim), and merged into a dense grid of the source
 //! pixels under them instead of being sorted (`build/dense.rs`).
+//! A table built by [`RemapTable::build_pyramid_within`] samples a pixel 1.5 or more source
+//! pixels wide along both axes in the source's pyramid instead (`table/pyramid.rs`,
+//! `build/level.rs`): one bilinear tap at the level where it spans 0.75 to 1.5 level pixels,
+//! about a bilinear lookup's cost to build and to apply.
 //! The taps of a pixel are merged at build time into 2×2 source blocks with integer weights
 //! ([`Quad`]s, see `kernel.rs`), so applying the table is the same exact integer arithmetic on
 //! every machine, thread count and code path. The finished table holds them in groups of
@@ -22,6 +26,9 @@ use rayon::prelude::*;
 
 mod blocks;
 mod build;
+mod pyramid;
+
+pub use pyramid::{narrow_u8, pyramid};
 
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
@@ -74,6 +81,9 @@ pub struct RemapTable {
     row_reach: Vec<u32>,
     /// Per pixel, for `is_inside` and `coverage` (never read by `apply`).
     cover: Vec<Cover>,
+    /// Levels of the source's pyramid the blocks address (1: the source alone; see
+    /// `pyramid.rs`).
+    levels: u32,
 }
 
 impl RemapTable {
@@ -171,33 +181,59 @@ impl RemapTable {
         if w == 0 {
             return;
         }
+        let data = self.input(src.as_raw());
         out.as_raw_mut()
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| self.row(src.as_raw(), v, row, kernel));
+            .for_each(|(v, row)| self.row(&data, v, row, kernel));
+    }
+
+    /// Levels of the source's pyramid the table samples: 1 where it samples the source alone
+    /// (a table built without [`RemapTable::build_pyramid_within`], or one whose output is
+    /// nowhere two or more source pixels a pixel).
+    pub fn levels(&self) -> u32 {
+        self.levels
+    }
+
+    /// Rows of the buffer the table reads, of the source's width: the source's height, or its
+    /// pyramid's rows (see [`pyramid`]).
+    pub fn input_rows(&self) -> u32 {
+        pyramid::pyramid_rows(self.source_size, self.levels)
+    }
+
+    /// The buffer the table reads from the source's samples (3 bytes a pixel, rows top to
+    /// bottom, the table's source size): the samples themselves, or their pyramid of
+    /// [`RemapTable::levels`] levels.
+    pub fn input<'a>(&self, src: &'a [u8]) -> std::borrow::Cow<'a, [u8]> {
+        if self.levels <= 1 {
+            return src.into();
+        }
+        pyramid::pyramid_u8(src, self.source_size, self.levels).into()
     }
 
     /// Resamples output row `v` into `row` (the table's width × 3 bytes), on the calling
     /// thread: for a consumer that takes an image row by row (the PNG encoder), so that the
-    /// whole warped image never has to exist.
+    /// whole warped image never has to exist. A table of several [`RemapTable::levels`] builds
+    /// the source's pyramid on each call: give it to [`RemapTable::apply_row_data`] instead.
     pub fn apply_row(&self, src: &RgbImage, v: usize, row: &mut [u8]) {
         assert_eq!(
             (src.width(), src.height()),
             (self.source_size.width, self.source_size.height),
             "source image size differs from the table's"
         );
-        self.apply_row_data(src.as_raw(), v, row);
+        self.apply_row_data(&self.input(src.as_raw()), v, row);
     }
 
-    /// As [`RemapTable::apply_row`], from the source's samples (3 bytes a pixel, rows top to
-    /// bottom, the table's source size) of which only the first [`RemapTable::source_rows`]`(v)`
-    /// rows are read: for a source decoded row by row as the warp goes down.
+    /// As [`RemapTable::apply_row`], from [`RemapTable::input`]'s buffer (for a table of one
+    /// level, the source's samples: 3 bytes a pixel, rows top to bottom, the table's source
+    /// size) of which only the first [`RemapTable::source_rows`]`(v)` rows are read: for a
+    /// source decoded row by row as the warp goes down.
     pub fn apply_row_data(&self, src: &[u8], v: usize, row: &mut [u8]) {
         let s = self.source_size;
         assert_eq!(
             src.len(),
-            s.width as usize * s.height as usize * 3,
+            s.width as usize * self.input_rows() as usize * 3,
             "source image size differs from the table's"
         );
         assert_eq!(row.len(), self.size.width as usize * 3, "row length");
@@ -205,15 +241,15 @@ impl RemapTable {
         self.row(src, v, row, Kernel::Auto);
     }
 
-    /// How many source rows, from the top, output row `v` reads (every byte any kernel may
-    /// load for it lies in them).
+    /// How many rows of [`RemapTable::input`]'s buffer, from the top, output row `v` reads
+    /// (every byte any kernel may load for it lies in them).
     pub fn source_rows(&self, v: usize) -> usize {
         let stride3 = self.source_size.width as usize * 3;
         if stride3 == 0 {
             return 0;
         }
         let end = self.row_reach[v] as usize * 3 + stride3 + kernel::SIMD_READ;
-        end.div_ceil(stride3).min(self.source_size.height as usize)
+        end.div_ceil(stride3).min(self.input_rows() as usize)
     }
 
     fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel) {

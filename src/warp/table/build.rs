@@ -5,7 +5,7 @@
 //! ([`Quad`]s, through a dense grid: `dense.rs`), band by band of rows, serially or on rayon's
 //! pool.
 
-use super::{column_inside, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use super::{column_inside, pyramid, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, Separable, Share};
 use crate::warp::footprint::Footprint;
 use crate::warp::kernel::{Quad, LANES, WEIGHT_ONE};
@@ -16,6 +16,9 @@ use std::sync::OnceLock;
 mod dense;
 mod gate;
 mod lanes;
+mod level;
+
+use level::{count, scales2};
 mod local;
 mod plain;
 
@@ -37,7 +40,42 @@ impl RemapTable {
         parallel: bool,
     ) -> RemapTable {
         let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
-        let h = dst.size().height as usize;
+        b.build(parallel)
+    }
+
+    /// As [`RemapTable::build_within`], where an output pixel 1.5 or more source pixels wide
+    /// along both of its axes samples the source's pyramid instead (see [`pyramid`]): one
+    /// bilinear tap (more along the longer axis of an anisotropic footprint) at the level
+    /// where it spans 0.75 to 1.5 level pixels, about what a bilinear lookup costs to build
+    /// and apply, against a tap for each source pixel under it. Pixels finer than that are
+    /// exactly [`RemapTable::build_within`]'s. Apply the
+    /// table to [`RemapTable::input`]'s buffer (`apply` and `apply_into` build it). A 360°
+    /// source (its columns wrap) takes the taps of [`RemapTable::build_within`].
+    ///
+    /// [`pyramid`]: crate::warp::pyramid
+    pub fn build_pyramid_within(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        max_supersample: u32,
+        seen: Option<&Footprint>,
+        parallel: bool,
+    ) -> RemapTable {
+        let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
+        b.shapes = match b.one_block {
+            true => pyramid::level_shapes(b.source_size, b.cap.ilog2() + 1),
+            false => Vec::new(),
+        };
+        b.build(parallel)
+    }
+}
+
+impl Builder<'_> {
+    /// The table, serially or with bands of rows in parallel.
+    fn build(&self, parallel: bool) -> RemapTable {
+        let b = self;
+        let h = b.dst.size().height as usize;
         if !parallel && b.plain() {
             return b.plain_table();
         }
@@ -95,6 +133,9 @@ struct Builder<'a> {
     /// With `by_parts`: at index n, the column shares of the n taps of an n-wide supersampled
     /// pixel, n per column (column-major), made by the first band that needs them.
     tap_columns: [OnceLock<Vec<Share>>; MAX_SUPERSAMPLE as usize + 1],
+    /// The source pyramid's levels (width, height, first row) a coarse pixel may sample; empty
+    /// (or level 0 alone) where it takes a tap per source pixel (see `level.rs`).
+    shapes: Vec<(u32, u32, u32)>,
 }
 
 /// A band of consecutive output rows, built independently of the others.
@@ -105,6 +146,8 @@ struct Band {
     row_lens: Vec<u32>,
     row_reach: Vec<u32>,
     cover: Vec<Cover>,
+    /// The highest pyramid level a pixel of the band samples.
+    top_level: u32,
 }
 
 /// Scratch space of one pixel's taps: merged blocks (offset, float weights), or the taps'
@@ -155,6 +198,7 @@ impl<'a> Builder<'a> {
             centre_columns,
             pinhole: src.pinhole(),
             tap_columns: Default::default(),
+            shapes: Vec::new(),
         }
     }
 
@@ -231,6 +275,7 @@ impl<'a> Builder<'a> {
         band.row_lens.clear();
         band.row_reach.clear();
         band.cover.clear();
+        band.top_level = 0;
         // room for the second blocks of some supersampled pixels: growing would copy it all
         band.quads.reserve(n + n / 4);
         band.counts.reserve(n);
@@ -278,28 +323,33 @@ impl<'a> Builder<'a> {
                 continue;
             }
             // (no scale estimate where the cap allows one tap)
-            let (nu, nv) = match self.cap {
-                1 => (1, 1),
+            let (nu, nv, level) = match self.cap {
+                1 => (1, 1, 0),
                 cap => {
-                    let (nu, nv) = supersampling(
+                    let (su, sv) = scales2(
                         centre,
                         [here[u], here[u + 2]],
                         [above[u + 1], below[u + 1]],
                         period,
                     );
-                    (nu.min(cap), nv.min(cap))
+                    // at a pyramid level the scales are 4^level times smaller
+                    let level = self.level_of(su.min(sv));
+                    let down = (1u32 << (2 * level)) as f64;
+                    (count(su / down).min(cap), count(sv / down).min(cap), level)
                 }
             };
+            band.top_level = band.top_level.max(level);
             let taps = nu * nv;
             let before = band.quads.len();
             let inside = if (nu, nv) == (1, 1) {
                 scratch.blocks.clear();
-                let inside = self.add_tap(centre, scratch) as u32;
+                let inside = self.add_tap(centre, level, scratch) as u32;
                 quantize(scratch, inside, taps, &mut band.quads);
                 inside
             } else {
                 let near = local::near([above, here, below], u);
-                self.supersampled(u, v, (nu, nv), &near, scratch, parts, &mut band.quads)
+                let (quads, at) = (&mut band.quads, (u, v, level));
+                self.supersampled(at, (nu, nv), &near, scratch, parts, quads)
             };
             band.counts.push((band.quads.len() - before) as u8);
             band.cover.push(match inside {
@@ -310,15 +360,14 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Appends the quads of supersampled pixel (u, v) (`nu`×`nv` taps, its neighbourhood of
-    /// mapped centres `near`) and gives how many of its taps lie inside the source. The taps
-    /// are interpolated from `near` where that is exact enough (see `local.rs`), else each
-    /// mapped; merged in a dense grid where it fits (see `dense.rs`), else by offset.
-    #[allow(clippy::too_many_arguments)]
+    /// Appends the quads of supersampled pixel (u, v) (`nu`×`nv` taps at pyramid level
+    /// `level`, its neighbourhood of mapped centres `near`) and gives how many of its taps lie
+    /// inside the source. The taps are interpolated from `near` where that is exact enough
+    /// (see `local.rs`), else each mapped; merged in a dense grid where it fits (see
+    /// `dense.rs`), else by offset.
     fn supersampled(
         &self,
-        u: usize,
-        v: usize,
+        (u, v, level): (usize, usize, u32),
         (nu, nv): (u32, u32),
         near: &local::Near,
         scratch: &mut Scratch,
@@ -326,7 +375,7 @@ impl<'a> Builder<'a> {
         quads: &mut Vec<Quad>,
     ) -> u32 {
         parts.taps.clear();
-        if !self.local_taps(near, nu, nv, &mut parts.taps) {
+        if !self.local_taps(near, (nu, nv, level), &mut parts.taps) {
             // the taps row by row, each row's columns left to right
             parts.bearings.clear();
             match self.by_parts {
@@ -344,24 +393,25 @@ impl<'a> Builder<'a> {
             }
             self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
         }
-        if let Some(inside) = self.dense_quads(&parts.taps, scratch, quads) {
+        if let Some(inside) = self.dense_quads(&parts.taps, level, scratch, quads) {
             return inside;
         }
         scratch.blocks.clear();
         let mut inside = 0;
         for &p in &parts.taps {
-            inside += self.add_tap(p, scratch) as u32;
+            inside += self.add_tap(p, level, scratch) as u32;
         }
         quantize(scratch, inside, nu * nv, quads);
         inside
     }
 
-    /// Adds the bilinear weights of a tap at source position `p` to the pixel's blocks, at
-    /// unit scale (the pixel's taps are averaged when quantized). Whether it was inside.
+    /// Adds the bilinear weights of a tap at source position `p` (sampled at pyramid level
+    /// `level`) to the pixel's blocks, at unit scale (the pixel's taps are averaged when
+    /// quantized). Whether it was inside.
     #[inline(always)]
-    fn add_tap(&self, p: Option<Point2<f64>>, s: &mut Scratch) -> bool {
+    fn add_tap(&self, p: Option<Point2<f64>>, level: u32, s: &mut Scratch) -> bool {
         let Some(p) = p else { return false };
-        let Some((x0, y0, [tl, bl, tr, br])) = self.block(p) else {
+        let Some((x0, y0, [tl, bl, tr, br])) = self.block_at(p, level) else {
             return false;
         };
         let size = self.source_size;
@@ -424,6 +474,7 @@ impl<'a> Builder<'a> {
             row_starts: Vec::with_capacity(h + 1),
             row_reach: Vec::with_capacity(h),
             cover: Vec::with_capacity(w * h),
+            levels: bands.iter().map(|b| b.top_level + 1).max().unwrap_or(1),
         };
         t.row_starts.push(0);
         for b in bands {
@@ -536,43 +587,4 @@ fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
     // no store to q[big]: an indexed store sends the weights through memory
     let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
     Quad { offset, w }
-}
-
-/// Supersampling of an output pixel along its u and v axes: the source pixels one output step
-/// spans in each direction, rounded (1 below 1.5), from the table's own mapping of the pixel's
-/// centre and its neighbours' (a central difference; one-sided where a neighbour has no
-/// image). Anisotropic: at a KITTI frame's edges an equirect pixel spans 1.8 source pixels
-/// across but 1.3 down, and needs 2×1 samples, not 2×2. `period`: the source width of a 360°
-/// source, across whose wrap a step is taken the short way.
-fn supersampling(
-    centre: Option<Point2<f64>>,
-    across: [Option<Point2<f64>>; 2],
-    down: [Option<Point2<f64>>; 2],
-    period: Option<f64>,
-) -> (u32, u32) {
-    let Some(c) = centre else {
-        return (1, 1);
-    };
-    // Squared distances: the square root is needed only for the (rare) counts above 1.
-    let dist2 = |a: Point2<f64>, b: Point2<f64>| {
-        let mut d = b - a;
-        if let Some(w) = period {
-            d.x -= w * (d.x / w).round();
-        }
-        d.norm_squared()
-    };
-    let step2 = |[a, b]: [Option<Point2<f64>>; 2]| match (a, b) {
-        (Some(a), Some(b)) => dist2(a, b) / 4.0,
-        (Some(a), None) => dist2(a, c),
-        (None, Some(b)) => dist2(c, b),
-        (None, None) => 0.0,
-    };
-    let count = |scale2: f64| {
-        if !scale2.is_finite() || scale2 < 1.5 * 1.5 {
-            1
-        } else {
-            (scale2.sqrt().round() as u32).min(MAX_SUPERSAMPLE)
-        }
-    };
-    (count(step2(across)), count(step2(down)))
 }

@@ -15,12 +15,14 @@ use nalgebra::Point2;
 const MAX_CELLS: usize = 20 * 20;
 
 impl Builder<'_> {
-    /// Appends the quads of a pixel whose `taps` (each weighing 1) are given, and gives how
+    /// Appends the quads of a pixel whose `taps` (each weighing 1, sampled at pyramid level
+    /// `level`) are given, and gives how
     /// many taps lie inside the source; None (nothing appended) where the grid does not fit
     /// (see [`MAX_CELLS`]) or a tap's block wraps (see [`Builder::add_tap`]).
     pub(super) fn dense_quads(
         &self,
         taps: &[Option<Point2<f64>>],
+        level: u32,
         s: &mut Scratch,
         out: &mut Vec<Quad>,
     ) -> Option<u32> {
@@ -28,7 +30,7 @@ impl Builder<'_> {
         s.cells.clear();
         let (mut x_lo, mut y_lo, mut x_hi, mut y_hi) = (u32::MAX, u32::MAX, 0, 0);
         for p in taps.iter().flatten() {
-            if let Some((x0, y0, w)) = self.block(*p) {
+            if let Some((x0, y0, w)) = self.block_at(*p, level) {
                 if x0 + 1 >= width {
                     return None;
                 }

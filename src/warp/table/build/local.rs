@@ -47,13 +47,16 @@ impl Builder<'_> {
     /// neighbourhood is `near` (row by row, each row's columns left to right, as the exact
     /// taps), interpolated; false (and `out` unchanged) where the model does not hold: a
     /// neighbour without a position, a bend above [`MAX_BEND`], or a tap at a source border.
+    /// Taps sampled at pyramid level `level` are needed to a level pixel's precision: the bend
+    /// and the border margin allowed are 2^level times larger in source pixels (the same
+    /// error relative to a level pixel).
     pub(super) fn local_taps(
         &self,
         near: &Near,
-        nu: u32,
-        nv: u32,
+        (nu, nv, level): (u32, u32, u32),
         out: &mut Vec<Option<Point2<f64>>>,
     ) -> bool {
+        let unit = (1u32 << level) as f64;
         let Some(c) = near[1][1] else { return false };
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         // positions relative to the centre (a 360° source's taken the short way round)
@@ -75,7 +78,7 @@ impl Builder<'_> {
             .max(down.norm_squared())
             .max(twist.norm_squared());
         // (NaN fails it too)
-        if !(bend <= MAX_BEND * MAX_BEND) {
+        if !(bend <= (MAX_BEND * unit) * (MAX_BEND * unit)) {
             return false;
         }
         let start = out.len();
@@ -91,21 +94,21 @@ impl Builder<'_> {
                 out.push(Some(c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])));
             }
         }
-        if self.near_border(&out[start..]) {
+        if self.near_border(&out[start..], BORDER_MARGIN * unit) {
             out.truncate(start);
             return false;
         }
         true
     }
 
-    /// Whether a tap lies within [`BORDER_MARGIN`] of the border of the source's valid area
-    /// (columns only for a source that does not wrap).
-    fn near_border(&self, taps: &[Option<Point2<f64>>]) -> bool {
+    /// Whether a tap lies within `margin` of the border of the source's valid area (columns
+    /// only for a source that does not wrap).
+    fn near_border(&self, taps: &[Option<Point2<f64>>], margin: f64) -> bool {
         let (w, h) = (
             self.source_size.width as f64,
             self.source_size.height as f64,
         );
-        let close = |x: f64, edge: f64| (x - edge).abs() < BORDER_MARGIN;
+        let close = |x: f64, edge: f64| (x - edge).abs() < margin;
         let columns = self.wrap == Wrap::None;
         taps.iter().flatten().any(|p| {
             close(p.y, -0.5)
@@ -170,7 +173,7 @@ mod tests {
                 }
                 candidates += 1;
                 let mut got = Vec::new();
-                if !b.local_taps(&n, 4, 4, &mut got) {
+                if !b.local_taps(&n, (4, 4, 0), &mut got) {
                     continue;
                 }
                 used += 1;

@@ -29,6 +29,7 @@ impl Builder<'_> {
             row_starts: Vec::with_capacity(h + 1),
             row_reach: Vec::with_capacity(h),
             cover: vec![Cover::None; w * h],
+            levels: 1,
         };
         t.row_starts.push(0);
         t
