@@ -320,13 +320,19 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
-        for u in 0..w {
+        let mut next = 0;
+        while next < w {
+            let u = next;
+            next += 1;
             let centre = here[u + 1];
             if centre.is_none() {
-                // no tap (what the general path below gives such a pixel, cheaply)
-                band.quads.push(Quad::default());
-                band.counts.push(1);
-                band.cover.push(Cover::None);
+                // no tap (what the general path below gives such a pixel, cheaply), for the
+                // whole run of such pixels at once (most of a wide view)
+                let run = 1 + here[u + 2..=w].iter().take_while(|c| c.is_none()).count();
+                band.quads.extend(std::iter::repeat_n(Quad::default(), run));
+                band.counts.extend(std::iter::repeat_n(1, run));
+                band.cover.extend(std::iter::repeat_n(Cover::None, run));
+                next = u + run;
                 continue;
             }
             // (no scale estimate where the cap allows one tap)
