@@ -168,6 +168,8 @@ struct Parts {
     taps: Vec<Option<Point2<f64>>>,
     /// The row shares of the current row's taps, at index n for an n-tall supersampled pixel.
     tap_rows: [Vec<Share>; MAX_SUPERSAMPLE as usize + 1],
+    /// A row's bearing coordinates (x, y, z) for the centres mapped in lanes.
+    lanes: [Vec<f64>; 3],
 }
 
 impl<'a> Builder<'a> {
@@ -247,6 +249,11 @@ impl<'a> Builder<'a> {
                 // only the columns the footprint keeps are unprojected (None elsewhere)
                 let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
                 let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
+                if let Some(k) = &self.pinhole {
+                    // the same positions, a group of lanes at a time (`lanes.rs`)
+                    self.centres_lanes(sep, k, (v, lo), kept, &mut parts.lanes, out);
+                    return;
+                }
                 parts.bearings.resize((lo + 1) as usize, None);
                 if !kept.is_empty() {
                     sep.bearings(kept, sep.row(v as f64), &mut parts.bearings);
@@ -313,13 +320,19 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
-        for u in 0..w {
+        let mut next = 0;
+        while next < w {
+            let u = next;
+            next += 1;
             let centre = here[u + 1];
             if centre.is_none() {
-                // no tap (what the general path below gives such a pixel, cheaply)
-                band.quads.push(Quad::default());
-                band.counts.push(1);
-                band.cover.push(Cover::None);
+                // no tap (what the general path below gives such a pixel, cheaply), for the
+                // whole run of such pixels at once (most of a wide view)
+                let run = 1 + here[u + 2..=w].iter().take_while(|c| c.is_none()).count();
+                band.quads.extend(std::iter::repeat_n(Quad::default(), run));
+                band.counts.extend(std::iter::repeat_n(1, run));
+                band.cover.extend(std::iter::repeat_n(Cover::None, run));
+                next = u + run;
                 continue;
             }
             // (no scale estimate where the cap allows one tap)
@@ -341,7 +354,18 @@ impl<'a> Builder<'a> {
             band.top_level = band.top_level.max(level);
             let taps = nu * nv;
             let before = band.quads.len();
-            let inside = if (nu, nv) == (1, 1) {
+            let inside = if (nu, nv) == (1, 1) && self.one_block {
+                // `quantize` of one block (a tap is one block here), without the scratch
+                let block = self.block_at(centre.expect("mapped"), level);
+                let width = self.source_size.width;
+                band.quads.push(match block {
+                    Some((x0, y0, w)) => {
+                        quantize_block(y0 * width + x0, w, WEIGHT_ONE, WEIGHT_ONE as f64)
+                    }
+                    None => Quad::default(),
+                });
+                block.is_some() as u32
+            } else if (nu, nv) == (1, 1) {
                 scratch.blocks.clear();
                 let inside = self.add_tap(centre, level, scratch) as u32;
                 quantize(scratch, inside, taps, &mut band.quads);

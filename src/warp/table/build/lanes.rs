@@ -8,9 +8,10 @@
 //! cylindrical view drawn per training sample spends most of its table here.
 
 use super::Builder;
-use crate::camera::{pinhole_lanes, Intrinsics, Separable};
+use crate::camera::{pinhole_lanes, Intrinsics, Separable, Share};
 use crate::warp::kernel::{Round, LANES, WEIGHT_ONE};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
+use nalgebra::Point2;
 
 /// One coordinate of a group's pixels, a lane each.
 type Lanes = [f64; LANES];
@@ -131,16 +132,7 @@ impl Builder<'_> {
     /// by stage over the lanes.
     #[inline(always)]
     fn group(&self, k: &Intrinsics, d: [Lanes; 3]) -> (Round, [bool; LANES], u32) {
-        let r = self.src_from_dst;
-        let mut turned = [[0.0; LANES]; 3];
-        for (i, t) in turned.iter_mut().enumerate() {
-            let (r0, r1, r2) = (r[(i, 0)], r[(i, 1)], r[(i, 2)]);
-            for l in 0..LANES {
-                // nalgebra's product: (r0·x + r1·y) + r2·z
-                t[l] = r0 * d[0][l] + r1 * d[1][l] + r2 * d[2][l];
-            }
-        }
-        let [px, py] = pinhole_lanes(k, turned);
+        let [px, py] = pinhole_lanes(k, self.turn(d));
         let size = self.source_size;
         let (sw, sh) = (size.width as f64, size.height as f64);
         let (x_last, y_last) = (
@@ -189,6 +181,105 @@ impl Builder<'_> {
             round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
         }
         (round, inside, offset.into_iter().max().unwrap_or(0))
+    }
+}
+
+impl Builder<'_> {
+    /// Bearings `d` (x, y, z lanes in the output's axes) in the source's axes, with
+    /// nalgebra's product's operations: `src_from_dst * d`, bit for bit.
+    #[inline(always)]
+    fn turn(&self, d: [Lanes; 3]) -> [Lanes; 3] {
+        let r = self.src_from_dst;
+        let mut turned = [[0.0; LANES]; 3];
+        for (i, t) in turned.iter_mut().enumerate() {
+            let (r0, r1, r2) = (r[(i, 0)], r[(i, 1)], r[(i, 2)]);
+            for l in 0..LANES {
+                // nalgebra's product: (r0·x + r1·y) + r2·z
+                t[l] = r0 * d[0][l] + r1 * d[1][l] + r2 * d[2][l];
+            }
+        }
+        turned
+    }
+
+    /// [`Builder::centres`] of a separable output from a pinhole source of intrinsics `k`:
+    /// the source positions of row `v`'s centres, columns -1..=width, where the columns from
+    /// `lo` on with shares `kept` are mapped (None elsewhere), a group of lanes at a time with
+    /// `project`'s very operations (None where it rejects: a NaN lane). `xyz`: scratch.
+    pub(super) fn centres_lanes(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        (v, lo): (isize, isize),
+        kept: &[Share],
+        xyz: &mut [Vec<f64>; 3],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked just above).
+            return unsafe { self.centres_lanes_avx2(sep, k, (v, lo), kept, xyz, out) };
+        }
+        self.centres_lanes_any(sep, k, (v, lo), kept, xyz, out)
+    }
+
+    /// [`Builder::centres_lanes`] compiled for AVX2 (the same IEEE operations, the same bits).
+    ///
+    /// # Safety
+    ///
+    /// The processor must have AVX2 (`is_x86_feature_detected!("avx2")`). It reads and writes
+    /// only through safe slices.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn centres_lanes_avx2(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        at: (isize, isize),
+        kept: &[Share],
+        xyz: &mut [Vec<f64>; 3],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        self.centres_lanes_any(sep, k, at, kept, xyz, out)
+    }
+
+    #[inline(always)]
+    fn centres_lanes_any(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        (v, lo): (isize, isize),
+        kept: &[Share],
+        xyz: &mut [Vec<f64>; 3],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        let w = self.dst.size().width as usize;
+        out.clear();
+        out.resize((lo + 1).max(0) as usize, None);
+        let n = kept.len();
+        if n > 0 {
+            // the last group's spare lanes NaN: no position
+            for c in xyz.iter_mut() {
+                c.clear();
+                c.resize(n.next_multiple_of(LANES), f64::NAN);
+            }
+            let [x, y, z] = xyz;
+            sep.bearing_lanes(
+                kept,
+                sep.row(v as f64),
+                [&mut x[..n], &mut y[..n], &mut z[..n]],
+            );
+            for g in 0..n.div_ceil(LANES) {
+                let lanes = g * LANES..(g + 1) * LANES;
+                let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
+                    .map(|c| <Lanes>::try_from(c).expect("a group"));
+                let [px, py] = pinhole_lanes(k, self.turn(d));
+                let count = LANES.min(n - g * LANES);
+                out.extend(
+                    (0..count).map(|l| (!px[l].is_nan()).then(|| Point2::new(px[l], py[l]))),
+                );
+            }
+        }
+        out.resize(w + 2, None);
     }
 }
 
@@ -329,5 +420,77 @@ mod tests {
             covered += want.coverage();
         }
         assert!(covered > 36.0 * 0.1 && covered < 36.0 * 0.95, "{covered}");
+    }
+
+    #[test]
+    fn drawn_pyramid_tables_equal_the_per_pixel_ones() {
+        // views a few times coarser than the source (levels 1 to 3 sampled, anisotropic
+        // pixels taking several taps beside the one-tap ones), turned, serial and parallel,
+        // within their footprint and without: the centres mapped in lanes give the table of
+        // the centres mapped one by one, entry for entry
+        let src = Perspective::new(
+            Intrinsics::new(360.8, 360.8, 304.8, 86.4),
+            ImageSize::new(620, 188),
+        );
+        let mut s = 11u64;
+        let mut r = |lo: f64, hi: f64| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        let (mut levels, mut covered) = ([0; 5], 0.0);
+        for i in 0..30 {
+            let projection = [
+                Projection::Cylindrical,
+                Projection::Equirect,
+                Projection::Perspective,
+            ][i % 3];
+            let (w, h) = (60 + (i as u32 * 37) % 241, 30 + (i as u32 * 11) % 91);
+            let fov = r(0.8, 3.0);
+            let fu = if projection == Projection::Perspective {
+                w as f64 / 2.0 / (fov / 2.0).tan()
+            } else {
+                w as f64 / fov
+            };
+            let k = Intrinsics::new(
+                fu,
+                fu * r(0.6, 1.4),
+                w as f64 / 2.0 + r(-8.0, 8.0),
+                h as f64 / 2.0 + r(-8.0, 8.0),
+            );
+            let dst = projection.camera(k, ImageSize::new(w, h));
+            let rot = rotation_ypr(r(-0.3, 0.3), r(-0.2, 0.2), r(-0.1, 0.1));
+            // (the source without `pinhole`: its centres mapped by `project`, one by one; the
+            // output's taps still by column and row shares, as the lanes' build maps them)
+            let seen = Footprint::new(dst.as_ref(), &src, &rot, &-Vector3::z());
+            let build = |src: &dyn CameraModel, seen, parallel| {
+                RemapTable::build_pyramid_within(
+                    dst.as_ref(),
+                    src,
+                    &rot,
+                    Wrap::None,
+                    8,
+                    seen,
+                    parallel,
+                )
+            };
+            for seen in [None, seen.as_ref()] {
+                let want = build(&PerPixel(&src), seen, false);
+                for parallel in [false, true] {
+                    let got = build(&src, seen, parallel);
+                    assert!(
+                        got == want,
+                        "{projection} {i} ({parallel}): the tables differ"
+                    );
+                }
+                levels[want.levels as usize] += 1;
+                covered += want.coverage();
+            }
+        }
+        // (levels: the tables' counts; 4 where level 3 is sampled) the cases reach the coarse
+        // and the finer levels, and both the source's inside and outside
+        assert!(levels[4] > 10 && levels[2] + levels[3] > 10, "{levels:?}");
+        assert!(covered > 60.0 * 0.1 && covered < 60.0 * 0.98, "{covered}");
     }
 }
