@@ -253,7 +253,7 @@ where
 
 /// The records of a table whose token `wanted` holds, read by `read`; every record's token
 /// is checked, the others are skipped unread.
-pub(super) fn read_listed<R, T>(
+fn read_listed<R, T>(
     path: &Path,
     wanted: &HashSet<Token>,
     read: fn(&Path, usize, &R) -> Result<(Token, T)>,

@@ -4,9 +4,9 @@
 //! two lie more than [`MAX_TIME_DIFF`] apart (twice that for a centred difference); and the
 //! time it holds at ([`sweep_time`]).
 
-use super::dataset::read_listed;
 use super::json::Fields;
-use super::tables::{raw, Annotation};
+use super::records::stream;
+use super::tables::{key, raw, Annotation};
 use super::token::Token;
 use crate::error::{Error, Result};
 use crate::source::{Pose, RigCamera};
@@ -43,11 +43,23 @@ impl Tracks {
         let wanted: HashSet<Token> = annotations
             .flat_map(|a| a.prev.iter().chain(&a.next).cloned())
             .collect();
-        let neighbours = if wanted.is_empty() {
-            HashMap::new()
-        } else {
-            read_listed(path, &wanted, read_neighbour)?
-        };
+        let mut neighbours = HashMap::new();
+        if !wanted.is_empty() {
+            stream(
+                path,
+                |r| {
+                    let listed = r.parse::<key::Listed>().ok().and_then(|k| k.token?.token());
+                    if listed.is_some_and(|t| !wanted.contains(&t)) {
+                        return Ok(None);
+                    }
+                    read_neighbour(path, r.index, &r.parse::<raw::Annotation>()?).map(Some)
+                },
+                |_, (token, n)| {
+                    neighbours.insert(token, n);
+                    Ok(())
+                },
+            )?;
+        }
         Ok(Tracks {
             sample_times,
             neighbours,
