@@ -16,8 +16,9 @@
 //! they are the pixels the table maps; the others take nothing from the camera. The test runs
 //! per tile of [`TILE`]×[`TILE`] positions at its middle position: a tile whose middle lies
 //! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
-//! positions from the middle) is decided whole, the others position by position; the set is
-//! the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
+//! positions from the middle) is decided whole, the others position by position (with one
+//! limit, a block of [`BLOCK`]×[`BLOCK`] tiles is tried whole first, the same way); the set
+//! is the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
 //! reachable centres ([`CameraModel::stored_centres`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
@@ -40,6 +41,8 @@ const WIDEN: usize = 2;
 const BORDER_SLACK: f64 = 1e-3;
 /// Positions per side of a tile of the depth-guided bound.
 const TILE: usize = 8;
+/// Tiles per side of a block, decided whole at once where it can be.
+const BLOCK: usize = 8;
 
 /// A lower bound of a scene's distance (metres) over the unit bearings within an angle
 /// (radians) of a unit bearing.
@@ -262,24 +265,15 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
         }
     };
     let mut candidate = vec![false; bearings.len()];
+    let tiles_down = gh.div_ceil(TILE);
     candidate
-        .par_chunks_mut(gw * TILE)
+        .par_chunks_mut(gw * TILE * BLOCK)
         .enumerate()
-        .for_each(|(tj, rows)| {
-            for ti in 0..tiles_across {
-                let tile = if limits.len() == 1 {
-                    0
-                } else {
-                    tj * tiles_across + ti
-                };
-                let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
-                let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
-                let complete = output.complete[tj * tiles_across + ti];
-                let whole = (whole_tiles && complete)
-                    .then(|| whole_tile(cone, k, output, limits[tile], (i0, i1), (j0, j1)))
-                    .flatten();
+        .for_each(|(bj, rows)| {
+            let jb = bj * TILE * BLOCK;
+            let fill = |rows: &mut [bool], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
                 for j in j0..j1 {
-                    let row = &mut rows[(j - j0) * gw..][i0..i1];
+                    let row = &mut rows[(j - jb) * gw..][i0..i1];
                     match whole {
                         Some(all) => row.fill(all),
                         None => {
@@ -287,6 +281,43 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
                                 *out = position(&bearings[j * gw + i], tile);
                             }
                         }
+                    }
+                }
+            };
+            let tjs = bj * BLOCK..((bj + 1) * BLOCK).min(tiles_down);
+            for bi in 0..tiles_across.div_ceil(BLOCK) {
+                let tis = bi * BLOCK..((bi + 1) * BLOCK).min(tiles_across);
+                // with one limit, a block of tiles decided whole at once (most of the
+                // output lies far beyond a camera's cone)
+                let complete = || {
+                    tjs.clone().all(|tj| {
+                        tis.clone()
+                            .all(|ti| output.complete[tj * tiles_across + ti])
+                    })
+                };
+                let (i0, i1) = (tis.start * TILE, (tis.end * TILE).min(gw));
+                let (j0, j1) = (tjs.start * TILE, (tjs.end * TILE).min(gh));
+                if whole_tiles && limits.len() == 1 && complete() {
+                    let whole = whole_tile(cone, k, output, limits[0], (i0, i1), (j0, j1));
+                    if whole.is_some() {
+                        fill(rows, (i0, i1), (j0, j1), whole, 0);
+                        continue;
+                    }
+                }
+                for tj in tjs.clone() {
+                    for ti in tis.clone() {
+                        let tile = if limits.len() == 1 {
+                            0
+                        } else {
+                            tj * tiles_across + ti
+                        };
+                        let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
+                        let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
+                        let complete = output.complete[tj * tiles_across + ti];
+                        let whole = (whole_tiles && complete)
+                            .then(|| whole_tile(cone, k, output, limits[tile], (i0, i1), (j0, j1)))
+                            .flatten();
+                        fill(rows, (i0, i1), (j0, j1), whole, tile);
                     }
                 }
             }
