@@ -7,7 +7,7 @@
 //! within the cone of half-angle c_i about the camera's optical axis: its field of view, or,
 //! for a camera without one, the widest angle of its image border (one pixel out) plus a
 //! margin. The bearings of the output pixel centres (and of the ring one pixel outside) are
-//! computed once. Between adjacent centres the output bearing turns by at most A, and seen
+//! computed once per output camera, and kept across frames ([`grid`]). Between adjacent centres the output bearing turns by at most A, and seen
 //! from camera i the proxy point turns by at most A·s/(s − b_i) (s the proxy distance, b_i the
 //! camera's distance from the output centre). A tap lies within half a pixel of its pixel's
 //! centre, so a pixel with a tap in the image has θ(q_i) ≤ c_i + δ_i at its centre, with
@@ -16,8 +16,9 @@
 //! they are the pixels the table maps; the others take nothing from the camera. The test runs
 //! per tile of [`TILE`]×[`TILE`] positions at its middle position: a tile whose middle lies
 //! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
-//! positions from the middle) is decided whole, the others position by position; the set is
-//! the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
+//! positions from the middle) is decided whole, the others position by position (with one
+//! limit, a block of [`BLOCK`]×[`BLOCK`] tiles is tried whole first, the same way); the set
+//! is the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
 //! reachable centres ([`CameraModel::stored_centres`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
@@ -29,6 +30,10 @@
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
+use std::sync::Arc;
+
+mod grid;
+use grid::OutputGrid;
 
 /// Pixels the candidates are widened by.
 const WIDEN: usize = 2;
@@ -36,6 +41,8 @@ const WIDEN: usize = 2;
 const BORDER_SLACK: f64 = 1e-3;
 /// Positions per side of a tile of the depth-guided bound.
 const TILE: usize = 8;
+/// Tiles per side of a block, decided whole at once where it can be.
+const BLOCK: usize = 8;
 
 /// A lower bound of a scene's distance (metres) over the unit bearings within an angle
 /// (radians) of a unit bearing.
@@ -45,8 +52,8 @@ pub(super) type NearBound<'a> = &'a (dyn Fn(&Vector3<f64>, f64) -> f64 + Sync);
 #[derive(Debug)]
 pub(super) struct Reach {
     size: ImageSize,
-    /// Bearings of positions -1..=width × -1..=height, row-major (NaN: none).
-    bearings: Vec<Vector3<f64>>,
+    /// The output's positions -1..=width × -1..=height and their bearings.
+    grid: Arc<OutputGrid>,
     /// Per camera, over the same positions: whether the camera may reach it (None: all).
     reach: Vec<Option<Vec<bool>>>,
 }
@@ -102,21 +109,16 @@ impl Reach {
         near: Option<NearBound>,
     ) -> Reach {
         let size = output.size();
-        let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
-        let bearings = grid_bearings(output, gw, gh);
-        let step = largest_turn(&bearings, gw, gh);
-        let tiles = near.map(|near| tile_nearest(&bearings, gw, gh, step, near));
+        let output_grid = OutputGrid::of(output);
+        let tiles = near.map(|near| tile_nearest(&output_grid, near));
         let grid = Grid {
-            bearings: &bearings,
-            gw,
-            gh,
-            step,
+            output: &output_grid,
             tiles: tiles.as_deref(),
         };
         let reach = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
         Reach {
             size,
-            bearings,
+            grid: output_grid,
             reach,
         }
     }
@@ -124,7 +126,7 @@ impl Reach {
     /// The output's bearing of pixel (u, v), as its `unproject` gave it (None where it gave
     /// none).
     pub(super) fn bearing(&self, u: usize, v: usize) -> Option<Vector3<f64>> {
-        let d = self.bearings[(v + 1) * (self.size.width as usize + 2) + u + 1];
+        let d = self.grid.bearings[(v + 1) * (self.size.width as usize + 2) + u + 1];
         d.x.is_finite().then_some(d)
     }
 
@@ -141,7 +143,7 @@ impl Reach {
         {
             return None;
         }
-        let d = self.bearings[y as usize * gw + x as usize];
+        let d = self.grid.bearings[y as usize * gw + x as usize];
         Some(d.x.is_finite().then_some(d))
     }
 
@@ -167,7 +169,7 @@ impl Reach {
         let Some(j) = usize::try_from(v + 1).ok().filter(|j| *j < gh) else {
             return false;
         };
-        let row = &self.bearings[j * gw..(j + 1) * gw];
+        let row = &self.grid.bearings[j * gw..(j + 1) * gw];
         let stored = |d: &Vector3<f64>| d.x.is_finite().then_some(*d);
         match &self.reach[i] {
             None => out.extend(row.iter().map(stored)),
@@ -201,93 +203,10 @@ impl Reach {
     }
 }
 
-/// The bearings of `output`'s positions -1..=width × -1..=height (`gw` × `gh`), row-major,
-/// NaN where it has none: by column and row shares where the output separates (the same
-/// values as its `unproject`, bit for bit, without the trigonometry of every position).
-fn grid_bearings(output: &dyn CameraModel, gw: usize, gh: usize) -> Vec<Vector3<f64>> {
-    let mut bearings = vec![Vector3::repeat(f64::NAN); gw * gh];
-    let sep = output.separable();
-    let columns: Vec<_> = sep.map_or(Vec::new(), |sep| {
-        (0..gw).map(|i| sep.column(i as f64 - 1.0)).collect()
-    });
-    bearings
-        .par_chunks_mut(gw)
-        .enumerate()
-        .for_each_init(Vec::new, |row_bearings, (j, row)| {
-            let v = j as f64 - 1.0;
-            if let Some(sep) = sep {
-                row_bearings.clear();
-                sep.bearings(&columns, sep.row(v), row_bearings);
-                for (out, d) in row.iter_mut().zip(row_bearings.iter()) {
-                    if let Some(d) = d {
-                        *out = *d;
-                    }
-                }
-                return;
-            }
-            for (i, out) in row.iter_mut().enumerate() {
-                if let Ok(d) = output.unproject(&Point2::new(i as f64 - 1.0, v)) {
-                    *out = d;
-                }
-            }
-        });
-    bearings
-}
-
-/// A: the largest turn between adjacent centres of the grid (across, down and both
-/// diagonals), radians.
-fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f64 {
-    // the turn 2·asin(chord/2) of the longest chord (asin grows with its argument); each
-    // bearing normalised once per row it is read in, the chords compared squared (the
-    // square root is monotonic: the same largest chord)
-    let unit = |row: &[Vector3<f64>], out: &mut Vec<Vector3<f64>>| {
-        out.clear();
-        out.extend(row.iter().map(|d| d.normalize()));
-    };
-    let chord2 = |a: &Vector3<f64>, b: &Vector3<f64>| {
-        let c = (a - b).norm_squared();
-        if c.is_finite() {
-            c
-        } else {
-            0.0
-        }
-    };
-    let step2 = (0..gh)
-        .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new()),
-            |(here, below), j| {
-                unit(&bearings[j * gw..(j + 1) * gw], here);
-                let mut a: f64 = 0.0;
-                for i in 0..gw - 1 {
-                    a = a.max(chord2(&here[i], &here[i + 1]));
-                }
-                if j + 1 < gh {
-                    unit(&bearings[(j + 1) * gw..(j + 2) * gw], below);
-                    for i in 0..gw {
-                        a = a.max(chord2(&here[i], &below[i]));
-                        if i + 1 < gw {
-                            a = a.max(chord2(&here[i], &below[i + 1]));
-                        }
-                        if i > 0 {
-                            a = a.max(chord2(&here[i], &below[i - 1]));
-                        }
-                    }
-                }
-                a
-            },
-        )
-        .reduce(|| 0.0, f64::max);
-    2.0 * (step2.sqrt() / 2.0).min(1.0).asin()
-}
-
 /// The output's grid as a cone's bound reads it.
 struct Grid<'a> {
-    bearings: &'a [Vector3<f64>],
-    gw: usize,
-    gh: usize,
-    /// The largest turn between adjacent positions.
-    step: f64,
+    /// The output's bearings, largest turn and complete tiles.
+    output: &'a OutputGrid,
     /// The nearest scene distance per tile, when bounded.
     tiles: Option<&'a [f64]>,
 }
@@ -301,14 +220,9 @@ fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
 /// [`cone_reach`], deciding the tiles it settles whole (`whole_tiles`) or every position
 /// alone (the tests' reference).
 fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool>> {
-    let Grid {
-        bearings,
-        gw,
-        gh,
-        step,
-        tiles,
-    } = *grid;
-    let tiles_across = gw.div_ceil(TILE);
+    let Grid { output, tiles } = *grid;
+    let (bearings, gw, gh, step) = (&output.bearings, output.gw, output.gh, output.step);
+    let tiles_across = output.tiles_across();
     let (Some(c), Some(k)) = (cone.half_angle, cone.parallax) else {
         return None;
     };
@@ -351,23 +265,15 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
         }
     };
     let mut candidate = vec![false; bearings.len()];
+    let tiles_down = gh.div_ceil(TILE);
     candidate
-        .par_chunks_mut(gw * TILE)
+        .par_chunks_mut(gw * TILE * BLOCK)
         .enumerate()
-        .for_each(|(tj, rows)| {
-            for ti in 0..tiles_across {
-                let tile = if limits.len() == 1 {
-                    0
-                } else {
-                    tj * tiles_across + ti
-                };
-                let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
-                let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
-                let whole = whole_tiles
-                    .then(|| whole_tile(cone, k, grid, limits[tile], (i0, i1), (j0, j1)))
-                    .flatten();
+        .for_each(|(bj, rows)| {
+            let jb = bj * TILE * BLOCK;
+            let fill = |rows: &mut [bool], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
                 for j in j0..j1 {
-                    let row = &mut rows[(j - j0) * gw..][i0..i1];
+                    let row = &mut rows[(j - jb) * gw..][i0..i1];
                     match whole {
                         Some(all) => row.fill(all),
                         None => {
@@ -375,6 +281,43 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
                                 *out = position(&bearings[j * gw + i], tile);
                             }
                         }
+                    }
+                }
+            };
+            let tjs = bj * BLOCK..((bj + 1) * BLOCK).min(tiles_down);
+            for bi in 0..tiles_across.div_ceil(BLOCK) {
+                let tis = bi * BLOCK..((bi + 1) * BLOCK).min(tiles_across);
+                // with one limit, a block of tiles decided whole at once (most of the
+                // output lies far beyond a camera's cone)
+                let complete = || {
+                    tjs.clone().all(|tj| {
+                        tis.clone()
+                            .all(|ti| output.complete[tj * tiles_across + ti])
+                    })
+                };
+                let (i0, i1) = (tis.start * TILE, (tis.end * TILE).min(gw));
+                let (j0, j1) = (tjs.start * TILE, (tjs.end * TILE).min(gh));
+                if whole_tiles && limits.len() == 1 && complete() {
+                    let whole = whole_tile(cone, k, output, limits[0], (i0, i1), (j0, j1));
+                    if whole.is_some() {
+                        fill(rows, (i0, i1), (j0, j1), whole, 0);
+                        continue;
+                    }
+                }
+                for tj in tjs.clone() {
+                    for ti in tis.clone() {
+                        let tile = if limits.len() == 1 {
+                            0
+                        } else {
+                            tj * tiles_across + ti
+                        };
+                        let (i0, i1) = (ti * TILE, (ti * TILE + TILE).min(gw));
+                        let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
+                        let complete = output.complete[tj * tiles_across + ti];
+                        let whole = (whole_tiles && complete)
+                            .then(|| whole_tile(cone, k, output, limits[tile], (i0, i1), (j0, j1)))
+                            .flatten();
+                        fill(rows, (i0, i1), (j0, j1), whole, tile);
                     }
                 }
             }
@@ -390,11 +333,12 @@ const TILE_CLEARANCE: f64 = 1e-7;
 /// cone test at its middle position's bearing settles them all: every position lies within
 /// k·A of the middle (k the most positions between them, A the largest turn between adjacent
 /// ones), so its camera point within k·A·`parallax` of the middle's; None where it does not
-/// settle them (or a position has no bearing).
+/// settle them. Every position of the tile has a bearing (the caller reads
+/// [`OutputGrid::complete`]).
 fn whole_tile(
     cone: &Cone,
     parallax: f64,
-    grid: &Grid,
+    grid: &OutputGrid,
     limit: f64,
     (i0, i1): (usize, usize),
     (j0, j1): (usize, usize),
@@ -403,14 +347,6 @@ fn whole_tile(
         return Some(true);
     }
     let gw = grid.gw;
-    let every = (j0..j1).all(|j| {
-        grid.bearings[j * gw + i0..j * gw + i1]
-            .iter()
-            .all(|d| d.x.is_finite())
-    });
-    if !every {
-        return None;
-    }
     let (mi, mj) = ((i0 + i1 - 1) / 2, (j0 + j1 - 1) / 2);
     let k = (mi - i0).max(i1 - 1 - mi).max(mj - j0).max(j1 - 1 - mj);
     let radius = k as f64 * grid.step * parallax + 1e-9;
@@ -433,21 +369,15 @@ fn whole_tile(
 /// (k + 2)·`step`, k the most positions from the middle to another of the tile (every path of
 /// k steps turns by at most k·`step`, a tap lies within two turns of its centre); 0 where a
 /// position has no bearing.
-fn tile_nearest(
-    bearings: &[Vector3<f64>],
-    gw: usize,
-    gh: usize,
-    step: f64,
-    near: NearBound,
-) -> Vec<f64> {
-    let (across, down) = (gw.div_ceil(TILE), gh.div_ceil(TILE));
-    (0..across * down)
+fn tile_nearest(grid: &OutputGrid, near: NearBound) -> Vec<f64> {
+    let (bearings, gw, gh, step) = (&grid.bearings, grid.gw, grid.gh, grid.step);
+    let across = grid.tiles_across();
+    (0..grid.complete.len())
         .into_par_iter()
         .map(|tile| {
             let (i0, j0) = (tile % across * TILE, tile / across * TILE);
             let (i1, j1) = ((i0 + TILE).min(gw), (j0 + TILE).min(gh));
-            let every = (j0..j1).all(|j| (i0..i1).all(|i| bearings[j * gw + i].x.is_finite()));
-            if !every {
+            if !grid.complete[tile] {
                 return 0.0;
             }
             let (mi, mj) = ((i0 + i1 - 1) / 2, (j0 + j1 - 1) / 2);

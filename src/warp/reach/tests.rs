@@ -35,17 +35,11 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
     let locals = locals();
     let near = |d: &Vector3<f64>, _radius: f64| 2.0 + 1.5 * d.y;
     for output in [&plain as &dyn CameraModel, &turned] {
-        let size = output.size();
-        let (gw, gh) = (size.width as usize + 2, size.height as usize + 2);
-        let bearings = grid_bearings(output, gw, gh);
-        let step = largest_turn(&bearings, gw, gh);
-        let tiles = tile_nearest(&bearings, gw, gh, step, &near);
+        let output_grid = OutputGrid::compute(output);
+        let tiles = tile_nearest(&output_grid, &near);
         for (half_angle, guided) in [(0.45, false), (1.1, false), (0.6, true)] {
             let grid = Grid {
-                bearings: &bearings,
-                gw,
-                gh,
-                step,
+                output: &output_grid,
                 tiles: guided.then_some(&tiles[..]),
             };
             for local in &locals {
@@ -110,4 +104,33 @@ fn a_gated_row_is_what_the_gated_unproject_gives() {
         // the first camera's cone is unbounded, the others refuse most positions
         assert!(refused > (w * h) as usize, "{refused}");
     }
+}
+
+#[test]
+fn a_kept_grid_is_the_computed_one_and_one_ulp_is_another_output() {
+    let f = 400.0 / (2.0 * std::f64::consts::PI);
+    let equirect =
+        |cu: f64| Equirect::new(Intrinsics::new(f, f, cu, 100.0), ImageSize::new(400, 200));
+    let (a, b) = (
+        equirect(200.0),
+        equirect(f64::from_bits(200f64.to_bits() + 1)),
+    );
+    let bits = |g: &OutputGrid| {
+        let b: Vec<u64> = g
+            .bearings
+            .iter()
+            .flat_map(|d| d.iter().map(|x| x.to_bits()))
+            .collect();
+        (b, g.step.to_bits(), g.complete.clone())
+    };
+    let fresh = OutputGrid::compute(&a);
+    // the second call finds the first's grid (other tests may replace the kept one between
+    // two calls: some pair of calls in twenty finds it)
+    let reused = (0..20).any(|_| Arc::ptr_eq(&OutputGrid::of(&a), &OutputGrid::of(&a)));
+    assert!(reused);
+    assert_eq!(bits(&OutputGrid::of(&a)), bits(&fresh));
+    // the output one ULP off is not served a's grid: its bearings differ
+    let (kept_a, kept_b) = (OutputGrid::of(&a), OutputGrid::of(&b));
+    assert_eq!(bits(&kept_b), bits(&OutputGrid::compute(&b)));
+    assert_ne!(bits(&kept_a).0, bits(&kept_b).0);
 }

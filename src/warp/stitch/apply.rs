@@ -5,6 +5,26 @@ use super::{Stitch, Stitched, FALLBACK_SOURCE, FAR_SOURCE};
 use crate::image::RgbImage;
 use rayon::prelude::*;
 
+/// One output row's running blend: per pixel the weighted sums of its three channels, the
+/// total weight, and the camera of the largest weight.
+#[derive(Default)]
+struct RowSums {
+    acc: Vec<[f64; 3]>,
+    total: Vec<f64>,
+    best: Vec<(f32, u8)>,
+}
+
+impl RowSums {
+    fn clear(&mut self, w: usize) {
+        self.acc.clear();
+        self.acc.resize(w, [0.0; 3]);
+        self.total.clear();
+        self.total.resize(w, 0.0);
+        self.best.clear();
+        self.best.resize(w, (0.0, 255));
+    }
+}
+
 impl Stitch {
     /// The stitch of one frame's `images` (in the cameras' order, each of its camera's size).
     pub fn apply(&self, images: &[&RgbImage]) -> Stitched {
@@ -29,37 +49,27 @@ impl Stitch {
             .par_chunks_mut((w * 3).max(1))
             .zip(source.par_chunks_mut(w.max(1)))
             .enumerate()
-            .for_each(|(v, (row, src_row))| {
+            .for_each_init(RowSums::default, |sums, (v, (row, src_row))| {
+                self.blend_row(remapped, &gains, v, sums);
+                let base = v * w;
                 for u in 0..w {
-                    let i = v * w + u;
-                    let (mut acc, mut total, mut best) = ([0f64; 3], 0f64, (0f32, 255u8));
-                    for (k, img) in remapped.iter().enumerate() {
-                        let wk = self.weights[k][i];
-                        if !(wk > 0.0) {
-                            continue;
-                        }
-                        let px = &img.as_raw()[i * 3..i * 3 + 3];
-                        for c in 0..3 {
-                            acc[c] += wk as f64 * gains[k] * px[c] as f64;
-                        }
-                        total += wk as f64;
-                        if wk > best.0 {
-                            best = (wk, k as u8);
-                        }
-                    }
+                    let total = sums.total[u];
                     if total > 0.0 {
                         for c in 0..3 {
-                            row[u * 3 + c] = (acc[c] / total).round().clamp(0.0, 255.0) as u8;
+                            row[u * 3 + c] =
+                                (sums.acc[u][c] / total).round().clamp(0.0, 255.0) as u8;
                         }
                     }
+                    let i = base + u;
                     let fell_back = self.fallback.as_ref().is_some_and(|f| f[i]);
                     let far = self.far.as_ref().is_some_and(|f| f[i]);
+                    let best = sums.best[u].1;
                     src_row[u] = if far {
-                        best.1 | FAR_SOURCE
+                        best | FAR_SOURCE
                     } else if fell_back {
-                        best.1 | FALLBACK_SOURCE
+                        best | FALLBACK_SOURCE
                     } else {
-                        best.1
+                        best
                     };
                 }
             });
@@ -68,5 +78,150 @@ impl Stitch {
             source,
             gains,
         }
+    }
+
+    /// Row `v`'s sums over the cameras, camera by camera (each camera's weights and samples
+    /// read in one contiguous sweep), each pixel's terms added in the cameras' order: the
+    /// same sums, bit for bit, as a pixel's loop over the cameras.
+    fn blend_row(&self, remapped: &[RgbImage], gains: &[f64], v: usize, sums: &mut RowSums) {
+        let w = self.size.width as usize;
+        sums.clear(w);
+        let RowSums { acc, total, best } = sums;
+        for (k, img) in remapped.iter().enumerate() {
+            let weights = &self.weights[k][v * w..(v + 1) * w];
+            let pixels = &img.as_raw()[v * w * 3..(v + 1) * w * 3];
+            let gain = gains[k];
+            for (u, &wk) in weights.iter().enumerate() {
+                if !(wk > 0.0) {
+                    continue;
+                }
+                let px = &pixels[u * 3..u * 3 + 3];
+                for c in 0..3 {
+                    acc[u][c] += wk as f64 * gain * px[c] as f64;
+                }
+                total[u] += wk as f64;
+                if wk > best[u].0 {
+                    best[u] = (wk, k as u8);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::ImageSize;
+
+    /// Four cameras' weights over a 37×11 output: zero, negative (a fallback weight), NaN and
+    /// positive, in runs and alone, so that one, two, three and four cameras overlap; a
+    /// fallback and a far fill at some pixels.
+    fn stitch_and_images() -> (Stitch, Vec<RgbImage>) {
+        let (w, h, n) = (37u32, 11u32, 4usize);
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let pixels = (w * h) as usize;
+        let weights: Vec<Vec<f32>> = (0..n)
+            .map(|k| {
+                (0..pixels)
+                    .map(|p| match (next() % 7, (p + 5 * k) % 37 < 20) {
+                        (_, false) => 0.0,
+                        (0, _) => -0.5,
+                        (1, _) => f32::NAN,
+                        (r, _) => (r as f32) / 7.0 + (next() % 1000) as f32 * 1e-4,
+                    })
+                    .collect()
+            })
+            .collect();
+        let images = (0..n)
+            .map(|_| {
+                let mut img = RgbImage::new(w, h);
+                img.as_raw_mut().iter_mut().for_each(|b| *b = next() as u8);
+                img
+            })
+            .collect();
+        let flags = |m: u64| -> Vec<bool> { (0..pixels).map(|p| p as u64 % m == 3).collect() };
+        let stitch = Stitch {
+            size: ImageSize::new(w, h),
+            tables: Vec::new(),
+            weights,
+            even_exposure: true,
+            distances: None,
+            fallback: Some(flags(5)),
+            far: Some(flags(11)),
+        };
+        (stitch, images)
+    }
+
+    /// The blend pixel by pixel, each pixel's loop over the cameras.
+    fn blend_by_pixel(stitch: &Stitch, remapped: &[RgbImage], gains: &[f64]) -> (Vec<u8>, Vec<u8>) {
+        let (w, h) = (stitch.size.width as usize, stitch.size.height as usize);
+        let (mut out, mut source) = (vec![0u8; w * h * 3], vec![255u8; w * h]);
+        for i in 0..w * h {
+            let (mut acc, mut total, mut best) = ([0f64; 3], 0f64, (0f32, 255u8));
+            for (k, img) in remapped.iter().enumerate() {
+                let wk = stitch.weights[k][i];
+                if !(wk > 0.0) {
+                    continue;
+                }
+                let px = &img.as_raw()[i * 3..i * 3 + 3];
+                for c in 0..3 {
+                    acc[c] += wk as f64 * gains[k] * px[c] as f64;
+                }
+                total += wk as f64;
+                if wk > best.0 {
+                    best = (wk, k as u8);
+                }
+            }
+            if total > 0.0 {
+                for c in 0..3 {
+                    out[i * 3 + c] = (acc[c] / total).round().clamp(0.0, 255.0) as u8;
+                }
+            }
+            let (fell_back, far) = (
+                stitch.fallback.as_ref().unwrap()[i],
+                stitch.far.as_ref().unwrap()[i],
+            );
+            source[i] = if far {
+                best.1 | FAR_SOURCE
+            } else if fell_back {
+                best.1 | FALLBACK_SOURCE
+            } else {
+                best.1
+            };
+        }
+        (out, source)
+    }
+
+    #[test]
+    fn the_blend_by_rows_and_the_overlap_sums_by_bit_sets_are_the_per_pixel_ones() {
+        let (stitch, images) = stitch_and_images();
+        assert_eq!(
+            stitch.pair_sums(&images),
+            stitch.pair_sums_by_pixel(&images)
+        );
+        // every pair overlaps somewhere, and the fallback's pixels are left out
+        let (count, _) = stitch.pair_sums(&images);
+        assert!(
+            count
+                .iter()
+                .enumerate()
+                .all(|(k, c)| (k % 5 == 0) == (*c == 0)),
+            "{count:?}"
+        );
+        let stitched = stitch.blend(&images);
+        assert!(
+            stitched.gains.iter().any(|g| (g - 1.0).abs() > 1e-3),
+            "{:?}",
+            stitched.gains
+        );
+        let (image, source) = blend_by_pixel(&stitch, &images, &stitched.gains);
+        assert!(stitched.image.as_raw() == &image[..]);
+        assert_eq!(stitched.source, source);
     }
 }
