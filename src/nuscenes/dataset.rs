@@ -9,6 +9,7 @@
 //! `sample_annotation`, `instance`) are streamed and filtered record by record, so a version of
 //! millions of records is indexed in the memory of the selection.
 
+use super::listed::read_listed;
 use super::records::stream;
 use super::tables::{
     self, key, raw, read_ego_pose, read_instance, read_named, read_visibility, Annotation,
@@ -249,36 +250,6 @@ where
         },
     )?;
     Ok(all)
-}
-
-/// The records of a table whose token `wanted` holds, read by `read`; every record's token
-/// is checked, the others are skipped unread.
-fn read_listed<R, T>(
-    path: &Path,
-    wanted: &HashSet<Token>,
-    read: fn(&Path, usize, &R) -> Result<(Token, T)>,
-) -> Result<HashMap<Token, T>>
-where
-    R: for<'de> Deserialize<'de>,
-    T: Send,
-{
-    let mut out = HashMap::new();
-    stream(
-        path,
-        |r| {
-            let listed = r.parse::<key::Listed>().ok().and_then(|k| k.token?.token());
-            if listed.is_some_and(|t| !wanted.contains(&t)) {
-                return Ok(None);
-            }
-            // A wanted record, or one whose token is wrong: read it strictly.
-            read(path, r.index, &r.parse::<R>()?).map(Some)
-        },
-        |_, (token, t)| {
-            out.insert(token, t);
-            Ok(())
-        },
-    )?;
-    Ok(out)
 }
 
 /// Annotations in the file's order, held in chunks of a fixed size (a large version keeps over

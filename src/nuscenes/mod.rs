@@ -9,6 +9,7 @@ mod dataset;
 mod frame;
 mod json;
 pub mod lidar;
+mod listed;
 mod records;
 mod source;
 mod tables;

@@ -5,8 +5,8 @@
 //! time it holds at ([`sweep_time`]).
 
 use super::json::Fields;
-use super::records::stream;
-use super::tables::{key, raw, Annotation};
+use super::listed::read_listed;
+use super::tables::{raw, Annotation};
 use super::token::Token;
 use crate::error::{Error, Result};
 use crate::source::{Pose, RigCamera};
@@ -43,23 +43,11 @@ impl Tracks {
         let wanted: HashSet<Token> = annotations
             .flat_map(|a| a.prev.iter().chain(&a.next).cloned())
             .collect();
-        let mut neighbours = HashMap::new();
-        if !wanted.is_empty() {
-            stream(
-                path,
-                |r| {
-                    let listed = r.parse::<key::Listed>().ok().and_then(|k| k.token?.token());
-                    if listed.is_some_and(|t| !wanted.contains(&t)) {
-                        return Ok(None);
-                    }
-                    read_neighbour(path, r.index, &r.parse::<raw::Annotation>()?).map(Some)
-                },
-                |_, (token, n)| {
-                    neighbours.insert(token, n);
-                    Ok(())
-                },
-            )?;
-        }
+        let neighbours = if wanted.is_empty() {
+            HashMap::new()
+        } else {
+            read_listed(path, &wanted, read_neighbour)?
+        };
         Ok(Tracks {
             sample_times,
             neighbours,
