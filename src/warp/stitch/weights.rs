@@ -618,6 +618,83 @@ mod tests {
     }
 
     #[test]
+    fn a_pyramid_sample_with_a_weight_reads_no_masked_pixel() {
+        // a 640x480 pinhole (400 px/rad) into a panorama of 1 px a degree: 7 source pixels an
+        // output pixel, sampled at level 3 of the pyramid, whose bilinear tap reads up to 12
+        // source pixels from the sample's position (1 + rho/2 is 4.5)
+        let size = ImageSize::new(640, 480);
+        let model = Perspective::new(Intrinsics::new(400.0, 400.0, 319.5, 239.5), size);
+        let (w, h) = (360u32, 180u32);
+        let k = Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            w as f64 / 2.0 - 0.5,
+            h as f64 / 2.0 - 0.5,
+        );
+        let output = Equirect::new(k, ImageSize::new(w, h));
+        let camera = StitchCamera {
+            model: &model,
+            rotation: Matrix3::identity(),
+            translation: Vector3::zeros(),
+            max_theta: None,
+        };
+        // masked (and black in the image): a block left of the centre; white elsewhere
+        let masked = |x: u32, y: u32| (250..300).contains(&x) && (200..280).contains(&y);
+        let mask = EgoMask::new(
+            size,
+            (0..size.height)
+                .flat_map(|y| (0..size.width).map(move |x| masked(x, y)))
+                .collect(),
+        )
+        .expect("mask");
+        let mut image = crate::image::RgbImage::new(size.width, size.height);
+        for y in 0..size.height {
+            for x in 0..size.width {
+                let v = if masked(x, y) { 0 } else { 255 };
+                image.put_pixel(x, y, [v, v, v]);
+            }
+        }
+        let options = StitchOptions {
+            distance: 10.0,
+            blend_width: 5f64.to_radians(),
+            even_exposure: false,
+        };
+        let stitch = Stitch::build_masked(
+            &output,
+            &Vector3::zeros(),
+            &[camera],
+            &[Some(&mask)],
+            options,
+        )
+        .expect("stitch");
+        assert!(
+            stitch.tables[0].levels() > 3,
+            "{}",
+            stitch.tables[0].levels()
+        );
+        let out = stitch.apply(&[&image]).image;
+        // every pixel the camera weighs is white: no masked pixel is under its sample; and
+        // the mask's rim is near (a tap per source pixel would let 1 + rho/2 suffice)
+        let (mut weighed, mut near_rim) = (0, 0);
+        for v in 0..h {
+            for u in 0..w {
+                if stitch.weight(0, u, v) <= 0.0 {
+                    continue;
+                }
+                weighed += 1;
+                assert_eq!(out.pixel(u, v), [255, 255, 255], "({u}, {v})");
+                let d = output.unproject(&Point2::new(u as f64, v as f64)).unwrap();
+                if let Ok(p) = model.project_point(&d) {
+                    let gap_x = (250.0 - p.x).max(p.x - 299.0).max(0.0);
+                    let gap_y = (200.0 - p.y).max(p.y - 279.0).max(0.0);
+                    near_rim += usize::from(gap_x.max(gap_y) < 30.0);
+                }
+            }
+        }
+        assert!(weighed > 1000 && near_rim > 10, "{weighed} {near_rim}");
+    }
+
+    #[test]
     fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
         let model = Perspective::new(
             Intrinsics::new(100.0, 100.0, 99.5, 49.5),
