@@ -381,7 +381,6 @@ impl<'a> Builder<'a> {
                     (n.0, n.1, level, (su, sv))
                 }
             };
-            band.top_level = band.top_level.max(level);
             let taps = nu * nv;
             let before = band.quads.len();
             let inside = if (nu, nv) == (1, 1) && self.one_block {
@@ -406,6 +405,11 @@ impl<'a> Builder<'a> {
                 self.supersampled(at, (nu, nv), &near, scratch, parts, quads)
             };
             band.counts.push((band.quads.len() - before) as u8);
+            // (a pixel with nothing inside samples no level: which levels the table reads does
+            // not depend on how far beyond the source it maps pixels)
+            if inside > 0 {
+                band.top_level = band.top_level.max(level);
+            }
             // a pyramid sample near the border covers what its taps would have covered
             let (inside, taps) = match self.taps_cover && level > 0 {
                 true => self
