@@ -255,6 +255,12 @@ fn a_fine_checkerboard_warped_coarser_shows_no_more_moire_than_the_per_tap_build
 
 /// The pyramid's moiré on [`moire`]'s checkerboard and cameras.
 fn moire_pyramid() -> f64 {
+    moire_through(None)
+}
+
+/// [`moire_pyramid`], the table built by [`RemapTable::build_pyramid_within`] or, with
+/// `taps_below`, by [`RemapTable::build_pyramid_above`] (as the fixed stitch builds its tables).
+fn moire_through(taps_below: Option<f64>) -> f64 {
     let (w, h) = (800u32, 600u32);
     let src = Perspective::new(
         Intrinsics::new(600.0, 600.0, 399.5, 299.5),
@@ -272,7 +278,10 @@ fn moire_pyramid() -> f64 {
         px.fill(if white { 255 } else { 0 });
     }
     let id = Matrix3::identity();
-    let table = RemapTable::build_pyramid_within(&out, &src, &id, Wrap::None, 8, None, false);
+    let table = match taps_below {
+        None => RemapTable::build_pyramid_within(&out, &src, &id, Wrap::None, 8, None, false),
+        Some(t) => RemapTable::build_pyramid_above(&out, &src, &id, t, false),
+    };
     assert!(table.levels() > 1, "the view samples the pyramid");
     let warped = table.apply(&image);
     let values: Vec<f64> = (2..178)
@@ -290,6 +299,37 @@ fn the_pyramid_shows_no_more_moire_than_the_per_tap_builder() {
     let pyramid = moire_pyramid();
     eprintln!("moiré: {pyramid:.2} grey levels RMS through the pyramid");
     assert!(pyramid <= 26.58, "{pyramid:.2}");
+}
+
+#[test]
+fn the_stitchs_pyramid_above_2_source_pixels_shows_the_pyramids_moire_and_the_taps_below() {
+    // 3.3 source pixels an output pixel: the pyramid's level and taps (15.21 grey levels, the
+    // taps' 26.58)
+    let above = moire_through(Some(2.0));
+    eprintln!("moiré: {above:.2} grey levels RMS through the pyramid above 2 source pixels");
+    assert!(above <= 15.21 + 0.3, "{above:.2}");
+    // 1.7 source pixels an output pixel (a pinhole of a pinhole: everywhere): the taps, entry
+    // for entry, serially and in parallel
+    let src = Perspective::new(
+        Intrinsics::new(600.0, 600.0, 399.5, 299.5),
+        ImageSize::new(800, 600),
+    );
+    let out = Perspective::new(
+        Intrinsics::new(353.0, 353.0, 235.5, 176.5),
+        ImageSize::new(472, 354),
+    );
+    let id = Matrix3::identity();
+    let taps = RemapTable::build_within(&out, &src, &id, Wrap::None, 8, None, false);
+    for parallel in [false, true] {
+        let hybrid = RemapTable::build_pyramid_above(&out, &src, &id, 2.0, parallel);
+        assert!(
+            hybrid == taps,
+            "parallel {parallel}: the table differs from the taps'"
+        );
+        // through the pyramid from 1.5 it samples level 1
+        let below = RemapTable::build_pyramid_above(&out, &src, &id, 1.5, parallel);
+        assert_eq!(below.levels(), 2, "parallel {parallel}");
+    }
 }
 
 /// PSNR (dB) against the exact render of a synthetic KITTI frame warped to coarser 640×480

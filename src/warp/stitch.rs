@@ -8,7 +8,11 @@
 //! 2. Camera i sees X at q_i = camera_from_reference_i(X) and samples it at its pixel
 //!    p_i = project_i(q_i). The output pixel's value from camera i is camera i's image resampled
 //!    there by a [`RemapTable`] (bilinear taps, supersampled where the output is coarser than
-//!    the source, exact integer weights), built through the same mapping.
+//!    the source, exact integer weights), built through the same mapping. Where a pixel spans
+//!    2 or more source pixels along both axes it takes one bilinear tap (more along an
+//!    anisotropic footprint's longer axis) of the source's pyramid instead, at the level where
+//!    it spans 0.75 to 1.5 level pixels ([`RemapTable::build_pyramid_above`]); a depth-guided
+//!    stitch's tables keep the taps (a pixel across a depth edge measures a wide footprint).
 //! 3. Camera i's weight is w_i = S(min(1, m_i / b)), with S(t) = t²(3 − 2t) (smoothstep), b the
 //!    blend width (radians) and m_i the angular margin of q_i inside the camera's view: the
 //!    smaller of (a) its field of view's margin θ_max,i − θ(q_i), θ the angle from the optical
@@ -33,7 +37,10 @@
 //! 6. With an ego mask for camera i ([`EgoMask`], `Stitch::build_masked`), w_i = 0 wherever
 //!    camera i's sample would touch its mask: where a masked pixel centre lies within
 //!    1 + ρ/2 pixels of p_i in x and in y, ρ the larger distance from p_i to the samples of the
-//!    output pixels to the right and below (the footprint a supersampled tap can reach).
+//!    output pixels to the right and below (the footprint a supersampled tap can reach); for a
+//!    table that samples the pyramid, within max(1 + ρ/2, 3ρ) where ρ is 1 or more (a level's
+//!    bilinear tap reaches 1.5 level pixels, up to 2ρ, and the taps along the longer axis ρ/2
+//!    further).
 //!
 //! When every camera's centre is C (a zero-baseline rig) the proxy distance plays no part and
 //! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer

@@ -69,6 +69,27 @@ impl RemapTable {
         };
         b.build(parallel)
     }
+
+    /// As [`RemapTable::build_pyramid_within`] (no wrap, at most 8×8 taps, every output pixel
+    /// mapped), where a pixel under `taps_below` source pixels along its shorter axis takes
+    /// the taps of [`RemapTable::build_within`] and a coarser one the pyramid's level by its
+    /// rule. A stitch's tables take the taps below 2 source pixels: there a level's blur
+    /// costs more against an exact render than the few taps do.
+    pub fn build_pyramid_above(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        taps_below: f64,
+        parallel: bool,
+    ) -> RemapTable {
+        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, None);
+        if b.one_block {
+            b.shapes = pyramid::level_shapes(b.source_size, 5);
+        }
+        b.taps_below2 = taps_below * taps_below;
+        b.taps_cover = true;
+        b.build(parallel)
+    }
 }
 
 impl Builder<'_> {
@@ -136,6 +157,12 @@ struct Builder<'a> {
     /// The source pyramid's levels (width, height, first row) a coarse pixel may sample; empty
     /// (or level 0 alone) where it takes a tap per source pixel (see `level.rs`).
     shapes: Vec<(u32, u32, u32)>,
+    /// The squared smaller scale below which a pixel takes its taps from the source (level 0)
+    /// whatever `shapes` holds (0: the pyramid from `level_at2` on).
+    taps_below2: f64,
+    /// A pyramid sample's coverage is its taps' (`taps_cover`), so that which pixels lie
+    /// wholly inside the source is [`RemapTable::build_within`]'s.
+    taps_cover: bool,
 }
 
 /// A band of consecutive output rows, built independently of the others.
@@ -201,6 +228,8 @@ impl<'a> Builder<'a> {
             pinhole: src.pinhole(),
             tap_columns: Default::default(),
             shapes: Vec::new(),
+            taps_below2: 0.0,
+            taps_cover: false,
         }
     }
 
@@ -336,8 +365,8 @@ impl<'a> Builder<'a> {
                 continue;
             }
             // (no scale estimate where the cap allows one tap)
-            let (nu, nv, level) = match self.cap {
-                1 => (1, 1, 0),
+            let (nu, nv, level, scales) = match self.cap {
+                1 => (1, 1, 0, (0.0, 0.0)),
                 cap => {
                     let (su, sv) = scales2(
                         centre,
@@ -348,10 +377,10 @@ impl<'a> Builder<'a> {
                     // at a pyramid level the scales are 4^level times smaller
                     let level = self.level_of(su.min(sv));
                     let down = (1u32 << (2 * level)) as f64;
-                    (count(su / down).min(cap), count(sv / down).min(cap), level)
+                    let n = (count(su / down).min(cap), count(sv / down).min(cap));
+                    (n.0, n.1, level, (su, sv))
                 }
             };
-            band.top_level = band.top_level.max(level);
             let taps = nu * nv;
             let before = band.quads.len();
             let inside = if (nu, nv) == (1, 1) && self.one_block {
@@ -376,6 +405,18 @@ impl<'a> Builder<'a> {
                 self.supersampled(at, (nu, nv), &near, scratch, parts, quads)
             };
             band.counts.push((band.quads.len() - before) as u8);
+            // (a pixel with nothing inside samples no level: which levels the table reads does
+            // not depend on how far beyond the source it maps pixels)
+            if inside > 0 {
+                band.top_level = band.top_level.max(level);
+            }
+            // a pyramid sample near the border covers what its taps would have covered
+            let (inside, taps) = match self.taps_cover && level > 0 {
+                true => self
+                    .taps_cover((u, v), centre, scales, [above, here, below], parts)
+                    .unwrap_or((inside, taps)),
+                false => (inside, taps),
+            };
             band.cover.push(match inside {
                 0 => Cover::None,
                 k if k == taps => Cover::Full,
@@ -398,6 +439,29 @@ impl<'a> Builder<'a> {
         parts: &mut Parts,
         quads: &mut Vec<Quad>,
     ) -> u32 {
+        self.tap_positions((u, v, level), (nu, nv), near, parts);
+        if let Some(inside) = self.dense_quads(&parts.taps, level, scratch, quads) {
+            return inside;
+        }
+        scratch.blocks.clear();
+        let mut inside = 0;
+        for &p in &parts.taps {
+            inside += self.add_tap(p, level, scratch) as u32;
+        }
+        quantize(scratch, inside, nu * nv, quads);
+        inside
+    }
+
+    /// The source positions of the `nu`×`nv` taps of pixel (u, v) (at pyramid level `level`,
+    /// its neighbourhood of mapped centres `near`) into `parts.taps`, row by row: interpolated
+    /// from `near` where that is exact enough (see `local.rs`), else each mapped.
+    fn tap_positions(
+        &self,
+        (u, v, level): (usize, usize, u32),
+        (nu, nv): (u32, u32),
+        near: &local::Near,
+        parts: &mut Parts,
+    ) {
         parts.taps.clear();
         if !self.local_taps(near, (nu, nv, level), &mut parts.taps) {
             // the taps row by row, each row's columns left to right
@@ -417,16 +481,38 @@ impl<'a> Builder<'a> {
             }
             self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
         }
-        if let Some(inside) = self.dense_quads(&parts.taps, level, scratch, quads) {
-            return inside;
+    }
+
+    /// For a pyramid sample of pixel (u, v) (source position `centre`, squared scales
+    /// `(su, sv)`, rows of mapped centres `rows`) within its footprint of a source border:
+    /// how many of the taps [`RemapTable::build_within`] gives it lie inside the source, and
+    /// of how many; None farther in or out, where the taps all lie on the centre's side of
+    /// every border (they are within half a step along each axis of it; twice that and a
+    /// pixel is kept for the mapping's bend).
+    fn taps_cover(
+        &self,
+        (u, v): (usize, usize),
+        centre: Option<Point2<f64>>,
+        (su, sv): (f64, f64),
+        rows: [&[Option<Point2<f64>>]; 3],
+        parts: &mut Parts,
+    ) -> Option<(u32, u32)> {
+        let c = centre?;
+        let reach = su.sqrt() + sv.sqrt() + 1.0;
+        let (w, h) = (
+            self.source_size.width as f64,
+            self.source_size.height as f64,
+        );
+        let far = |x: f64, edge: f64| (x - edge).abs() >= reach;
+        if far(c.x, -0.5) && far(c.x, w - 0.5) && far(c.y, -0.5) && far(c.y, h - 0.5) {
+            return None;
         }
-        scratch.blocks.clear();
-        let mut inside = 0;
-        for &p in &parts.taps {
-            inside += self.add_tap(p, level, scratch) as u32;
-        }
-        quantize(scratch, inside, nu * nv, quads);
-        inside
+        let (nu, nv) = (count(su).min(self.cap), count(sv).min(self.cap));
+        self.tap_positions((u, v, 0), (nu, nv), &local::near(rows, u), parts);
+        let inside = (parts.taps.iter().flatten())
+            .filter(|p| column_inside(p.x, w) && row_inside(p.y, h))
+            .count();
+        Some((inside as u32, nu * nv))
     }
 
     /// Adds the bilinear weights of a tap at source position `p` (sampled at pyramid level

@@ -25,6 +25,9 @@ impl Builder<'_> {
     /// samples the source alone). Exact comparisons: the same choice on every machine.
     #[inline]
     pub(super) fn level_of(&self, scale2: f64) -> u32 {
+        if scale2 < self.taps_below2 {
+            return 0;
+        }
         let mut k = 0;
         while k + 1 < self.shapes.len() && scale2 >= LEVEL_AT2 * (1u64 << (2 * k)) as f64 {
             k += 1;
