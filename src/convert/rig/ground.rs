@@ -5,6 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+mod radial;
 mod walk;
 
 /// Half-height of the band around the first fit whose cells the ground's second fit uses, m.
@@ -256,6 +257,10 @@ impl LocalGround {
         }
         if !(along < 0.0) {
             return None;
+        }
+        // (from the centre's vertical, every output pixel's ray: its crossing in closed form)
+        if self.on_axis(o) {
+            return self.hit_radial(d, h, -along);
         }
         if hi - lo < 1e-9 {
             let t = (h - hi) / -along;
