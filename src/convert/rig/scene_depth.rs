@@ -421,11 +421,12 @@ impl StitchDepth for SceneDepth {
             .ground
             .as_ref()
             .map_or(f64::INFINITY, |g| g.nearest_within(&self.centre, d, radius));
-        for s in &self.solids {
-            t = t.min(s.nearest_within(&self.centre, d, radius));
-        }
         if let Some(s) = self.splats.first() {
             t = t.min(s.nearest_within(d, radius));
+        }
+        // (the boxes last: one farther than the bound so far cannot lower it, untested)
+        for s in &self.solids {
+            t = s.lower_within(&self.centre, d, radius, t);
         }
         t.min(FAR)
     }
