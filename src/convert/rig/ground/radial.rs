@@ -32,8 +32,15 @@ impl LocalGround {
             let (a, b) = (self.raise[j0 * KNOTS + k], self.raise[j1 * KNOTS + k]);
             a + (b - a) * fj
         };
-        let mut c0 = column(0);
-        for k in 0..KNOTS - 1 {
+        // the intervals ending before the ray reaches the raise's top lie above the ground
+        // (one interval earlier, for the rounding of t·rate)
+        let top = (h - self.band.1) / fall;
+        let first = match top * rate {
+            k if k >= 1.0 => (k as usize - 1).min(KNOTS - 1),
+            _ => 0,
+        };
+        let mut c0 = column(first);
+        for k in first..KNOTS - 1 {
             let c1 = column(k + 1);
             // the ray's height above the ground at the interval's far end (t = (k + 1) / rate)
             if h - fall * ((k + 1) as f64 / rate) - c1 <= 0.0 {

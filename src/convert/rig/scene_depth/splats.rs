@@ -23,7 +23,13 @@ pub(super) struct Splats {
     width: usize,
     height: usize,
     range: Vec<f32>,
+    /// Per row, the least range of each run of [`BLOCK`] cells (the last run shorter):
+    /// [`Splats::nearest_within`] takes a whole run's least at once.
+    blocks: Vec<f32>,
 }
+
+/// Cells per run whose least range is kept ([`Splats::nearest_within`]).
+const BLOCK: usize = 16;
 
 impl Splats {
     fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
@@ -46,6 +52,7 @@ impl Splats {
             width,
             height,
             range: vec![f32::INFINITY; width * height],
+            blocks: Vec::new(),
         };
         let radius = SPLAT_DEG * CELLS_PER_DEG;
         for p in points {
@@ -72,7 +79,31 @@ impl Splats {
             }
         }
         splats.fill_gaps();
+        splats.index_blocks();
         splats
+    }
+
+    /// Sets [`Splats::blocks`] from the ranges.
+    fn index_blocks(&mut self) {
+        let runs = self.width.div_ceil(BLOCK);
+        self.blocks.clear();
+        self.blocks.reserve(runs * self.height);
+        for row in self.range.chunks(self.width) {
+            (self.blocks).extend(row.chunks(BLOCK).map(|run| least(f32::INFINITY, run)));
+        }
+    }
+
+    /// The least range of row `y`'s cells `a..b` (within the row), by whole runs where it can.
+    fn least_in_row(&self, y: usize, a: usize, b: usize) -> f32 {
+        let row = &self.range[y * self.width..(y + 1) * self.width];
+        let runs = &self.blocks[y * self.width.div_ceil(BLOCK)..];
+        let (first, last) = (a.div_ceil(BLOCK), b / BLOCK);
+        if first >= last {
+            return least(f32::INFINITY, &row[a..b]);
+        }
+        let t = least(f32::INFINITY, &row[a..first * BLOCK]);
+        let t = least(t, &runs[first..last]);
+        least(t, &row[last * BLOCK..b])
     }
 
     /// Closes the gaps between a scan's rings and azimuth steps that the splats leave: a run
@@ -119,6 +150,7 @@ impl Splats {
                 cells(r, stretch).min(w / 2)
             });
         }
+        self.index_blocks();
     }
 
     /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
@@ -140,16 +172,18 @@ impl Splats {
         };
         let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
         let mut t = f32::INFINITY;
-        if !(x1 - x0 + 1.0 < self.width as f64) {
-            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
-                t = row.iter().fold(t, |a, b| a.min(*b));
-            }
+        let w = self.width;
+        // the columns as at most two runs within a row (the span wraps around)
+        let spans = if !(x1 - x0 + 1.0 < w as f64) {
+            [(0, w), (0, 0)]
         } else {
-            for cy in y0..=y1 {
-                let row = &self.range[cy * self.width..(cy + 1) * self.width];
-                for cx in x0 as i64..=x1 as i64 {
-                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
-                }
+            let start = (x0 as i64).rem_euclid(w as i64) as usize;
+            let end = start + (x1 - x0) as usize + 1;
+            [(start, end.min(w)), (0, end.saturating_sub(w))]
+        };
+        for cy in y0..=y1 {
+            for (a, b) in spans {
+                t = t.min(self.least_in_row(cy, a, b));
             }
         }
         t as f64
@@ -163,6 +197,11 @@ impl Splats {
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
+}
+
+/// The least of `t` and `cells` (as the folds of `f32::min` give it).
+fn least(t: f32, cells: &[f32]) -> f32 {
+    cells.iter().fold(t, |a, b| a.min(*b))
 }
 
 /// Carries the finite cells of one line of `range` (`n` cells from `start`, `step` apart) into
