@@ -202,11 +202,12 @@ impl<'a> Proxy<'a> {
         let Some(k) = &self.pinhole else {
             return self.camera.model.project_point(q);
         };
-        // the pinhole's test of the unit bearing (z > 1e-9 of its norm), on the point
-        if !(q.z > 1e-9 * q.norm()) {
+        // the pinhole's test of the unit bearing (z > 1e-9 of its norm), on the point, squared
+        if !(q.z > 0.0 && q.z * q.z > 1e-18 * q.norm_squared()) {
             return Err(ProjectionReject::BehindCamera);
         }
-        let (u, v) = k.to_pixel(q.x / q.z, q.y / q.z);
+        let z = 1.0 / q.z;
+        let (u, v) = k.to_pixel(q.x * z, q.y * z);
         Ok(Point2::new(u, v))
     }
 

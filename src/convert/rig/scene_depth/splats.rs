@@ -66,15 +66,21 @@ impl Splats {
             // a disc on the sphere: wider in cells of longitude away from the equator
             let stretch = 1.0 / lat.cos().max(0.05);
             let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
-            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
+            let (y0, y1) = (floor(y - ry).max(0) as usize, ceil(y + ry).max(0) as usize);
+            let range = range as f32;
             for cy in y0..y1.min(height) {
                 let dy = (cy as f64 + 0.5 - y) / ry;
                 let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
-                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
-                for cx in x0..x1 {
-                    let cx = cx.rem_euclid(width as i64) as usize;
-                    let cell = &mut splats.range[cy * width + cx];
-                    *cell = cell.min(range as f32);
+                let (x0, x1) = (floor(x - reach), ceil(x + reach));
+                // cells x0..x1 around the row (wrapped once, not divided for each)
+                let row = &mut splats.range[cy * width..(cy + 1) * width];
+                let mut cx = x0.rem_euclid(width as i64) as usize;
+                for _ in x0..x1 {
+                    row[cx] = row[cx].min(range);
+                    cx += 1;
+                    if cx == width {
+                        cx = 0;
+                    }
                 }
             }
         }
@@ -197,6 +203,18 @@ impl Splats {
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
+}
+
+/// ⌊x⌋ as an integer (0 for NaN), without a call for `f64::floor`.
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// ⌈x⌉ as an integer (0 for NaN), without a call for `f64::ceil`.
+fn ceil(x: f64) -> i64 {
+    let t = x as i64;
+    t + i64::from((t as f64) < x)
 }
 
 /// The least of `t` and `cells` (as the folds of `f32::min` give it).
