@@ -199,7 +199,13 @@ impl Splats {
     /// ([`angles`]) from the origin (infinite: none).
     pub(super) fn range(&self, lon: f64, lat: f64) -> f64 {
         let (x, y) = self.cell_at(lon, lat);
-        let cx = (crate::warp::floor(x) as i64).rem_euclid(self.width as i64) as usize;
+        let (cx, w) = (crate::warp::floor(x) as i64, self.width as i64);
+        // x lies in [0, w] for a longitude in [−π, π]: a compare, not a division, but for
+        // the one past the end
+        let cx = match cx {
+            c if (0..w).contains(&c) => c,
+            c => c.rem_euclid(w),
+        } as usize;
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
