@@ -5,7 +5,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+mod radial;
 mod walk;
+
+pub(super) use walk::turn;
 
 /// Half-height of the band around the first fit whose cells the ground's second fit uses, m.
 pub const GROUND_BAND: f64 = 0.15;
@@ -257,6 +260,10 @@ impl LocalGround {
         if !(along < 0.0) {
             return None;
         }
+        // (from the centre's vertical, every output pixel's ray: its crossing in closed form)
+        if self.on_axis(o) {
+            return self.hit_radial(d, h, -along);
+        }
         if hi - lo < 1e-9 {
             let t = (h - hi) / -along;
             return (t > 0.0 && t.is_finite()).then_some(t);
@@ -269,7 +276,7 @@ impl LocalGround {
         let t_out = self.disc_exit(o, d);
         let end = t1.min(t_out.max(t0));
         // walked through the bound grid (marched where the ray starts off it)
-        let found = match self.walk(o, d, (h, along), (t0, end)) {
+        let found = match self.walk(o, d, (h, along), (t0, end), true) {
             Some(found) => found,
             None => self.march(&f, t0, end),
         };
@@ -281,6 +288,45 @@ impl LocalGround {
             t = (h - self.raise_at(&(o + d * t))) / -along;
         }
         (t > 0.0 && t.is_finite()).then_some(t)
+    }
+
+    /// Whether unit ray (o, d) meets the local ground before distance `limit`
+    /// ([`LocalGround::hit`] < `limit`, an occlusion test), without solving for the crossing
+    /// where the walk finds the ray under the ground by then.
+    pub(super) fn meets_before(&self, o: &Vector3<f64>, d: &Vector3<f64>, limit: f64) -> bool {
+        let (lo, hi) = self.band;
+        let along = self.plane.normal.dot(d);
+        let h = self.plane.height(o);
+        let under = h <= hi && !self.above_cell(o, h) && self.height(o) <= 0.0;
+        if under || !(along < 0.0) || self.on_axis(o) || hi - lo < 1e-9 {
+            return self.hit(o, d).is_some_and(|t| t < limit);
+        }
+        // (above the band's top before t0: no crossing there)
+        let t0 = ((h - hi) / -along).max(0.0);
+        if !(t0 < limit) {
+            return false;
+        }
+        let t1 = ((h - lo) / -along).min(t0 + 1000.0);
+        let t_out = self.disc_exit(o, d);
+        let end = t1.min(t_out.max(t0));
+        let f = |t: f64| self.height(&(o + d * t));
+        let stop = end.min(limit);
+        let found = match self.walk(o, d, (h, along), (t0, stop), false) {
+            Some(found) => found,
+            None => self.march(&f, t0, stop),
+        };
+        if let Some(t) = found {
+            return t <= limit;
+        }
+        if limit <= end || t1 <= t_out {
+            return false;
+        }
+        // beyond the knots' disc: `hit`'s iteration on the raised plane
+        let mut t = t_out.max(t0);
+        for _ in 0..3 {
+            t = (h - self.raise_at(&(o + d * t))) / -along;
+        }
+        t > 0.0 && t.is_finite() && t < limit
     }
 
     /// Distance along unit ray (o, d) at which it leaves, horizontally, the disc of the knots

@@ -246,6 +246,18 @@ impl SceneDepth {
         t
     }
 
+    /// Whether an exact surface lies along unit ray (o, d) nearer than `limit`
+    /// ([`SceneDepth::exact_hit`] < `limit`, without finding the nearest).
+    fn exact_before(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>, limit: f64) -> bool {
+        if (self.ground.as_ref()).is_some_and(|g| g.meets_before(o, d, limit)) {
+            return true;
+        }
+        let solids = self.solids_of(view);
+        self.grids[view].any(d, solids.len(), |k| {
+            solids[k].hit(o, d).is_some_and(|t| t < limit)
+        })
+    }
+
     /// The unit ray from camera `camera`'s eye to `x`: the eye, the direction and its length
     /// (None without such a camera or for `x` at the eye).
     fn eye_ray(&self, camera: usize, x: &Vector3<f64>) -> Option<EyeRay> {
@@ -306,7 +318,12 @@ impl SceneDepth {
     /// [`StitchDepth::sees`] along `ray` ([`SceneDepth::eye_ray`]).
     fn sees_along(&self, camera: usize, ray: &EyeRay) -> bool {
         let EyeRay { eye, d, length } = ray;
-        if self.exact_hit(camera + 1, eye, d) < length - SURFACE_TOLERANCE - 1e-9 * length {
+        if self.exact_before(
+            camera + 1,
+            eye,
+            d,
+            length - SURFACE_TOLERANCE - 1e-9 * length,
+        ) {
             return false;
         }
         self.splats.get(camera + 1).is_none_or(|s| {
@@ -421,11 +438,12 @@ impl StitchDepth for SceneDepth {
             .ground
             .as_ref()
             .map_or(f64::INFINITY, |g| g.nearest_within(&self.centre, d, radius));
-        for s in &self.solids {
-            t = t.min(s.nearest_within(&self.centre, d, radius));
-        }
         if let Some(s) = self.splats.first() {
             t = t.min(s.nearest_within(d, radius));
+        }
+        // (the boxes last: one farther than the bound so far cannot lower it, untested)
+        for s in &self.solids {
+            t = s.lower_within(&self.centre, d, radius, t);
         }
         t.min(FAR)
     }

@@ -41,16 +41,30 @@ pub(super) fn far_pixels(
     out.par_chunks_mut(w.max(1))
         .enumerate()
         .for_each(|(v, row)| {
+            // per distance, the camera that held the row's last pixel is asked first (the
+            // answer is whether any holds: the same in any order)
+            let mut first = [0usize; 2];
             for (u, flag) in row.iter_mut().enumerate() {
                 let t = distances[v * w + u];
                 let Some(d) = reach.bearing(u, v).filter(|_| t < far) else {
                     continue;
                 };
                 let n = d.normalize();
-                let held =
-                    |t: f64, rim: f64| proxies.iter().any(|p| p.holds(&p.local_at(&n, t), rim));
+                // only the cameras whose bound may reach the pixel: the bound holds every
+                // point at the scene's distance or farther (its cone widened for the tile's
+                // nearest), so the others hold neither point
+                let held = |t: f64, rim: f64, first: &mut usize| {
+                    let count = proxies.len();
+                    let found = (0..count).map(|k| (*first + k) % count).find(|&i| {
+                        let p = &proxies[i];
+                        reach.may_reach_pixel(i, u, v) && p.holds(&p.local_at(&n, t), rim)
+                    });
+                    *first = found.unwrap_or(*first);
+                    found.is_some()
+                };
+                let [at_far, at_scene] = &mut first;
                 // (the far test first: most pixels no camera holds at either distance)
-                *flag = held(far, 0.0) && !held(t, RIM);
+                *flag = held(far, 0.0, at_far) && !held(t, RIM, at_scene);
             }
         });
     out

@@ -121,13 +121,16 @@ impl LocalGround {
     /// The first crossing of the local ground by unit ray (o, d) between `t0` and `t1`, the
     /// ray's plane height `h` at o falling by `-along` a metre (`along` < 0), the ray's height
     /// above the local ground positive at `t0`; None where it stays above (or where the ray
-    /// leaves the grid: the caller marches instead). Some(None): walked, no crossing.
+    /// leaves the grid: the caller marches instead). Some(None): walked, no crossing. Without
+    /// `solved`, the end of the first stretch the ray ends under the ground instead of the
+    /// crossing in it (a bound: the crossing lies at or before it).
     pub(super) fn walk(
         &self,
         o: &Vector3<f64>,
         d: &Vector3<f64>,
         (h, along): (f64, f64),
         (t0, t1): (f64, f64),
+        solved: bool,
     ) -> Option<Option<f64>> {
         let b = &self.bounds;
         let f = |t: f64| self.height(&(o + d * t));
@@ -162,6 +165,9 @@ impl LocalGround {
                 let a = ta.max((h - hi) / fall);
                 let end = tb.min((h - lo) / fall).max(a);
                 let fb = f(end);
+                if fb <= 0.0 && !solved {
+                    return Some(Some(end));
+                }
                 if fb <= 0.0 {
                     return Some(Some(solve(&f, (a, f(a)), (end, fb))).filter(|t| *t > 0.0));
                 }
@@ -206,7 +212,7 @@ const ATAN_SERIES: [f64; 11] = [
 /// atan2(x, z) in [0, 2π) to 1e-10 rad, without libm's call (the local ground's sector of
 /// every point a ray is tested at): atan of the smaller over the larger component, reduced
 /// past tan(π/8) by atan(r) = π/4 + atan((r − 1)/(r + 1)), as its series to the 21st power.
-pub(super) fn turn(x: f64, z: f64) -> f64 {
+pub(in crate::convert::rig) fn turn(x: f64, z: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
     let (ax, az) = (x.abs(), z.abs());
     if !(ax > 0.0 || az > 0.0) {
@@ -224,8 +230,20 @@ pub(super) fn turn(x: f64, z: f64) -> f64 {
         (small / large, 0.0)
     };
     let y2 = y * y;
-    // Σ (−1)^k y^(2k+1) / (2k+1), k = 0..=10 (the rest under |y|^23 / 23 < 7e-11)
-    let series = ATAN_SERIES.iter().rev().fold(0.0, |acc, c| c + y2 * acc);
+    // Σ (−1)^k y^(2k+1) / (2k+1), k = 0..=10 (the rest under |y|^23 / 23 < 7e-11), by
+    // Estrin's scheme: pairs, then pairs of pairs, in parallel rather than one long chain of
+    // dependent steps (this sits in every evaluation of the ground's raise)
+    let c = &ATAN_SERIES;
+    let (x2, x4) = (y2 * y2, y2 * y2 * (y2 * y2));
+    let pairs = [
+        c[0] + c[1] * y2,
+        c[2] + c[3] * y2,
+        c[4] + c[5] * y2,
+        c[6] + c[7] * y2,
+        c[8] + c[9] * y2,
+    ];
+    let low = (pairs[0] + pairs[1] * x2) + (pairs[2] + pairs[3] * x2) * x4;
+    let series = low + (pairs[4] + c[10] * x2) * (x4 * x4);
     let atan = shift + y * series;
     let base = if flip { FRAC_PI_2 - atan } else { atan };
     let angle = match (x >= 0.0, z >= 0.0) {
@@ -418,6 +436,47 @@ mod tests {
         assert!(
             exact > 2000 && grazes < 60 && beyond < 900,
             "{exact} {grazes} {beyond}"
+        );
+    }
+
+    #[test]
+    fn an_occlusion_test_against_the_ground_answers_as_the_crossing_does() {
+        let (ground, mut next) = rough(0x6a09_e667_f3bc_c909);
+        let (mut same, mut grazes, mut before) = (0, 0, 0);
+        for k in 0..3000 {
+            // from eyes up to 1.5 m beside the centre, down at 2-80°
+            let o = ground.centre
+                + Vector3::new(next() - 0.5, next() - 0.75, next() - 0.5)
+                    .component_mul(&Vector3::new(3.0, 1.0, 3.0));
+            let (azimuth, e) = (
+                next() * std::f64::consts::TAU,
+                (2.0 + next() * 78.0).to_radians(),
+            );
+            let d = Vector3::new(azimuth.sin() * e.cos(), e.sin(), azimuth.cos() * e.cos());
+            let hit = ground.hit(&o, &d);
+            // a limit 1 cm either side of the crossing, and one anywhere
+            let t = hit.unwrap_or(50.0);
+            for limit in [t - 0.01, t + 0.01, next() * 100.0] {
+                let got = ground.meets_before(&o, &d, limit);
+                if got == hit.is_some_and(|t| t < limit) {
+                    same += 1;
+                    before += usize::from(got);
+                    continue;
+                }
+                // otherwise the ray grazes a crest: the march's first crossing says which
+                let first = reference(&ground, &o, &d).map(|(t, _)| t);
+                assert_eq!(
+                    got,
+                    first.is_some_and(|t| t < limit),
+                    "ray {k}, limit {limit}"
+                );
+                grazes += 1;
+            }
+        }
+        // (grazes: under 1 % over knots ±0.4 m apart, far rougher than a road)
+        assert!(
+            same > 8900 && grazes < 90 && before > 3000,
+            "{same} {grazes} {before}"
         );
     }
 }

@@ -69,6 +69,22 @@ impl Solid {
         (far - self.radius) * (1.0 - 1e-9)
     }
 
+    /// `t.min(self.nearest_within(o, d, radius))`, without the cone's test where the box's
+    /// nearest distance from `o` could not lower `t`.
+    pub(super) fn lower_within(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        radius: f64,
+        t: f64,
+    ) -> f64 {
+        let far = (self.centre - o).norm();
+        if far > self.radius && (far - self.radius) * (1.0 - 1e-9) >= t {
+            return t;
+        }
+        t.min(self.nearest_within(o, d, radius))
+    }
+
     pub(super) fn contains(&self, p: &Vector3<f64>, margin: f64) -> bool {
         if (p - self.centre).norm() > self.radius + margin {
             return false;

@@ -1,13 +1,19 @@
 //! The residual scan points of a frame's scene as spherical depth buffers: the nearest splat
 //! per cell around a viewpoint (see the parent module).
 
+use super::super::ground::turn;
 use super::{CELLS_PER_DEG, EDGE_DEG, GAP_AGREE, GAP_DEG, SPLAT_DEG};
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
 
-/// The longitude (about the reference frame's y axis, from +z) and latitude of `d`.
+/// The longitude (about the reference frame's y axis, from +z, in (−π, π]) and latitude of
+/// `d` (0 and 0 for a zero `d`): `atan2` and `asin` to a tenth of a nanoradian, without libm
+/// (the splats are looked up at every ray a depth-guided stitch casts).
 pub(super) fn angles(d: &Vector3<f64>) -> (f64, f64) {
-    (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin())
+    let lon = turn(d.x, d.z);
+    let lat = turn(d.y, (d.x * d.x + d.z * d.z).sqrt());
+    let signed = |a: f64| if a > PI { a - TAU } else { a };
+    (signed(lon), signed(lat))
 }
 
 /// A spherical depth buffer around a viewpoint: per cell of longitude × latitude (about the
@@ -17,7 +23,13 @@ pub(super) struct Splats {
     width: usize,
     height: usize,
     range: Vec<f32>,
+    /// Per row, the least range of each run of [`BLOCK`] cells (the last run shorter):
+    /// [`Splats::nearest_within`] takes a whole run's least at once.
+    blocks: Vec<f32>,
 }
+
+/// Cells per run whose least range is kept ([`Splats::nearest_within`]).
+const BLOCK: usize = 16;
 
 impl Splats {
     fn cell_of(&self, d: &Vector3<f64>) -> (f64, f64) {
@@ -40,6 +52,7 @@ impl Splats {
             width,
             height,
             range: vec![f32::INFINITY; width * height],
+            blocks: Vec::new(),
         };
         let radius = SPLAT_DEG * CELLS_PER_DEG;
         for p in points {
@@ -53,20 +66,50 @@ impl Splats {
             // a disc on the sphere: wider in cells of longitude away from the equator
             let stretch = 1.0 / lat.cos().max(0.05);
             let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
-            let (y0, y1) = ((y - ry).floor().max(0.0) as usize, (y + ry).ceil() as usize);
+            let (y0, y1) = (floor(y - ry).max(0) as usize, ceil(y + ry).max(0) as usize);
+            let range = range as f32;
             for cy in y0..y1.min(height) {
                 let dy = (cy as f64 + 0.5 - y) / ry;
                 let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
-                let (x0, x1) = ((x - reach).floor() as i64, (x + reach).ceil() as i64);
-                for cx in x0..x1 {
-                    let cx = cx.rem_euclid(width as i64) as usize;
-                    let cell = &mut splats.range[cy * width + cx];
-                    *cell = cell.min(range as f32);
+                let (x0, x1) = (floor(x - reach), ceil(x + reach));
+                // cells x0..x1 around the row (wrapped once, not divided for each)
+                let row = &mut splats.range[cy * width..(cy + 1) * width];
+                let mut cx = x0.rem_euclid(width as i64) as usize;
+                for _ in x0..x1 {
+                    row[cx] = row[cx].min(range);
+                    cx += 1;
+                    if cx == width {
+                        cx = 0;
+                    }
                 }
             }
         }
         splats.fill_gaps();
+        splats.index_blocks();
         splats
+    }
+
+    /// Sets [`Splats::blocks`] from the ranges.
+    fn index_blocks(&mut self) {
+        let runs = self.width.div_ceil(BLOCK);
+        self.blocks.clear();
+        self.blocks.reserve(runs * self.height);
+        for row in self.range.chunks(self.width) {
+            (self.blocks).extend(row.chunks(BLOCK).map(|run| least(f32::INFINITY, run)));
+        }
+    }
+
+    /// The least range of row `y`'s cells `a..b` (within the row), by whole runs where it can.
+    fn least_in_row(&self, y: usize, a: usize, b: usize) -> f32 {
+        let row = &self.range[y * self.width..(y + 1) * self.width];
+        let runs = &self.blocks[y * self.width.div_ceil(BLOCK)..];
+        let (first, last) = (a.div_ceil(BLOCK), b / BLOCK);
+        if first >= last {
+            return least(f32::INFINITY, &row[a..b]);
+        }
+        let t = least(f32::INFINITY, &row[a..first * BLOCK]);
+        let t = least(t, &runs[first..last]);
+        least(t, &row[last * BLOCK..b])
     }
 
     /// Closes the gaps between a scan's rings and azimuth steps that the splats leave: a run
@@ -113,6 +156,7 @@ impl Splats {
                 cells(r, stretch).min(w / 2)
             });
         }
+        self.index_blocks();
     }
 
     /// The nearest splat's range over the cells of the unit bearings within `radius` of unit
@@ -134,16 +178,18 @@ impl Splats {
         };
         let (x0, x1) = ((x - columns).floor() - 1.0, (x + columns).floor() + 1.0);
         let mut t = f32::INFINITY;
-        if !(x1 - x0 + 1.0 < self.width as f64) {
-            for row in self.range[y0 * self.width..(y1 + 1) * self.width].chunks(self.width) {
-                t = row.iter().fold(t, |a, b| a.min(*b));
-            }
+        let w = self.width;
+        // the columns as at most two runs within a row (the span wraps around)
+        let spans = if !(x1 - x0 + 1.0 < w as f64) {
+            [(0, w), (0, 0)]
         } else {
-            for cy in y0..=y1 {
-                let row = &self.range[cy * self.width..(cy + 1) * self.width];
-                for cx in x0 as i64..=x1 as i64 {
-                    t = t.min(row[cx.rem_euclid(self.width as i64) as usize]);
-                }
+            let start = (x0 as i64).rem_euclid(w as i64) as usize;
+            let end = start + (x1 - x0) as usize + 1;
+            [(start, end.min(w)), (0, end.saturating_sub(w))]
+        };
+        for cy in y0..=y1 {
+            for (a, b) in spans {
+                t = t.min(self.least_in_row(cy, a, b));
             }
         }
         t as f64
@@ -153,10 +199,33 @@ impl Splats {
     /// ([`angles`]) from the origin (infinite: none).
     pub(super) fn range(&self, lon: f64, lat: f64) -> f64 {
         let (x, y) = self.cell_at(lon, lat);
-        let cx = (crate::warp::floor(x) as i64).rem_euclid(self.width as i64) as usize;
+        let (cx, w) = (crate::warp::floor(x) as i64, self.width as i64);
+        // x lies in [0, w] for a longitude in [−π, π]: a compare, not a division, but for
+        // the one past the end
+        let cx = match cx {
+            c if (0..w).contains(&c) => c,
+            c => c.rem_euclid(w),
+        } as usize;
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
         self.range[cy * self.width + cx] as f64
     }
+}
+
+/// ⌊x⌋ as an integer (0 for NaN), without a call for `f64::floor`.
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    t - i64::from((t as f64) > x)
+}
+
+/// ⌈x⌉ as an integer (0 for NaN), without a call for `f64::ceil`.
+fn ceil(x: f64) -> i64 {
+    let t = x as i64;
+    t + i64::from((t as f64) < x)
+}
+
+/// The least of `t` and `cells` (as the folds of `f32::min` give it).
+fn least(t: f32, cells: &[f32]) -> f32 {
+    cells.iter().fold(t, |a, b| a.min(*b))
 }
 
 /// Carries the finite cells of one line of `range` (`n` cells from `start`, `step` apart) into
@@ -217,5 +286,38 @@ fn fill_line(range: &mut [f32], (start, step): (usize, usize), n: usize, longest
             }
         }
         last = Some(k);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_angles_are_libms_atan2_and_asin_to_a_tenth_of_a_nanoradian() {
+        let mut state = 0x0bad_5eed_1234_5679_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let mut worst = 0.0f64;
+        for k in 0..100_000 {
+            let d = match k % 40 {
+                // the axes and a pole, exactly
+                0 => Vector3::new(0.0, 0.0, -1.0),
+                1 => Vector3::new(-1.0, 0.0, 0.0),
+                2 => Vector3::new(0.0, -2.0, 0.0),
+                _ => Vector3::new(next(), next(), next()) * [1e-3, 1.0, 50.0][k % 3],
+            };
+            let (lon, lat) = angles(&d);
+            let want = (d.x.atan2(d.z), (d.y / d.norm()).clamp(-1.0, 1.0).asin());
+            assert!(lon > -PI && lon <= PI, "{d}: {lon}");
+            // (−π and π are one longitude)
+            let dlon = (lon - want.0).abs();
+            worst = worst.max(dlon.min(TAU - dlon)).max((lat - want.1).abs());
+        }
+        assert!(worst < 1e-10, "{worst}");
     }
 }
