@@ -1,0 +1,376 @@
+//! The serial build of a pyramid table (see `level.rs`) of a separable output from a pinhole
+//! source, a group of [`LANES`] pixels at a time: each row's centres mapped in lanes into
+//! columns of x and y (NaN x where a centre has none), each group's scales and levels taken
+//! from them, and a group whose pixels all take one tap (a turned view drawn per training
+//! sample: all but its anisotropic sides) made into its round straight from the lanes, with
+//! the very operations of [`Builder::block_at`] and `quantize_block`. A group with a pixel
+//! of two or more taps takes the per-pixel path (`Builder::row`'s, pixel by pixel) and
+//! [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without the band's
+//! per-pixel quads and counts for the others.
+
+use super::super::{count, local, quantize_block, scales2, Builder, Parts, Scratch};
+use super::{clamp, quantize, tail, Lanes};
+use crate::camera::{pinhole_lanes, Intrinsics, Separable};
+use crate::warp::kernel::{Quad, Round, LANES, WEIGHT_ONE};
+use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
+use nalgebra::Point2;
+
+/// A row's pixel centres in the source: at index i column i - 1 (columns -1..=width), then
+/// NaN up to a group's reads past the row's end; x NaN where a centre has no position.
+#[derive(Default)]
+struct Centres {
+    x: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Centres {
+    /// The lanes of coordinate `c` from index `at`.
+    #[inline(always)]
+    fn lanes(c: &[f64], at: usize) -> Lanes {
+        <Lanes>::try_from(&c[at..at + LANES]).expect("a group")
+    }
+
+    /// The centre at index `i`, as `Builder::centres` gives it.
+    #[inline(always)]
+    fn at(&self, i: usize) -> Option<Point2<f64>> {
+        (!self.x[i].is_nan()).then(|| Point2::new(self.x[i], self.y[i]))
+    }
+}
+
+/// Scratch space of the groups built pixel by pixel.
+#[derive(Default)]
+struct Fallback {
+    scratch: Scratch,
+    parts: Parts,
+    quads: Vec<Quad>,
+    /// Each pixel's count of `quads`.
+    counts: Vec<u8>,
+}
+
+impl Builder<'_> {
+    /// The table, where this build makes it: serially, of a separable output from a pinhole
+    /// source whose pyramid the pixels sample (None elsewhere).
+    pub(in crate::warp::table::build) fn pyramid_lanes_table(&self) -> Option<RemapTable> {
+        // (block offsets times 3 fit a u32 there: the lanes' rounds do not check them)
+        let small =
+            self.source_size.width as u64 * self.source_size.height as u64 * 3 <= u32::MAX as u64;
+        let (Some(sep), Some(k)) = (self.by_parts, &self.pinhole) else {
+            return None;
+        };
+        if !small || !self.one_block || self.shapes.len() < 2 {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked just above).
+            return Some(unsafe { self.pyramid_lanes_avx2(sep, k) });
+        }
+        Some(self.pyramid_lanes_any(sep, k))
+    }
+
+    /// [`Builder::pyramid_lanes_table`] compiled for AVX2 (the same IEEE operations, the
+    /// same bits).
+    ///
+    /// # Safety
+    ///
+    /// The processor must have AVX2 (`is_x86_feature_detected!("avx2")`). It reads and writes
+    /// only through safe slices.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn pyramid_lanes_avx2(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+        self.pyramid_lanes_any(sep, k)
+    }
+
+    #[inline(always)]
+    fn pyramid_lanes_any(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+        let size = self.dst.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let groups = w.div_ceil(LANES);
+        let mut t = RemapTable {
+            size,
+            source_size: self.source_size,
+            rounds: Vec::with_capacity(groups * h + groups),
+            depth: Vec::with_capacity(groups * h),
+            row_starts: Vec::with_capacity(h + 1),
+            row_reach: Vec::with_capacity(h),
+            cover: vec![Cover::None; w * h],
+            levels: 1,
+        };
+        t.row_starts.push(0);
+        let mut xyz = Default::default();
+        let mut rows: [Centres; 3] = Default::default();
+        self.centres_soa(sep, k, -1, &mut xyz, &mut rows[0]);
+        self.centres_soa(sep, k, 0, &mut xyz, &mut rows[1]);
+        let (mut fallback, mut top) = (Fallback::default(), 0);
+        for v in 0..h {
+            self.centres_soa(sep, k, v as isize + 1, &mut xyz, &mut rows[2]);
+            let reach = self.pyramid_row(v, &rows, &mut t, &mut fallback, &mut top);
+            t.row_reach.push(reach);
+            t.row_starts.push(t.rounds.len() as u32);
+            rows.rotate_left(1);
+        }
+        t.levels = top + 1;
+        t
+    }
+
+    /// Appends output row `v`'s rounds from the centres of rows v - 1, v and v + 1 and marks
+    /// the pixels they cover; raises `top` to the highest level a pixel samples. Gives the
+    /// row's largest block offset.
+    #[inline(always)]
+    fn pyramid_row(
+        &self,
+        v: usize,
+        rows: &[Centres; 3],
+        t: &mut RemapTable,
+        fallback: &mut Fallback,
+        top: &mut u32,
+    ) -> u32 {
+        let w = self.dst.size().width as usize;
+        let [above, here, below] = rows;
+        // (the row's tap rows of supersampled pixels, as `Builder::row` clears them)
+        fallback.parts.tap_rows.iter_mut().for_each(Vec::clear);
+        let mut reach = 0;
+        for first in (0..w).step_by(LANES) {
+            let n = LANES.min(w - first);
+            let centre = [&here.x, &here.y].map(|c| Centres::lanes(c, first + 1));
+            let mut valid = [false; LANES];
+            for (l, ok) in valid.iter_mut().enumerate().take(n) {
+                *ok = !centre[0][l].is_nan();
+            }
+            if !valid.contains(&true) {
+                // (most groups of a wide view: outside the footprint)
+                t.rounds.push(Round::default());
+                t.depth.push(1);
+                continue;
+            }
+            let at = |c: &Centres, i: usize| [&c.x, &c.y].map(|c| Centres::lanes(c, i));
+            let su = scales2_lanes(centre, [at(here, first), at(here, first + 2)]);
+            let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
+            let mut level = [0u32; LANES];
+            let mut one_tap = true;
+            for l in (0..n).filter(|&l| valid[l]) {
+                // `Builder::row`'s level and tap counts
+                level[l] = self.level_of(su[l].min(sv[l]));
+                let down = (1u32 << (2 * level[l])) as f64;
+                let nu = count(su[l] / down).min(self.cap);
+                let nv = count(sv[l] / down).min(self.cap);
+                one_tap &= (nu, nv) == (1, 1);
+                *top = (*top).max(level[l]);
+            }
+            let cover = &mut t.cover[v * w + first..v * w + first + n];
+            if !one_tap {
+                let far = self.fallback_group((first, v), rows, cover, fallback);
+                t.push_group(&fallback.quads, &fallback.counts);
+                reach = reach.max(far);
+                continue;
+            }
+            let (round, inside, far) = self.one_tap_group(centre, level, valid);
+            for (c, &inside) in cover.iter_mut().zip(&inside) {
+                if inside {
+                    *c = Cover::Full;
+                }
+            }
+            t.rounds.push(tail(round, n));
+            t.depth.push(1);
+            reach = reach.max(far);
+        }
+        reach
+    }
+
+    /// The round of a group of one-tap pixels of centres `c` (x, y lanes; `valid` where a
+    /// pixel has one) sampling pyramid levels `level`, which lanes have a block inside the
+    /// source, and the largest block offset: each lane what [`Builder::block_at`] and
+    /// `quantize_block` give it.
+    #[inline(always)]
+    fn one_tap_group(
+        &self,
+        [cx, cy]: [Lanes; 2],
+        level: [u32; LANES],
+        valid: [bool; LANES],
+    ) -> (Round, [bool; LANES], u32) {
+        let size = self.source_size;
+        let (sw, sh) = (size.width as f64, size.height as f64);
+        let mut inside = [false; LANES];
+        let mut offset = [0u32; LANES];
+        let mut w = [[0i32; LANES]; 4];
+        for l in 0..LANES {
+            let (x, y) = (cx[l], cy[l]);
+            // `block_at`'s test: level 0's border whatever the level
+            let ok = valid[l] && column_inside(x, sw) && row_inside(y, sh);
+            let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
+            let (lw, lh, row) = self.shapes[level[l] as usize];
+            // a level pixel's centre at 2^k·(x + 0.5) - 0.5 (level 0: the position itself)
+            let f = (1u32 << level[l]) as f64;
+            let (x, y) = match level[l] {
+                0 => (x, y),
+                _ => ((x + 0.5) / f - 0.5, (y + 0.5) / f - 0.5),
+            };
+            let x = clamp(x, lw as f64 - 1.0);
+            let y = clamp(y, lh as f64 - 1.0);
+            // SAFETY: 0 <= x, y < 2^31 (clamped to the level); truncation is floor here
+            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(lw as i32 - 2);
+            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(lh as i32 - 2);
+            let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+            let q = quantize([
+                (1.0 - fx) * (1.0 - fy),
+                (1.0 - fx) * fy,
+                fx * (1.0 - fy),
+                fx * fy,
+            ]);
+            inside[l] = ok;
+            // (below the pyramid's pixel count: no wrap, see `lanes_table`)
+            let at = (row.wrapping_add(y0 as u32))
+                .wrapping_mul(size.width)
+                .wrapping_add(x0 as u32);
+            offset[l] = if ok { at } else { 0 };
+            for k in 0..4 {
+                w[k][l] = if ok { q[k] } else { 0 };
+            }
+        }
+        let mut round = Round::default();
+        for l in 0..LANES {
+            // (three times an offset fits a u32: `pyramid_lanes_table` checks the source's
+            // size, and a level's rows are the source's)
+            round.offset[l] = offset[l].wrapping_mul(3);
+            round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
+        }
+        (round, inside, offset.into_iter().max().unwrap_or(0))
+    }
+
+    /// The quads of a group's pixels (the `cover.len()` from column `first` of row `v`) into
+    /// `fallback.quads` (and their counts into `fallback.counts`), pixel by pixel as `Builder::row` makes them, their covers into
+    /// `cover`; gives their largest block offset.
+    #[inline(never)]
+    fn fallback_group(
+        &self,
+        (first, v): (usize, usize),
+        rows: &[Centres; 3],
+        cover: &mut [Cover],
+        fallback: &mut Fallback,
+    ) -> u32 {
+        let Fallback {
+            scratch,
+            parts,
+            quads,
+            counts,
+        } = fallback;
+        quads.clear();
+        counts.clear();
+        for (l, c) in cover.iter_mut().enumerate() {
+            let u = first + l;
+            let before = quads.len();
+            let near: local::Near =
+                std::array::from_fn(|r| std::array::from_fn(|d| rows[r].at(u + d)));
+            let Some(centre) = near[1][1] else {
+                quads.push(Quad::default());
+                counts.push(1);
+                *c = Cover::None;
+                continue;
+            };
+            let (su, sv) = scales2(
+                Some(centre),
+                [near[1][0], near[1][2]],
+                [near[0][1], near[2][1]],
+                None,
+            );
+            let level = self.level_of(su.min(sv));
+            let down = (1u32 << (2 * level)) as f64;
+            let (nu, nv) = (
+                count(su / down).min(self.cap),
+                count(sv / down).min(self.cap),
+            );
+            let inside = if (nu, nv) == (1, 1) {
+                let block = self.block_at(centre, level);
+                let width = self.source_size.width;
+                quads.push(match block {
+                    Some((x0, y0, w)) => {
+                        quantize_block(y0 * width + x0, w, WEIGHT_ONE, WEIGHT_ONE as f64)
+                    }
+                    None => Quad::default(),
+                });
+                block.is_some() as u32
+            } else {
+                self.supersampled((u, v, level), (nu, nv), &near, scratch, parts, quads)
+            };
+            counts.push((quads.len() - before) as u8);
+            *c = match inside {
+                0 => Cover::None,
+                k if k == nu * nv => Cover::Full,
+                _ => Cover::Part,
+            };
+        }
+        quads.iter().map(|q| q.offset).max().unwrap_or(0)
+    }
+
+    /// The source positions of output row `v`'s centres into `out` (see [`Centres`]), as
+    /// `Builder::centres` maps them ([`Builder::centres_lanes`]'s lanes). `xyz`: scratch.
+    fn centres_soa(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        v: isize,
+        xyz: &mut [Vec<f64>; 3],
+        out: &mut Centres,
+    ) {
+        let w = self.dst.size().width as isize;
+        let len = (w as usize + 2).next_multiple_of(LANES) + LANES;
+        for c in [&mut out.x, &mut out.y] {
+            c.clear();
+            c.resize(len, f64::NAN);
+        }
+        let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
+        let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
+        let n = kept.len();
+        if n == 0 {
+            return;
+        }
+        // the last group's spare lanes NaN: no position
+        for c in xyz.iter_mut() {
+            c.clear();
+            c.resize(n.next_multiple_of(LANES), f64::NAN);
+        }
+        let [x, y, z] = xyz;
+        sep.bearing_lanes(
+            kept,
+            sep.row(v as f64),
+            [&mut x[..n], &mut y[..n], &mut z[..n]],
+        );
+        let start = (lo + 1) as usize;
+        for g in 0..n.div_ceil(LANES) {
+            let lanes = g * LANES..(g + 1) * LANES;
+            let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
+                .map(|c| <Lanes>::try_from(c).expect("a group"));
+            let [px, py] = pinhole_lanes(k, self.turn(d));
+            let count = LANES.min(n - g * LANES);
+            let at = start + g * LANES;
+            out.x[at..at + count].copy_from_slice(&px[..count]);
+            out.y[at..at + count].copy_from_slice(&py[..count]);
+        }
+    }
+}
+
+/// [`scales2`] along one axis of a group's pixels, centres `c` (x, y lanes) and neighbours
+/// `[a, b]` (NaN x where one has no centre), with its operations: the squared distance
+/// between the neighbours over 4, else to the one there is, else 0.
+#[inline(always)]
+fn scales2_lanes(c: [Lanes; 2], [a, b]: [[Lanes; 2]; 2]) -> Lanes {
+    // (nalgebra's norm_squared of a 2-vector: dx·dx + dy·dy)
+    let dist2 = |p: [f64; 2], q: [f64; 2]| {
+        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+        dx * dx + dy * dy
+    };
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let (c, a_, b_) = ([c[0][l], c[1][l]], [a[0][l], a[1][l]], [b[0][l], b[1][l]]);
+        let (has_a, has_b) = (!a_[0].is_nan(), !b_[0].is_nan());
+        let both = dist2(a_, b_) / 4.0;
+        let (to_a, to_b) = (dist2(a_, c), dist2(c, b_));
+        out[l] = match (has_a, has_b) {
+            (true, true) => both,
+            (true, false) => to_a,
+            (false, true) => to_b,
+            (false, false) => 0.0,
+        };
+    }
+    out
+}
