@@ -47,7 +47,47 @@ struct Fallback {
     counts: Vec<u8>,
 }
 
+/// What a group's lanes need of the levels, indexed by level (at most 8 of them: a
+/// supersampling of at most 8 samples 4 levels above the source).
+struct Levels {
+    /// At index k >= 1: the smallest squared scale (the smaller axis's) of a level-k pixel,
+    /// NaN past the last level (no scale reaches it): `Builder::level_of`'s bounds.
+    from: [f64; LANES],
+    /// The smallest squared scale at a pixel's level from which `count` gives it two taps or
+    /// more along that axis.
+    two_taps: f64,
+    /// Each level's last column and row (as positions), and its last block's top-left ones.
+    last: [[f64; LANES]; 2],
+    last_block: [[i32; LANES]; 2],
+    /// Each level's first row in the pyramid's buffer.
+    row: [u32; LANES],
+}
+
 impl Builder<'_> {
+    /// [`Levels`] of this table's pyramid. `level_of` and `count` are read through their
+    /// bounds, found by bisection over the ordered bits of the non-negative doubles (each a
+    /// monotone step of a squared scale): the very choices, in comparisons that vectorise.
+    fn levels(&self) -> Levels {
+        let mut l = Levels {
+            from: [f64::NAN; LANES],
+            two_taps: first_true(|s| count(s).min(self.cap) >= 2),
+            last: [[0.0; LANES]; 2],
+            last_block: [[0; LANES]; 2],
+            row: [0; LANES],
+        };
+        for (k, &(w, h, row)) in self.shapes.iter().enumerate().take(LANES) {
+            if k > 0 {
+                l.from[k] = first_true(|s| self.level_of(s) >= k as u32);
+            }
+            l.last[0][k] = w as f64 - 1.0;
+            l.last[1][k] = h as f64 - 1.0;
+            l.last_block[0][k] = w as i32 - 2;
+            l.last_block[1][k] = h as i32 - 2;
+            l.row[k] = row;
+        }
+        l
+    }
+
     /// The table, where this build makes it: serially, of a separable output from a pinhole
     /// source whose pyramid the pixels sample (None elsewhere).
     pub(in crate::warp::table::build) fn pyramid_lanes_table(&self) -> Option<RemapTable> {
@@ -102,9 +142,10 @@ impl Builder<'_> {
         self.centres_soa(sep, k, -1, &mut xyz, &mut rows[0]);
         self.centres_soa(sep, k, 0, &mut xyz, &mut rows[1]);
         let (mut fallback, mut top) = (Fallback::default(), 0);
+        let levels = self.levels();
         for v in 0..h {
             self.centres_soa(sep, k, v as isize + 1, &mut xyz, &mut rows[2]);
-            let reach = self.pyramid_row(v, &rows, &mut t, &mut fallback, &mut top);
+            let reach = self.pyramid_row(v, &rows, &levels, &mut t, &mut fallback, &mut top);
             t.row_reach.push(reach);
             t.row_starts.push(t.rounds.len() as u32);
             rows.rotate_left(1);
@@ -121,6 +162,7 @@ impl Builder<'_> {
         &self,
         v: usize,
         rows: &[Centres; 3],
+        levels: &Levels,
         t: &mut RemapTable,
         fallback: &mut Fallback,
         top: &mut u32,
@@ -146,17 +188,12 @@ impl Builder<'_> {
             let at = |c: &Centres, i: usize| [&c.x, &c.y].map(|c| Centres::lanes(c, i));
             let su = scales2_lanes(centre, [at(here, first), at(here, first + 2)]);
             let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
-            let mut level = [0u32; LANES];
-            let mut one_tap = true;
-            for l in (0..n).filter(|&l| valid[l]) {
-                // `Builder::row`'s level and tap counts
-                level[l] = self.level_of(su[l].min(sv[l]));
-                let down = (1u32 << (2 * level[l])) as f64;
-                let nu = count(su[l] / down).min(self.cap);
-                let nv = count(sv[l] / down).min(self.cap);
-                one_tap &= (nu, nv) == (1, 1);
-                *top = (*top).max(level[l]);
-            }
+            let (level, one_tap) = levels_lanes(levels, su, sv, valid);
+            let one_tap = one_tap
+                .iter()
+                .zip(&valid)
+                .all(|(&one, &valid)| one || !valid);
+            *top = (*top).max(level.iter().copied().max().unwrap_or(0));
             let cover = &mut t.cover[v * w + first..v * w + first + n];
             if !one_tap {
                 let far = self.fallback_group((first, v), rows, cover, fallback);
@@ -164,7 +201,7 @@ impl Builder<'_> {
                 reach = reach.max(far);
                 continue;
             }
-            let (round, inside, far) = self.one_tap_group(centre, level, valid);
+            let (round, inside, far) = self.one_tap_group(centre, levels, level, valid);
             for (c, &inside) in cover.iter_mut().zip(&inside) {
                 if inside {
                     *c = Cover::Full;
@@ -185,6 +222,7 @@ impl Builder<'_> {
     fn one_tap_group(
         &self,
         [cx, cy]: [Lanes; 2],
+        levels: &Levels,
         level: [u32; LANES],
         valid: [bool; LANES],
     ) -> (Round, [bool; LANES], u32) {
@@ -198,18 +236,18 @@ impl Builder<'_> {
             // `block_at`'s test: level 0's border whatever the level
             let ok = valid[l] && column_inside(x, sw) && row_inside(y, sh);
             let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
-            let (lw, lh, row) = self.shapes[level[l] as usize];
+            // (a level below 8: no bounds check)
+            let k = level[l] as usize % LANES;
             // a level pixel's centre at 2^k·(x + 0.5) - 0.5 (level 0: the position itself)
-            let f = (1u32 << level[l]) as f64;
-            let (x, y) = match level[l] {
-                0 => (x, y),
-                _ => ((x + 0.5) / f - 0.5, (y + 0.5) / f - 0.5),
-            };
-            let x = clamp(x, lw as f64 - 1.0);
-            let y = clamp(y, lh as f64 - 1.0);
+            let f = (1u32 << k) as f64;
+            let (xk, yk) = ((x + 0.5) / f - 0.5, (y + 0.5) / f - 0.5);
+            let (x, y) = if k == 0 { (x, y) } else { (xk, yk) };
+            let x = clamp(x, levels.last[0][k]);
+            let y = clamp(y, levels.last[1][k]);
             // SAFETY: 0 <= x, y < 2^31 (clamped to the level); truncation is floor here
-            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(lw as i32 - 2);
-            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(lh as i32 - 2);
+            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(levels.last_block[0][k]);
+            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(levels.last_block[1][k]);
+            let row = levels.row[k];
             let (fx, fy) = (x - x0 as f64, y - y0 as f64);
             let q = quantize([
                 (1.0 - fx) * (1.0 - fy),
@@ -373,4 +411,55 @@ fn scales2_lanes(c: [Lanes; 2], [a, b]: [[Lanes; 2]; 2]) -> Lanes {
         };
     }
     out
+}
+
+/// The levels of a group's pixels of squared scales `su` and `sv` (where `valid`; 0
+/// elsewhere), and whether each takes one tap there along both axes: `Builder::row`'s
+/// `level_of` and `count`, through their bounds (`levels`).
+#[inline(always)]
+fn levels_lanes(
+    levels: &Levels,
+    su: Lanes,
+    sv: Lanes,
+    valid: [bool; LANES],
+) -> ([u32; LANES], [bool; LANES]) {
+    let mut level = [0u32; LANES];
+    let mut one = [false; LANES];
+    for l in 0..LANES {
+        let m = su[l].min(sv[l]);
+        let mut k = 0u32;
+        for &from in &levels.from[1..] {
+            k += (m >= from) as u32;
+        }
+        let k = if valid[l] { k } else { 0 };
+        let down = (1u32 << (2 * k)) as f64;
+        // (`count` gives one tap where a scale is not finite)
+        let fine = |s: f64| !s.is_finite() || s < levels.two_taps;
+        one[l] = fine(su[l] / down) && fine(sv[l] / down);
+        level[l] = k;
+    }
+    (level, one)
+}
+
+/// The smallest non-negative double at which `step` (false, then true from some point on:
+/// monotone over the finite non-negative doubles, which order as their bits do) is true;
+/// infinity where no finite one is.
+fn first_true(step: impl Fn(f64) -> bool) -> f64 {
+    if step(0.0) {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (0u64, f64::MAX.to_bits());
+    if !step(f64::MAX) {
+        return f64::INFINITY;
+    }
+    // step(lo) false, step(hi) true
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if step(f64::from_bits(mid)) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    f64::from_bits(hi)
 }
