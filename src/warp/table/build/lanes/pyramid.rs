@@ -189,19 +189,21 @@ impl Builder<'_> {
             let su = scales2_lanes(centre, [at(here, first), at(here, first + 2)]);
             let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
             let (level, one_tap) = levels_lanes(levels, su, sv, valid);
-            let one_tap = one_tap
-                .iter()
-                .zip(&valid)
-                .all(|(&one, &valid)| one || !valid);
             *top = (*top).max(level.iter().copied().max().unwrap_or(0));
             let cover = &mut t.cover[v * w + first..v * w + first + n];
-            if !one_tap {
-                let far = self.fallback_group((first, v), rows, cover, fallback);
+            let mut lanes = valid;
+            for (lane, &one) in lanes.iter_mut().zip(&one_tap) {
+                *lane &= one;
+            }
+            let (round, inside, far) = self.one_tap_group(centre, levels, level, lanes);
+            if lanes != valid {
+                // a pixel of two taps or more: those pixel by pixel, the others from the lanes
+                let group = (&round, lanes, inside);
+                let far = self.fallback_group((first, v), rows, group, cover, fallback);
                 t.push_group(&fallback.quads, &fallback.counts);
                 reach = reach.max(far);
                 continue;
             }
-            let (round, inside, far) = self.one_tap_group(centre, levels, level, valid);
             for (c, &inside) in cover.iter_mut().zip(&inside) {
                 if inside {
                     *c = Cover::Full;
@@ -276,13 +278,16 @@ impl Builder<'_> {
     }
 
     /// The quads of a group's pixels (the `cover.len()` from column `first` of row `v`) into
-    /// `fallback.quads` (and their counts into `fallback.counts`), pixel by pixel as `Builder::row` makes them, their covers into
-    /// `cover`; gives their largest block offset.
+    /// `fallback.quads` (their counts into `fallback.counts`, their covers into `cover`): a
+    /// one-tap pixel's (`one_tap`) from the lanes' `round` (`inside`: whether it has a
+    /// block), the others pixel by pixel as `Builder::row` makes them. Gives their largest
+    /// block offset.
     #[inline(never)]
     fn fallback_group(
         &self,
         (first, v): (usize, usize),
         rows: &[Centres; 3],
+        (round, one_tap, inside): (&Round, [bool; LANES], [bool; LANES]),
         cover: &mut [Cover],
         fallback: &mut Fallback,
     ) -> u32 {
@@ -296,6 +301,15 @@ impl Builder<'_> {
         counts.clear();
         for (l, c) in cover.iter_mut().enumerate() {
             let u = first + l;
+            if one_tap[l] {
+                quads.push(Quad {
+                    offset: round.offset[l] / 3,
+                    w: round.w[l],
+                });
+                counts.push(1);
+                *c = if inside[l] { Cover::Full } else { Cover::None };
+                continue;
+            }
             let before = quads.len();
             let near: local::Near =
                 std::array::from_fn(|r| std::array::from_fn(|d| rows[r].at(u + d)));
