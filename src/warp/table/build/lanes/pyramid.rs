@@ -129,7 +129,9 @@ impl Builder<'_> {
         let mut t = RemapTable {
             size,
             source_size: self.source_size,
-            rounds: Vec::with_capacity(groups * h + groups),
+            // (room for the extra rounds of the groups with a supersampled pixel: growing
+            // would copy them all)
+            rounds: Vec::with_capacity(groups * h + groups * h / 4),
             depth: Vec::with_capacity(groups * h),
             row_starts: Vec::with_capacity(h + 1),
             row_reach: Vec::with_capacity(h),
