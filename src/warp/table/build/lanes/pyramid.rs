@@ -221,17 +221,52 @@ impl Builder<'_> {
     /// The round of a group of one-tap pixels of centres `c` (x, y lanes; `valid` where a
     /// pixel has one) sampling pyramid levels `level`, which lanes have a block inside the
     /// source, and the largest block offset: each lane what [`Builder::block_at`] and
-    /// `quantize_block` give it.
+    /// `quantize_block` give it, a level at a time (most groups have one).
     #[inline(always)]
     fn one_tap_group(
         &self,
-        [cx, cy]: [Lanes; 2],
+        c: [Lanes; 2],
         levels: &Levels,
         level: [u32; LANES],
         valid: [bool; LANES],
     ) -> (Round, [bool; LANES], u32) {
+        let mut present = 0u32;
+        for l in 0..LANES {
+            present |= (valid[l] as u32) << level[l];
+        }
+        if present.count_ones() <= 1 {
+            return self.one_tap_level(c, levels, present.trailing_zeros() % 8, valid);
+        }
+        let (mut round, mut inside, mut far) = (Round::default(), [false; LANES], 0);
+        for k in (0..LANES as u32).filter(|&k| present & (1 << k) != 0) {
+            let at: [bool; LANES] = std::array::from_fn(|l| valid[l] && level[l] == k);
+            let (r, i, f) = self.one_tap_level(c, levels, k, at);
+            for l in (0..LANES).filter(|&l| at[l]) {
+                (round.offset[l], round.w[l], inside[l]) = (r.offset[l], r.w[l], i[l]);
+            }
+            far = far.max(f);
+        }
+        (round, inside, far)
+    }
+
+    /// [`Builder::one_tap_group`] of the lanes `valid` at level `k` (the others' blocks
+    /// all-zero at offset 0).
+    #[inline(always)]
+    fn one_tap_level(
+        &self,
+        [cx, cy]: [Lanes; 2],
+        levels: &Levels,
+        k: u32,
+        valid: [bool; LANES],
+    ) -> (Round, [bool; LANES], u32) {
         let size = self.source_size;
         let (sw, sh) = (size.width as f64, size.height as f64);
+        // (a level below 8: no bounds check)
+        let k = k as usize % LANES;
+        let (last_x, last_y) = (levels.last[0][k], levels.last[1][k]);
+        let (block_x, block_y) = (levels.last_block[0][k], levels.last_block[1][k]);
+        let row = levels.row[k];
+        let f = (1u32 << k) as f64;
         let mut inside = [false; LANES];
         let mut offset = [0u32; LANES];
         let mut w = [[0i32; LANES]; 4];
@@ -240,18 +275,14 @@ impl Builder<'_> {
             // `block_at`'s test: level 0's border whatever the level
             let ok = valid[l] && column_inside(x, sw) && row_inside(y, sh);
             let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
-            // (a level below 8: no bounds check)
-            let k = level[l] as usize % LANES;
             // a level pixel's centre at 2^k·(x + 0.5) - 0.5 (level 0: the position itself)
-            let f = (1u32 << k) as f64;
             let (xk, yk) = ((x + 0.5) / f - 0.5, (y + 0.5) / f - 0.5);
             let (x, y) = if k == 0 { (x, y) } else { (xk, yk) };
-            let x = clamp(x, levels.last[0][k]);
-            let y = clamp(y, levels.last[1][k]);
+            let x = clamp(x, last_x);
+            let y = clamp(y, last_y);
             // SAFETY: 0 <= x, y < 2^31 (clamped to the level); truncation is floor here
-            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(levels.last_block[0][k]);
-            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(levels.last_block[1][k]);
-            let row = levels.row[k];
+            let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(block_x);
+            let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(block_y);
             let (fx, fy) = (x - x0 as f64, y - y0 as f64);
             let q = quantize([
                 (1.0 - fx) * (1.0 - fy),
