@@ -79,7 +79,7 @@ impl Builder<'_> {
         if !parallel && b.plain() {
             return b.plain_table();
         }
-        if let Some(table) = (!parallel).then(|| b.pyramid_lanes_table()).flatten() {
+        if let Some(table) = b.pyramid_lanes_table(parallel) {
             return table;
         }
         if !parallel {

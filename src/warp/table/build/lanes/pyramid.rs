@@ -1,5 +1,6 @@
-//! The serial build of a pyramid table (see `level.rs`) of a separable output from a pinhole
-//! source, a group of [`LANES`] pixels at a time: each row's centres mapped in lanes into
+//! The build of a pyramid table (see `level.rs`) of a separable output from a pinhole
+//! source (serially, or in bands of rows as `Builder::band`), a group of [`LANES`] pixels at a
+//! time: each row's centres mapped in lanes into
 //! columns of x and y (NaN x where a centre has none), each group's scales and levels taken
 //! from them, and a group whose pixels all take one tap (a turned view drawn per training
 //! sample: all but its anisotropic sides) made into its round straight from the lanes, with
@@ -8,12 +9,13 @@
 //! [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without the band's
 //! per-pixel quads and counts for the others.
 
-use super::super::{count, local, quantize_block, scales2, Builder, Parts, Scratch};
+use super::super::{count, local, quantize_block, scales2, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, tail, Lanes};
 use crate::camera::{pinhole_lanes, Intrinsics, Separable};
 use crate::warp::kernel::{Quad, Round, LANES, WEIGHT_ONE};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
 use nalgebra::Point2;
+use rayon::prelude::*;
 
 /// A row's pixel centres in the source: at index i column i - 1 (columns -1..=width), then
 /// NaN up to a group's reads past the row's end; x NaN where a centre has no position.
@@ -90,7 +92,10 @@ impl Builder<'_> {
 
     /// The table, where this build makes it: serially, of a separable output from a pinhole
     /// source whose pyramid the pixels sample (None elsewhere).
-    pub(in crate::warp::table::build) fn pyramid_lanes_table(&self) -> Option<RemapTable> {
+    pub(in crate::warp::table::build) fn pyramid_lanes_table(
+        &self,
+        parallel: bool,
+    ) -> Option<RemapTable> {
         // (block offsets times 3 fit a u32 there: the lanes' rounds do not check them)
         let small =
             self.source_size.width as u64 * self.source_size.height as u64 * 3 <= u32::MAX as u64;
@@ -100,15 +105,48 @@ impl Builder<'_> {
         if !small || !self.one_block || self.shapes.len() < 2 {
             return None;
         }
+        let h = self.dst.size().height as usize;
+        if !parallel {
+            return Some(self.pyramid_lanes_rows(sep, k, 0..h));
+        }
+        // bands of rows on rayon's pool, each mapping the rows beside it too (as `band`)
+        let bands: Vec<RemapTable> = (0..h.div_ceil(BAND_ROWS))
+            .into_par_iter()
+            .map(|i| self.pyramid_lanes_rows(sep, k, i * BAND_ROWS..((i + 1) * BAND_ROWS).min(h)))
+            .collect();
+        let mut bands = bands.into_iter();
+        let mut t = bands
+            .next()
+            .unwrap_or_else(|| self.pyramid_lanes_rows(sep, k, 0..0));
+        for b in bands {
+            let base = t.rounds.len() as u32;
+            t.rounds.extend_from_slice(&b.rounds);
+            t.depth.extend_from_slice(&b.depth);
+            t.row_starts
+                .extend(b.row_starts[1..].iter().map(|&s| base + s));
+            t.row_reach.extend_from_slice(&b.row_reach);
+            t.cover.extend_from_slice(&b.cover);
+            t.levels = t.levels.max(b.levels);
+        }
+        Some(t)
+    }
+
+    /// The table's rows `rows` (the whole table where they are all its rows).
+    fn pyramid_lanes_rows(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        rows: std::ops::Range<usize>,
+    ) -> RemapTable {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2 (checked just above).
-            return Some(unsafe { self.pyramid_lanes_avx2(sep, k) });
+            return unsafe { self.pyramid_lanes_avx2(sep, k, rows) };
         }
-        Some(self.pyramid_lanes_any(sep, k))
+        self.pyramid_lanes_any(sep, k, rows)
     }
 
-    /// [`Builder::pyramid_lanes_table`] compiled for AVX2 (the same IEEE operations, the
+    /// [`Builder::pyramid_lanes_rows`] compiled for AVX2 (the same IEEE operations, the
     /// same bits).
     ///
     /// # Safety
@@ -117,14 +155,24 @@ impl Builder<'_> {
     /// only through safe slices.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn pyramid_lanes_avx2(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
-        self.pyramid_lanes_any(sep, k)
+    unsafe fn pyramid_lanes_avx2(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        rows: std::ops::Range<usize>,
+    ) -> RemapTable {
+        self.pyramid_lanes_any(sep, k, rows)
     }
 
     #[inline(always)]
-    fn pyramid_lanes_any(&self, sep: &dyn Separable, k: &Intrinsics) -> RemapTable {
+    fn pyramid_lanes_any(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        rows: std::ops::Range<usize>,
+    ) -> RemapTable {
         let size = self.dst.size();
-        let (w, h) = (size.width as usize, size.height as usize);
+        let (w, h) = (size.width as usize, rows.len());
         let groups = w.div_ceil(LANES);
         let mut t = RemapTable {
             size,
@@ -140,17 +188,18 @@ impl Builder<'_> {
         };
         t.row_starts.push(0);
         let mut xyz = Default::default();
-        let mut rows: [Centres; 3] = Default::default();
-        self.centres_soa(sep, k, -1, &mut xyz, &mut rows[0]);
-        self.centres_soa(sep, k, 0, &mut xyz, &mut rows[1]);
+        let mut centres: [Centres; 3] = Default::default();
+        let v0 = rows.start as isize;
+        self.centres_soa(sep, k, v0 - 1, &mut xyz, &mut centres[0]);
+        self.centres_soa(sep, k, v0, &mut xyz, &mut centres[1]);
         let (mut fallback, mut top) = (Fallback::default(), 0);
         let levels = self.levels();
-        for v in 0..h {
-            self.centres_soa(sep, k, v as isize + 1, &mut xyz, &mut rows[2]);
-            let reach = self.pyramid_row(v, &rows, &levels, &mut t, &mut fallback, &mut top);
+        for v in rows {
+            self.centres_soa(sep, k, v as isize + 1, &mut xyz, &mut centres[2]);
+            let reach = self.pyramid_row(v, &centres, &levels, &mut t, &mut fallback, &mut top);
             t.row_reach.push(reach);
             t.row_starts.push(t.rounds.len() as u32);
-            rows.rotate_left(1);
+            centres.rotate_left(1);
         }
         t.levels = top + 1;
         t
@@ -192,7 +241,9 @@ impl Builder<'_> {
             let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
             let (level, one_tap) = levels_lanes(levels, su, sv, valid);
             *top = (*top).max(level.iter().copied().max().unwrap_or(0));
-            let cover = &mut t.cover[v * w + first..v * w + first + n];
+            // (the row's place in `t`, which may hold a band of rows from v)
+            let at = t.row_reach.len() * w + first;
+            let cover = &mut t.cover[at..at + n];
             let mut lanes = valid;
             for (lane, &one) in lanes.iter_mut().zip(&one_tap) {
                 *lane &= one;
