@@ -1,13 +1,13 @@
 //! The build of a pyramid table (see `level.rs`) of a separable output from a pinhole
 //! source (serially, or in bands of rows as `Builder::band`), a group of [`LANES`] pixels at a
-//! time: each row's centres mapped in lanes into
-//! columns of x and y (NaN x where a centre has none), each group's scales and levels taken
-//! from them, and a group whose pixels all take one tap (a turned view drawn per training
-//! sample: all but its anisotropic sides) made into its round straight from the lanes, with
-//! the very operations of [`Builder::block_at`] and `quantize_block`. A group with a pixel
-//! of two or more taps takes the per-pixel path (`Builder::row`'s, pixel by pixel) and
+//! time: each row's centres mapped in lanes into columns of x and y (NaN x where a centre has
+//! none), each group's scales and levels taken from them, and its one-tap pixels' blocks made
+//! straight from the lanes with the very operations of [`Builder::block_at`] and
+//! `quantize_block`, a level at a time. A group of one-tap pixels (a turned view drawn per
+//! training sample: all but its anisotropic sides) is one round; in a group with a pixel of
+//! two or more taps those take the per-pixel path (`Builder::row`'s) and the group
 //! [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without the band's
-//! per-pixel quads and counts for the others.
+//! per-pixel quads and counts.
 
 use super::super::{count, local, quantize_block, scales2, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, tail, Lanes};
