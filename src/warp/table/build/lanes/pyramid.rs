@@ -23,6 +23,8 @@ use rayon::prelude::*;
 struct Centres {
     x: Vec<f64>,
     y: Vec<f64>,
+    /// The indices mapped (the columns the footprint keeps); NaN x elsewhere.
+    kept: std::ops::Range<usize>,
 }
 
 impl Centres {
@@ -223,7 +225,23 @@ impl Builder<'_> {
         // (the row's tap rows of supersampled pixels, as `Builder::row` clears them)
         fallback.parts.tap_rows.iter_mut().for_each(Vec::clear);
         let mut reach = 0;
-        for first in (0..w).step_by(LANES) {
+        // the groups with a pixel the footprint keeps; the others take nothing (most groups
+        // of a wide view), written at once
+        let (lo, hi) = (
+            here.kept.start.saturating_sub(1),
+            (here.kept.end.saturating_sub(1)).min(w),
+        );
+        let (g_lo, g_hi) = if lo < hi {
+            (lo / LANES, hi.div_ceil(LANES))
+        } else {
+            (0, 0)
+        };
+        let blank = |t: &mut RemapTable, groups: usize| {
+            t.rounds.resize(t.rounds.len() + groups, Round::default());
+            t.depth.resize(t.depth.len() + groups, 1);
+        };
+        blank(t, g_lo);
+        for first in (g_lo * LANES..g_hi * LANES).step_by(LANES) {
             let n = LANES.min(w - first);
             let centre = [&here.x, &here.y].map(|c| Centres::lanes(c, first + 1));
             let mut valid = [false; LANES];
@@ -266,6 +284,7 @@ impl Builder<'_> {
             t.depth.push(1);
             reach = reach.max(far);
         }
+        blank(t, w.div_ceil(LANES) - g_hi);
         reach
     }
 
@@ -457,6 +476,7 @@ impl Builder<'_> {
         let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
         let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
         let n = kept.len();
+        out.kept = 0..0;
         if n == 0 {
             return;
         }
@@ -472,6 +492,7 @@ impl Builder<'_> {
             [&mut x[..n], &mut y[..n], &mut z[..n]],
         );
         let start = (lo + 1) as usize;
+        out.kept = start..start + n;
         for g in 0..n.div_ceil(LANES) {
             let lanes = g * LANES..(g + 1) * LANES;
             let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
