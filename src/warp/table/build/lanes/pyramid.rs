@@ -336,7 +336,8 @@ impl Builder<'_> {
         let (last_x, last_y) = (levels.last[0][k], levels.last[1][k]);
         let (block_x, block_y) = (levels.last_block[0][k], levels.last_block[1][k]);
         let row = levels.row[k];
-        let f = (1u32 << k) as f64;
+        // (dividing by 2^k is multiplying by 2^-k, bit for bit: both exact)
+        let f = 1.0 / (1u32 << k) as f64;
         let mut inside = [false; LANES];
         let mut offset = [0u32; LANES];
         let mut w = [[0i32; LANES]; 4];
@@ -346,7 +347,7 @@ impl Builder<'_> {
             let ok = valid[l] && column_inside(x, sw) && row_inside(y, sh);
             let (x, y) = if ok { (x, y) } else { (0.0, 0.0) };
             // a level pixel's centre at 2^k·(x + 0.5) - 0.5 (level 0: the position itself)
-            let (xk, yk) = ((x + 0.5) / f - 0.5, (y + 0.5) / f - 0.5);
+            let (xk, yk) = ((x + 0.5) * f - 0.5, (y + 0.5) * f - 0.5);
             let (x, y) = if k == 0 { (x, y) } else { (xk, yk) };
             let x = clamp(x, last_x);
             let y = clamp(y, last_y);
@@ -551,10 +552,11 @@ fn levels_lanes(
             k += (m >= from) as u32;
         }
         let k = if valid[l] { k } else { 0 };
-        let down = (1u32 << (2 * k)) as f64;
+        // (`row`'s division by 4^k, as the exact product by 4^-k)
+        let down = 1.0 / (1u32 << (2 * k)) as f64;
         // (`count` gives one tap where a scale is not finite)
         let fine = |s: f64| !s.is_finite() || s < levels.two_taps;
-        one[l] = fine(su[l] / down) && fine(sv[l] / down);
+        one[l] = fine(su[l] * down) && fine(sv[l] * down);
         level[l] = k;
     }
     (level, one)
