@@ -9,10 +9,10 @@
 //! [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without the band's
 //! per-pixel quads and counts.
 
-use super::super::{count, local, quantize_block, scales2, Builder, Parts, Scratch, BAND_ROWS};
+use super::super::{count, local, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, tail, Lanes};
 use crate::camera::{pinhole_lanes, Intrinsics, Separable};
-use crate::warp::kernel::{Quad, Round, LANES, WEIGHT_ONE};
+use crate::warp::kernel::{Quad, Round, LANES};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
 use nalgebra::Point2;
 use rayon::prelude::*;
@@ -270,7 +270,8 @@ impl Builder<'_> {
             if lanes != valid {
                 // a pixel of two taps or more: those pixel by pixel, the others from the lanes
                 let group = (&round, lanes, inside);
-                let far = self.fallback_group((first, v), rows, group, cover, fallback);
+                let scales = ([su, sv], level);
+                let far = self.fallback_group((first, v), rows, group, scales, cover, fallback);
                 t.push_group(&fallback.quads, &fallback.counts);
                 reach = reach.max(far);
                 continue;
@@ -384,14 +385,15 @@ impl Builder<'_> {
     /// The quads of a group's pixels (the `cover.len()` from column `first` of row `v`) into
     /// `fallback.quads` (their counts into `fallback.counts`, their covers into `cover`): a
     /// one-tap pixel's (`one_tap`) from the lanes' `round` (`inside`: whether it has a
-    /// block), the others pixel by pixel as `Builder::row` makes them. Gives their largest
-    /// block offset.
+    /// block), the others pixel by pixel as `Builder::row` makes them, from the lanes'
+    /// squared scales and levels. Gives their largest block offset.
     #[inline(never)]
     fn fallback_group(
         &self,
         (first, v): (usize, usize),
         rows: &[Centres; 3],
         (round, one_tap, inside): (&Round, [bool; LANES], [bool; LANES]),
+        ([su, sv], level): ([Lanes; 2], [u32; LANES]),
         cover: &mut [Cover],
         fallback: &mut Fallback,
     ) -> u32 {
@@ -417,37 +419,22 @@ impl Builder<'_> {
             let before = quads.len();
             let near: local::Near =
                 std::array::from_fn(|r| std::array::from_fn(|d| rows[r].at(u + d)));
-            let Some(centre) = near[1][1] else {
+            if near[1][1].is_none() {
                 quads.push(Quad::default());
                 counts.push(1);
                 *c = Cover::None;
                 continue;
-            };
-            let (su, sv) = scales2(
-                Some(centre),
-                [near[1][0], near[1][2]],
-                [near[0][1], near[2][1]],
-                None,
-            );
-            let level = self.level_of(su.min(sv));
-            let down = (1u32 << (2 * level)) as f64;
+            }
+            // `Builder::row`'s taps from the lanes' scales and level (a division by 4^k as
+            // the exact product by 4^-k): two or more, the lanes found
+            let down = 1.0 / (1u32 << (2 * level[l])) as f64;
             let (nu, nv) = (
-                count(su / down).min(self.cap),
-                count(sv / down).min(self.cap),
+                count(su[l] * down).min(self.cap),
+                count(sv[l] * down).min(self.cap),
             );
-            let inside = if (nu, nv) == (1, 1) {
-                let block = self.block_at(centre, level);
-                let width = self.source_size.width;
-                quads.push(match block {
-                    Some((x0, y0, w)) => {
-                        quantize_block(y0 * width + x0, w, WEIGHT_ONE, WEIGHT_ONE as f64)
-                    }
-                    None => Quad::default(),
-                });
-                block.is_some() as u32
-            } else {
-                self.supersampled((u, v, level), (nu, nv), &near, scratch, parts, quads)
-            };
+            debug_assert!((nu, nv) != (1, 1), "a one-tap pixel of the lanes");
+            let at = (u, v, level[l]);
+            let inside = self.supersampled(at, (nu, nv), &near, scratch, parts, quads);
             counts.push((quads.len() - before) as u8);
             *c = match inside {
                 0 => Cover::None,
