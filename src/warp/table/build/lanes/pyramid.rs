@@ -494,9 +494,9 @@ impl Builder<'_> {
     }
 }
 
-/// [`scales2`] along one axis of a group's pixels, centres `c` (x, y lanes) and neighbours
-/// `[a, b]` (NaN x where one has no centre), with its operations: the squared distance
-/// between the neighbours over 4, else to the one there is, else 0.
+/// `scales2` (`level.rs`) along one axis of a group's pixels, centres `c` (x, y lanes) and
+/// neighbours `[a, b]` (NaN x where one has no centre), with its operations: the squared
+/// distance between the neighbours over 4, else to the one there is, else 0.
 #[inline(always)]
 fn scales2_lanes(c: [Lanes; 2], [a, b]: [[Lanes; 2]; 2]) -> Lanes {
     // (nalgebra's norm_squared of a 2-vector: dx·dx + dy·dy)
