@@ -500,17 +500,24 @@ impl Builder<'_> {
 #[inline(always)]
 fn scales2_lanes(c: [Lanes; 2], [a, b]: [[Lanes; 2]; 2]) -> Lanes {
     // (nalgebra's norm_squared of a 2-vector: dx·dx + dy·dy)
-    let dist2 = |p: [f64; 2], q: [f64; 2]| {
-        let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+    let dist2 = |p: [&Lanes; 2], q: [&Lanes; 2], l: usize| {
+        let (dx, dy) = (q[0][l] - p[0][l], q[1][l] - p[1][l]);
         dx * dx + dy * dy
     };
+    let [a, b, c] = [&a, &b, &c].map(|p| [&p[0], &p[1]]);
     let mut out = [0.0; LANES];
-    for l in 0..LANES {
-        let (c, a_, b_) = ([c[0][l], c[1][l]], [a[0][l], a[1][l]], [b[0][l], b[1][l]]);
-        let (has_a, has_b) = (!a_[0].is_nan(), !b_[0].is_nan());
-        let both = dist2(a_, b_) / 4.0;
-        let (to_a, to_b) = (dist2(a_, c), dist2(c, b_));
-        out[l] = match (has_a, has_b) {
+    if (0..LANES).all(|l| !a[0][l].is_nan() && !b[0][l].is_nan()) {
+        // (most groups: both neighbours of every pixel)
+        for (l, out) in out.iter_mut().enumerate() {
+            *out = dist2(a, b, l) / 4.0;
+        }
+        return out;
+    }
+    for (l, out) in out.iter_mut().enumerate() {
+        let (has_a, has_b) = (!a[0][l].is_nan(), !b[0][l].is_nan());
+        let both = dist2(a, b, l) / 4.0;
+        let (to_a, to_b) = (dist2(a, c, l), dist2(c, b, l));
+        *out = match (has_a, has_b) {
             (true, true) => both,
             (true, false) => to_a,
             (false, true) => to_b,
