@@ -13,7 +13,7 @@ use super::super::{count, local, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, tail, Lanes};
 use crate::camera::{pinhole_lanes, Intrinsics, Separable};
 use crate::warp::kernel::{Quad, Round, LANES};
-use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
+use crate::warp::table::{column_inside, row_inside, Cover, RemapTable, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
 use rayon::prelude::*;
 
@@ -51,6 +51,10 @@ struct Fallback {
     counts: Vec<u8>,
 }
 
+/// Most levels a table samples: the source and 3 above it (`MAX_SUPERSAMPLE` source pixels a
+/// level pixel at the last).
+const MAX_LEVELS: usize = MAX_SUPERSAMPLE.ilog2() as usize + 1;
+
 /// What a group's lanes need of the levels, indexed by level (at most 8 of them: a
 /// supersampling of at most 8 samples 4 levels above the source).
 struct Levels {
@@ -79,7 +83,7 @@ impl Builder<'_> {
             last_block: [[0; LANES]; 2],
             row: [0; LANES],
         };
-        for (k, &(w, h, row)) in self.shapes.iter().enumerate().take(LANES) {
+        for (k, &(w, h, row)) in self.shapes.iter().enumerate().take(MAX_LEVELS) {
             if k > 0 {
                 l.from[k] = first_true(|s| self.level_of(s) >= k as u32);
             }
@@ -104,7 +108,7 @@ impl Builder<'_> {
         let (Some(sep), Some(k)) = (self.by_parts, &self.pinhole) else {
             return None;
         };
-        if !small || !self.one_block || self.shapes.len() < 2 {
+        if !small || !self.one_block || !(2..=MAX_LEVELS).contains(&self.shapes.len()) {
             return None;
         }
         let h = self.dst.size().height as usize;
@@ -542,7 +546,8 @@ fn levels_lanes(
     for l in 0..LANES {
         let m = su[l].min(sv[l]);
         let mut k = 0u32;
-        for &from in &levels.from[1..] {
+        // (a supersampling of at most 8 samples has at most 4 levels)
+        for &from in &levels.from[1..MAX_LEVELS] {
             k += (m >= from) as u32;
         }
         let k = if valid[l] { k } else { 0 };
