@@ -295,9 +295,31 @@ fn pyramid_tables(
     let blind = -nalgebra::Vector3::z();
     let seen = panoconv::warp::Footprint::new(&lens, src, &turn, &blind);
     assert!(seen.is_some(), "the lens's footprint");
-    let cases: [(&str, &dyn CameraModel, &Matrix3<f64>, _); 2] = [
+    // the views benches/random_cameras.py draws per training sample: a turned equirect crop
+    // (120°) and cylindrical view (105°) at 640×480, their principal points off centre
+    let drawn = |projection: Projection, fov: f64| {
+        let f = 640.0 / fov.to_radians();
+        projection.camera(
+            Intrinsics::new(f, f, 323.5, 236.0),
+            ImageSize::new(640, 480),
+        )
+    };
+    let (crop, cylinder) = (
+        drawn(Projection::Equirect, 120.0),
+        drawn(Projection::Cylindrical, 105.0),
+    );
+    let crop_seen = panoconv::warp::Footprint::new(crop.as_ref(), src, &turn, &blind);
+    let cylinder_seen = panoconv::warp::Footprint::new(cylinder.as_ref(), src, &turn, &blind);
+    let cases: [(&str, &dyn CameraModel, &Matrix3<f64>, _); 4] = [
         ("equirect_2048", equirect.as_ref(), &id, None),
         ("fisheye_640", &lens, &turn, seen.as_ref()),
+        ("crop_640", crop.as_ref(), &turn, crop_seen.as_ref()),
+        (
+            "cylindrical_640",
+            cylinder.as_ref(),
+            &turn,
+            cylinder_seen.as_ref(),
+        ),
     ];
     let mut g = c.benchmark_group("pyramid_table");
     g.sample_size(10);

@@ -293,42 +293,50 @@ impl RemapTable {
     fn push_row(&mut self, quads: &[Quad], counts: &[u8], reach: u32) {
         let mut rest = quads;
         for pixels in counts.chunks(LANES) {
-            if pixels.iter().all(|&n| n == 1) {
-                // one block a pixel (most groups): the one round the loop below makes of them
-                let group;
-                (group, rest) = rest.split_at(pixels.len());
-                self.depth.push(1);
-                self.rounds.push(Self::round(group));
-                continue;
-            }
-            let mut blocks = [&[][..]; LANES];
-            for (b, &n) in blocks.iter_mut().zip(pixels) {
-                (*b, rest) = rest.split_at(n as usize);
-            }
-            let k = pixels.iter().copied().max().expect("a pixel");
-            self.depth.push(k);
-            for i in 0..k as usize {
-                let mut round = Round::default();
-                for (lane, b) in blocks.iter().enumerate() {
-                    // a lane past the row's end repeats the group's first pixel, weightless
-                    let b = if lane < pixels.len() { b } else { &blocks[0] };
-                    let q = match b.get(i) {
-                        Some(q) => *q,
-                        None => Quad {
-                            offset: b[0].offset,
-                            w: [0; 4],
-                        },
-                    };
-                    // (a source that large would not fit in memory, nor its offsets in u32)
-                    round.offset[lane] = q.offset.checked_mul(3).expect("source under 4 GB");
-                    round.w[lane] = q.w;
-                }
-                self.rounds.push(round);
-            }
+            rest = self.push_group(rest, pixels);
         }
         debug_assert!(rest.is_empty(), "every block of the row placed");
         self.row_reach.push(reach);
         self.row_starts.push(self.rounds.len() as u32);
+    }
+
+    /// Appends the rounds and depth of a group of pixels of a row (`pixels[i]` blocks for its
+    /// pixel i, the first of `quads`); gives the quads after the group's.
+    fn push_group<'q>(&mut self, quads: &'q [Quad], pixels: &[u8]) -> &'q [Quad] {
+        let mut rest = quads;
+        if pixels.iter().all(|&n| n == 1) {
+            // one block a pixel (most groups): the one round the loop below makes of them
+            let group;
+            (group, rest) = rest.split_at(pixels.len());
+            self.depth.push(1);
+            self.rounds.push(Self::round(group));
+            return rest;
+        }
+        let mut blocks = [&[][..]; LANES];
+        for (b, &n) in blocks.iter_mut().zip(pixels) {
+            (*b, rest) = rest.split_at(n as usize);
+        }
+        let k = pixels.iter().copied().max().expect("a pixel");
+        self.depth.push(k);
+        for i in 0..k as usize {
+            let mut round = Round::default();
+            for (lane, b) in blocks.iter().enumerate() {
+                // a lane past the row's end repeats the group's first pixel, weightless
+                let b = if lane < pixels.len() { b } else { &blocks[0] };
+                let q = match b.get(i) {
+                    Some(q) => *q,
+                    None => Quad {
+                        offset: b[0].offset,
+                        w: [0; 4],
+                    },
+                };
+                // (a source that large would not fit in memory, nor its offsets in u32)
+                round.offset[lane] = q.offset.checked_mul(3).expect("source under 4 GB");
+                round.w[lane] = q.w;
+            }
+            self.rounds.push(round);
+        }
+        rest
     }
 
     /// The round of a group of pixels with one block each; a lane past the row's end repeats

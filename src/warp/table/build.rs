@@ -100,6 +100,9 @@ impl Builder<'_> {
         if !parallel && b.plain() {
             return b.plain_table();
         }
+        if let Some(table) = b.pyramid_lanes_table(parallel) {
+            return table;
+        }
         if !parallel {
             // the last serial build's band, reused: a fresh one's pages cost a fault each
             let mut band = SPARE_BAND.with(|s| std::mem::take(&mut *s.borrow_mut()));

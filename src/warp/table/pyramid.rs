@@ -106,20 +106,25 @@ pub(crate) fn pyramid_u8(src: &[u8], size: ImageSize, levels: u32) -> Vec<u8> {
     let stride = size.width as usize * 3;
     assert_eq!(src.len(), stride * size.height as usize, "source size");
     let shapes = level_shapes(size, levels);
-    let mut out = vec![0u8; stride * pyramid_rows(size, levels) as usize];
-    out[..src.len()].copy_from_slice(src);
+    // written row by row, only the padding zeroed (zeroing the whole buffer first would
+    // write each byte twice; it is twice the source's size)
+    let total = stride * pyramid_rows(size, levels) as usize;
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(src);
     let mut fine: Vec<u16> = Vec::new();
     let mut coarse: Vec<u16> = Vec::new();
     for (k, pair) in shapes.windows(2).enumerate() {
-        let [(fw, fh, _), (lw, lh, lrow)] = [pair[0], pair[1]];
+        let [(fw, fh, _), (lw, lh, _)] = [pair[0], pair[1]];
         let (fs, ls) = (fw as usize * 3, lw as usize * 3);
         let level = k as u32 + 1;
         let half = 1u16 << (2 * level - 1);
         coarse.clear();
-        coarse.resize(ls * lh as usize, 0);
+        coarse.reserve(ls * lh as usize);
         for y in 0..lh as usize {
             let (y0, y1) = (2 * y, (2 * y + 1).min(fh as usize - 1));
-            let sums = &mut coarse[y * ls..(y + 1) * ls];
+            // (one row zeroed then summed into: it stays in the cache)
+            coarse.resize((y + 1) * ls, 0);
+            let sums = &mut coarse[y * ls..];
             if k == 0 {
                 let row = |r: usize| &src[r * fs..(r + 1) * fs];
                 sum_pairs(row(y0), row(y1), sums);
@@ -127,13 +132,12 @@ pub(crate) fn pyramid_u8(src: &[u8], size: ImageSize, levels: u32) -> Vec<u8> {
                 let row = |r: usize| &fine[r * fs..(r + 1) * fs];
                 sum_pairs(row(y0), row(y1), sums);
             }
-            let bytes = &mut out[(lrow as usize + y) * stride..][..ls];
-            for (b, &sum) in bytes.iter_mut().zip(sums.iter()) {
-                *b = ((sum + half) >> (2 * level)) as u8;
-            }
+            out.extend(sums.iter().map(|&sum| ((sum + half) >> (2 * level)) as u8));
+            out.resize(out.len() + stride - ls, 0);
         }
         std::mem::swap(&mut fine, &mut coarse);
     }
+    debug_assert_eq!(out.len(), total, "the pyramid's rows");
     out
 }
 

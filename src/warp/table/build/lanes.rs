@@ -13,6 +13,8 @@ use crate::warp::kernel::{Round, LANES, WEIGHT_ONE};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable};
 use nalgebra::Point2;
 
+mod pyramid;
+
 /// One coordinate of a group's pixels, a lane each.
 type Lanes = [f64; LANES];
 
@@ -420,6 +422,54 @@ mod tests {
             covered += want.coverage();
         }
         assert!(covered > 36.0 * 0.1 && covered < 36.0 * 0.95, "{covered}");
+    }
+
+    #[test]
+    fn the_python_benchmarks_views_equal_the_per_pixel_pyramid_tables() {
+        // benches/random_cameras.py's three 640×480 views of a KITTI frame (a 190°
+        // Kannala-Brandt lens, an equirect crop of 120°, a cylindrical view of 105°), turned
+        // and off centre, within their footprint and without: the pyramid's table of the
+        // pinhole source (the linear views' groups of one-tap pixels made in lanes,
+        // `lanes/pyramid.rs`) is the per-pixel one, entry for entry
+        let src = Perspective::new(
+            Intrinsics::new(721.5, 721.5, 609.6, 172.9),
+            ImageSize::new(1242, 375),
+        );
+        let lens = crate::camera::Fisheye::new(
+            crate::camera::RadialModel::KannalaBrandt([0.02, -0.004, 0.0, 0.0]),
+            Intrinsics::new(166.5, 166.5, 323.5, 236.0),
+            ImageSize::new(640, 480),
+            190f64.to_radians(),
+        )
+        .expect("a lens");
+        let view = |projection: Projection, fov: f64| {
+            let f = 640.0 / fov.to_radians();
+            let k = Intrinsics::new(f, f * 1.02, 317.0, 244.5);
+            projection.camera(k, ImageSize::new(640, 480))
+        };
+        let (crop, cylinder) = (
+            view(Projection::Equirect, 120.0),
+            view(Projection::Cylindrical, 105.0),
+        );
+        let cameras: [(&str, &dyn CameraModel); 3] = [
+            ("fisheye", &lens),
+            ("equirect crop", crop.as_ref()),
+            ("cylindrical", cylinder.as_ref()),
+        ];
+        let rot = rotation_ypr(0.12, -0.07, 0.04);
+        for (name, dst) in cameras {
+            let seen = Footprint::new(dst, &src, &rot, &-Vector3::z());
+            assert!(seen.is_some(), "{name}: a footprint");
+            for seen in [None, seen.as_ref()] {
+                let build = |src: &dyn CameraModel| {
+                    RemapTable::build_pyramid_within(dst, src, &rot, Wrap::None, 8, seen, false)
+                };
+                let want = build(&PerPixel(&src));
+                // (levels: the source and its halves at least)
+                assert!(want.levels >= 2, "{name}: {} levels", want.levels);
+                assert!(build(&src) == want, "{name}: the tables differ");
+            }
+        }
     }
 
     #[test]
