@@ -262,7 +262,6 @@ impl Builder<'_> {
             let su = scales2_lanes(centre, [at(here, first), at(here, first + 2)]);
             let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
             let (level, one_tap) = levels_lanes(levels, su, sv, valid);
-            *top = (*top).max(level.iter().copied().max().unwrap_or(0));
             // (the row's place in `t`, which may hold a band of rows from v)
             let at = t.row_reach.len() * w + first;
             let cover = &mut t.cover[at..at + n];
@@ -276,6 +275,7 @@ impl Builder<'_> {
                 let group = (&round, lanes, inside);
                 let scales = ([su, sv], level);
                 let far = self.fallback_group((first, v), rows, group, scales, cover, fallback);
+                *top = (*top).max(top_sampled(&level, cover));
                 t.push_group(&fallback.quads, &fallback.counts);
                 reach = reach.max(far);
                 continue;
@@ -285,6 +285,7 @@ impl Builder<'_> {
                     *c = Cover::Full;
                 }
             }
+            *top = (*top).max(top_sampled(&level, cover));
             t.rounds.push(tail(round, n));
             t.depth.push(1);
             reach = reach.max(far);
@@ -582,4 +583,17 @@ fn first_true(step: impl Fn(f64) -> bool) -> f64 {
         }
     }
     f64::from_bits(hi)
+}
+
+/// The highest level a group's pixels sample: those with something inside the source only
+/// (as the per-pixel build counts them: which levels a table reads does not depend on how far
+/// beyond the source it maps pixels).
+fn top_sampled(level: &[u32; LANES], cover: &[Cover]) -> u32 {
+    level
+        .iter()
+        .zip(cover)
+        .filter(|(_, c)| !matches!(c, Cover::None))
+        .map(|(&k, _)| k)
+        .max()
+        .unwrap_or(0)
 }
