@@ -11,6 +11,9 @@ use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
 use std::sync::LazyLock;
+use tile::{TileBound, TILE};
+
+mod tile;
 
 /// A depth-guided sample's footprint radius, source pixels: the source's blur (σ 0.55 px,
 /// reaching 1.5 px) and the bilinear taps' reach.
@@ -361,7 +364,7 @@ impl WeightPass<'_> {
     ) -> Vec<f32> {
         let size = self.output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let (reach, options, output) = (self.reach, self.options, self.output);
+        let (reach, options) = (self.reach, self.options);
         // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
         // the pixels beyond the bound keep w_i = 0
         // where the field of view's margin exceeds the blend width the weight is set by
@@ -372,46 +375,151 @@ impl WeightPass<'_> {
             .map(|t| t - b - FOV_SLACK)
             .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
             .map(|a| (a.cos(), b));
-        let footprint = footprint_angle(camera);
         let saturation = (camera.model.pinhole())
             .filter(|_| b > 0.0 && b.is_finite())
             .map(|k| Saturation { width: b, k });
+        // with a depth each pixel's point lies at its own distance: no tile bound
+        let tiles = match self.distances {
+            None => TileBound::of(camera, b, reach.step(), options.distance),
+            _ => None,
+        };
+        let pass = CameraPass {
+            pass: self,
+            i,
+            camera,
+            proxy,
+            table,
+            mask,
+            deep,
+            saturation,
+            footprint: footprint_angle(camera),
+        };
         let mut wi = vec![0f32; w * h];
-        wi.par_chunks_mut(w.max(1))
+        wi.par_chunks_mut((w * TILE).max(1))
             .enumerate()
-            .for_each(|(v, row)| {
-                for (u, out) in row.iter_mut().enumerate() {
-                    // a sample partly beyond the image (a supersampled pixel at its
-                    // edge) is darkened by the taps outside: the camera gives nothing there
-                    if !reach.may_reach_pixel(i, u, v) || !table.is_inside(u as u32, v as u32) {
+            .for_each(|(band, rows)| {
+                let (v0, v1) = (band * TILE, band * TILE + rows.len() / w);
+                for u0 in (0..w).step_by(TILE) {
+                    let u1 = (u0 + TILE).min(w);
+                    // (most tiles lie beyond the camera's reach: nothing to weigh)
+                    let any = (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
+                    if !any {
                         continue;
                     }
-                    let Some(d) = reach.bearing(u, v) else {
-                        continue;
-                    };
-                    let (q, seen) = match (self.distances, self.depth) {
-                        (Some(t), Some(depth)) => {
-                            let n = d.normalize();
-                            let t = t[v * w + u];
-                            // step 2 of the guided model: a camera that does not see
-                            // the scene's point gives only a fallback there
-                            let x = proxy.point_at(&n, t);
-                            (proxy.local_at(&n, t), depth.sees_clean(i, &x, footprint))
-                        }
-                        _ => (proxy.local(&d), true),
-                    };
-                    if let Some(m) = margin_capped(camera, &q, deep, saturation.as_ref()) {
-                        let wm = smoothstep(m / options.blend_width) as f32;
-                        *out = if seen { wm } else { -wm };
-                    }
-                    if let Some(mask) = mask.filter(|_| *out != 0.0) {
-                        if touches_mask(output, proxy, mask, u, v, &q, table.levels() > 1) {
-                            *out = 0.0;
+                    let whole = tiles
+                        .as_ref()
+                        .is_some_and(|t| pass.saturates(t, (u0, u1), (v0, v1)));
+                    for v in v0..v1 {
+                        let row = &mut rows[(v - v0) * w..][..w];
+                        for (u, out) in row.iter_mut().enumerate().take(u1).skip(u0) {
+                            *out = if whole {
+                                pass.saturated(u, v)
+                            } else {
+                                pass.pixel(u, v)
+                            };
                         }
                     }
                 }
             });
         wi
+    }
+}
+
+/// One camera's weights pass.
+struct CameraPass<'a> {
+    pass: &'a WeightPass<'a>,
+    i: usize,
+    camera: &'a StitchCamera<'a>,
+    proxy: &'a Proxy<'a>,
+    table: &'a RemapTable,
+    mask: Option<&'a EgoMask>,
+    /// The field of view's cosine shortcut (see [`margin_capped`]).
+    deep: Option<(f64, f64)>,
+    saturation: Option<Saturation>,
+    footprint: f64,
+}
+
+impl CameraPass<'_> {
+    /// Whether every pixel of the tile `us` × `vs` has a bearing and provably a margin of at
+    /// least the blend width (see [`tile`]).
+    fn saturates(
+        &self,
+        bound: &TileBound,
+        (u0, u1): (usize, usize),
+        (v0, v1): (usize, usize),
+    ) -> bool {
+        let reach = self.pass.reach;
+        if !(v0..v1).all(|v| (u0..u1).all(|u| reach.bearing(u, v).is_some())) {
+            return false;
+        }
+        let (mu, mv) = ((u0 + u1 - 1) / 2, (v0 + v1 - 1) / 2);
+        let k = (mu - u0).max(u1 - 1 - mu).max(mv - v0).max(v1 - 1 - mv);
+        reach
+            .bearing(mu, mv)
+            .is_some_and(|d| bound.saturates(self.proxy, &d, k))
+    }
+
+    /// Whether the camera may give output pixel (u, v) a weight: within its reach, and its
+    /// sample wholly inside the image (a sample partly beyond it, a supersampled pixel at its
+    /// edge, is darkened by the taps outside: the camera gives nothing there).
+    fn gives(&self, u: usize, v: usize) -> bool {
+        self.pass.reach.may_reach_pixel(self.i, u, v) && self.table.is_inside(u as u32, v as u32)
+    }
+
+    /// [`CameraPass::pixel`] where the margin is known to reach the blend width.
+    fn saturated(&self, u: usize, v: usize) -> f32 {
+        let reach = self.pass.reach;
+        if !self.gives(u, v) {
+            return 0.0;
+        }
+        let Some(d) = reach.bearing(u, v) else {
+            return 0.0;
+        };
+        match self.mask {
+            Some(mask) if self.touches(mask, u, v, &self.proxy.local(&d)) => 0.0,
+            _ => 1.0,
+        }
+    }
+
+    /// Whether the sample of pixel (u, v), seeing camera point `q`, touches `mask`.
+    fn touches(&self, mask: &EgoMask, u: usize, v: usize, q: &Vector3<f64>) -> bool {
+        let pyramid = self.table.levels() > 1;
+        touches_mask(self.pass.output, self.proxy, mask, u, v, q, pyramid)
+    }
+
+    /// The camera's weight at output pixel (u, v) (negative: a fallback weight).
+    fn pixel(&self, u: usize, v: usize) -> f32 {
+        let WeightPass { reach, options, .. } = *self.pass;
+        if !self.gives(u, v) {
+            return 0.0;
+        }
+        let Some(d) = reach.bearing(u, v) else {
+            return 0.0;
+        };
+        let proxy = self.proxy;
+        let (q, seen) = match (self.pass.distances, self.pass.depth) {
+            (Some(t), Some(depth)) => {
+                let n = d.normalize();
+                let t = t[v * self.pass.output.size().width as usize + u];
+                // step 2 of the guided model: a camera that does not see the scene's point
+                // gives only a fallback there
+                let x = proxy.point_at(&n, t);
+                (
+                    proxy.local_at(&n, t),
+                    depth.sees_clean(self.i, &x, self.footprint),
+                )
+            }
+            _ => (proxy.local(&d), true),
+        };
+        let mut out = 0.0;
+        if let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) {
+            let wm = smoothstep(m / options.blend_width) as f32;
+            out = if seen { wm } else { -wm };
+        }
+        match self.mask {
+            Some(mask) if out != 0.0 && self.touches(mask, u, v, &q) => 0.0,
+            _ => out,
+        }
     }
 }
 
