@@ -102,3 +102,103 @@ impl TileBound {
         border - moved >= self.width * most
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{margin, margin_capped, smoothstep, Saturation};
+    use super::*;
+    use crate::camera::{CameraModel, Equirect, ImageSize, Perspective};
+    use crate::warp::reach::Reach;
+    use nalgebra::Rotation3;
+
+    /// Per bound, the tiles it decides whole and, of those, the ones with a pixel whose
+    /// measured weight is below 1.
+    fn decide(
+        camera: &StitchCamera,
+        output: &Equirect,
+        reach: &Reach,
+        loosen: f64,
+    ) -> (usize, usize) {
+        let (width, distance) = (5f64.to_radians(), 10.0);
+        let proxy = Proxy::new(*camera, Vector3::new(0.05, -0.1, 0.02), distance);
+        let bound = TileBound::of(camera, width, reach.step() * loosen, distance).unwrap();
+        let saturation = Saturation { width, k: bound.k };
+        let size = output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let (mut whole, mut wrong) = (0, 0);
+        for v0 in (0..h).step_by(TILE) {
+            for u0 in (0..w).step_by(TILE) {
+                let (u1, v1) = ((u0 + TILE).min(w), (v0 + TILE).min(h));
+                let (mu, mv) = ((u0 + u1 - 1) / 2, (v0 + v1 - 1) / 2);
+                let k = (mu - u0).max(u1 - 1 - mu).max(mv - v0).max(v1 - 1 - mv);
+                let d = reach.bearing(mu, mv).unwrap();
+                if !bound.saturates(&proxy, &d, k) {
+                    continue;
+                }
+                whole += 1;
+                // the per-pixel decision at every pixel of the tile: the pinhole's saturation
+                // test passes (and the measured weight is exactly 1)
+                let one = (v0..v1).all(|v| {
+                    (u0..u1).all(|u| {
+                        let q = proxy.local(&reach.bearing(u, v).unwrap());
+                        let shortcut = margin_capped(camera, &q, None, Some(&saturation));
+                        let measured = margin(camera, &q).map(|m| smoothstep(m / width) as f32);
+                        shortcut == Some(width) && measured == Some(1.0)
+                    })
+                });
+                wrong += usize::from(!one);
+            }
+        }
+        (whole, wrong)
+    }
+
+    #[test]
+    fn a_tile_decided_whole_has_every_weight_one_and_a_looser_bound_fails() {
+        // a wide pinhole off-centre with a baseline, turned and tilted; a narrow one; one with
+        // a field of view (the fov's margin, not the border's, sets part of its band)
+        let wide = Perspective::new(
+            Intrinsics::new(400.0, 380.0, 300.5, 250.0),
+            ImageSize::new(640, 480),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
+            ImageSize::new(1920, 1080),
+        );
+        let turn = |yaw: f64, pitch: f64| {
+            *Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), 0.0).matrix()
+        };
+        let cameras = [
+            (&wide, turn(30.0, 10.0), Vector3::new(0.4, 0.1, -0.3), None),
+            (
+                &narrow,
+                turn(-70.0, -5.0),
+                Vector3::new(-0.2, 0.0, 0.5),
+                None,
+            ),
+            (&wide, turn(160.0, 0.0), Vector3::zeros(), Some(0.6)),
+        ]
+        .map(|(model, rotation, translation, max_theta)| StitchCamera {
+            model: model as &dyn CameraModel,
+            rotation,
+            translation,
+            max_theta,
+        });
+        let (w, h) = (1440u32, 720u32);
+        let k = Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            w as f64 / 2.0 - 0.5,
+            h as f64 / 2.0 - 0.5,
+        );
+        let output = Equirect::new(k, ImageSize::new(w, h));
+        let reach = Reach::new(&output, &[], None);
+        for (i, camera) in cameras.iter().enumerate() {
+            let (whole, wrong) = decide(camera, &output, &reach, 1.0);
+            assert!(wrong == 0 && whole > 300, "camera {i}: {whole} {wrong}");
+            // half the turn: some tile decided whole has a pixel the per-pixel test does not
+            // saturate (at 0.8 of it none, on these cameras)
+            let (_, wrong) = decide(camera, &output, &reach, 0.5);
+            assert!(wrong > 0, "camera {i}: a looser bound passes");
+        }
+    }
+}
