@@ -195,6 +195,11 @@ impl Reach {
         true
     }
 
+    /// A: the largest turn between adjacent output centres, radians.
+    pub(super) fn step(&self) -> f64 {
+        self.grid.step
+    }
+
     /// Whether camera `i` may reach output pixel (u, v).
     pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
         self.reach[i]

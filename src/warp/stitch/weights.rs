@@ -11,6 +11,9 @@ use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
 use std::sync::LazyLock;
+use tile::{TileBound, TILE};
+
+mod tile;
 
 /// A depth-guided sample's footprint radius, source pixels: the source's blur (σ 0.55 px,
 /// reaching 1.5 px) and the bilinear taps' reach.
@@ -361,7 +364,7 @@ impl WeightPass<'_> {
     ) -> Vec<f32> {
         let size = self.output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let (reach, options, output) = (self.reach, self.options, self.output);
+        let (reach, options) = (self.reach, self.options);
         // w_i > 0 needs an image of the centre's proxy point within the camera's cone:
         // the pixels beyond the bound keep w_i = 0
         // where the field of view's margin exceeds the blend width the weight is set by
@@ -372,46 +375,151 @@ impl WeightPass<'_> {
             .map(|t| t - b - FOV_SLACK)
             .filter(|a| b > 0.0 && b.is_finite() && *a > 1e-3 && *a < 3.0)
             .map(|a| (a.cos(), b));
-        let footprint = footprint_angle(camera);
         let saturation = (camera.model.pinhole())
             .filter(|_| b > 0.0 && b.is_finite())
             .map(|k| Saturation { width: b, k });
+        // with a depth each pixel's point lies at its own distance: no tile bound
+        let tiles = match self.distances {
+            None => TileBound::of(camera, b, reach.step(), options.distance),
+            _ => None,
+        };
+        let pass = CameraPass {
+            pass: self,
+            i,
+            camera,
+            proxy,
+            table,
+            mask,
+            deep,
+            saturation,
+            footprint: footprint_angle(camera),
+        };
         let mut wi = vec![0f32; w * h];
-        wi.par_chunks_mut(w.max(1))
+        wi.par_chunks_mut((w * TILE).max(1))
             .enumerate()
-            .for_each(|(v, row)| {
-                for (u, out) in row.iter_mut().enumerate() {
-                    // a sample partly beyond the image (a supersampled pixel at its
-                    // edge) is darkened by the taps outside: the camera gives nothing there
-                    if !reach.may_reach_pixel(i, u, v) || !table.is_inside(u as u32, v as u32) {
+            .for_each(|(band, rows)| {
+                let (v0, v1) = (band * TILE, band * TILE + rows.len() / w);
+                for u0 in (0..w).step_by(TILE) {
+                    let u1 = (u0 + TILE).min(w);
+                    // (most tiles lie beyond the camera's reach: nothing to weigh)
+                    let any = (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
+                    if !any {
                         continue;
                     }
-                    let Some(d) = reach.bearing(u, v) else {
-                        continue;
-                    };
-                    let (q, seen) = match (self.distances, self.depth) {
-                        (Some(t), Some(depth)) => {
-                            let n = d.normalize();
-                            let t = t[v * w + u];
-                            // step 2 of the guided model: a camera that does not see
-                            // the scene's point gives only a fallback there
-                            let x = proxy.point_at(&n, t);
-                            (proxy.local_at(&n, t), depth.sees_clean(i, &x, footprint))
-                        }
-                        _ => (proxy.local(&d), true),
-                    };
-                    if let Some(m) = margin_capped(camera, &q, deep, saturation.as_ref()) {
-                        let wm = smoothstep(m / options.blend_width) as f32;
-                        *out = if seen { wm } else { -wm };
-                    }
-                    if let Some(mask) = mask.filter(|_| *out != 0.0) {
-                        if touches_mask(output, proxy, mask, u, v, &q, table.levels() > 1) {
-                            *out = 0.0;
+                    let whole = tiles
+                        .as_ref()
+                        .is_some_and(|t| pass.saturates(t, (u0, u1), (v0, v1)));
+                    for v in v0..v1 {
+                        let row = &mut rows[(v - v0) * w..][..w];
+                        for (u, out) in row.iter_mut().enumerate().take(u1).skip(u0) {
+                            *out = if whole {
+                                pass.saturated(u, v)
+                            } else {
+                                pass.pixel(u, v)
+                            };
                         }
                     }
                 }
             });
         wi
+    }
+}
+
+/// One camera's weights pass.
+struct CameraPass<'a> {
+    pass: &'a WeightPass<'a>,
+    i: usize,
+    camera: &'a StitchCamera<'a>,
+    proxy: &'a Proxy<'a>,
+    table: &'a RemapTable,
+    mask: Option<&'a EgoMask>,
+    /// The field of view's cosine shortcut (see [`margin_capped`]).
+    deep: Option<(f64, f64)>,
+    saturation: Option<Saturation>,
+    footprint: f64,
+}
+
+impl CameraPass<'_> {
+    /// Whether every pixel of the tile `us` × `vs` has a bearing and provably a margin of at
+    /// least the blend width (see [`tile`]).
+    fn saturates(
+        &self,
+        bound: &TileBound,
+        (u0, u1): (usize, usize),
+        (v0, v1): (usize, usize),
+    ) -> bool {
+        let reach = self.pass.reach;
+        if !(v0..v1).all(|v| (u0..u1).all(|u| reach.bearing(u, v).is_some())) {
+            return false;
+        }
+        let (mu, mv) = ((u0 + u1 - 1) / 2, (v0 + v1 - 1) / 2);
+        let k = (mu - u0).max(u1 - 1 - mu).max(mv - v0).max(v1 - 1 - mv);
+        reach
+            .bearing(mu, mv)
+            .is_some_and(|d| bound.saturates(self.proxy, &d, k))
+    }
+
+    /// Whether the camera may give output pixel (u, v) a weight: within its reach, and its
+    /// sample wholly inside the image (a sample partly beyond it, a supersampled pixel at its
+    /// edge, is darkened by the taps outside: the camera gives nothing there).
+    fn gives(&self, u: usize, v: usize) -> bool {
+        self.pass.reach.may_reach_pixel(self.i, u, v) && self.table.is_inside(u as u32, v as u32)
+    }
+
+    /// [`CameraPass::pixel`] where the margin is known to reach the blend width.
+    fn saturated(&self, u: usize, v: usize) -> f32 {
+        let reach = self.pass.reach;
+        if !self.gives(u, v) {
+            return 0.0;
+        }
+        let Some(d) = reach.bearing(u, v) else {
+            return 0.0;
+        };
+        match self.mask {
+            Some(mask) if self.touches(mask, u, v, &self.proxy.local(&d)) => 0.0,
+            _ => 1.0,
+        }
+    }
+
+    /// Whether the sample of pixel (u, v), seeing camera point `q`, touches `mask`.
+    fn touches(&self, mask: &EgoMask, u: usize, v: usize, q: &Vector3<f64>) -> bool {
+        let pyramid = self.table.levels() > 1;
+        touches_mask(self.pass.output, self.proxy, mask, u, v, q, pyramid)
+    }
+
+    /// The camera's weight at output pixel (u, v) (negative: a fallback weight).
+    fn pixel(&self, u: usize, v: usize) -> f32 {
+        let WeightPass { reach, options, .. } = *self.pass;
+        if !self.gives(u, v) {
+            return 0.0;
+        }
+        let Some(d) = reach.bearing(u, v) else {
+            return 0.0;
+        };
+        let proxy = self.proxy;
+        let (q, seen) = match (self.pass.distances, self.pass.depth) {
+            (Some(t), Some(depth)) => {
+                let n = d.normalize();
+                let t = t[v * self.pass.output.size().width as usize + u];
+                // step 2 of the guided model: a camera that does not see the scene's point
+                // gives only a fallback there
+                let x = proxy.point_at(&n, t);
+                (
+                    proxy.local_at(&n, t),
+                    depth.sees_clean(self.i, &x, self.footprint),
+                )
+            }
+            _ => (proxy.local(&d), true),
+        };
+        let mut out = 0.0;
+        if let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) {
+            let wm = smoothstep(m / options.blend_width) as f32;
+            out = if seen { wm } else { -wm };
+        }
+        match self.mask {
+            Some(mask) if out != 0.0 && self.touches(mask, u, v, &q) => 0.0,
+            _ => out,
+        }
     }
 }
 
@@ -428,303 +536,4 @@ pub(super) struct TablesAndWeights {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::camera::{Equirect, ImageSize, Intrinsics, Perspective};
-
-    #[test]
-    fn the_reach_bound_changes_no_table_entry_and_no_weight() {
-        let wide = Perspective::new(
-            Intrinsics::new(60.0, 60.0, 99.5, 49.5),
-            ImageSize::new(200, 100),
-        );
-        let narrow = Perspective::new(
-            Intrinsics::new(300.0, 300.0, 70.0, 40.0),
-            ImageSize::new(150, 90),
-        );
-        let turn =
-            |deg: f64| *nalgebra::Rotation3::from_euler_angles(0.1, deg.to_radians(), 0.0).matrix();
-        let cameras = [
-            StitchCamera {
-                model: &wide,
-                rotation: turn(80.0),
-                translation: Vector3::new(0.3, 0.0, -0.2),
-                max_theta: Some(1.0),
-            },
-            StitchCamera {
-                model: &narrow,
-                rotation: Matrix3::identity(),
-                translation: Vector3::new(-0.5, 0.1, 0.0),
-                max_theta: None,
-            },
-            StitchCamera {
-                model: &wide,
-                rotation: turn(-100.0),
-                translation: Vector3::new(0.0, 0.0, 0.4),
-                max_theta: None,
-            },
-        ];
-        let output = Equirect::new(
-            Intrinsics::new(
-                320.0 / (2.0 * std::f64::consts::PI),
-                320.0 / (2.0 * std::f64::consts::PI),
-                160.0,
-                80.0,
-            ),
-            ImageSize::new(320, 160),
-        );
-        let centre = Vector3::new(0.05, -0.02, 0.1);
-        let options = StitchOptions::default();
-        let build = |bounded| {
-            let t =
-                Stitch::tables_and_weights(&output, &centre, &cameras, &[], options, bounded, None);
-            (t.tables, t.weights)
-        };
-        let (bounded, every) = (build(true), build(false));
-        for i in 0..cameras.len() {
-            assert!(bounded.0[i] == every.0[i], "camera {i}: tables differ");
-            let bits = |w: &[f32]| w.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(
-                bits(&bounded.1[i]),
-                bits(&every.1[i]),
-                "camera {i}: weights"
-            );
-            // the camera is seen somewhere, and not everywhere
-            let seen = every.1[i].iter().filter(|w| **w > 0.0).count();
-            assert!(
-                seen > 100 && seen < every.1[i].len() / 2,
-                "camera {i}: {seen}"
-            );
-        }
-    }
-
-    #[test]
-    fn the_probe_turn_is_nalgebras_to_the_bit() {
-        // axes over the sphere, as the margins' perpendiculars give them
-        let mut differ = 0;
-        for k in 0..20000 {
-            let z = 1.0 - 2.0 * (k as f64 + 0.5) / 20000.0;
-            let phi = k as f64 * 2.399963229728653;
-            let r = (1.0 - z * z).sqrt();
-            let n = Vector3::new(r * phi.cos(), r * phi.sin(), z);
-            let (a, b) = perpendiculars(&n);
-            for axis in [a, b] {
-                let axis = Unit::new_normalize(axis);
-                let ours = probe_turn(&axis) * n;
-                let theirs = Rotation3::from_axis_angle(&axis, SCALE_PROBE) * n;
-                let bits = |v: Vector3<f64>| v.map(f64::to_bits);
-                differ += usize::from(bits(ours) != bits(theirs));
-            }
-        }
-        assert_eq!(differ, 0);
-    }
-
-    #[test]
-    fn a_saturated_pinhole_weight_is_the_measured_one() {
-        // a wide and a narrow pinhole, off-centre principal points, points over the whole
-        // image and beyond it
-        let b = 5f64.to_radians();
-        let (mut shortcut, mut measured) = (0, 0);
-        for k in [
-            Intrinsics::new(400.0, 380.0, 300.5, 170.0),
-            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
-        ] {
-            let model = Perspective::new(k, ImageSize::new(640 + k.fu as u32, 360));
-            let camera = StitchCamera {
-                model: &model,
-                rotation: Matrix3::identity(),
-                translation: Vector3::zeros(),
-                max_theta: None,
-            };
-            let s = Saturation { width: b, k };
-            for i in 0..40000 {
-                let (x, y) = (
-                    (i % 200) as f64 / 100.0 - 1.0,
-                    (i / 200) as f64 / 100.0 - 1.0,
-                );
-                let q = Vector3::new(x * 1.3, y * 0.9, 1.0) * (1.0 + (i % 3) as f64);
-                let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
-                let fast = margin_capped(&camera, &q, None, Some(&s));
-                assert_eq!(w(fast), w(margin(&camera, &q)), "{q}");
-                if fast == Some(b) {
-                    shortcut += 1;
-                } else {
-                    measured += 1;
-                }
-            }
-        }
-        assert!(shortcut > 5000 && measured > 5000, "{shortcut} {measured}");
-    }
-
-    #[test]
-    fn the_cosine_shortcuts_decide_as_the_angle_does() {
-        let model = crate::camera::Unified::new(
-            2.0,
-            crate::camera::MeiDistortion {
-                k1: 0.01,
-                k2: 0.3,
-                p1: 4e-4,
-                p2: 4e-4,
-            },
-            Intrinsics::new(300.0, 300.0, 349.5, 349.5),
-            0.0,
-            ImageSize::new(700, 700),
-            92.5f64.to_radians(),
-        )
-        .unwrap();
-        let t = 92.5f64.to_radians();
-        let camera = StitchCamera {
-            model: &model,
-            rotation: Matrix3::identity(),
-            translation: Vector3::zeros(),
-            max_theta: Some(t),
-        };
-        let proxy = Proxy::new(camera, Vector3::zeros(), 10.0);
-        let b = 5f64.to_radians();
-        let deep = Some(((t - b - FOV_SLACK).cos(), b));
-        let (mut inside, mut outside, mut saturated) = (0, 0, 0);
-        // angles on both sides of the field of view's edge and of the blend band's, down to
-        // 1e-9 rad away, at several azimuths
-        for k in 0..4000 {
-            let offset = (k as f64 / 4000.0 - 0.5) * 2e-3 * (1e-6f64).powf((k % 7) as f64 / 6.0);
-            let edge = if k % 2 == 0 { t } else { t - b };
-            let theta = edge + offset;
-            let phi = k as f64 * 0.37;
-            let q = Vector3::new(
-                theta.sin() * phi.cos(),
-                theta.sin() * phi.sin(),
-                theta.cos(),
-            ) * (0.5 + (k % 5) as f64);
-            let exact = !(q.x.hypot(q.y).atan2(q.z) > t);
-            assert_eq!(proxy.within(&q), exact, "θ = {theta}");
-            if exact {
-                inside += 1;
-            } else {
-                outside += 1;
-            }
-            let w = |m: Option<f64>| m.map(|m| smoothstep(m / b).to_bits());
-            let full = margin(&camera, &q);
-            assert_eq!(
-                w(margin_capped(&camera, &q, deep, None)),
-                w(full),
-                "θ = {theta}"
-            );
-            saturated += usize::from(full.is_some_and(|m| m >= b));
-        }
-        assert!(
-            inside > 1000 && outside > 500 && saturated > 100,
-            "{inside} {outside} {saturated}"
-        );
-    }
-
-    #[test]
-    fn a_pyramid_sample_with_a_weight_reads_no_masked_pixel() {
-        // a 640x480 pinhole (400 px/rad) into a panorama of 1 px a degree: 7 source pixels an
-        // output pixel, sampled at level 3 of the pyramid, whose bilinear tap reads up to 12
-        // source pixels from the sample's position (1 + rho/2 is 4.5)
-        let size = ImageSize::new(640, 480);
-        let model = Perspective::new(Intrinsics::new(400.0, 400.0, 319.5, 239.5), size);
-        let (w, h) = (360u32, 180u32);
-        let k = Intrinsics::new(
-            w as f64 / std::f64::consts::TAU,
-            h as f64 / std::f64::consts::PI,
-            w as f64 / 2.0 - 0.5,
-            h as f64 / 2.0 - 0.5,
-        );
-        let output = Equirect::new(k, ImageSize::new(w, h));
-        let camera = StitchCamera {
-            model: &model,
-            rotation: Matrix3::identity(),
-            translation: Vector3::zeros(),
-            max_theta: None,
-        };
-        // masked (and black in the image): a block left of the centre; white elsewhere
-        let masked = |x: u32, y: u32| (250..300).contains(&x) && (200..280).contains(&y);
-        let mask = EgoMask::new(
-            size,
-            (0..size.height)
-                .flat_map(|y| (0..size.width).map(move |x| masked(x, y)))
-                .collect(),
-        )
-        .expect("mask");
-        let mut image = crate::image::RgbImage::new(size.width, size.height);
-        for y in 0..size.height {
-            for x in 0..size.width {
-                let v = if masked(x, y) { 0 } else { 255 };
-                image.put_pixel(x, y, [v, v, v]);
-            }
-        }
-        let options = StitchOptions {
-            distance: 10.0,
-            blend_width: 5f64.to_radians(),
-            even_exposure: false,
-        };
-        let stitch = Stitch::build_masked(
-            &output,
-            &Vector3::zeros(),
-            &[camera],
-            &[Some(&mask)],
-            options,
-        )
-        .expect("stitch");
-        assert!(
-            stitch.tables[0].levels() > 3,
-            "{}",
-            stitch.tables[0].levels()
-        );
-        let out = stitch.apply(&[&image]).image;
-        // every pixel the camera weighs is white: no masked pixel is under its sample; and
-        // the mask's rim is near (a tap per source pixel would let 1 + rho/2 suffice)
-        let (mut weighed, mut near_rim) = (0, 0);
-        for v in 0..h {
-            for u in 0..w {
-                if stitch.weight(0, u, v) <= 0.0 {
-                    continue;
-                }
-                weighed += 1;
-                assert_eq!(out.pixel(u, v), [255, 255, 255], "({u}, {v})");
-                let d = output.unproject(&Point2::new(u as f64, v as f64)).unwrap();
-                if let Ok(p) = model.project_point(&d) {
-                    let gap_x = (250.0 - p.x).max(p.x - 299.0).max(0.0);
-                    let gap_y = (200.0 - p.y).max(p.y - 279.0).max(0.0);
-                    near_rim += usize::from(gap_x.max(gap_y) < 30.0);
-                }
-            }
-        }
-        assert!(weighed > 1000 && near_rim > 10, "{weighed} {near_rim}");
-    }
-
-    #[test]
-    fn weights_fall_off_towards_the_edges_and_the_proxy_inverts() {
-        let model = Perspective::new(
-            Intrinsics::new(100.0, 100.0, 99.5, 49.5),
-            ImageSize::new(200, 100),
-        );
-        let camera = StitchCamera {
-            model: &model,
-            rotation: Matrix3::identity(),
-            translation: Vector3::new(-0.5, 0.0, 0.0),
-            max_theta: None,
-        };
-        // at the image centre: 50 px to the top and bottom edges at 100 px/rad
-        let m = margin(&camera, &Vector3::z()).unwrap();
-        assert!((m - 0.5).abs() < 1e-6, "{m}");
-        // near the right edge the margin shrinks to the pixel distance over the local scale
-        let q = Vector3::new(0.95, 0.0, 1.0);
-        let m = margin(&camera, &q).unwrap();
-        let p = model.project_point(&q).unwrap();
-        let want = (199.5 - p.x) / (100.0 * (1.0 + 0.95f64.powi(2)));
-        assert!((m - want).abs() < 1e-3 * want, "{m} vs {want}");
-        assert_eq!(smoothstep(-1.0), 0.0);
-        assert_eq!(smoothstep(0.5), 0.5);
-        assert_eq!(smoothstep(2.0), 1.0);
-        let defaults = StitchOptions::default();
-        assert!(defaults.even_exposure && defaults.distance == 10.0);
-        // the proxy's unproject is its project's inverse, with a baseline
-        let proxy = Proxy::new(camera, Vector3::new(0.1, 0.2, 0.0), 7.0);
-        let d = Vector3::new(0.2, -0.1, 1.0).normalize();
-        let px = proxy.project(&d).unwrap();
-        let back = proxy.unproject(&px).unwrap();
-        assert!((back - d).norm() < 1e-12, "{back} vs {d}");
-    }
-}
+mod tests;
