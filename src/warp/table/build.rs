@@ -2,7 +2,7 @@
 //! column and row shares where the output camera is separable), the supersampling each pixel
 //! needs from its neighbours' mapped centres, its taps (interpolated from those centres where
 //! the mapping is smooth enough: `local.rs`) merged into 2×2 blocks with integer weights
-//! ([`Quad`]s, through a dense grid: `dense.rs`), band by band of rows, serially or on rayon's
+//! ([`Quad`]s, through a dense grid: `dense.rs`; made integers in `quantize.rs`), band by band of rows, serially or on rayon's
 //! pool.
 
 use super::{column_inside, pyramid, row_inside, Cover, RemapTable, Wrap, MAX_SUPERSAMPLE};
@@ -21,6 +21,9 @@ mod level;
 use level::{count, scales2};
 mod local;
 mod plain;
+mod quantize;
+
+use quantize::{merge, quantize, quantize_block};
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
@@ -486,38 +489,6 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// For a pyramid sample of pixel (u, v) (source position `centre`, squared scales
-    /// `(su, sv)`, rows of mapped centres `rows`) within its footprint of a source border:
-    /// how many of the taps [`RemapTable::build_within`] gives it lie inside the source, and
-    /// of how many; None farther in or out, where the taps all lie on the centre's side of
-    /// every border (they are within half a step along each axis of it; twice that and a
-    /// pixel is kept for the mapping's bend).
-    fn taps_cover(
-        &self,
-        (u, v): (usize, usize),
-        centre: Option<Point2<f64>>,
-        (su, sv): (f64, f64),
-        rows: [&[Option<Point2<f64>>]; 3],
-        parts: &mut Parts,
-    ) -> Option<(u32, u32)> {
-        let c = centre?;
-        let reach = su.sqrt() + sv.sqrt() + 1.0;
-        let (w, h) = (
-            self.source_size.width as f64,
-            self.source_size.height as f64,
-        );
-        let far = |x: f64, edge: f64| (x - edge).abs() >= reach;
-        if far(c.x, -0.5) && far(c.x, w - 0.5) && far(c.y, -0.5) && far(c.y, h - 0.5) {
-            return None;
-        }
-        let (nu, nv) = (count(su).min(self.cap), count(sv).min(self.cap));
-        self.tap_positions((u, v, 0), (nu, nv), &local::near(rows, u), parts);
-        let inside = (parts.taps.iter().flatten())
-            .filter(|p| column_inside(p.x, w) && row_inside(p.y, h))
-            .count();
-        Some((inside as u32, nu * nv))
-    }
-
     /// Adds the bilinear weights of a tap at source position `p` (sampled at pyramid level
     /// `level`) to the pixel's blocks, at unit scale (the pixel's taps are averaged when
     /// quantized). Whether it was inside.
@@ -607,97 +578,4 @@ impl<'a> Builder<'a> {
 #[inline]
 fn tap_offset(i: u32, n: u32) -> f64 {
     (i as f64 + 0.5) / n as f64 - 0.5
-}
-
-/// Adds `w` to the block at `offset`, or appends a new block.
-fn merge(blocks: &mut Vec<(u32, [f64; 4])>, offset: u32, w: [f64; 4]) {
-    if let Some((_, acc)) = blocks.iter_mut().rev().find(|(o, _)| *o == offset) {
-        for (a, b) in acc.iter_mut().zip(w) {
-            *a += b;
-        }
-    } else {
-        blocks.push((offset, w));
-    }
-}
-
-/// Turns the pixel's blocks (`inside` of its `taps` taps, each weighing 1) into quads whose
-/// integer weights sum to round(WEIGHT_ONE · inside / taps) exactly (largest remainders get
-/// the rounding units, ties to the first), so a flat source stays flat and outside taps count
-/// as black. Appends at least one quad (an all-zero one for a pixel with nothing inside).
-fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Quad>) {
-    let total = ((WEIGHT_ONE as u64 * inside as u64 + taps as u64 / 2) / taps as u64) as i32;
-    let scale = WEIGHT_ONE as f64 / taps as f64;
-    if let [(offset, w)] = s.blocks[..] {
-        out.push(quantize_block(offset, w, total, scale));
-        return;
-    }
-    s.ints.clear();
-    let mut sum = 0;
-    for (_, w) in &s.blocks {
-        let q = w.map(|x| (x * scale) as i32);
-        sum += q.iter().sum::<i32>();
-        s.ints.push(q);
-    }
-    let missing = total - sum;
-    if missing > 0 {
-        s.order.clear();
-        for (b, (_, w)) in s.blocks.iter().enumerate() {
-            for (k, x) in w.iter().enumerate() {
-                let y = x * scale;
-                s.order.push((4 * b + k, y - (y as i32) as f64));
-            }
-        }
-        if missing <= 4 {
-            // the common case (a few units over a few weights): pick maxima, no sort
-            for _ in 0..missing {
-                let mut best = 0;
-                for (j, o) in s.order.iter().enumerate() {
-                    if o.1 > s.order[best].1 {
-                        best = j;
-                    }
-                }
-                let i = s.order[best].0;
-                s.ints[i / 4][i % 4] += 1;
-                s.order[best].1 = -1.0;
-            }
-        } else {
-            // stable: equal remainders keep their order, as the first maximum above
-            s.order.sort_by(|a, b| b.1.total_cmp(&a.1));
-            for &(i, _) in s.order.iter().take(missing as usize) {
-                s.ints[i / 4][i % 4] += 1;
-            }
-        }
-    }
-    let before = out.len();
-    for ((offset, _), w) in s.blocks.iter().zip(&s.ints) {
-        if w.iter().any(|&x| x != 0) {
-            out.push(Quad {
-                offset: *offset,
-                w: w.map(|x| x as i16),
-            });
-        }
-    }
-    if out.len() == before {
-        out.push(Quad::default());
-    }
-}
-
-/// The quad of a pixel whose taps fell in one block (most pixels): each weight (times `scale`)
-/// rounded, the largest one (first on ties) taking up the rounding error so that the sum is
-/// `total` exactly; it moves by at most 1.5/16384.
-#[inline(always)]
-fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
-    let y = w.map(|x| x * scale);
-    let q = y.map(|x| (x + 0.5) as i32);
-    // (the running maximum in a register: a select, not a load, per weight)
-    let (mut big, mut top) = (0, y[0]);
-    for (k, &x) in y.iter().enumerate().skip(1) {
-        if x > top {
-            (big, top) = (k, x);
-        }
-    }
-    let fix = total - q.iter().sum::<i32>();
-    // no store to q[big]: an indexed store sends the weights through memory
-    let w = std::array::from_fn(|k| (q[k] + if k == big { fix } else { 0 }) as i16);
-    Quad { offset, w }
 }

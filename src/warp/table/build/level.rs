@@ -1,5 +1,6 @@
 //! An output pixel's scale, the pyramid level a coarse one samples (see `table/pyramid.rs`),
-//! and a tap's bilinear block at a level. A pixel s source pixels wide (the smaller of its two axes'
+//! a tap's bilinear block at a level, and how much of a border pixel's footprint a pyramid
+//! sample counts as inside (its taps' share, `taps_cover`). A pixel s source pixels wide (the smaller of its two axes'
 //! scales) samples level k, 1.5 · 2^(k-1) ≤ s < 1.5 · 2^k (level 0, the source, below 1.5:
 //! there it is the table of `RemapTable::build_within`), where it spans 0.75 to 1.5 level
 //! pixels: one bilinear tap of the level (more along the longer axis of an anisotropic
@@ -11,7 +12,7 @@
 //! checkerboard's moiré of 15.2 grey levels (taps 26.6); at 2^k, one or two taps a level
 //! pixel, 44.31, 47.59, 49.12 dB and 25.2, at several times the build cost.
 
-use super::Builder;
+use super::{local, Builder, Parts};
 use crate::warp::table::{column_inside, row_inside, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
 
@@ -33,6 +34,38 @@ impl Builder<'_> {
             k += 1;
         }
         k as u32
+    }
+
+    /// For a pyramid sample of pixel (u, v) (source position `centre`, squared scales
+    /// `(su, sv)`, rows of mapped centres `rows`) within its footprint of a source border:
+    /// how many of the taps [`RemapTable::build_within`] gives it lie inside the source, and
+    /// of how many; None farther in or out, where the taps all lie on the centre's side of
+    /// every border (they are within half a step along each axis of it; twice that and a
+    /// pixel is kept for the mapping's bend).
+    pub(super) fn taps_cover(
+        &self,
+        (u, v): (usize, usize),
+        centre: Option<Point2<f64>>,
+        (su, sv): (f64, f64),
+        rows: [&[Option<Point2<f64>>]; 3],
+        parts: &mut Parts,
+    ) -> Option<(u32, u32)> {
+        let c = centre?;
+        let reach = su.sqrt() + sv.sqrt() + 1.0;
+        let (w, h) = (
+            self.source_size.width as f64,
+            self.source_size.height as f64,
+        );
+        let far = |x: f64, edge: f64| (x - edge).abs() >= reach;
+        if far(c.x, -0.5) && far(c.x, w - 0.5) && far(c.y, -0.5) && far(c.y, h - 0.5) {
+            return None;
+        }
+        let (nu, nv) = (count(su).min(self.cap), count(sv).min(self.cap));
+        self.tap_positions((u, v, 0), (nu, nv), &local::near(rows, u), parts);
+        let inside = (parts.taps.iter().flatten())
+            .filter(|p| column_inside(p.x, w) && row_inside(p.y, h))
+            .count();
+        Some((inside as u32, nu * nv))
     }
 
     /// The bilinear block at pyramid level `level` of a tap at source position `p` (level-0
