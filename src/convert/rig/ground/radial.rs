@@ -58,26 +58,13 @@ impl LocalGround {
 
 #[cfg(test)]
 mod tests {
-    use super::super::Ground;
+    use super::super::walk::tests::rough;
     use super::*;
 
     #[test]
     fn a_ray_from_the_centres_vertical_meets_the_polar_ground_at_its_first_exact_root() {
-        let mut state = 0x5851_f42d_4c95_7f2d_u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        // knots raised by up to ±0.4 m: crests, dips and steps far rougher than a road's
-        let raise = (0..SECTORS * KNOTS).map(|_| (next() - 0.5) * 0.8).collect();
-        let plane = Ground {
-            normal: Vector3::new(0.01, -1.0, 0.005).normalize(),
-            offset: -1.6,
-        };
+        let (ground, mut next) = rough(0x5851_f42d_4c95_7f2d);
         let centre = Vector3::new(1.0, 0.0, -2.0);
-        let ground = LocalGround::with_raise(plane, centre, raise);
         let (mut inside, mut beyond) = (0, 0);
         for k in 0..2000 {
             // from the centre and up to 0.75 m above or 0.25 m below it, down at 1-89°

@@ -291,13 +291,13 @@ fn solve(f: &impl Fn(f64) -> f64, (mut a, mut fa): (f64, f64), (mut b, mut fb): 
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::Ground;
     use super::*;
 
     /// A local ground 1.6 m below the centre (1, 0, −2), its knots raised by up to ±0.4 m
     /// (xorshift from `seed`): crests, dips and steps far rougher than a road's.
-    fn rough(seed: u64) -> (LocalGround, impl FnMut() -> f64) {
+    pub(in crate::convert::rig::ground) fn rough(seed: u64) -> (LocalGround, impl FnMut() -> f64) {
         let mut state = seed;
         let mut next = move || {
             state ^= state << 13;

@@ -176,13 +176,12 @@ impl Builder<'_> {
                 w[k][l] = if ok { q[k] } else { 0 };
             }
         }
-        let mut round = Round::default();
-        for l in 0..LANES {
-            // (three times an offset fits a u32: `plain_table` checks the source's size)
-            round.offset[l] = offset[l].wrapping_mul(3);
-            round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
-        }
-        (round, inside, offset.into_iter().max().unwrap_or(0))
+        // (three times an offset fits a u32: `plain_table` checks the source's size)
+        (
+            round_of(&offset, &w),
+            inside,
+            offset.into_iter().max().unwrap_or(0),
+        )
     }
 }
 
@@ -294,6 +293,19 @@ fn clamp(x: f64, max: f64) -> f64 {
     } else {
         x
     }
+}
+
+/// A group's round from its lanes' block offsets (source pixels; three times each must fit a
+/// u32, which the callers' size checks ensure) and integer weights (top-left, bottom-left,
+/// top-right, bottom-right, by lane).
+#[inline(always)]
+pub(super) fn round_of(offset: &[u32; LANES], w: &[[i32; LANES]; 4]) -> Round {
+    let mut round = Round::default();
+    for l in 0..LANES {
+        round.offset[l] = offset[l].wrapping_mul(3);
+        round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
+    }
+    round
 }
 
 /// `quantize_block(_, weights, WEIGHT_ONE, WEIGHT_ONE)`'s integer weights, as selects: each

@@ -10,7 +10,7 @@
 //! per-pixel quads and counts.
 
 use super::super::{count, local, Builder, Parts, Scratch, BAND_ROWS};
-use super::{clamp, quantize, tail, Lanes};
+use super::{clamp, quantize, round_of, tail, Lanes};
 use crate::camera::{pinhole_lanes, Intrinsics, Separable};
 use crate::warp::kernel::{Quad, Round, LANES};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable, MAX_SUPERSAMPLE};
@@ -377,14 +377,13 @@ impl Builder<'_> {
                 w[k][l] = if ok { q[k] } else { 0 };
             }
         }
-        let mut round = Round::default();
-        for l in 0..LANES {
-            // (three times an offset fits a u32: `pyramid_lanes_table` checks the source's
-            // size, and a level's rows are the source's)
-            round.offset[l] = offset[l].wrapping_mul(3);
-            round.w[l] = [w[0][l], w[1][l], w[2][l], w[3][l]].map(|w| w as i16);
-        }
-        (round, inside, offset.into_iter().max().unwrap_or(0))
+        // (three times an offset fits a u32: `pyramid_lanes_table` checks the source's size,
+        // and a level's rows are the source's)
+        (
+            round_of(&offset, &w),
+            inside,
+            offset.into_iter().max().unwrap_or(0),
+        )
     }
 
     /// The quads of a group's pixels (the `cover.len()` from column `first` of row `v`) into
