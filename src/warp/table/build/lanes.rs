@@ -256,31 +256,45 @@ impl Builder<'_> {
         let w = self.dst.size().width as usize;
         out.clear();
         out.resize((lo + 1).max(0) as usize, None);
-        let n = kept.len();
-        if n > 0 {
-            // the last group's spare lanes NaN: no position
-            for c in xyz.iter_mut() {
-                c.clear();
-                c.resize(n.next_multiple_of(LANES), f64::NAN);
-            }
-            let [x, y, z] = xyz;
-            sep.bearing_lanes(
-                kept,
-                sep.row(v as f64),
-                [&mut x[..n], &mut y[..n], &mut z[..n]],
-            );
-            for g in 0..n.div_ceil(LANES) {
-                let lanes = g * LANES..(g + 1) * LANES;
-                let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
-                    .map(|c| <Lanes>::try_from(c).expect("a group"));
-                let [px, py] = pinhole_lanes(k, self.turn(d));
-                let count = LANES.min(n - g * LANES);
-                out.extend(
-                    (0..count).map(|l| (!px[l].is_nan()).then(|| Point2::new(px[l], py[l]))),
-                );
-            }
-        }
+        self.pinhole_groups(sep, k, v, kept, xyz, |_, [px, py], count| {
+            out.extend((0..count).map(|l| (!px[l].is_nan()).then(|| Point2::new(px[l], py[l]))));
+        });
         out.resize(w + 2, None);
+    }
+
+    /// The source positions of the output row `v`'s pixel centres of column shares `kept`
+    /// through pinhole `k`, a group of [`LANES`] at a time: `emit(group, [x, y], count)`, the
+    /// last group's spare lanes NaN (no position). `xyz`: scratch for the bearings.
+    #[inline(always)]
+    pub(super) fn pinhole_groups(
+        &self,
+        sep: &dyn Separable,
+        k: &Intrinsics,
+        v: isize,
+        kept: &[Share],
+        xyz: &mut [Vec<f64>; 3],
+        mut emit: impl FnMut(usize, [Lanes; 2], usize),
+    ) {
+        let n = kept.len();
+        if n == 0 {
+            return;
+        }
+        for c in xyz.iter_mut() {
+            c.clear();
+            c.resize(n.next_multiple_of(LANES), f64::NAN);
+        }
+        let [x, y, z] = xyz;
+        sep.bearing_lanes(
+            kept,
+            sep.row(v as f64),
+            [&mut x[..n], &mut y[..n], &mut z[..n]],
+        );
+        for g in 0..n.div_ceil(LANES) {
+            let lanes = g * LANES..(g + 1) * LANES;
+            let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
+                .map(|c| <Lanes>::try_from(c).expect("a group"));
+            emit(g, pinhole_lanes(k, self.turn(d)), LANES.min(n - g * LANES));
+        }
     }
 }
 

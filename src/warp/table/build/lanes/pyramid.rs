@@ -11,7 +11,7 @@
 
 use super::super::{count, local, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, round_of, tail, Lanes};
-use crate::camera::{pinhole_lanes, Intrinsics, Separable};
+use crate::camera::{Intrinsics, Separable};
 use crate::warp::kernel::{Quad, Round, LANES};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
@@ -467,34 +467,16 @@ impl Builder<'_> {
         }
         let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
         let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
-        let n = kept.len();
-        out.kept = 0..0;
-        if n == 0 {
-            return;
-        }
-        // the last group's spare lanes NaN: no position
-        for c in xyz.iter_mut() {
-            c.clear();
-            c.resize(n.next_multiple_of(LANES), f64::NAN);
-        }
-        let [x, y, z] = xyz;
-        sep.bearing_lanes(
-            kept,
-            sep.row(v as f64),
-            [&mut x[..n], &mut y[..n], &mut z[..n]],
-        );
         let start = (lo + 1) as usize;
-        out.kept = start..start + n;
-        for g in 0..n.div_ceil(LANES) {
-            let lanes = g * LANES..(g + 1) * LANES;
-            let d = [&x[lanes.clone()], &y[lanes.clone()], &z[lanes]]
-                .map(|c| <Lanes>::try_from(c).expect("a group"));
-            let [px, py] = pinhole_lanes(k, self.turn(d));
-            let count = LANES.min(n - g * LANES);
+        out.kept = match kept.len() {
+            0 => 0..0,
+            n => start..start + n,
+        };
+        self.pinhole_groups(sep, k, v, kept, xyz, |g, [px, py], count| {
             let at = start + g * LANES;
             out.x[at..at + count].copy_from_slice(&px[..count]);
             out.y[at..at + count].copy_from_slice(&py[..count]);
-        }
+        });
     }
 }
 
