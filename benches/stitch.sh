@@ -20,7 +20,8 @@
 # no gains): its panoramas differ from panoconv's by design, so no PSNR check.
 # --pandaset SEQ: the data is PandaSet sequence folder SEQ (../shared/pandaset/002) rebuilt as a
 # nuScenes root by tests/pandaset_nuscenes.py (with --python's interpreter: numpy, pandas) into
-# --data (default /tmp/panoconv-stitch-bench-pandaset).
+# --data (default /tmp/panoconv-stitch-bench-pandaset); panoconv drops the car's own returns with
+# PandaSet's vehicle box (tests/pandaset.rs), as the real-frame tests do.
 # --still: every sample takes the first sample's ego poses (benches/still_rig.py, into
 # DATA-still): a rig whose geometry repeats, so panoconv's fixed stitch is built once a run.
 # --python PY: the interpreter of the Python side (default benches/.venv's).
@@ -101,6 +102,8 @@ if [ "$nuscenes" = 1 ]; then
 print(sum(s["modality"] == "camera" for s in json.load(open(sys.argv[1]))))' \
         "$data/$version/sensor.json")
     convert=(nuscenes --input "$data" --version "$version")
+    # the roof and the sensor's mount in PandaSet's LiDAR frame (tests/pandaset.rs)
+    [ -n "$pandaset" ] && convert+=(--vehicle-box=-1.2,-1.6,0.2,1.2,1.2,2.2)
     script="$here/opencv_stitch_nuscenes.py"
     [ "$naive" = 1 ] && script="$here/naive_stitch.py"
     python_args=("$script" --input "$data" --version "$version")
