@@ -147,3 +147,62 @@ fn preview_texts_never_hide_one_another() {
     }
     assert_eq!(found, 3, "Truck, Car and Cyclist");
 }
+
+/// Each Omni3D annotation names the label_2 line it comes from (`label_line`, from 1): that
+/// line's class and 2D box are the annotation's, DontCare lines are never named, and every
+/// other line is named once (Omni3D keeps one annotation per object).
+#[test]
+fn omni3d_annotations_name_their_label_line() {
+    let s = Scratch::synth();
+    // a DontCare line first, so object lines do not start at line 1
+    let label = s.input_file("training/label_2/000001.txt");
+    let text = read_text(&label);
+    write_text(
+        &label,
+        &format!(
+            "DontCare -1 -1 -10 10.00 10.00 40.00 40.00 -1 -1 -1 -1000 -1000 -1000 -10\n{text}"
+        ),
+    );
+    let out = s.path("equirect");
+    assert_success(&kitti("equirect", &s.input, &out, &["--split", "training"]));
+    let anns = omni3d_annotations(&out, &s.path("work"));
+    let doc: serde_json::Value =
+        serde_json::from_str(&read_text(&s.path("work/ann/Omni3D_train.json"))).unwrap();
+    let image = doc["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["file_path"].as_str().unwrap().ends_with("000001.png"))
+        .expect("frame 000001's image")["id"]
+        .clone();
+    let written = read_text(&out.join("training/label_2/000001.txt"));
+    let lines: Vec<&str> = written.lines().collect();
+    let mut named = vec![0usize; lines.len()];
+    let mut checked = 0;
+    for a in anns.iter().filter(|a| a["image_id"] == image) {
+        let n = a["label_line"].as_u64().expect("label_line") as usize;
+        assert!(
+            (1..=lines.len()).contains(&n),
+            "label_line {n} of {}",
+            lines.len()
+        );
+        let fields: Vec<&str> = lines[n - 1].split_whitespace().collect();
+        assert_ne!(fields[0], "DontCare", "line {n}");
+        assert_eq!(
+            a["category_name"].as_str().unwrap().to_lowercase(),
+            fields[0].to_lowercase(),
+            "line {n}"
+        );
+        for (k, v) in a["bbox2D_tight"].as_array().unwrap().iter().enumerate() {
+            let f: f64 = fields[4 + k].parse().unwrap();
+            assert!((v.as_f64().unwrap() - f).abs() < 1e-9, "line {n} bbox[{k}]");
+        }
+        named[n - 1] += 1;
+        checked += 1;
+    }
+    assert!(checked >= 2, "the frame has objects: {checked}");
+    for (i, line) in lines.iter().enumerate() {
+        let want = usize::from(!line.starts_with("DontCare"));
+        assert_eq!(named[i], want, "line {}: {line}", i + 1);
+    }
+}

@@ -79,6 +79,9 @@ struct Annotation<'a> {
     segmentation_pts: i32,
     lidar_pts: i32,
     depth_error: f64,
+    /// The line of the image's `label_2` file the object comes from, from 1 (as in the COCO
+    /// export): an annotation traces back to its label.
+    label_line: usize,
 }
 
 /// Omni3D's corner order in the object frame, as multiples of (l, h, w).
@@ -148,6 +151,7 @@ fn annotation<'a>(
         segmentation_pts: -1,
         lidar_pts: -1,
         depth_error: NA,
+        label_line: object.line,
     };
     if !a.valid3D {
         return a;
