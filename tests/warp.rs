@@ -547,3 +547,40 @@ fn the_kitti_targets_pyramid_keeps_the_grating_within_the_antialiasing_bound() {
     assert!(s_pyr < 12.0, "moiré through the pyramid: stddev {s_pyr:.2}");
     assert!(s_point > 3.0 * s_pyr, "{s_point:.2} <= 3 x {s_pyr:.2}");
 }
+
+/// A table that samples the source's pyramid (the 2048-px panorama of a KITTI target), warped
+/// as the conversion writes it: streamed from the source PNG as the encoder takes the rows
+/// (the pyramid built once, from the whole source) and row by row from a decoded image, both
+/// the PNG of `apply`'s image, byte for byte.
+#[test]
+fn a_pyramid_tables_streamed_warp_is_its_applied_image() {
+    use panoconv::codec::png::{encode_rgb8, PngCompression};
+    use panoconv::warp::{warp_encode, PngSource};
+    let calib = SynthCalib::standard();
+    let src = Perspective::new(calib.intrinsics(), calib.size);
+    let image = frames()[0].scene.render(&src, &calib.centre());
+    let spec = OutputSpec {
+        projection: Projection::Cylindrical,
+        scale: Scale::PanoWidth(2048),
+        canvas: Canvas::Tight,
+        ..OutputSpec::new(Projection::Cylindrical)
+    };
+    let out = output_camera(&spec, calib.intrinsics(), &src).unwrap();
+    let table =
+        RemapTable::build_pyramid_above(out.as_ref(), &src, &Matrix3::identity(), 2.0, false);
+    assert!(table.levels() > 1, "the view samples the pyramid");
+    let c = PngCompression::Fast;
+    let want = encode_rgb8(&table.apply(&image), c);
+    assert!(warp_encode(&table, &image, c) == want, "row by row");
+    let path = std::path::Path::new("source.png");
+    let mut source = PngSource::new(encode_rgb8(&image, c), path).expect("reads");
+    assert!(
+        source.warp_encode(&table, c).expect("warps") == want,
+        "streamed"
+    );
+    // a second view of the same source warps the kept image
+    assert!(
+        source.warp_encode(&table, c).expect("warps") == want,
+        "kept"
+    );
+}
