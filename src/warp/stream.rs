@@ -90,12 +90,30 @@ impl PngSource {
         };
         let size = table.size();
         let mut damaged = false;
+        // a table sampling the source's pyramid reads it from its first row: the source is
+        // decoded whole and the pyramid built once, then the rows warped from it
+        let mut pyramid = None;
         let encoded = png::encode_rgb8_rows(size.width, size.height, c, |v, row| {
-            if !damaged && decoder.decode_rows(table.source_rows(v)).is_some() {
-                table.apply_row_data(decoder.image(), v, row);
-            } else {
-                damaged = true;
+            if damaged {
+                return;
             }
+            if table.levels() <= 1 {
+                match decoder.decode_rows(table.source_rows(v)) {
+                    Some(()) => table.apply_row_data(decoder.image(), v, row),
+                    None => damaged = true,
+                }
+                return;
+            }
+            if pyramid.is_none() {
+                match decoder.decode_rows(decoder.size().1 as usize) {
+                    Some(()) => pyramid = Some(table.input(decoder.image()).into_owned()),
+                    None => {
+                        damaged = true;
+                        return;
+                    }
+                }
+            }
+            table.apply_row_data(pyramid.as_deref().expect("built above"), v, row);
         });
         let placeholder = State::Decoded(RgbImage::new(0, 0));
         let State::Pending {
@@ -129,8 +147,10 @@ impl PngSource {
 /// has to exist whole.
 pub fn warp_encode(table: &RemapTable, src: &RgbImage, c: PngCompression) -> Vec<u8> {
     let size = table.size();
+    // (the source's pyramid, where the table samples one, built once)
+    let input = table.input(src.as_raw());
     png::encode_rgb8_rows(size.width, size.height, c, |v, row| {
-        table.apply_row(src, v, row)
+        table.apply_row_data(&input, v, row)
     })
 }
 

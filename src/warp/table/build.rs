@@ -93,6 +93,26 @@ impl RemapTable {
         b.taps_cover = true;
         b.build(parallel)
     }
+
+    /// [`RemapTable::build_pyramid_above`] mapping only the output pixels within `seen` (the
+    /// others take nothing from the source), as [`RemapTable::build_within`] does: a fisheye
+    /// target's table (a lens sees a KITTI camera through a small part of its image).
+    pub fn build_pyramid_above_within(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        taps_below: f64,
+        seen: Option<&Footprint>,
+        parallel: bool,
+    ) -> RemapTable {
+        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, seen);
+        if b.one_block {
+            b.shapes = pyramid::level_shapes(b.source_size, 5);
+        }
+        b.taps_below2 = taps_below * taps_below;
+        b.taps_cover = true;
+        b.build(parallel)
+    }
 }
 
 impl Builder<'_> {
