@@ -289,17 +289,18 @@ impl SceneDepth {
         let solids = self.solids_of(camera + 1);
         let hides = |k: usize| {
             let s = &solids[k];
-            // a box that moved by m since the centre saw it: as if the eye had moved by −m
-            let base = base - self.motion.shift(camera, k);
-            if s.contains(x, SURFACE_TOLERANCE) {
-                return false;
-            }
+            // (the cone's test first: most listed boxes lie away from the footprint)
             let oc = s.centre - eye;
             let along = oc.dot(&d);
             let reach = s.radius + along.max(0.0) * spread;
             if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
                 return false;
             }
+            if s.contains(x, SURFACE_TOLERANCE) {
+                return false;
+            }
+            // a box that moved by m since the centre saw it: as if the eye had moved by −m
+            let base = base - self.motion.shift(camera, k);
             let rays = rim.get_or_insert_with(|| ring(&d, spread));
             rays.iter().any(|ray| {
                 // under a tenth of the footprint the blur mixes the box in as the centre sees it
