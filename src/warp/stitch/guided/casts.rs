@@ -3,11 +3,13 @@
 //!
 //! A pixel between two cast neighbours (or four) takes the mean of their inverse distances when
 //! the inverse distance's second differences along the cast samples around it stay within a
-//! tolerance: the error of a linear interpolation at a midpoint is at most a quarter of them
-//! (an eighth for a quadratic), so the interpolated point moves in any camera by at most
-//! [`PARALLAX_PX`] of an output pixel (its parallax across the largest baseline) and its
-//! distance by at most [`RELATIVE`] of itself. A plane's inverse distance is linear in the
-//! bearing: the ground and a box's face interpolate almost exactly. A depth edge (a wall
+//! tolerance: on a smooth surface the error of a linear interpolation at a midpoint is at most
+//! a quarter of them (an eighth for a quadratic), so the interpolated point moves in any camera
+//! by at most [`PARALLAX_PX`] of an output pixel (its parallax across the largest baseline) and
+//! its distance by at most [`RELATIVE`] of itself. A plane's inverse distance is linear in the
+//! bearing: the ground and a box's face interpolate almost exactly. (A splat buffer's range is
+//! a step per cell: a small step passes the test and may take up to half of it, a few tenths
+//! of a percent of the distance on real scans.) A depth edge (a wall
 //! before the sky, a splat's rim) breaks the second differences and is cast per pixel, and so
 //! is every sample the scene asks to cast ([`StitchDepth::may_interpolate`]: an exact object
 //! narrower than the samples' spacing may lie between them).
