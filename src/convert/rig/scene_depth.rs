@@ -195,7 +195,7 @@ impl SceneDepth {
             .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
             .filter(|p| !motion.swept(&solids, p))
             .collect();
-        let residual = without_lone_returns(&noise, &centre, residual);
+        let residual = noise.without_lone_returns(&centre, residual);
         let splats = residual_splats(&centre, &eyes, &residual);
         let (moved, grids) = motion::views(&motion, &solids, &centre, &eyes);
         let mut nearest = FAR;
@@ -334,21 +334,6 @@ impl SceneDepth {
             s.range(lon, lat) >= length - self.noise.margin(*length)
         })
     }
-}
-
-/// `residual` without its lone returns ([`Noise::lone`] seen from `centre`): one return in
-/// front of a surface is noise, not an occluder.
-fn without_lone_returns(
-    noise: &Noise,
-    centre: &Vector3<f64>,
-    residual: Vec<Vector3<f64>>,
-) -> Vec<Vector3<f64>> {
-    let lone = noise.lone(centre, &residual);
-    residual
-        .into_iter()
-        .zip(lone)
-        .filter_map(|(p, lone)| (!lone).then_some(p))
-        .collect()
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
