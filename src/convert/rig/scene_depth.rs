@@ -195,7 +195,7 @@ impl SceneDepth {
             .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
             .filter(|p| !motion.swept(&solids, p))
             .collect();
-        let residual = without_lone_returns(&noise, &centre, residual);
+        let residual = noise.without_lone_returns(&centre, residual);
         let splats = residual_splats(&centre, &eyes, &residual);
         let (moved, grids) = motion::views(&motion, &solids, &centre, &eyes);
         let mut nearest = FAR;
@@ -228,18 +228,19 @@ impl SceneDepth {
         self.ground.as_ref().map(|g| g.plane)
     }
 
-    /// The nearest exact surface (box or ground) along unit ray (o, d), infinite for none:
-    /// `view` the index of o's grid (0 the centre, 1 + i eye i).
-    fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>) -> f64 {
-        let mut t = self
-            .ground
-            .as_ref()
-            .and_then(|g| g.hit(o, d))
-            .unwrap_or(f64::INFINITY);
+    /// The nearest exact surface (box or ground) along unit ray (o, d) or `nearer`, whichever
+    /// is nearer (infinite for none): `view` the index of o's grid (0 the centre, 1 + i eye i).
+    fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>, nearer: f64) -> f64 {
+        let ground = self.ground.as_ref().and_then(|g| g.hit(o, d));
+        let mut t = ground.map_or(nearer, |g| g.min(nearer));
         let solids = self.solids_of(view);
         self.grids[view].any(d, solids.len(), |k| {
-            if let Some(h) = solids[k].hit(o, d) {
-                t = t.min(h);
+            // (an entry point lies in the bounding sphere: not before along − radius)
+            let s = &solids[k];
+            if (s.centre - o).dot(d) - s.radius < t {
+                if let Some(h) = s.hit(o, d) {
+                    t = t.min(h);
+                }
             }
             false
         });
@@ -254,7 +255,8 @@ impl SceneDepth {
         }
         let solids = self.solids_of(view);
         self.grids[view].any(d, solids.len(), |k| {
-            solids[k].hit(o, d).is_some_and(|t| t < limit)
+            let s = &solids[k];
+            (s.centre - o).dot(d) - s.radius < limit && s.hit(o, d).is_some_and(|t| t < limit)
         })
     }
 
@@ -287,17 +289,18 @@ impl SceneDepth {
         let solids = self.solids_of(camera + 1);
         let hides = |k: usize| {
             let s = &solids[k];
-            // a box that moved by m since the centre saw it: as if the eye had moved by −m
-            let base = base - self.motion.shift(camera, k);
-            if s.contains(x, SURFACE_TOLERANCE) {
-                return false;
-            }
+            // (the cone's test first: most listed boxes lie away from the footprint)
             let oc = s.centre - eye;
             let along = oc.dot(&d);
             let reach = s.radius + along.max(0.0) * spread;
             if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
                 return false;
             }
+            if s.contains(x, SURFACE_TOLERANCE) {
+                return false;
+            }
+            // a box that moved by m since the centre saw it: as if the eye had moved by −m
+            let base = base - self.motion.shift(camera, k);
             let rays = rim.get_or_insert_with(|| ring(&d, spread));
             rays.iter().any(|ray| {
                 // under a tenth of the footprint the blur mixes the box in as the centre sees it
@@ -331,21 +334,6 @@ impl SceneDepth {
             s.range(lon, lat) >= length - self.noise.margin(*length)
         })
     }
-}
-
-/// `residual` without its lone returns ([`Noise::lone`] seen from `centre`): one return in
-/// front of a surface is noise, not an occluder.
-fn without_lone_returns(
-    noise: &Noise,
-    centre: &Vector3<f64>,
-    residual: Vec<Vector3<f64>>,
-) -> Vec<Vector3<f64>> {
-    let lone = noise.lone(centre, &residual);
-    residual
-        .into_iter()
-        .zip(lone)
-        .filter_map(|(p, lone)| (!lone).then_some(p))
-        .collect()
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
@@ -395,15 +383,12 @@ struct EyeRay {
 
 impl StitchDepth for SceneDepth {
     fn distance(&self, d: &Vector3<f64>) -> f64 {
-        let t = self.exact_hit(0, &self.centre, d);
-        match self.splats.first() {
-            Some(s) => {
-                let (lon, lat) = angles(d);
-                t.min(s.range(lon, lat))
-            }
-            None => t,
-        }
-        .min(FAR)
+        // the splats first: a box beyond them is not tested
+        let splat = self.splats.first().map_or(f64::INFINITY, |s| {
+            let (lon, lat) = angles(d);
+            s.range(lon, lat)
+        });
+        self.exact_hit(0, &self.centre, d, splat).min(FAR)
     }
 
     fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
@@ -423,6 +408,11 @@ impl StitchDepth for SceneDepth {
     }
     fn nearest(&self) -> f64 {
         self.nearest
+    }
+
+    fn may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> bool {
+        // the grid lists every box within its reach of d
+        radius <= grid::REACH && !self.grids[0].any(d, self.solids.len(), |_| true)
     }
 
     fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {

@@ -121,6 +121,10 @@ impl StitchDepth for FarScene<'_> {
         self.inner.nearest()
     }
 
+    fn may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> bool {
+        self.inner.may_interpolate(d, radius)
+    }
+
     fn seen_at(&self, camera: usize, x: &Vector3<f64>) -> Vector3<f64> {
         if self.is_far(&(x - self.centre).normalize()) {
             *x // a point of no object

@@ -9,7 +9,6 @@ use crate::error::Result;
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Reach};
 use nalgebra::Vector3;
-use rayon::prelude::*;
 
 /// The scene a depth-guided stitch is built through, in the reference frame.
 pub trait StitchDepth: Sync + std::fmt::Debug {
@@ -35,6 +34,14 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
     /// share their work).
     fn sees_clean(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
         self.sees(camera, x) && !self.hidden_near(camera, x, radius)
+    }
+
+    /// Whether the distances of the bearings within `radius` radians of unit bearing `d` may
+    /// be interpolated from `d`'s where they vary smoothly: false where an exact surface
+    /// (an object's outline) may lie within that radius. By default true.
+    fn may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> bool {
+        let _ = (d, radius);
+        true
     }
 
     /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
@@ -89,20 +96,27 @@ pub(super) fn guided_cone<'a>(
     }
 }
 
-/// The scene's distance at every output pixel centre (0 where the output has no bearing).
-pub(super) fn pixel_distances(reach: &Reach, size: ImageSize, depth: &dyn StitchDepth) -> Vec<f64> {
-    let w = size.width as usize;
-    let mut out = vec![0.0; w * size.height as usize];
-    out.par_chunks_mut(w.max(1))
+mod casts;
+
+/// The scene's distance at every output pixel centre (0 where the output has no bearing):
+/// cast per pixel where the scene has an edge, else interpolated ([`casts`]) within a share
+/// of a pixel of parallax for `cameras` seen from `centre`.
+pub(super) fn pixel_distances(
+    reach: &Reach,
+    size: ImageSize,
+    depth: &dyn StitchDepth,
+    (cameras, centre): (&[StitchCamera], &Vector3<f64>),
+) -> Vec<f64> {
+    let baseline = cameras
+        .iter()
         .enumerate()
-        .for_each(|(v, row)| {
-            for (u, t) in row.iter_mut().enumerate() {
-                if let Some(d) = reach.bearing(u, v) {
-                    *t = depth.distance(&d.normalize());
-                }
-            }
-        });
-    out
+        .filter_map(|(i, c)| {
+            let eye = -(c.rotation.try_inverse()? * c.translation);
+            Some((eye - centre).norm() + depth.motion_bound(i))
+        })
+        .filter(|b| b.is_finite())
+        .fold(0.0, f64::max);
+    casts::pixel_distances(reach, size, depth, baseline)
 }
 
 impl Stitch {

@@ -210,7 +210,8 @@ impl Stitch {
             })
         };
         let reach = Reach::new(output, &cones, depth.map(|_| &near as NearBound));
-        let mut distances = depth.map(|depth| super::guided::pixel_distances(&reach, size, depth));
+        let mut distances = depth
+            .map(|depth| super::guided::pixel_distances(&reach, size, depth, (cameras, centre)));
         // the far fill: pixels no camera's image holds at the scene's distance, at the proxy's
         let far = distances.as_mut().map(|distances| {
             let far = far_pixels(&reach, size, distances, &proxies, options.distance);
@@ -247,7 +248,9 @@ impl Stitch {
             output,
             reach: &reach,
             distances: distances.as_deref(),
+            scene: far_scene.as_ref().map(|s| (s.inner, s.far)),
             depth,
+            centre: *centre,
             options,
         };
         for (i, (camera, proxy)) in cameras.iter().zip(proxies).enumerate() {
@@ -347,7 +350,11 @@ struct WeightPass<'a> {
     output: &'a dyn CameraModel,
     reach: &'a Reach,
     distances: Option<&'a [f64]>,
+    /// With far pixels, the scene without them and the far pixels: a pixel's test asks its own
+    /// flag, not the far scene's projection of the point back into the output.
+    scene: Option<(&'a dyn StitchDepth, &'a [bool])>,
     depth: Option<&'a dyn StitchDepth>,
+    centre: Vector3<f64>,
     options: StitchOptions,
 }
 
@@ -393,6 +400,7 @@ impl WeightPass<'_> {
             deep,
             saturation,
             footprint: footprint_angle(camera),
+            moves: proxy.motion_bound() > 0.0,
         };
         let mut wi = vec![0f32; w * h];
         wi.par_chunks_mut((w * TILE).max(1))
@@ -437,6 +445,8 @@ struct CameraPass<'a> {
     deep: Option<(f64, f64)>,
     saturation: Option<Saturation>,
     footprint: f64,
+    /// Whether the depth moves points for this camera ([`StitchDepth::seen_at`]).
+    moves: bool,
 }
 
 impl CameraPass<'_> {
@@ -487,6 +497,27 @@ impl CameraPass<'_> {
         touches_mask(self.pass.output, self.proxy, mask, u, v, q, pyramid)
     }
 
+    /// The camera point of the scene's point at distance `t` along unit bearing `n`, and
+    /// whether the camera sees it cleanly, `far` the pixel's far flag and `inner` the scene
+    /// without far pixels: as the far scene's [`Proxy::point_at`], [`Proxy::local_at`] and
+    /// [`StitchDepth::sees_clean`] give them (a far pixel's point does not move and is not
+    /// seen; another's is `inner`'s), without projecting each point back to its pixel.
+    fn seen_through(
+        &self,
+        inner: &dyn StitchDepth,
+        far: bool,
+        n: &Vector3<f64>,
+        t: f64,
+    ) -> (Vector3<f64>, bool) {
+        let x = self.pass.centre + n * t;
+        let x = match self.moves && !far {
+            true => inner.seen_at(self.i, &x),
+            false => x,
+        };
+        let q = self.camera.rotation * x + self.camera.translation;
+        (q, !far && inner.sees_clean(self.i, &x, self.footprint))
+    }
+
     /// The camera's weight at output pixel (u, v) (negative: a fallback weight).
     fn pixel(&self, u: usize, v: usize) -> f32 {
         let WeightPass { reach, options, .. } = *self.pass;
@@ -500,14 +531,19 @@ impl CameraPass<'_> {
         let (q, seen) = match (self.pass.distances, self.pass.depth) {
             (Some(t), Some(depth)) => {
                 let n = d.normalize();
-                let t = t[v * self.pass.output.size().width as usize + u];
+                let at = v * self.pass.output.size().width as usize + u;
                 // step 2 of the guided model: a camera that does not see the scene's point
                 // gives only a fallback there
-                let x = proxy.point_at(&n, t);
-                (
-                    proxy.local_at(&n, t),
-                    depth.sees_clean(self.i, &x, self.footprint),
-                )
+                match self.pass.scene {
+                    Some((inner, far)) => self.seen_through(inner, far[at], &n, t[at]),
+                    None => {
+                        let x = proxy.point_at(&n, t[at]);
+                        (
+                            proxy.local_at(&n, t[at]),
+                            depth.sees_clean(self.i, &x, self.footprint),
+                        )
+                    }
+                }
             }
             _ => (proxy.local(&d), true),
         };

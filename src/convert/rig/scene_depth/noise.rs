@@ -75,6 +75,21 @@ impl Noise {
         SCAN_TOLERANCE + length * (RANGE_SHARE + self.spacing)
     }
 
+    /// `points` without their lone returns ([`Noise::lone`] seen from `origin`): one return in
+    /// front of a surface is noise, not an occluder.
+    pub(super) fn without_lone_returns(
+        &self,
+        origin: &Vector3<f64>,
+        points: Vec<Vector3<f64>>,
+    ) -> Vec<Vector3<f64>> {
+        let lone = self.lone(origin, &points);
+        points
+            .into_iter()
+            .zip(lone)
+            .filter_map(|(p, lone)| (!lone).then_some(p))
+            .collect()
+    }
+
     /// Which of `points` are lone returns seen from `origin`: no other return within
     /// [`NEIGHBOUR_SPACINGS`] ring spacings of its bearing (at least [`SPLAT_DEG`]) and within
     /// [`Noise::margin`] of its range.
