@@ -11,8 +11,10 @@
 //!    the source, exact integer weights), built through the same mapping. Where a pixel spans
 //!    2 or more source pixels along both axes it takes one bilinear tap (more along an
 //!    anisotropic footprint's longer axis) of the source's pyramid instead, at the level where
-//!    it spans 0.75 to 1.5 level pixels ([`RemapTable::build_pyramid_above`]); a depth-guided
-//!    stitch's tables keep the taps (a pixel across a depth edge measures a wide footprint).
+//!    it spans 0.75 to 1.5 level pixels ([`RemapTable::build_pyramid_above`]); in a
+//!    depth-guided stitch only where the scene's distances at the pixel and its eight
+//!    neighbours lie on one surface (a pixel across a depth edge measures a wide footprint
+//!    spanning two surfaces, and keeps its taps, each through its own surface).
 //! 3. Camera i's weight is w_i = S(min(1, m_i / b)), with S(t) = t²(3 − 2t) (smoothstep), b the
 //!    blend width (radians) and m_i the angular margin of q_i inside the camera's view: the
 //!    smaller of (a) its field of view's margin θ_max,i − θ(q_i), θ the angle from the optical

@@ -28,6 +28,7 @@ mod blocks;
 mod build;
 mod pyramid;
 
+pub(crate) use build::Surfaces;
 pub use pyramid::{narrow_u8, pyramid};
 
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).

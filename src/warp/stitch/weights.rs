@@ -7,7 +7,7 @@ use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel, Intrinsics};
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
-use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+use crate::warp::table::{RemapTable, Surfaces};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
 use std::sync::LazyLock;
@@ -268,24 +268,17 @@ impl Stitch {
                 }),
                 None => *proxy,
             };
-            let table = match depth {
-                // the depth-guided tables keep the taps: a pixel across a depth edge
-                // measures a wide footprint the pyramid would blur over
-                Some(_) => RemapTable::build_parallel(
-                    &gated,
-                    &centred,
-                    &Matrix3::identity(),
-                    Wrap::None,
-                    MAX_SUPERSAMPLE,
-                ),
-                None => RemapTable::build_pyramid_above(
-                    &gated,
-                    &centred,
-                    &Matrix3::identity(),
-                    TAPS_BELOW,
-                    true,
-                ),
-            };
+            // a depth-guided table samples the pyramid only where a pixel's footprint lies on
+            // one surface: across a depth edge it measures a wide one the level would blur over
+            let surfaces = depth.map(|_| &centred as &dyn Surfaces);
+            let table = RemapTable::build_pyramid_guided(
+                &gated,
+                &centred,
+                &Matrix3::identity(),
+                TAPS_BELOW,
+                surfaces,
+                true,
+            );
             let mask = masks.get(i).copied().flatten();
             weights.push(pass.weights(i, camera, proxy, &table, mask));
             tables.push(table);

@@ -22,6 +22,9 @@ use level::{count, scales2};
 mod local;
 mod plain;
 mod quantize;
+mod surface;
+
+pub(crate) use surface::Surfaces;
 
 use quantize::{merge, quantize, quantize_block};
 
@@ -85,12 +88,27 @@ impl RemapTable {
         taps_below: f64,
         parallel: bool,
     ) -> RemapTable {
+        Self::build_pyramid_guided(dst, src, src_from_dst, taps_below, None, parallel)
+    }
+
+    /// As [`RemapTable::build_pyramid_above`], where `surfaces` (a depth-guided stitch's
+    /// scene at the output's pixels) says which pixels' footprints lie on one surface: only
+    /// those sample the pyramid, a pixel by a depth edge keeps its taps (see `surface.rs`).
+    pub(crate) fn build_pyramid_guided(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        taps_below: f64,
+        surfaces: Option<&dyn Surfaces>,
+        parallel: bool,
+    ) -> RemapTable {
         let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, None);
         if b.one_block {
             b.shapes = pyramid::level_shapes(b.source_size, 5);
         }
         b.taps_below2 = taps_below * taps_below;
         b.taps_cover = true;
+        b.surfaces = surfaces;
         b.build(parallel)
     }
 
@@ -189,6 +207,9 @@ struct Builder<'a> {
     /// A pyramid sample's coverage is its taps' (`taps_cover`), so that which pixels lie
     /// wholly inside the source is [`RemapTable::build_within`]'s.
     taps_cover: bool,
+    /// With a depth-guided source, which pixels' footprints lie on one surface: the others
+    /// keep their taps (level 0) whatever their scale.
+    surfaces: Option<&'a dyn Surfaces>,
 }
 
 /// A band of consecutive output rows, built independently of the others.
@@ -256,6 +277,7 @@ impl<'a> Builder<'a> {
             shapes: Vec::new(),
             taps_below2: 0.0,
             taps_cover: false,
+            surfaces: None,
         }
     }
 
@@ -401,7 +423,7 @@ impl<'a> Builder<'a> {
                         period,
                     );
                     // at a pyramid level the scales are 4^level times smaller
-                    let level = self.level_of(su.min(sv));
+                    let level = self.level_at((u, v), su.min(sv));
                     let down = (1u32 << (2 * level)) as f64;
                     let n = (count(su / down).min(cap), count(sv / down).min(cap));
                     (n.0, n.1, level, (su, sv))
