@@ -29,6 +29,10 @@ use quantize::{merge, quantize, quantize_block};
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
 
+/// The fewest whole groups of pixels without a mapped centre a band keeps as a gap (the
+/// table stores no round for them) rather than pixel by pixel.
+const MIN_GAP: usize = 2;
+
 impl RemapTable {
     /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
     /// others take nothing from the source: see [`Footprint`]), serially or with bands of rows
@@ -171,14 +175,21 @@ struct Builder<'a> {
     taps_cover: bool,
 }
 
-/// A band of consecutive output rows, built independently of the others.
+/// A band of consecutive output rows, built independently of the others. Its pixels are
+/// stored but for the runs of [`MIN_GAP`] or more whole groups without a mapped centre (a
+/// stitch camera's output beyond its reach: most of it), kept as gaps.
 #[derive(Default)]
 struct Band {
+    /// The stored pixels' blocks, block counts and covers.
     quads: Vec<Quad>,
     counts: Vec<u8>,
+    cover: Vec<Cover>,
     row_lens: Vec<u32>,
     row_reach: Vec<u32>,
-    cover: Vec<Cover>,
+    /// The gaps (first group, end group) of every row, in order; `row_gaps[i]..row_gaps[i + 1]`
+    /// are row i's.
+    gaps: Vec<(u32, u32)>,
+    row_gaps: Vec<u32>,
     /// The highest pyramid level a pixel of the band samples.
     top_level: u32,
 }
@@ -317,6 +328,9 @@ impl<'a> Builder<'a> {
         band.row_lens.clear();
         band.row_reach.clear();
         band.cover.clear();
+        band.gaps.clear();
+        band.row_gaps.clear();
+        band.row_gaps.push(0);
         band.top_level = 0;
         // room for the second blocks of some supersampled pixels: growing would copy it all
         band.quads.reserve(n + n / 4);
@@ -337,6 +351,7 @@ impl<'a> Builder<'a> {
             band.row_lens.push(row.len() as u32);
             band.row_reach
                 .push(row.iter().map(|q| q.offset).max().unwrap_or(0));
+            band.row_gaps.push(band.gaps.len() as u32);
             std::mem::swap(&mut above, &mut here);
             std::mem::swap(&mut here, &mut below);
         }
@@ -364,9 +379,7 @@ impl<'a> Builder<'a> {
                 // no tap (what the general path below gives such a pixel, cheaply), for the
                 // whole run of such pixels at once (most of a wide view)
                 let run = 1 + here[u + 2..=w].iter().take_while(|c| c.is_none()).count();
-                band.quads.extend(std::iter::repeat_n(Quad::default(), run));
-                band.counts.extend(std::iter::repeat_n(1, run));
-                band.cover.extend(std::iter::repeat_n(Cover::None, run));
+                band.blank(u, run, w);
                 next = u + run;
                 continue;
             }
@@ -548,12 +561,13 @@ impl<'a> Builder<'a> {
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES) * h;
-        // about one round a group, a few more at the supersampled sides
+        // about one round a stored group, a few more at the supersampled sides
         let total: usize = bands.iter().map(|b| b.quads.len()).sum();
+        let stored: usize = bands.iter().map(|b| b.counts.len()).sum();
         let mut t = RemapTable {
             size,
             source_size: self.source_size,
-            rounds: Vec::with_capacity(groups + (total - w * h) / 2),
+            rounds: Vec::with_capacity(stored.div_ceil(LANES) + (total - stored) / 2),
             depth: Vec::with_capacity(groups),
             row_starts: Vec::with_capacity(h + 1),
             row_reach: Vec::with_capacity(h),
@@ -562,15 +576,47 @@ impl<'a> Builder<'a> {
         };
         t.row_starts.push(0);
         for b in bands {
-            let mut quads = &b.quads[..];
+            let (mut quads, mut counts, mut cover) = (&b.quads[..], &b.counts[..], &b.cover[..]);
             for (i, (&len, &reach)) in b.row_lens.iter().zip(&b.row_reach).enumerate() {
-                let (row, rest) = quads.split_at(len as usize);
-                t.push_row(row, &b.counts[i * w..(i + 1) * w], reach);
-                quads = rest;
+                let gaps = &b.gaps[b.row_gaps[i] as usize..b.row_gaps[i + 1] as usize];
+                let gap: usize = (gaps.iter())
+                    .map(|&(g0, g1)| (g1 as usize * LANES).min(w) - g0 as usize * LANES)
+                    .sum();
+                let row;
+                (row, quads) = quads.split_at(len as usize);
+                let (row_counts, row_cover);
+                (row_counts, counts) = counts.split_at(w - gap);
+                (row_cover, cover) = cover.split_at(w - gap);
+                t.push_row((row, row_counts, row_cover), gaps, reach);
             }
-            t.cover.extend_from_slice(&b.cover);
         }
         t
+    }
+}
+
+impl Band {
+    /// Adds `run` pixels without a mapped centre from column `u` of a row `w` pixels wide: a
+    /// gap of the whole groups within them where there are [`MIN_GAP`] or more, the others
+    /// stored as pixels taking nothing (one all-zero block each).
+    fn blank(&mut self, u: usize, run: usize, w: usize) {
+        let end = u + run;
+        let first = u.div_ceil(LANES);
+        // (the row's last group, even if short, is whole when the run reaches the row's end)
+        let last = if end == w {
+            w.div_ceil(LANES)
+        } else {
+            end / LANES
+        };
+        let (before, after) = if last >= first + MIN_GAP {
+            self.gaps.push((first as u32, last as u32));
+            (first * LANES - u, end - (last * LANES).min(w))
+        } else {
+            (run, 0)
+        };
+        let n = before + after;
+        self.quads.extend(std::iter::repeat_n(Quad::default(), n));
+        self.counts.extend(std::iter::repeat_n(1, n));
+        self.cover.extend(std::iter::repeat_n(Cover::None, n));
     }
 }
 
