@@ -56,6 +56,9 @@ pub(super) struct Reach {
     grid: Arc<OutputGrid>,
     /// Per camera, over the same positions: whether the camera may reach it (None: all).
     reach: Vec<Option<Vec<bool>>>,
+    /// Per camera with a bound, per row of positions: the first and the end of those it may
+    /// reach (equal where none).
+    spans: Vec<Option<Vec<(u32, u32)>>>,
 }
 
 /// One camera as the bound sees it.
@@ -115,11 +118,16 @@ impl Reach {
             output: &output_grid,
             tiles: tiles.as_deref(),
         };
-        let reach = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
+        let reach: Vec<_> = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
+        let gw = output_grid.gw;
+        let spans = (reach.iter())
+            .map(|r| r.as_ref().map(|r| row_spans(r, gw)))
+            .collect();
         Reach {
             size,
             grid: output_grid,
             reach,
+            spans,
         }
     }
 
@@ -165,34 +173,61 @@ impl Reach {
     /// the output gave none or camera `i` cannot reach: what [`Gated`]'s `unproject` gives
     /// at those centres; false, `out` unchanged, for a row beyond the bound's.
     fn gated_row(&self, i: usize, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
-        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
-        let Some(j) = usize::try_from(v + 1).ok().filter(|j| *j < gh) else {
-            return false;
+        let gw = self.size.width as usize + 2;
+        self.gated_span(i, v, 0..gw, out).is_some()
+    }
+
+    /// [`Reach::gated_row`] of the positions from the first to the last camera `i` may reach
+    /// (see [`CameraModel::stored_centre_span`]).
+    fn gated_reached(
+        &self,
+        i: usize,
+        v: isize,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<std::ops::Range<usize>> {
+        let gw = self.size.width as usize + 2;
+        let span = match (&self.spans[i], usize::try_from(v + 1)) {
+            (Some(spans), Ok(j)) if j < spans.len() => spans[j].0 as usize..spans[j].1 as usize,
+            _ => 0..gw,
         };
+        self.gated_span(i, v, span, out)
+    }
+
+    /// [`Reach::gated_row`] of the positions `span` of row `v` alone; gives `span`.
+    fn gated_span(
+        &self,
+        i: usize,
+        v: isize,
+        span: std::ops::Range<usize>,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<std::ops::Range<usize>> {
+        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
+        let j = usize::try_from(v + 1).ok().filter(|j| *j < gh)?;
         let row = &self.grid.bearings[j * gw..(j + 1) * gw];
         let stored = |d: &Vector3<f64>| d.x.is_finite().then_some(*d);
+        let (first, end) = (span.start, span.end);
         match &self.reach[i] {
-            None => out.extend(row.iter().map(stored)),
+            None => out.extend(row[first..end].iter().map(stored)),
             Some(reach) => {
                 // by runs: most of a row lies beyond a camera's reach
                 let reach = &reach[j * gw..(j + 1) * gw];
-                let mut i = 0;
-                while i < gw {
+                let mut i = first;
+                while i < end {
                     let on = reach[i];
-                    let end = reach[i..]
+                    let run = reach[i..end]
                         .iter()
                         .position(|r| *r != on)
-                        .map_or(gw, |n| i + n);
+                        .map_or(end, |n| i + n);
                     if on {
-                        out.extend(row[i..end].iter().map(stored));
+                        out.extend(row[i..run].iter().map(stored));
                     } else {
-                        out.resize(out.len() + end - i, None);
+                        out.resize(out.len() + run - i, None);
                     }
-                    i = end;
+                    i = run;
                 }
             }
         }
-        true
+        Some(span)
     }
 
     /// A: the largest turn between adjacent output centres, radians.
@@ -398,6 +433,21 @@ fn tile_nearest(grid: &OutputGrid, near: NearBound) -> Vec<f64> {
         .collect()
 }
 
+/// Per row of `reach` (`gw` positions a row), the first and the end of its positions that are
+/// set (0, 0 where none is).
+fn row_spans(reach: &[bool], gw: usize) -> Vec<(u32, u32)> {
+    reach
+        .chunks(gw)
+        .map(|row| match row.iter().position(|r| *r) {
+            Some(first) => {
+                let last = row.iter().rposition(|r| *r).unwrap_or(first);
+                (first as u32, last as u32 + 1)
+            }
+            None => (0, 0),
+        })
+        .collect()
+}
+
 /// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter), as ORs of
 /// shifted rows (no branch per position).
 fn widen(set: &[bool], w: usize, h: usize) -> Vec<bool> {
@@ -460,6 +510,14 @@ impl CameraModel for Gated<'_> {
 
     fn stored_centres(&self, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
         self.reach.gated_row(self.camera, v, out)
+    }
+
+    fn stored_centre_span(
+        &self,
+        v: isize,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<std::ops::Range<usize>> {
+        self.reach.gated_reached(self.camera, v, out)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {

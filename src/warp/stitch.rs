@@ -54,6 +54,7 @@ mod apply;
 mod fallback;
 mod far_fill;
 mod figures;
+mod fixed_proxy;
 mod gains;
 mod guided;
 mod proxy;

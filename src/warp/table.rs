@@ -190,7 +190,46 @@ impl RemapTable {
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| self.row(&data, v, row, kernel));
+            .for_each(|(v, row)| self.row(&data, v, row, kernel, true));
+    }
+
+    /// As [`RemapTable::apply_into`] (`out` must have the table's size), writing only the
+    /// pixels of [`RemapTable::stored_spans`]: the others take nothing from the source, and
+    /// keep what `out` held (a stitch reads a camera's image only where it weighs it, within
+    /// them, and reuses the buffer frame after frame instead of clearing it).
+    pub(crate) fn apply_stored_into(&self, src: &RgbImage, out: &mut RgbImage) {
+        assert_eq!(
+            (src.width(), src.height(), out.width(), out.height()),
+            (
+                self.source_size.width,
+                self.source_size.height,
+                self.size.width,
+                self.size.height
+            ),
+            "image sizes differ from the table's"
+        );
+        let w = self.size.width as usize;
+        if w == 0 {
+            return;
+        }
+        let data = self.input(src.as_raw());
+        out.as_raw_mut()
+            .par_chunks_mut(w * 3)
+            .enumerate()
+            .with_min_len(8)
+            .for_each(|(v, row)| self.row(&data, v, row, Kernel::Auto, false));
+    }
+
+    /// The pixels of output row `v` in runs of groups the table stores rounds for, in order:
+    /// every other pixel of the row takes nothing from the source (it is black).
+    pub(crate) fn stored_spans(&self, v: usize) -> StoredSpans<'_> {
+        let w = self.size.width as usize;
+        let groups = w.div_ceil(LANES);
+        StoredSpans {
+            depth: &self.depth[v * groups..(v + 1) * groups],
+            next: 0,
+            width: w,
+        }
     }
 
     /// Levels of the source's pyramid the table samples: 1 where it samples the source alone
@@ -242,7 +281,7 @@ impl RemapTable {
         );
         assert_eq!(row.len(), self.size.width as usize * 3, "row length");
         assert!(v < self.size.height as usize, "row {v} beyond the table");
-        self.row(src, v, row, Kernel::Auto);
+        self.row(src, v, row, Kernel::Auto, true);
     }
 
     /// How many rows of [`RemapTable::input`]'s buffer, from the top, output row `v` reads
@@ -256,7 +295,9 @@ impl RemapTable {
         end.div_ceil(stride3).min(self.input_rows() as usize)
     }
 
-    fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel) {
+    /// Resamples output row `v` into `row`; the pixels of groups without rounds are black
+    /// where `blank`, else left as they are.
+    fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel, blank: bool) {
         let groups = (self.size.width as usize).div_ceil(LANES);
         let rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
         let depth = &self.depth[v * groups..(v + 1) * groups];
@@ -272,7 +313,9 @@ impl RemapTable {
             let n: usize = kept.iter().map(|&k| k as usize).sum();
             let len = row.len();
             let px = (end * LANES * 3).min(len)..((end + runs) * LANES * 3).min(len);
-            row[(g * LANES * 3).min(len)..px.start].fill(0);
+            if blank {
+                row[(g * LANES * 3).min(len)..px.start].fill(0);
+            }
             if runs > 0 {
                 let out = &mut row[px];
                 self.segment((&rounds[r..r + n], kept), (src, stride), v, out, kernel);
@@ -435,6 +478,25 @@ impl PartialEq for RemapTable {
             && self.row_reach == other.row_reach
             && self.cover == other.cover
             && (0..rows).all(|v| self.row_groups(v).eq(other.row_groups(v)))
+    }
+}
+
+/// The runs of a row's groups with rounds, as pixel ranges ([`RemapTable::stored_spans`]).
+pub(crate) struct StoredSpans<'a> {
+    depth: &'a [u8],
+    next: usize,
+    width: usize,
+}
+
+impl Iterator for StoredSpans<'_> {
+    type Item = std::ops::Range<usize>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let depth = self.depth;
+        let start = self.next + depth[self.next..].iter().take_while(|&&k| k == 0).count();
+        let end = start + depth[start..].iter().take_while(|&&k| k != 0).count();
+        self.next = end;
+        (end > start).then(|| start * LANES..(end * LANES).min(self.width))
     }
 }
 

@@ -214,6 +214,16 @@ struct Parts {
     tap_rows: [Vec<Share>; MAX_SUPERSAMPLE as usize + 1],
     /// A row's bearing coordinates (x, y, z) for the centres mapped in lanes.
     lanes: [Vec<f64>; 3],
+    /// The source positions of a span of a row's centres.
+    span: Vec<Option<Point2<f64>>>,
+}
+
+/// The source positions of a row's centres, columns -1..=width, and the range written last
+/// (the others are None).
+#[derive(Default)]
+struct CentreRow {
+    positions: Vec<Option<Point2<f64>>>,
+    written: std::ops::Range<usize>,
 }
 
 impl<'a> Builder<'a> {
@@ -316,6 +326,32 @@ impl<'a> Builder<'a> {
         self.bearings_to_src(&mut parts.bearings, out);
     }
 
+    /// [`Builder::centres`] into `row`. Where the output stores its centres by spans (a
+    /// stitch's output gated by its reach bound, [`CameraModel::stored_centre_span`]) and the
+    /// source projects each bearing alone, only the span is mapped and written: the row's
+    /// other positions are None, left so from the row it held before but for its last span.
+    fn centres_row(&self, v: isize, parts: &mut Parts, row: &mut CentreRow) {
+        let n = self.dst.size().width as usize + 2;
+        parts.bearings.clear();
+        let span = (self.seen.is_none() && self.src.projects_bearing_by_bearing())
+            .then(|| self.dst.stored_centre_span(v, &mut parts.bearings))
+            .flatten();
+        let Some(span) = span else {
+            self.centres(v, parts, &mut row.positions);
+            row.written = 0..row.positions.len();
+            return;
+        };
+        if row.positions.len() != n {
+            row.positions.clear();
+            row.positions.resize(n, None);
+        }
+        row.positions[row.written.clone()].fill(None);
+        parts.span.clear();
+        self.bearings_to_src(&mut parts.bearings, &mut parts.span);
+        row.positions[span.clone()].copy_from_slice(&parts.span);
+        row.written = span;
+    }
+
     /// Builds output rows `rows` into `band` (its old contents dropped). Each pixel centre is mapped once: it is the tap of a pixel
     /// that is not supersampled (most of them), and the centres of its four neighbours give
     /// the local scale. A band maps the rows above and below it itself, with the same values
@@ -340,13 +376,14 @@ impl<'a> Builder<'a> {
         band.cover.reserve(n);
         let mut scratch = Scratch::default();
         let mut parts = Parts::default();
-        let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
-        self.centres(rows.start as isize - 1, &mut parts, &mut above);
-        self.centres(rows.start as isize, &mut parts, &mut here);
+        let [mut above, mut here, mut below] = <[CentreRow; 3]>::default();
+        self.centres_row(rows.start as isize - 1, &mut parts, &mut above);
+        self.centres_row(rows.start as isize, &mut parts, &mut here);
         for v in rows {
             let row_start = band.quads.len();
-            self.centres(v as isize + 1, &mut parts, &mut below);
-            self.row(v, [&above, &here, &below], &mut scratch, &mut parts, band);
+            self.centres_row(v as isize + 1, &mut parts, &mut below);
+            let centres = [&above, &here, &below].map(|r| &r.positions[..]);
+            self.row(v, centres, &mut scratch, &mut parts, band);
             let row = &band.quads[row_start..];
             band.row_lens.push(row.len() as u32);
             band.row_reach
