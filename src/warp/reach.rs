@@ -33,7 +33,9 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 mod grid;
+mod set;
 use grid::OutputGrid;
+use set::PositionSet;
 
 /// Pixels the candidates are widened by.
 const WIDEN: usize = 2;
@@ -54,8 +56,8 @@ pub(super) struct Reach {
     size: ImageSize,
     /// The output's positions -1..=width × -1..=height and their bearings.
     grid: Arc<OutputGrid>,
-    /// Per camera, over the same positions: whether the camera may reach it (None: all).
-    reach: Vec<Option<Vec<bool>>>,
+    /// Per camera, over the same positions: those the camera may reach (None: all).
+    reach: Vec<Option<PositionSet>>,
     /// Per camera with a bound, per row of positions: the first and the end of those it may
     /// reach (equal where none).
     spans: Vec<Option<Vec<(u32, u32)>>>,
@@ -119,9 +121,9 @@ impl Reach {
             tiles: tiles.as_deref(),
         };
         let reach: Vec<_> = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
-        let gw = output_grid.gw;
+        let gh = output_grid.gh;
         let spans = (reach.iter())
-            .map(|r| r.as_ref().map(|r| row_spans(r, gw)))
+            .map(|r| r.as_ref().map(|r| (0..gh).map(|j| r.span(j)).collect()))
             .collect();
         Reach {
             size,
@@ -166,7 +168,7 @@ impl Reach {
         if !(x >= 0.0 && y >= 0.0 && x < gw as f64 && y < (self.size.height + 2) as f64) {
             return true;
         }
-        reach[y as usize * gw + x as usize]
+        reach.contains(x as usize, y as usize)
     }
 
     /// Appends the stored bearings of row `v`'s positions -1..=width to `out`, None where
@@ -210,14 +212,10 @@ impl Reach {
             None => out.extend(row[first..end].iter().map(stored)),
             Some(reach) => {
                 // by runs: most of a row lies beyond a camera's reach
-                let reach = &reach[j * gw..(j + 1) * gw];
                 let mut i = first;
                 while i < end {
-                    let on = reach[i];
-                    let run = reach[i..end]
-                        .iter()
-                        .position(|r| *r != on)
-                        .map_or(end, |n| i + n);
+                    let on = reach.contains(i, j);
+                    let run = reach.run_end(j, i, end, on);
                     if on {
                         out.extend(row[i..run].iter().map(stored));
                     } else {
@@ -239,7 +237,7 @@ impl Reach {
     pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
         self.reach[i]
             .as_ref()
-            .is_none_or(|r| r[(v + 1) * (self.size.width as usize + 2) + u + 1])
+            .is_none_or(|r| r.contains(u + 1, v + 1))
     }
 }
 
@@ -253,13 +251,13 @@ struct Grid<'a> {
 
 /// The positions of the grid where `cone`'s camera may give a sample (widened by one), None
 /// for every position.
-fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
+fn cone_reach(cone: &Cone, grid: &Grid) -> Option<PositionSet> {
     cone_reach_by(cone, grid, true)
 }
 
 /// [`cone_reach`], deciding the tiles it settles whole (`whole_tiles`) or every position
 /// alone (the tests' reference).
-fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool>> {
+fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<PositionSet> {
     let Grid { output, tiles } = *grid;
     let (bearings, gw, gh, step) = (&output.bearings, output.gw, output.gh, output.step);
     let tiles_across = output.tiles_across();
@@ -304,21 +302,26 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
             None => !(q.x.hypot(q.y).atan2(q.z) > limit),
         }
     };
-    let mut candidate = vec![false; bearings.len()];
+    let mut candidate = PositionSet::new(gw, gh);
+    let words = candidate.words();
     let tiles_down = gh.div_ceil(TILE);
     candidate
-        .par_chunks_mut(gw * TILE * BLOCK)
+        .bits_mut()
+        .par_chunks_mut(words * TILE * BLOCK)
         .enumerate()
         .for_each(|(bj, rows)| {
             let jb = bj * TILE * BLOCK;
-            let fill = |rows: &mut [bool], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
+            let fill = |rows: &mut [u64], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
                 for j in j0..j1 {
-                    let row = &mut rows[(j - jb) * gw..][i0..i1];
+                    let row = &mut rows[(j - jb) * words..][..words];
                     match whole {
-                        Some(all) => row.fill(all),
+                        Some(true) => set::set_range(row, i0, i1),
+                        Some(false) => {}
                         None => {
-                            for (i, out) in (i0..i1).zip(row) {
-                                *out = position(&bearings[j * gw + i], tile);
+                            for i in i0..i1 {
+                                if position(&bearings[j * gw + i], tile) {
+                                    set::set(row, i);
+                                }
                             }
                         }
                     }
@@ -362,7 +365,7 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
                 }
             }
         });
-    Some(widen(&candidate, gw, gh))
+    Some(candidate.widened(WIDEN))
 }
 
 /// Radians a tile's decision keeps clear of the cone's limit (and of the 1e-6 rad the
@@ -431,53 +434,6 @@ fn tile_nearest(grid: &OutputGrid, near: NearBound) -> Vec<f64> {
             }
         })
         .collect()
-}
-
-/// Per row of `reach` (`gw` positions a row), the first and the end of its positions that are
-/// set (0, 0 where none is).
-fn row_spans(reach: &[bool], gw: usize) -> Vec<(u32, u32)> {
-    reach
-        .chunks(gw)
-        .map(|row| match row.iter().position(|r| *r) {
-            Some(first) => {
-                let last = row.iter().rposition(|r| *r).unwrap_or(first);
-                (first as u32, last as u32 + 1)
-            }
-            None => (0, 0),
-        })
-        .collect()
-}
-
-/// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter), as ORs of
-/// shifted rows (no branch per position).
-fn widen(set: &[bool], w: usize, h: usize) -> Vec<bool> {
-    let mut across = vec![false; set.len()];
-    across
-        .par_chunks_mut(w)
-        .zip(set.par_chunks(w))
-        .for_each_init(
-            || vec![false; w + 2 * WIDEN],
-            |padded, (out, row)| {
-                padded[WIDEN..WIDEN + w].copy_from_slice(row);
-                out.copy_from_slice(&padded[..w]);
-                for s in 1..=2 * WIDEN {
-                    for (o, x) in out.iter_mut().zip(&padded[s..s + w]) {
-                        *o |= *x;
-                    }
-                }
-            },
-        );
-    let mut out = vec![false; set.len()];
-    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
-        let lo = j.saturating_sub(WIDEN);
-        let hi = (j + WIDEN).min(h - 1);
-        for k in lo..=hi {
-            for (o, x) in row.iter_mut().zip(&across[k * w..(k + 1) * w]) {
-                *o |= *x;
-            }
-        }
-    });
-    out
 }
 
 /// An output camera whose `unproject` refuses the positions one camera cannot reach: a remap

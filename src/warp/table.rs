@@ -375,7 +375,7 @@ impl RemapTable {
         let (mut rest, mut counts, mut cover) = (quads, counts, cover);
         let mut g = 0;
         for &(first, end) in gaps.iter().chain([&(groups, groups)]) {
-            let stored = (first as usize * LANES).min(w) - g as usize * LANES;
+            let stored = (first as usize * LANES).min(w) - (g as usize * LANES).min(w);
             let (row_counts, row_cover);
             (row_counts, counts) = counts.split_at(stored);
             (row_cover, cover) = cover.split_at(stored);
