@@ -30,6 +30,7 @@
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Arc;
 
 mod grid;
@@ -186,7 +187,7 @@ impl Reach {
         i: usize,
         v: isize,
         out: &mut Vec<Option<Vector3<f64>>>,
-    ) -> Option<std::ops::Range<usize>> {
+    ) -> Option<Range<usize>> {
         let gw = self.size.width as usize + 2;
         let span = match (&self.spans[i], usize::try_from(v + 1)) {
             (Some(spans), Ok(j)) if j < spans.len() => spans[j].0 as usize..spans[j].1 as usize,
@@ -200,9 +201,9 @@ impl Reach {
         &self,
         i: usize,
         v: isize,
-        span: std::ops::Range<usize>,
+        span: Range<usize>,
         out: &mut Vec<Option<Vector3<f64>>>,
-    ) -> Option<std::ops::Range<usize>> {
+    ) -> Option<Range<usize>> {
         let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
         let j = usize::try_from(v + 1).ok().filter(|j| *j < gh)?;
         let row = &self.grid.bearings[j * gw..(j + 1) * gw];
@@ -231,6 +232,17 @@ impl Reach {
     /// A: the largest turn between adjacent output centres, radians.
     pub(super) fn step(&self) -> f64 {
         self.grid.step
+    }
+
+    /// Whether camera `i` may reach an output pixel of columns `us` in rows `vs` (false only
+    /// where it reaches none: by the rows' spans, without a look at each pixel).
+    pub(super) fn may_reach_block(&self, i: usize, us: Range<usize>, vs: Range<usize>) -> bool {
+        let Some(spans) = &self.spans[i] else {
+            return true;
+        };
+        // (grid positions are pixels + 1)
+        vs.map(|v| spans[v + 1])
+            .any(|(a, b)| (a as usize) < us.end + 1 && us.start + 1 < b as usize)
     }
 
     /// Whether camera `i` may reach output pixel (u, v).
@@ -472,7 +484,7 @@ impl CameraModel for Gated<'_> {
         &self,
         v: isize,
         out: &mut Vec<Option<Vector3<f64>>>,
-    ) -> Option<std::ops::Range<usize>> {
+    ) -> Option<Range<usize>> {
         self.reach.gated_reached(self.camera, v, out)
     }
 

@@ -402,7 +402,8 @@ impl WeightPass<'_> {
                 for u0 in (0..w).step_by(TILE) {
                     let u1 = (u0 + TILE).min(w);
                     // (most tiles lie beyond the camera's reach: nothing to weigh)
-                    let any = (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
+                    let any = reach.may_reach_block(i, u0..u1, v0..v1)
+                        && (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
                     if !any {
                         continue;
                     }
