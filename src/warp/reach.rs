@@ -33,8 +33,11 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
 
+mod frustum;
 mod grid;
 mod set;
+pub(super) use frustum::Frustum;
+use frustum::Slack;
 use grid::OutputGrid;
 use set::PositionSet;
 
@@ -75,6 +78,9 @@ pub(super) struct Cone<'a> {
     /// With a depth-guided stitch, b_i: the cone is widened per tile by asin(b_i / t) (no
     /// bound in a tile where t ≤ b_i).
     pub baseline: Option<f64>,
+    /// A pinhole camera's image border planes, which bound it within its cone (without a
+    /// baseline; see `reach/frustum.rs`).
+    pub frustum: Option<Frustum>,
 }
 
 /// The widest angle from the optical axis of `model`'s image border, one pixel out, plus a
@@ -302,6 +308,11 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
         .iter()
         .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
         .collect();
+    // with one limit, a pinhole's image border planes at the same angle beyond (and the
+    // border cone's slack)
+    let planes = (cone.frustum)
+        .filter(|_| limits.len() == 1)
+        .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK));
     let position = |d: &Vector3<f64>, tile: usize| -> bool {
         let limit = limits[tile];
         if !d.x.is_finite() || !(limit < std::f64::consts::PI) {
@@ -309,10 +320,11 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
         }
         let q = (cone.local)(d);
         // NaN compares false: such a point is a candidate too
-        match cos_limits[tile] {
+        let within = match cos_limits[tile] {
             Some(c) => !(q.z < c * q.norm()),
             None => !(q.x.hypot(q.y).atan2(q.z) > limit),
-        }
+        };
+        within && planes.as_ref().is_none_or(|p| p.holds(&q))
     };
     let mut candidate = PositionSet::new(gw, gh);
     let words = candidate.words();
@@ -353,7 +365,8 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                 let (i0, i1) = (tis.start * TILE, (tis.end * TILE).min(gw));
                 let (j0, j1) = (tjs.start * TILE, (tjs.end * TILE).min(gh));
                 if whole_tiles && limits.len() == 1 && complete() {
-                    let whole = whole_tile(cone, k, output, limits[0], (i0, i1), (j0, j1));
+                    let at = ((i0, i1), (j0, j1));
+                    let whole = whole_tile(cone, planes.as_ref(), k, output, limits[0], at);
                     if whole.is_some() {
                         fill(rows, (i0, i1), (j0, j1), whole, 0);
                         continue;
@@ -370,7 +383,10 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                         let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
                         let complete = output.complete[tj * tiles_across + ti];
                         let whole = (whole_tiles && complete)
-                            .then(|| whole_tile(cone, k, output, limits[tile], (i0, i1), (j0, j1)))
+                            .then(|| {
+                                let at = ((i0, i1), (j0, j1));
+                                whole_tile(cone, planes.as_ref(), k, output, limits[tile], at)
+                            })
                             .flatten();
                         fill(rows, (i0, i1), (j0, j1), whole, tile);
                     }
@@ -392,11 +408,11 @@ const TILE_CLEARANCE: f64 = 1e-7;
 /// [`OutputGrid::complete`]).
 fn whole_tile(
     cone: &Cone,
+    planes: Option<&Slack>,
     parallax: f64,
     grid: &OutputGrid,
     limit: f64,
-    (i0, i1): (usize, usize),
-    (j0, j1): (usize, usize),
+    ((i0, i1), (j0, j1)): ((usize, usize), (usize, usize)),
 ) -> Option<bool> {
     if !(limit < std::f64::consts::PI) {
         return Some(true);
@@ -410,12 +426,18 @@ fn whole_tile(
     if !(theta.is_finite() && radius.is_finite()) {
         return None;
     }
-    if theta - radius > limit + 1e-6 + TILE_CLEARANCE {
+    let within = if theta - radius > limit + 1e-6 + TILE_CLEARANCE {
         Some(false)
     } else if theta + radius < limit - TILE_CLEARANCE {
         Some(true)
     } else {
         None
+    };
+    // every position also within the planes, or one of them beyond
+    match (within, planes.map_or(Some(true), |p| p.whole(&q, radius))) {
+        (Some(false), _) | (_, Some(false)) => Some(false),
+        (Some(true), Some(true)) => Some(true),
+        _ => None,
     }
 }
 

@@ -48,6 +48,7 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
                     half_angle: Some(half_angle),
                     parallax: Some(if guided { 1.0 } else { 10.0 / 9.5 }),
                     baseline: guided.then_some(0.5),
+                    frustum: None,
                 };
                 let tiled = cone_reach_by(&cone, &grid, true).unwrap();
                 let alone = cone_reach_by(&cone, &grid, false).unwrap();
@@ -78,6 +79,7 @@ fn a_gated_row_is_what_the_gated_unproject_gives() {
                 half_angle: (i > 0).then(|| border_cone(&camera)).flatten(),
                 parallax: Some(10.0 / 9.5),
                 baseline: None,
+                frustum: None,
             })
             .collect();
         let reach = Reach::new(output, &cones, None);

@@ -6,7 +6,7 @@ use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel, Intrinsics};
 use crate::warp::mask::EgoMask;
-use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
+use crate::warp::reach::{border_cone, Cone, Frustum, Gated, NearBound, Reach};
 use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
@@ -327,6 +327,8 @@ fn cone_of<'a>(
             .filter(|b| b.is_finite() && *b < options.distance)
             .map(|b| options.distance / (options.distance - b)),
         baseline: None,
+        // a pinhole's image border planes bound it within its cone
+        frustum: Frustum::of(camera.model).filter(|_| bounded),
     }
 }
 
