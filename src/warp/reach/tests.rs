@@ -63,6 +63,49 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
 }
 
 #[test]
+fn a_pinholes_planes_cut_its_cone_and_the_tiles_decide_them_as_the_positions_do() {
+    let (plain, turned) = outputs();
+    let locals = locals();
+    // a 16:9 pinhole whose border cone is 33° wide: the planes leave out the cone's corners
+    let camera = Perspective::new(
+        Intrinsics::new(300.0, 300.0, 191.5, 107.5),
+        ImageSize::new(384, 216),
+    );
+    let frustum = Frustum::of(&camera);
+    assert!(frustum.is_some());
+    for output in [&plain as &dyn CameraModel, &turned] {
+        let output_grid = OutputGrid::compute(output);
+        let grid = Grid {
+            output: &output_grid,
+            tiles: None,
+        };
+        for local in &locals {
+            let cone = |frustum| Cone {
+                local,
+                half_angle: border_cone(&camera),
+                parallax: Some(10.0 / 9.5),
+                baseline: None,
+                frustum,
+            };
+            let tiled = cone_reach_by(&cone(frustum), &grid, true).unwrap();
+            let alone = cone_reach_by(&cone(frustum), &grid, false).unwrap();
+            assert!(tiled == alone, "{output:?}");
+            // within the cone's set, and a good part of it left out
+            let round = cone_reach_by(&cone(None), &grid, true).unwrap();
+            let (gw, gh) = (output_grid.gw, output_grid.gh);
+            let subset =
+                (0..gh).all(|j| (0..gw).all(|i| !tiled.contains(i, j) || round.contains(i, j)));
+            assert!(subset, "{output:?}");
+            let (cut, held) = (tiled.len(), round.len());
+            assert!(
+                cut > 500 && (cut as f64) < 0.8 * held as f64,
+                "{cut} of {held}"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_gated_row_is_what_the_gated_unproject_gives() {
     let (plain, turned) = outputs();
     let locals = locals();

@@ -88,8 +88,8 @@ impl Stitch {
                 for (u, px) in row.chunks_exact_mut(3).enumerate() {
                     let total = sums.total[u];
                     if total > 0.0 {
-                        for c in 0..3 {
-                            px[c] = to_u8(sums.acc[u][c] / total);
+                        for (p, acc) in px.iter_mut().zip(sums.acc[u]) {
+                            *p = to_u8(acc / total);
                         }
                     }
                 }
@@ -235,8 +235,8 @@ mod tests {
                 }
             }
             let (fell_back, far) = (
-                stitch.fallback.as_ref().unwrap()[i],
-                stitch.far.as_ref().unwrap()[i],
+                stitch.fallback.as_ref().is_some_and(|f| f[i]),
+                stitch.far.as_ref().is_some_and(|f| f[i]),
             );
             source[i] = if far {
                 best.1 | FAR_SOURCE
@@ -247,6 +247,71 @@ mod tests {
             };
         }
         (out, source)
+    }
+
+    #[test]
+    fn a_threads_kept_buffers_give_what_fresh_images_give() {
+        use crate::camera::{Equirect, Intrinsics, Perspective};
+        use crate::warp::{StitchCamera, StitchOptions};
+        use nalgebra::Vector3;
+        let output = Equirect::new(
+            Intrinsics::new(30.0, 30.0, 94.0, 47.0),
+            ImageSize::new(188, 94),
+        );
+        let pinhole = Perspective::new(
+            Intrinsics::new(60.0, 60.0, 59.5, 39.5),
+            ImageSize::new(120, 80),
+        );
+        let turn = |deg: f64| *nalgebra::Rotation3::from_euler_angles(0.0, deg, 0.0).matrix();
+        let cameras: Vec<StitchCamera> = (0..3)
+            .map(|k| StitchCamera {
+                model: &pinhole,
+                rotation: turn(k as f64 * 2.1),
+                translation: Vector3::new(0.1 * k as f64, 0.0, 0.05),
+                max_theta: None,
+            })
+            .collect();
+        let stitch = Stitch::build(
+            &output,
+            &Vector3::new(0.1, 0.0, 0.0),
+            &cameras,
+            StitchOptions::default(),
+        );
+        let image = |seed: usize| {
+            let mut img = RgbImage::new(120, 80);
+            for (i, b) in img.as_raw_mut().iter_mut().enumerate() {
+                *b = ((i * 31 + seed * 97) % 251) as u8;
+            }
+            img
+        };
+        let (a, b) = (
+            [image(1), image(2), image(3)],
+            [image(4), image(5), image(6)],
+        );
+        // a frame of other images leaves its pixels in the thread's buffers
+        let first = stitch.apply(&[&a[0], &a[1], &a[2]]);
+        let got = stitch.apply(&[&b[0], &b[1], &b[2]]);
+        // the whole remapped images, black beyond each camera's reach
+        let remapped: Vec<RgbImage> = (stitch.tables.iter().zip(&b))
+            .map(|(t, img)| t.apply(img))
+            .collect();
+        let gains = stitch.gains(&remapped);
+        let (want, source) = blend_by_pixel(&stitch, &remapped, &gains);
+        assert_eq!(got.gains, gains);
+        assert!(got.image.as_raw() == &want[..]);
+        assert_eq!(got.source, source);
+        assert!(first.image.as_raw() != got.image.as_raw());
+        // the tables leave most of each camera's rows out: the buffers keep pixels there
+        let (w, h) = (188, 94);
+        let stored: usize = (stitch.tables.iter())
+            .map(|t| {
+                (0..h)
+                    .flat_map(|v| t.stored_spans(v))
+                    .map(|s| s.len())
+                    .sum::<usize>()
+            })
+            .sum();
+        assert!(stored < 3 * w * h / 2, "{stored} stored pixels");
     }
 
     #[test]
