@@ -18,8 +18,11 @@
 //! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
 //! positions from the middle) is decided whole, the others position by position (with one
 //! limit, a block of [`BLOCK`]×[`BLOCK`] tiles is tried whole first, the same way); the set
-//! is the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
-//! reachable centres ([`CameraModel::stored_centres`]).
+//! is the per-position one. A pinhole camera's cone circumscribes its image border; the four
+//! planes through that border bound it further, by the same angle (`reach/frustum.rs`). The
+//! set is a bit a position (`reach/set.rs`); a table built through [`Gated`] reads the stored
+//! bearings of a row's reachable centres, across the row's span of the set alone
+//! ([`CameraModel::stored_centre_span`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
 //! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened

@@ -46,7 +46,8 @@
 //! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer
 //! or farther ones show the parallax between the cameras at the seams.
 //!
-//! The files: `proxy.rs` the mapping through the proxy point (steps 1 and 2), `weights.rs` the
+//! The files: `proxy.rs` the mapping through the proxy point (steps 1 and 2; a pinhole's in
+//! lanes, `fixed_proxy.rs`), `weights.rs` the
 //! tables and the blend weights with their margins and ego masks (steps 2, 3 and 6), `gains.rs`
 //! the exposure gains (step 5), `apply.rs` a frame's blend (step 4).
 

@@ -13,6 +13,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+mod band;
 mod dense;
 mod gate;
 mod lanes;
@@ -23,15 +24,12 @@ mod local;
 mod plain;
 mod quantize;
 
+use band::{Band, CentreRow};
 use quantize::{merge, quantize, quantize_block};
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
-
-/// The fewest whole groups of pixels without a mapped centre a band keeps as a gap (the
-/// table stores no round for them) rather than pixel by pixel.
-const MIN_GAP: usize = 2;
 
 impl RemapTable {
     /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
@@ -175,25 +173,6 @@ struct Builder<'a> {
     taps_cover: bool,
 }
 
-/// A band of consecutive output rows, built independently of the others. Its pixels are
-/// stored but for the runs of [`MIN_GAP`] or more whole groups without a mapped centre (a
-/// stitch camera's output beyond its reach: most of it), kept as gaps.
-#[derive(Default)]
-struct Band {
-    /// The stored pixels' blocks, block counts and covers.
-    quads: Vec<Quad>,
-    counts: Vec<u8>,
-    cover: Vec<Cover>,
-    row_lens: Vec<u32>,
-    row_reach: Vec<u32>,
-    /// The gaps (first group, end group) of every row, in order; `row_gaps[i]..row_gaps[i + 1]`
-    /// are row i's.
-    gaps: Vec<(u32, u32)>,
-    row_gaps: Vec<u32>,
-    /// The highest pyramid level a pixel of the band samples.
-    top_level: u32,
-}
-
 /// Scratch space of one pixel's taps: merged blocks (offset, float weights), or the taps'
 /// blocks (top-left column and row, weights) and the dense grid they are added into.
 #[derive(Default)]
@@ -216,14 +195,6 @@ struct Parts {
     lanes: [Vec<f64>; 3],
     /// The source positions of a span of a row's centres.
     span: Vec<Option<Point2<f64>>>,
-}
-
-/// The source positions of a row's centres, columns -1..=width, and the range written last
-/// (the others are None).
-#[derive(Default)]
-struct CentreRow {
-    positions: Vec<Option<Point2<f64>>>,
-    written: std::ops::Range<usize>,
 }
 
 impl<'a> Builder<'a> {
@@ -324,32 +295,6 @@ impl<'a> Builder<'a> {
         }
         out.clear();
         self.bearings_to_src(&mut parts.bearings, out);
-    }
-
-    /// [`Builder::centres`] into `row`. Where the output stores its centres by spans (a
-    /// stitch's output gated by its reach bound, [`CameraModel::stored_centre_span`]) and the
-    /// source projects each bearing alone, only the span is mapped and written: the row's
-    /// other positions are None, left so from the row it held before but for its last span.
-    fn centres_row(&self, v: isize, parts: &mut Parts, row: &mut CentreRow) {
-        let n = self.dst.size().width as usize + 2;
-        parts.bearings.clear();
-        let span = (self.seen.is_none() && self.src.projects_bearing_by_bearing())
-            .then(|| self.dst.stored_centre_span(v, &mut parts.bearings))
-            .flatten();
-        let Some(span) = span else {
-            self.centres(v, parts, &mut row.positions);
-            row.written = 0..row.positions.len();
-            return;
-        };
-        if row.positions.len() != n {
-            row.positions.clear();
-            row.positions.resize(n, None);
-        }
-        row.positions[row.written.clone()].fill(None);
-        parts.span.clear();
-        self.bearings_to_src(&mut parts.bearings, &mut parts.span);
-        row.positions[span.clone()].copy_from_slice(&parts.span);
-        row.written = span;
     }
 
     /// Builds output rows `rows` into `band` (its old contents dropped). Each pixel centre is mapped once: it is the tap of a pixel
@@ -628,32 +573,6 @@ impl<'a> Builder<'a> {
             }
         }
         t
-    }
-}
-
-impl Band {
-    /// Adds `run` pixels without a mapped centre from column `u` of a row `w` pixels wide: a
-    /// gap of the whole groups within them where there are [`MIN_GAP`] or more, the others
-    /// stored as pixels taking nothing (one all-zero block each).
-    fn blank(&mut self, u: usize, run: usize, w: usize) {
-        let end = u + run;
-        let first = u.div_ceil(LANES);
-        // (the row's last group, even if short, is whole when the run reaches the row's end)
-        let last = if end == w {
-            w.div_ceil(LANES)
-        } else {
-            end / LANES
-        };
-        let (before, after) = if last >= first + MIN_GAP {
-            self.gaps.push((first as u32, last as u32));
-            (first * LANES - u, end - (last * LANES).min(w))
-        } else {
-            (run, 0)
-        };
-        let n = before + after;
-        self.quads.extend(std::iter::repeat_n(Quad::default(), n));
-        self.counts.extend(std::iter::repeat_n(1, n));
-        self.cover.extend(std::iter::repeat_n(Cover::None, n));
     }
 }
 
