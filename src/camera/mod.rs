@@ -127,6 +127,26 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
         false
     }
 
+    /// [`CameraModel::stored_centres`] of the positions of row `v` from the first to the last
+    /// that may have a bearing alone (the others have none): appends theirs and gives their
+    /// range, 0 for column -1; None, `out` unchanged, where this camera stores no centres
+    /// (this default).
+    fn stored_centre_span(
+        &self,
+        _v: isize,
+        _out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<std::ops::Range<usize>> {
+        None
+    }
+
+    /// Whether [`CameraModel::project_all`] gives each bearing the same position wherever it
+    /// lies in the slice (true, this default, for every camera but a depth-guided stitch's
+    /// proxy, which reads a whole row of output pixel centres at once): then a remap table
+    /// may project a part of a row alone.
+    fn projects_bearing_by_bearing(&self) -> bool {
+        true
+    }
+
     /// `Some(K)` where this camera is a pinhole of intrinsics K in its own axes: its
     /// [`CameraModel::project`] is exactly [`Perspective`]'s (the front test, then K · (x/z,
     /// y/z)), so that a remap table may project many bearings in batches of its own. None

@@ -18,8 +18,11 @@
 //! beyond the limit (or within it) by more than the tile's turn k·A·s/(s − b_i) (k the most
 //! positions from the middle) is decided whole, the others position by position (with one
 //! limit, a block of [`BLOCK`]×[`BLOCK`] tiles is tried whole first, the same way); the set
-//! is the per-position one. A table built through [`Gated`] reads the stored bearings of a row's
-//! reachable centres ([`CameraModel::stored_centres`]).
+//! is the per-position one. A pinhole camera's cone circumscribes its image border; the four
+//! planes through that border bound it further, by the same angle (`reach/frustum.rs`). The
+//! set is a bit a position (`reach/set.rs`); a table built through [`Gated`] reads the stored
+//! bearings of a row's reachable centres, across the row's span of the set alone
+//! ([`CameraModel::stored_centre_span`]).
 //!
 //! A depth-guided stitch samples the scene's point at distance t along the bearing instead,
 //! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened
@@ -30,10 +33,16 @@
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Arc;
 
+mod frustum;
 mod grid;
+mod set;
+pub(super) use frustum::Frustum;
+use frustum::Slack;
 use grid::OutputGrid;
+use set::PositionSet;
 
 /// Pixels the candidates are widened by.
 const WIDEN: usize = 2;
@@ -54,8 +63,11 @@ pub(super) struct Reach {
     size: ImageSize,
     /// The output's positions -1..=width × -1..=height and their bearings.
     grid: Arc<OutputGrid>,
-    /// Per camera, over the same positions: whether the camera may reach it (None: all).
-    reach: Vec<Option<Vec<bool>>>,
+    /// Per camera, over the same positions: those the camera may reach (None: all).
+    reach: Vec<Option<PositionSet>>,
+    /// Per camera with a bound, per row of positions: the first and the end of those it may
+    /// reach (equal where none).
+    spans: Vec<Option<Vec<(u32, u32)>>>,
 }
 
 /// One camera as the bound sees it.
@@ -69,6 +81,9 @@ pub(super) struct Cone<'a> {
     /// With a depth-guided stitch, b_i: the cone is widened per tile by asin(b_i / t) (no
     /// bound in a tile where t ≤ b_i).
     pub baseline: Option<f64>,
+    /// A pinhole camera's image border planes, which bound it within its cone (without a
+    /// baseline; see `reach/frustum.rs`).
+    pub frustum: Option<Frustum>,
 }
 
 /// The widest angle from the optical axis of `model`'s image border, one pixel out, plus a
@@ -115,11 +130,16 @@ impl Reach {
             output: &output_grid,
             tiles: tiles.as_deref(),
         };
-        let reach = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
+        let reach: Vec<_> = cameras.iter().map(|cone| cone_reach(cone, &grid)).collect();
+        let gh = output_grid.gh;
+        let spans = (reach.iter())
+            .map(|r| r.as_ref().map(|r| (0..gh).map(|j| r.span(j)).collect()))
+            .collect();
         Reach {
             size,
             grid: output_grid,
             reach,
+            spans,
         }
     }
 
@@ -158,41 +178,64 @@ impl Reach {
         if !(x >= 0.0 && y >= 0.0 && x < gw as f64 && y < (self.size.height + 2) as f64) {
             return true;
         }
-        reach[y as usize * gw + x as usize]
+        reach.contains(x as usize, y as usize)
     }
 
     /// Appends the stored bearings of row `v`'s positions -1..=width to `out`, None where
     /// the output gave none or camera `i` cannot reach: what [`Gated`]'s `unproject` gives
     /// at those centres; false, `out` unchanged, for a row beyond the bound's.
     fn gated_row(&self, i: usize, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
-        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
-        let Some(j) = usize::try_from(v + 1).ok().filter(|j| *j < gh) else {
-            return false;
+        let gw = self.size.width as usize + 2;
+        self.gated_span(i, v, 0..gw, out).is_some()
+    }
+
+    /// [`Reach::gated_row`] of the positions from the first to the last camera `i` may reach
+    /// (see [`CameraModel::stored_centre_span`]).
+    fn gated_reached(
+        &self,
+        i: usize,
+        v: isize,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<Range<usize>> {
+        let gw = self.size.width as usize + 2;
+        let span = match (&self.spans[i], usize::try_from(v + 1)) {
+            (Some(spans), Ok(j)) if j < spans.len() => spans[j].0 as usize..spans[j].1 as usize,
+            _ => 0..gw,
         };
+        self.gated_span(i, v, span, out)
+    }
+
+    /// [`Reach::gated_row`] of the positions `span` of row `v` alone; gives `span`.
+    fn gated_span(
+        &self,
+        i: usize,
+        v: isize,
+        span: Range<usize>,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<Range<usize>> {
+        let (gw, gh) = (self.size.width as usize + 2, self.size.height as usize + 2);
+        let j = usize::try_from(v + 1).ok().filter(|j| *j < gh)?;
         let row = &self.grid.bearings[j * gw..(j + 1) * gw];
         let stored = |d: &Vector3<f64>| d.x.is_finite().then_some(*d);
+        let (first, end) = (span.start, span.end);
         match &self.reach[i] {
-            None => out.extend(row.iter().map(stored)),
+            None => out.extend(row[first..end].iter().map(stored)),
             Some(reach) => {
                 // by runs: most of a row lies beyond a camera's reach
-                let reach = &reach[j * gw..(j + 1) * gw];
-                let mut i = 0;
-                while i < gw {
-                    let on = reach[i];
-                    let end = reach[i..]
-                        .iter()
-                        .position(|r| *r != on)
-                        .map_or(gw, |n| i + n);
+                let mut i = first;
+                while i < end {
+                    let on = reach.contains(i, j);
+                    let run = reach.run_end(j, i, end, on);
                     if on {
-                        out.extend(row[i..end].iter().map(stored));
+                        out.extend(row[i..run].iter().map(stored));
                     } else {
-                        out.resize(out.len() + end - i, None);
+                        out.resize(out.len() + run - i, None);
                     }
-                    i = end;
+                    i = run;
                 }
             }
         }
-        true
+        Some(span)
     }
 
     /// A: the largest turn between adjacent output centres, radians.
@@ -200,11 +243,22 @@ impl Reach {
         self.grid.step
     }
 
+    /// Whether camera `i` may reach an output pixel of columns `us` in rows `vs` (false only
+    /// where it reaches none: by the rows' spans, without a look at each pixel).
+    pub(super) fn may_reach_block(&self, i: usize, us: Range<usize>, vs: Range<usize>) -> bool {
+        let Some(spans) = &self.spans[i] else {
+            return true;
+        };
+        // (grid positions are pixels + 1)
+        vs.map(|v| spans[v + 1])
+            .any(|(a, b)| (a as usize) < us.end + 1 && us.start + 1 < b as usize)
+    }
+
     /// Whether camera `i` may reach output pixel (u, v).
     pub(super) fn may_reach_pixel(&self, i: usize, u: usize, v: usize) -> bool {
         self.reach[i]
             .as_ref()
-            .is_none_or(|r| r[(v + 1) * (self.size.width as usize + 2) + u + 1])
+            .is_none_or(|r| r.contains(u + 1, v + 1))
     }
 }
 
@@ -218,13 +272,13 @@ struct Grid<'a> {
 
 /// The positions of the grid where `cone`'s camera may give a sample (widened by one), None
 /// for every position.
-fn cone_reach(cone: &Cone, grid: &Grid) -> Option<Vec<bool>> {
+fn cone_reach(cone: &Cone, grid: &Grid) -> Option<PositionSet> {
     cone_reach_by(cone, grid, true)
 }
 
 /// [`cone_reach`], deciding the tiles it settles whole (`whole_tiles`) or every position
 /// alone (the tests' reference).
-fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool>> {
+fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<PositionSet> {
     let Grid { output, tiles } = *grid;
     let (bearings, gw, gh, step) = (&output.bearings, output.gw, output.gh, output.step);
     let tiles_across = output.tiles_across();
@@ -257,6 +311,11 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
         .iter()
         .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
         .collect();
+    // with one limit, a pinhole's image border planes at the same angle beyond (and the
+    // border cone's slack)
+    let planes = (cone.frustum)
+        .filter(|_| limits.len() == 1)
+        .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK));
     let position = |d: &Vector3<f64>, tile: usize| -> bool {
         let limit = limits[tile];
         if !d.x.is_finite() || !(limit < std::f64::consts::PI) {
@@ -264,26 +323,32 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
         }
         let q = (cone.local)(d);
         // NaN compares false: such a point is a candidate too
-        match cos_limits[tile] {
+        let within = match cos_limits[tile] {
             Some(c) => !(q.z < c * q.norm()),
             None => !(q.x.hypot(q.y).atan2(q.z) > limit),
-        }
+        };
+        within && planes.as_ref().is_none_or(|p| p.holds(&q))
     };
-    let mut candidate = vec![false; bearings.len()];
+    let mut candidate = PositionSet::new(gw, gh);
+    let words = candidate.words();
     let tiles_down = gh.div_ceil(TILE);
     candidate
-        .par_chunks_mut(gw * TILE * BLOCK)
+        .bits_mut()
+        .par_chunks_mut(words * TILE * BLOCK)
         .enumerate()
         .for_each(|(bj, rows)| {
             let jb = bj * TILE * BLOCK;
-            let fill = |rows: &mut [bool], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
+            let fill = |rows: &mut [u64], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
                 for j in j0..j1 {
-                    let row = &mut rows[(j - jb) * gw..][i0..i1];
+                    let row = &mut rows[(j - jb) * words..][..words];
                     match whole {
-                        Some(all) => row.fill(all),
+                        Some(true) => set::set_range(row, i0, i1),
+                        Some(false) => {}
                         None => {
-                            for (i, out) in (i0..i1).zip(row) {
-                                *out = position(&bearings[j * gw + i], tile);
+                            for i in i0..i1 {
+                                if position(&bearings[j * gw + i], tile) {
+                                    set::set(row, i);
+                                }
                             }
                         }
                     }
@@ -303,7 +368,8 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
                 let (i0, i1) = (tis.start * TILE, (tis.end * TILE).min(gw));
                 let (j0, j1) = (tjs.start * TILE, (tjs.end * TILE).min(gh));
                 if whole_tiles && limits.len() == 1 && complete() {
-                    let whole = whole_tile(cone, k, output, limits[0], (i0, i1), (j0, j1));
+                    let at = ((i0, i1), (j0, j1));
+                    let whole = whole_tile(cone, planes.as_ref(), k, output, limits[0], at);
                     if whole.is_some() {
                         fill(rows, (i0, i1), (j0, j1), whole, 0);
                         continue;
@@ -320,14 +386,17 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Vec<bool
                         let (j0, j1) = (tj * TILE, (tj * TILE + TILE).min(gh));
                         let complete = output.complete[tj * tiles_across + ti];
                         let whole = (whole_tiles && complete)
-                            .then(|| whole_tile(cone, k, output, limits[tile], (i0, i1), (j0, j1)))
+                            .then(|| {
+                                let at = ((i0, i1), (j0, j1));
+                                whole_tile(cone, planes.as_ref(), k, output, limits[tile], at)
+                            })
                             .flatten();
                         fill(rows, (i0, i1), (j0, j1), whole, tile);
                     }
                 }
             }
         });
-    Some(widen(&candidate, gw, gh))
+    Some(candidate.widened(WIDEN))
 }
 
 /// Radians a tile's decision keeps clear of the cone's limit (and of the 1e-6 rad the
@@ -342,11 +411,11 @@ const TILE_CLEARANCE: f64 = 1e-7;
 /// [`OutputGrid::complete`]).
 fn whole_tile(
     cone: &Cone,
+    planes: Option<&Slack>,
     parallax: f64,
     grid: &OutputGrid,
     limit: f64,
-    (i0, i1): (usize, usize),
-    (j0, j1): (usize, usize),
+    ((i0, i1), (j0, j1)): ((usize, usize), (usize, usize)),
 ) -> Option<bool> {
     if !(limit < std::f64::consts::PI) {
         return Some(true);
@@ -360,12 +429,18 @@ fn whole_tile(
     if !(theta.is_finite() && radius.is_finite()) {
         return None;
     }
-    if theta - radius > limit + 1e-6 + TILE_CLEARANCE {
+    let within = if theta - radius > limit + 1e-6 + TILE_CLEARANCE {
         Some(false)
     } else if theta + radius < limit - TILE_CLEARANCE {
         Some(true)
     } else {
         None
+    };
+    // every position also within the planes, or one of them beyond
+    match (within, planes.map_or(Some(true), |p| p.whole(&q, radius))) {
+        (Some(false), _) | (_, Some(false)) => Some(false),
+        (Some(true), Some(true)) => Some(true),
+        _ => None,
     }
 }
 
@@ -398,38 +473,6 @@ fn tile_nearest(grid: &OutputGrid, near: NearBound) -> Vec<f64> {
         .collect()
 }
 
-/// `set` widened by [`WIDEN`] positions in x and in y (a square's max filter), as ORs of
-/// shifted rows (no branch per position).
-fn widen(set: &[bool], w: usize, h: usize) -> Vec<bool> {
-    let mut across = vec![false; set.len()];
-    across
-        .par_chunks_mut(w)
-        .zip(set.par_chunks(w))
-        .for_each_init(
-            || vec![false; w + 2 * WIDEN],
-            |padded, (out, row)| {
-                padded[WIDEN..WIDEN + w].copy_from_slice(row);
-                out.copy_from_slice(&padded[..w]);
-                for s in 1..=2 * WIDEN {
-                    for (o, x) in out.iter_mut().zip(&padded[s..s + w]) {
-                        *o |= *x;
-                    }
-                }
-            },
-        );
-    let mut out = vec![false; set.len()];
-    out.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
-        let lo = j.saturating_sub(WIDEN);
-        let hi = (j + WIDEN).min(h - 1);
-        for k in lo..=hi {
-            for (o, x) in row.iter_mut().zip(&across[k * w..(k + 1) * w]) {
-                *o |= *x;
-            }
-        }
-    });
-    out
-}
-
 /// An output camera whose `unproject` refuses the positions one camera cannot reach: a remap
 /// table built from it maps only the pixels the bound keeps (the others take nothing).
 #[derive(Debug)]
@@ -460,6 +503,14 @@ impl CameraModel for Gated<'_> {
 
     fn stored_centres(&self, v: isize, out: &mut Vec<Option<Vector3<f64>>>) -> bool {
         self.reach.gated_row(self.camera, v, out)
+    }
+
+    fn stored_centre_span(
+        &self,
+        v: isize,
+        out: &mut Vec<Option<Vector3<f64>>>,
+    ) -> Option<Range<usize>> {
+        self.reach.gated_reached(self.camera, v, out)
     }
 
     fn distance(&self, p: &Vector3<f64>) -> f64 {

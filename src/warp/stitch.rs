@@ -48,7 +48,8 @@
 //! the remap is exact; otherwise objects at the proxy distance are stitched exactly and nearer
 //! or farther ones show the parallax between the cameras at the seams.
 //!
-//! The files: `proxy.rs` the mapping through the proxy point (steps 1 and 2), `weights.rs` the
+//! The files: `proxy.rs` the mapping through the proxy point (steps 1 and 2; a pinhole's in
+//! lanes, `fixed_proxy.rs`), `weights.rs` the
 //! tables and the blend weights with their margins and ego masks (steps 2, 3 and 6), `gains.rs`
 //! the exposure gains (step 5), `apply.rs` a frame's blend (step 4).
 
@@ -56,6 +57,7 @@ mod apply;
 mod fallback;
 mod far_fill;
 mod figures;
+mod fixed_proxy;
 mod gains;
 mod guided;
 mod proxy;

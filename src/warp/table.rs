@@ -66,15 +66,19 @@ enum Cover {
     Full,
 }
 
-/// Equality is of the whole table (tests compare the serial and the parallel build).
-#[derive(Debug, PartialEq)]
+/// Equality is of what the table samples (tests compare the serial and the parallel build, and
+/// the builds of one table by different paths): a group stored without rounds (depth 0) equals
+/// a group of one all-zero round.
+#[derive(Debug)]
 pub struct RemapTable {
     size: ImageSize,
     source_size: ImageSize,
     /// The blocks of every pixel, in groups of [`LANES`] pixels of a row, each group's
     /// [`Round`]s in turn (see `kernel.rs`); a pixel outside the source has one all-zero block.
     rounds: Vec<Round>,
-    /// Rounds of each group, row by row (`width.div_ceil(LANES)` groups a row).
+    /// Rounds of each group, row by row (`width.div_ceil(LANES)` groups a row); 0 where the
+    /// group takes nothing from the source and has no round (a camera's rows beyond its reach
+    /// in a stitch: most of a wide output), so the table's size follows what it samples.
     depth: Vec<u8>,
     /// rounds[row_starts[v]..row_starts[v + 1]] belong to output row v.
     row_starts: Vec<u32>,
@@ -187,7 +191,46 @@ impl RemapTable {
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| self.row(&data, v, row, kernel));
+            .for_each(|(v, row)| self.row(&data, v, row, kernel, true));
+    }
+
+    /// As [`RemapTable::apply_into`] (`out` must have the table's size), writing only the
+    /// pixels of [`RemapTable::stored_spans`]: the others take nothing from the source, and
+    /// keep what `out` held (a stitch reads a camera's image only where it weighs it, within
+    /// them, and reuses the buffer frame after frame instead of clearing it).
+    pub(crate) fn apply_stored_into(&self, src: &RgbImage, out: &mut RgbImage) {
+        assert_eq!(
+            (src.width(), src.height(), out.width(), out.height()),
+            (
+                self.source_size.width,
+                self.source_size.height,
+                self.size.width,
+                self.size.height
+            ),
+            "image sizes differ from the table's"
+        );
+        let w = self.size.width as usize;
+        if w == 0 {
+            return;
+        }
+        let data = self.input(src.as_raw());
+        out.as_raw_mut()
+            .par_chunks_mut(w * 3)
+            .enumerate()
+            .with_min_len(8)
+            .for_each(|(v, row)| self.row(&data, v, row, Kernel::Auto, false));
+    }
+
+    /// The pixels of output row `v` in runs of groups the table stores rounds for, in order:
+    /// every other pixel of the row takes nothing from the source (it is black).
+    pub(crate) fn stored_spans(&self, v: usize) -> StoredSpans<'_> {
+        let w = self.size.width as usize;
+        let groups = w.div_ceil(LANES);
+        StoredSpans {
+            depth: &self.depth[v * groups..(v + 1) * groups],
+            next: 0,
+            width: w,
+        }
     }
 
     /// Levels of the source's pyramid the table samples: 1 where it samples the source alone
@@ -239,7 +282,7 @@ impl RemapTable {
         );
         assert_eq!(row.len(), self.size.width as usize * 3, "row length");
         assert!(v < self.size.height as usize, "row {v} beyond the table");
-        self.row(src, v, row, Kernel::Auto);
+        self.row(src, v, row, Kernel::Auto, true);
     }
 
     /// How many rows of [`RemapTable::input`]'s buffer, from the top, output row `v` reads
@@ -253,20 +296,55 @@ impl RemapTable {
         end.div_ceil(stride3).min(self.input_rows() as usize)
     }
 
-    fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel) {
+    /// Resamples output row `v` into `row`; the pixels of groups without rounds are black
+    /// where `blank`, else left as they are.
+    fn row(&self, src: &[u8], v: usize, row: &mut [u8], kernel: Kernel, blank: bool) {
         let groups = (self.size.width as usize).div_ceil(LANES);
         let rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
         let depth = &self.depth[v * groups..(v + 1) * groups];
-        // The groups at the row's ends that take nothing (one all-zero round each: most of a
-        // wide view's row beyond the source) are black without the kernel, which would give
-        // them zeros too.
+        let stride = self.source_size.width as usize;
+        let (mut g, mut r) = (0, 0);
+        while g < groups {
+            // a run of groups without rounds is black, then the run of groups with rounds up
+            // to the next such group goes through the kernel
+            let gaps = depth[g..].iter().take_while(|&&k| k == 0).count();
+            let end = g + gaps;
+            let runs = depth[end..].iter().take_while(|&&k| k != 0).count();
+            let kept = &depth[end..end + runs];
+            let n: usize = kept.iter().map(|&k| k as usize).sum();
+            let len = row.len();
+            let px = (end * LANES * 3).min(len)..((end + runs) * LANES * 3).min(len);
+            if blank {
+                row[(g * LANES * 3).min(len)..px.start].fill(0);
+            }
+            if runs > 0 {
+                let out = &mut row[px];
+                self.segment((&rounds[r..r + n], kept), (src, stride), v, out, kernel);
+            }
+            (g, r) = (end + runs, r + n);
+        }
+    }
+
+    /// Resamples the pixels `row` of one run of groups with rounds (`rounds` the run's, its
+    /// depths `kept`) of output row `v`. The groups at the run's ends that take nothing (one
+    /// all-zero round each: most of a wide view's row beyond the source, in a table that
+    /// stores them) are black without the kernel, which would give them zeros too.
+    fn segment(
+        &self,
+        (rounds, kept): (&[Round], &[u8]),
+        (src, stride): (&[u8], usize),
+        v: usize,
+        row: &mut [u8],
+        kernel: Kernel,
+    ) {
+        let groups = kept.len();
         let blank = |(&k, round): (&u8, &Round)| k == 1 && is_zero(round);
-        let lead = depth.iter().zip(rounds).take_while(|&g| blank(g)).count();
+        let lead = kept.iter().zip(rounds).take_while(|&g| blank(g)).count();
         if lead == groups {
             row.fill(0);
             return;
         }
-        let trail = depth
+        let trail = kept
             .iter()
             .rev()
             .zip(rounds.iter().rev())
@@ -276,10 +354,9 @@ impl RemapTable {
         let last = last.min(row.len());
         row[..first].fill(0);
         row[last..].fill(0);
-        let stride = self.source_size.width as usize;
         kernel::apply_row(
             &rounds[lead..rounds.len() - trail],
-            &depth[lead..groups - trail],
+            &kept[lead..groups - trail],
             src,
             stride,
             self.row_reach[v],
@@ -288,17 +365,58 @@ impl RemapTable {
         );
     }
 
-    /// Appends one output row, from each pixel's blocks (`counts[u]` of `quads` for pixel u;
-    /// `reach` their largest offset), in groups of [`LANES`] pixels (see [`Round`]). The
-    /// padding blocks repeat offsets of the row, so `reach` bounds them too.
-    fn push_row(&mut self, quads: &[Quad], counts: &[u8], reach: u32) {
-        let mut rest = quads;
-        for pixels in counts.chunks(LANES) {
-            rest = self.push_group(rest, pixels);
+    /// Appends one output row, from each of its stored pixels' blocks (`counts[u]` of `quads`
+    /// for the row's u-th stored pixel; `reach` their largest offset) and covers, in groups of
+    /// [`LANES`] pixels (see [`Round`]); the groups of `gaps` (first, end) are not stored
+    /// (depth 0, no round, covered nowhere) and their pixels have no entry in `counts` or
+    /// `cover`. The padding blocks repeat offsets of the row, so `reach` bounds them too.
+    fn push_row(&mut self, (quads, counts, cover): RowParts, gaps: &[(u32, u32)], reach: u32) {
+        let w = self.size.width as usize;
+        let groups = w.div_ceil(LANES) as u32;
+        let (mut rest, mut counts, mut cover) = (quads, counts, cover);
+        let mut g = 0;
+        for &(first, end) in gaps.iter().chain([&(groups, groups)]) {
+            let stored = (first as usize * LANES).min(w) - (g as usize * LANES).min(w);
+            let (row_counts, row_cover);
+            (row_counts, counts) = counts.split_at(stored);
+            (row_cover, cover) = cover.split_at(stored);
+            for pixels in row_counts.chunks(LANES) {
+                rest = self.push_group(rest, pixels);
+            }
+            self.cover.extend_from_slice(row_cover);
+            let gap = (end as usize * LANES).min(w) - (first as usize * LANES).min(w);
+            self.cover.resize(self.cover.len() + gap, Cover::None);
+            self.depth
+                .resize(self.depth.len() + (end - first) as usize, 0);
+            g = end;
         }
-        debug_assert!(rest.is_empty(), "every block of the row placed");
+        debug_assert!(
+            rest.is_empty() && counts.is_empty(),
+            "every block of the row placed"
+        );
         self.row_reach.push(reach);
         self.row_starts.push(self.rounds.len() as u32);
+    }
+
+    /// Row `v`'s rounds, group by group (a group without rounds as one all-zero round).
+    fn row_groups(&self, v: usize) -> impl Iterator<Item = &[Round]> + '_ {
+        const BLANK: &[Round] = &[Round {
+            offset: [0; LANES],
+            w: [[0; 4]; LANES],
+        }];
+        let groups = (self.size.width as usize).div_ceil(LANES);
+        let mut rounds = &self.rounds[self.row_starts[v] as usize..self.row_starts[v + 1] as usize];
+        self.depth[v * groups..(v + 1) * groups]
+            .iter()
+            .map(move |&k| {
+                let group;
+                (group, rounds) = rounds.split_at(k as usize);
+                if k == 0 {
+                    BLANK
+                } else {
+                    group
+                }
+            })
     }
 
     /// Appends the rounds and depth of a group of pixels of a row (`pixels[i]` blocks for its
@@ -354,6 +472,38 @@ impl RemapTable {
     }
 }
 
+impl PartialEq for RemapTable {
+    fn eq(&self, other: &Self) -> bool {
+        let rows = self.row_reach.len();
+        (self.size, self.source_size, self.levels) == (other.size, other.source_size, other.levels)
+            && self.row_reach == other.row_reach
+            && self.cover == other.cover
+            && (0..rows).all(|v| self.row_groups(v).eq(other.row_groups(v)))
+    }
+}
+
+/// The runs of a row's groups with rounds, as pixel ranges ([`RemapTable::stored_spans`]).
+pub(crate) struct StoredSpans<'a> {
+    depth: &'a [u8],
+    next: usize,
+    width: usize,
+}
+
+impl Iterator for StoredSpans<'_> {
+    type Item = std::ops::Range<usize>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let depth = self.depth;
+        let start = self.next + depth[self.next..].iter().take_while(|&&k| k == 0).count();
+        let end = start + depth[start..].iter().take_while(|&&k| k != 0).count();
+        self.next = end;
+        (end > start).then(|| start * LANES..(end * LANES).min(self.width))
+    }
+}
+
+/// A row's stored pixels: their blocks, block counts and covers (see [`RemapTable::push_row`]).
+type RowParts<'a> = (&'a [Quad], &'a [u8], &'a [Cover]);
+
 /// Whether `round` is all zeros (`Round::default()`), by OR-folds that vectorise: `==` on the
 /// 96-byte struct calls `memcmp`, once a group at a row's ends.
 #[inline]
@@ -361,4 +511,69 @@ fn is_zero(round: &Round) -> bool {
     let offsets = round.offset.iter().fold(0, |a, &o| a | o);
     let weights = round.w.iter().flatten().fold(0, |a, &w| a | w);
     offsets == 0 && weights == 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Fisheye, Intrinsics, Perspective, RadialModel};
+    use nalgebra::Vector3;
+
+    #[test]
+    fn a_table_stores_rounds_only_for_the_groups_it_reaches_and_writes_only_them() {
+        // a 190° lens from a 70° pinhole: most of the lens's image takes nothing
+        let source = Perspective::new(
+            Intrinsics::new(90.0, 90.0, 63.5, 40.5),
+            ImageSize::new(128, 80),
+        );
+        let lens = Fisheye::new(
+            RadialModel::Equidistant,
+            Intrinsics::new(40.0, 40.0, 60.0, 45.0),
+            ImageSize::new(121, 91),
+            190f64.to_radians(),
+        )
+        .expect("lens");
+        // the pixels beyond the footprint have no mapped centre
+        let turn = Matrix3::identity();
+        let seen = crate::warp::footprint::Footprint::new(&lens, &source, &turn, &-Vector3::z());
+        assert!(seen.is_some(), "a footprint");
+        let build = |parallel| {
+            let (wrap, cap) = (Wrap::None, MAX_SUPERSAMPLE);
+            RemapTable::build_within(&lens, &source, &turn, wrap, cap, seen.as_ref(), parallel)
+        };
+        let table = build(false);
+        assert!(table == build(true), "serial and parallel bands");
+        let (w, h) = (121usize, 91usize);
+        let groups = w.div_ceil(LANES);
+        // most groups have no round, and no pixel of such a group is covered
+        let without = table.depth.iter().filter(|&&k| k == 0).count();
+        assert!(without * 2 > groups * h, "{without} groups without a round");
+        let mut src = RgbImage::new(128, 80);
+        for (i, b) in src.as_raw_mut().iter_mut().enumerate() {
+            *b = (i * 29 % 251) as u8;
+        }
+        let full = table.apply(&src);
+        let mut kept = RgbImage::new(w as u32, h as u32);
+        kept.as_raw_mut().fill(7);
+        table.apply_stored_into(&src, &mut kept);
+        let mut beyond = 0;
+        for v in 0..h {
+            let stored: Vec<usize> = table.stored_spans(v).flatten().collect();
+            for u in 0..w {
+                let (a, b) = (
+                    full.pixel(u as u32, v as u32),
+                    kept.pixel(u as u32, v as u32),
+                );
+                if stored.contains(&u) {
+                    assert_eq!(a, b, "({u}, {v})");
+                } else {
+                    // black in the whole image, left as it was by the stored spans' writer
+                    assert_eq!((a, b), ([0; 3], [7; 3]), "({u}, {v})");
+                    assert!(table.cover[v * w + u] == Cover::None, "({u}, {v})");
+                    beyond += 1;
+                }
+            }
+        }
+        assert!(beyond > w * h / 3, "{beyond} pixels beyond");
+    }
 }

@@ -108,15 +108,19 @@ pub(super) fn grid_bearings(output: &dyn CameraModel, gw: usize, gh: usize) -> V
     bearings
 }
 
+/// Rows of the grid a task of [`largest_turn`] takes: each of its rows is normalised once, and
+/// the row below its last once more.
+const TURN_ROWS: usize = 32;
+
 /// A: the largest turn between adjacent centres of the grid (across, down and both
 /// diagonals), radians.
 pub(super) fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f64 {
     // the turn 2·asin(chord/2) of the longest chord (asin grows with its argument); each
-    // bearing normalised once per row it is read in, the chords compared squared (the
-    // square root is monotonic: the same largest chord)
-    let unit = |row: &[Vector3<f64>], out: &mut Vec<Vector3<f64>>| {
+    // bearing normalised once per band of rows it is read in, the chords compared squared
+    // (the square root is monotonic: the same largest chord)
+    let unit = |j: usize, out: &mut Vec<Vector3<f64>>| {
         out.clear();
-        out.extend(row.iter().map(|d| d.normalize()));
+        out.extend(bearings[j * gw..(j + 1) * gw].iter().map(|d| d.normalize()));
     };
     let chord2 = |a: &Vector3<f64>, b: &Vector3<f64>| {
         let c = (a - b).norm_squared();
@@ -126,18 +130,19 @@ pub(super) fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f
             0.0
         }
     };
-    let step2 = (0..gh)
+    let step2 = (0..gh.div_ceil(TURN_ROWS))
         .into_par_iter()
-        .map_init(
-            || (Vec::new(), Vec::new()),
-            |(here, below), j| {
-                unit(&bearings[j * gw..(j + 1) * gw], here);
-                let mut a: f64 = 0.0;
+        .map(|band| {
+            let (mut here, mut below) = (Vec::new(), Vec::new());
+            let rows = band * TURN_ROWS..((band + 1) * TURN_ROWS).min(gh);
+            unit(rows.start, &mut here);
+            let mut a: f64 = 0.0;
+            for j in rows {
                 for i in 0..gw - 1 {
                     a = a.max(chord2(&here[i], &here[i + 1]));
                 }
                 if j + 1 < gh {
-                    unit(&bearings[(j + 1) * gw..(j + 2) * gw], below);
+                    unit(j + 1, &mut below);
                     for i in 0..gw {
                         a = a.max(chord2(&here[i], &below[i]));
                         if i + 1 < gw {
@@ -147,10 +152,11 @@ pub(super) fn largest_turn(bearings: &[Vector3<f64>], gw: usize, gh: usize) -> f
                             a = a.max(chord2(&here[i], &below[i - 1]));
                         }
                     }
+                    std::mem::swap(&mut here, &mut below);
                 }
-                a
-            },
-        )
+            }
+            a
+        })
         .reduce(|| 0.0, f64::max);
     2.0 * (step2.sqrt() / 2.0).min(1.0).asin()
 }

@@ -48,14 +48,59 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
                     half_angle: Some(half_angle),
                     parallax: Some(if guided { 1.0 } else { 10.0 / 9.5 }),
                     baseline: guided.then_some(0.5),
+                    frustum: None,
                 };
                 let tiled = cone_reach_by(&cone, &grid, true).unwrap();
                 let alone = cone_reach_by(&cone, &grid, false).unwrap();
                 assert!(tiled == alone, "{output:?} {half_angle} {guided}");
                 // the cone holds some positions and leaves others
-                let held = tiled.iter().filter(|r| **r).count();
-                assert!(held > 500 && held < tiled.len() - 500, "{held}");
+                let held = tiled.len();
+                let all = output_grid.gw * output_grid.gh;
+                assert!(held > 500 && held < all - 500, "{held}");
             }
+        }
+    }
+}
+
+#[test]
+fn a_pinholes_planes_cut_its_cone_and_the_tiles_decide_them_as_the_positions_do() {
+    let (plain, turned) = outputs();
+    let locals = locals();
+    // a 16:9 pinhole whose border cone is 33° wide: the planes leave out the cone's corners
+    let camera = Perspective::new(
+        Intrinsics::new(300.0, 300.0, 191.5, 107.5),
+        ImageSize::new(384, 216),
+    );
+    let frustum = Frustum::of(&camera);
+    assert!(frustum.is_some());
+    for output in [&plain as &dyn CameraModel, &turned] {
+        let output_grid = OutputGrid::compute(output);
+        let grid = Grid {
+            output: &output_grid,
+            tiles: None,
+        };
+        for local in &locals {
+            let cone = |frustum| Cone {
+                local,
+                half_angle: border_cone(&camera),
+                parallax: Some(10.0 / 9.5),
+                baseline: None,
+                frustum,
+            };
+            let tiled = cone_reach_by(&cone(frustum), &grid, true).unwrap();
+            let alone = cone_reach_by(&cone(frustum), &grid, false).unwrap();
+            assert!(tiled == alone, "{output:?}");
+            // within the cone's set, and a good part of it left out
+            let round = cone_reach_by(&cone(None), &grid, true).unwrap();
+            let (gw, gh) = (output_grid.gw, output_grid.gh);
+            let subset =
+                (0..gh).all(|j| (0..gw).all(|i| !tiled.contains(i, j) || round.contains(i, j)));
+            assert!(subset, "{output:?}");
+            let (cut, held) = (tiled.len(), round.len());
+            assert!(
+                cut > 500 && (cut as f64) < 0.8 * held as f64,
+                "{cut} of {held}"
+            );
         }
     }
 }
@@ -77,6 +122,7 @@ fn a_gated_row_is_what_the_gated_unproject_gives() {
                 half_angle: (i > 0).then(|| border_cone(&camera)).flatten(),
                 parallax: Some(10.0 / 9.5),
                 baseline: None,
+                frustum: None,
             })
             .collect();
         let reach = Reach::new(output, &cones, None);

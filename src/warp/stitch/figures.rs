@@ -53,8 +53,12 @@ impl StitchFigures {
 impl Stitch {
     /// The figures of this stitch of `images` (as [`Stitch::apply`] takes them).
     pub fn figures(&self, images: &[&RgbImage]) -> StitchFigures {
-        let remapped = self.remap(images);
-        let stitched = self.blend(&remapped);
+        self.with_remapped(images, |remapped| self.figures_of(remapped))
+    }
+
+    /// [`Stitch::figures`] of the cameras' `remapped` images (valid where they weigh).
+    fn figures_of(&self, remapped: &[RgbImage]) -> StitchFigures {
+        let stitched = self.blend(remapped);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let covered: Vec<bool> = (0..w * h)
             .map(|i| {

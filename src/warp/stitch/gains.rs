@@ -47,7 +47,8 @@ impl Stitch {
     }
 
     /// The overlap sums of every pair of cameras, row by row: per row a bit set of the
-    /// cameras that weigh each pixel (camera by camera, each weight row read in one sweep),
+    /// cameras that weigh each pixel (camera by camera, each weight row read in one sweep of
+    /// its table's stored spans),
     /// then the pairs of the pixels two or more cameras weigh. Integer sums: exact, so they do
     /// not depend on the order or the thread count.
     pub(super) fn pair_sums(&self, remapped: &[RgbImage]) -> PairSums {
@@ -65,10 +66,14 @@ impl Stitch {
                 |((mut count, mut sum), mut sets), v| {
                     sets.clear();
                     sets.resize(w, 0u64);
+                    // (a camera weighs nothing beyond its table's stored spans)
                     for k in 0..n {
                         let weights = &self.weights[k][v * w..(v + 1) * w];
-                        for (set, &wk) in sets.iter_mut().zip(weights) {
-                            *set |= ((wk > 0.0) as u64) << k;
+                        for span in self.spans(k, v) {
+                            let sets = &mut sets[span.clone()];
+                            for (set, &wk) in sets.iter_mut().zip(&weights[span]) {
+                                *set |= ((wk > 0.0) as u64) << k;
+                            }
                         }
                     }
                     for (u, &set) in sets.iter().enumerate() {

@@ -93,6 +93,7 @@ pub(super) fn guided_cone<'a>(
         half_angle,
         parallax: Some(1.0),
         baseline,
+        frustum: None,
     }
 }
 

@@ -1,6 +1,7 @@
 //! The proxy: an output bearing's point at the proxy distance, seen by one source camera
 //! (steps 1 and 2 of the stitch's model), as a camera model a remap table is built through.
 
+use super::fixed_proxy::FixedPinhole;
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use crate::warp::reach::Reach;
@@ -246,6 +247,19 @@ impl<'a> Proxy<'a> {
         self.camera.rotation * self.point_at(n, distance) + self.camera.translation
     }
 
+    /// Without a depth, for a pinhole camera without a field-of-view bound, what its
+    /// projection in lanes reads ([`FixedPinhole`]).
+    fn fixed_pinhole(&self) -> Option<FixedPinhole> {
+        let fixed = self.depth.is_none() && self.camera.max_theta.is_none();
+        Some(FixedPinhole {
+            rotation: self.camera.rotation,
+            translation: self.camera.translation,
+            centre: self.centre,
+            distance: self.distance,
+            k: self.camera.model.pinhole().filter(|_| fixed)?,
+        })
+    }
+
     /// [`CameraModel::project_all`] without the image bound.
     fn project_each(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
         match self.centre_distances(bearings) {
@@ -364,6 +378,10 @@ impl CameraModel for Proxy<'_> {
     /// taps on it (a camera gives a stitch nothing where its image does not cover a pixel's
     /// whole footprint).
     fn project_all(&self, bearings: &[Option<Vector3<f64>>], out: &mut Vec<Option<Point2<f64>>>) {
+        if let Some(fixed) = self.fixed_pinhole() {
+            // the same positions, a group of lanes at a time (`fixed_proxy.rs`)
+            return fixed.project_all(bearings, out);
+        }
         let start = out.len();
         self.project_each(bearings, out);
         if self.depth.is_some() {
@@ -372,6 +390,12 @@ impl CameraModel for Proxy<'_> {
                 *p = p.filter(|p| in_image(p, w, h));
             }
         }
+    }
+
+    /// A row of output pixel centres takes the distances computed for them (see
+    /// [`Proxy::with_centres`]): only a whole row is projected so.
+    fn projects_bearing_by_bearing(&self) -> bool {
+        self.centres.is_none()
     }
 
     /// The output bearing whose proxy point the pixel sees: the camera's ray met with the

@@ -6,7 +6,7 @@ use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel, Intrinsics};
 use crate::warp::mask::EgoMask;
-use crate::warp::reach::{border_cone, Cone, Gated, NearBound, Reach};
+use crate::warp::reach::{border_cone, Cone, Frustum, Gated, NearBound, Reach};
 use crate::warp::table::{RemapTable, Surfaces};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
@@ -323,6 +323,8 @@ fn cone_of<'a>(
             .filter(|b| b.is_finite() && *b < options.distance)
             .map(|b| options.distance / (options.distance - b)),
         baseline: None,
+        // a pinhole's image border planes bound it within its cone
+        frustum: Frustum::of(camera.model).filter(|_| bounded),
     }
 }
 
@@ -403,7 +405,8 @@ impl WeightPass<'_> {
                 for u0 in (0..w).step_by(TILE) {
                     let u1 = (u0 + TILE).min(w);
                     // (most tiles lie beyond the camera's reach: nothing to weigh)
-                    let any = (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
+                    let any = reach.may_reach_block(i, u0..u1, v0..v1)
+                        && (v0..v1).any(|v| (u0..u1).any(|u| pass.gives(u, v)));
                     if !any {
                         continue;
                     }

@@ -13,6 +13,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
+mod band;
 mod dense;
 mod gate;
 mod lanes;
@@ -26,6 +27,7 @@ mod surface;
 
 pub(crate) use surface::Surfaces;
 
+use band::{Band, CentreRow};
 use quantize::{merge, quantize, quantize_block};
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
@@ -212,18 +214,6 @@ struct Builder<'a> {
     surfaces: Option<&'a dyn Surfaces>,
 }
 
-/// A band of consecutive output rows, built independently of the others.
-#[derive(Default)]
-struct Band {
-    quads: Vec<Quad>,
-    counts: Vec<u8>,
-    row_lens: Vec<u32>,
-    row_reach: Vec<u32>,
-    cover: Vec<Cover>,
-    /// The highest pyramid level a pixel of the band samples.
-    top_level: u32,
-}
-
 /// Scratch space of one pixel's taps: merged blocks (offset, float weights), or the taps'
 /// blocks (top-left column and row, weights) and the dense grid they are added into.
 #[derive(Default)]
@@ -244,6 +234,8 @@ struct Parts {
     tap_rows: [Vec<Share>; MAX_SUPERSAMPLE as usize + 1],
     /// A row's bearing coordinates (x, y, z) for the centres mapped in lanes.
     lanes: [Vec<f64>; 3],
+    /// The source positions of a span of a row's centres.
+    span: Vec<Option<Point2<f64>>>,
 }
 
 impl<'a> Builder<'a> {
@@ -359,6 +351,9 @@ impl<'a> Builder<'a> {
         band.row_lens.clear();
         band.row_reach.clear();
         band.cover.clear();
+        band.gaps.clear();
+        band.row_gaps.clear();
+        band.row_gaps.push(0);
         band.top_level = 0;
         // room for the second blocks of some supersampled pixels: growing would copy it all
         band.quads.reserve(n + n / 4);
@@ -368,17 +363,19 @@ impl<'a> Builder<'a> {
         band.cover.reserve(n);
         let mut scratch = Scratch::default();
         let mut parts = Parts::default();
-        let (mut above, mut here, mut below) = (Vec::new(), Vec::new(), Vec::new());
-        self.centres(rows.start as isize - 1, &mut parts, &mut above);
-        self.centres(rows.start as isize, &mut parts, &mut here);
+        let [mut above, mut here, mut below] = <[CentreRow; 3]>::default();
+        self.centres_row(rows.start as isize - 1, &mut parts, &mut above);
+        self.centres_row(rows.start as isize, &mut parts, &mut here);
         for v in rows {
             let row_start = band.quads.len();
-            self.centres(v as isize + 1, &mut parts, &mut below);
-            self.row(v, [&above, &here, &below], &mut scratch, &mut parts, band);
+            self.centres_row(v as isize + 1, &mut parts, &mut below);
+            let centres = [&above, &here, &below].map(|r| &r.positions[..]);
+            self.row(v, centres, &mut scratch, &mut parts, band);
             let row = &band.quads[row_start..];
             band.row_lens.push(row.len() as u32);
             band.row_reach
                 .push(row.iter().map(|q| q.offset).max().unwrap_or(0));
+            band.row_gaps.push(band.gaps.len() as u32);
             std::mem::swap(&mut above, &mut here);
             std::mem::swap(&mut here, &mut below);
         }
@@ -406,9 +403,7 @@ impl<'a> Builder<'a> {
                 // no tap (what the general path below gives such a pixel, cheaply), for the
                 // whole run of such pixels at once (most of a wide view)
                 let run = 1 + here[u + 2..=w].iter().take_while(|c| c.is_none()).count();
-                band.quads.extend(std::iter::repeat_n(Quad::default(), run));
-                band.counts.extend(std::iter::repeat_n(1, run));
-                band.cover.extend(std::iter::repeat_n(Cover::None, run));
+                band.blank(u, run, w);
                 next = u + run;
                 continue;
             }
@@ -590,12 +585,13 @@ impl<'a> Builder<'a> {
         let size = self.dst.size();
         let (w, h) = (size.width as usize, size.height as usize);
         let groups = w.div_ceil(LANES) * h;
-        // about one round a group, a few more at the supersampled sides
+        // about one round a stored group, a few more at the supersampled sides
         let total: usize = bands.iter().map(|b| b.quads.len()).sum();
+        let stored: usize = bands.iter().map(|b| b.counts.len()).sum();
         let mut t = RemapTable {
             size,
             source_size: self.source_size,
-            rounds: Vec::with_capacity(groups + (total - w * h) / 2),
+            rounds: Vec::with_capacity(stored.div_ceil(LANES) + (total - stored) / 2),
             depth: Vec::with_capacity(groups),
             row_starts: Vec::with_capacity(h + 1),
             row_reach: Vec::with_capacity(h),
@@ -604,13 +600,19 @@ impl<'a> Builder<'a> {
         };
         t.row_starts.push(0);
         for b in bands {
-            let mut quads = &b.quads[..];
+            let (mut quads, mut counts, mut cover) = (&b.quads[..], &b.counts[..], &b.cover[..]);
             for (i, (&len, &reach)) in b.row_lens.iter().zip(&b.row_reach).enumerate() {
-                let (row, rest) = quads.split_at(len as usize);
-                t.push_row(row, &b.counts[i * w..(i + 1) * w], reach);
-                quads = rest;
+                let gaps = &b.gaps[b.row_gaps[i] as usize..b.row_gaps[i + 1] as usize];
+                let gap: usize = (gaps.iter())
+                    .map(|&(g0, g1)| (g1 as usize * LANES).min(w) - g0 as usize * LANES)
+                    .sum();
+                let row;
+                (row, quads) = quads.split_at(len as usize);
+                let (row_counts, row_cover);
+                (row_counts, counts) = counts.split_at(w - gap);
+                (row_cover, cover) = cover.split_at(w - gap);
+                t.push_row((row, row_counts, row_cover), gaps, reach);
             }
-            t.cover.extend_from_slice(&b.cover);
         }
         t
     }
