@@ -15,6 +15,7 @@ use std::sync::OnceLock;
 
 mod band;
 mod dense;
+mod entry;
 mod gate;
 mod lanes;
 mod level;
@@ -33,107 +34,6 @@ use quantize::{merge, quantize, quantize_block};
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.
 const BAND_ROWS: usize = 16;
-
-impl RemapTable {
-    /// Exactly [`RemapTable::build_with`], mapping only the output pixels within `seen` (the
-    /// others take nothing from the source: see [`Footprint`]), serially or with bands of rows
-    /// in parallel (see [`RemapTable::build_parallel`] for where that is allowed).
-    pub fn build_within(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        wrap: Wrap,
-        max_supersample: u32,
-        seen: Option<&Footprint>,
-        parallel: bool,
-    ) -> RemapTable {
-        let b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
-        b.build(parallel)
-    }
-
-    /// As [`RemapTable::build_within`], where an output pixel 1.5 or more source pixels wide
-    /// along both of its axes samples the source's pyramid instead (see [`pyramid`]): one
-    /// bilinear tap (more along the longer axis of an anisotropic footprint) at the level
-    /// where it spans 0.75 to 1.5 level pixels, about what a bilinear lookup costs to build
-    /// and apply, against a tap for each source pixel under it. Pixels finer than that are
-    /// exactly [`RemapTable::build_within`]'s. Apply the
-    /// table to [`RemapTable::input`]'s buffer (`apply` and `apply_into` build it). A 360°
-    /// source (its columns wrap) takes the taps of [`RemapTable::build_within`].
-    ///
-    /// [`pyramid`]: crate::warp::pyramid
-    pub fn build_pyramid_within(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        wrap: Wrap,
-        max_supersample: u32,
-        seen: Option<&Footprint>,
-        parallel: bool,
-    ) -> RemapTable {
-        let mut b = Builder::new(dst, src, src_from_dst, wrap, max_supersample, seen);
-        b.shapes = match b.one_block {
-            true => pyramid::level_shapes(b.source_size, b.cap.ilog2() + 1),
-            false => Vec::new(),
-        };
-        b.build(parallel)
-    }
-
-    /// As [`RemapTable::build_pyramid_within`] (no wrap, at most 8×8 taps, every output pixel
-    /// mapped), where a pixel under `taps_below` source pixels along its shorter axis takes
-    /// the taps of [`RemapTable::build_within`] and a coarser one the pyramid's level by its
-    /// rule. A stitch's tables take the taps below 2 source pixels: there a level's blur
-    /// costs more against an exact render than the few taps do.
-    pub fn build_pyramid_above(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        taps_below: f64,
-        parallel: bool,
-    ) -> RemapTable {
-        Self::build_pyramid_guided(dst, src, src_from_dst, taps_below, None, parallel)
-    }
-
-    /// As [`RemapTable::build_pyramid_above`], where `surfaces` (a depth-guided stitch's
-    /// scene at the output's pixels) says which pixels' footprints lie on one surface: only
-    /// those sample the pyramid, a pixel by a depth edge keeps its taps (see `surface.rs`).
-    pub(crate) fn build_pyramid_guided(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        taps_below: f64,
-        surfaces: Option<&dyn Surfaces>,
-        parallel: bool,
-    ) -> RemapTable {
-        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, None);
-        if b.one_block {
-            b.shapes = pyramid::level_shapes(b.source_size, 5);
-        }
-        b.taps_below2 = taps_below * taps_below;
-        b.taps_cover = true;
-        b.surfaces = surfaces;
-        b.build(parallel)
-    }
-
-    /// [`RemapTable::build_pyramid_above`] mapping only the output pixels within `seen` (the
-    /// others take nothing from the source), as [`RemapTable::build_within`] does: a fisheye
-    /// target's table (a lens sees a KITTI camera through a small part of its image).
-    pub fn build_pyramid_above_within(
-        dst: &dyn CameraModel,
-        src: &dyn CameraModel,
-        src_from_dst: &Matrix3<f64>,
-        taps_below: f64,
-        seen: Option<&Footprint>,
-        parallel: bool,
-    ) -> RemapTable {
-        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, seen);
-        if b.one_block {
-            b.shapes = pyramid::level_shapes(b.source_size, 5);
-        }
-        b.taps_below2 = taps_below * taps_below;
-        b.taps_cover = true;
-        b.build(parallel)
-    }
-}
 
 impl Builder<'_> {
     /// The table, serially or with bands of rows in parallel.

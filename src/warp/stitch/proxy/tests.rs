@@ -1,0 +1,226 @@
+//! The proxy's unit tests: a guided table by a depth edge and within a camera's image.
+
+use super::*;
+use crate::camera::{Equirect, Intrinsics, Perspective};
+use crate::image::RgbImage;
+use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
+use nalgebra::Matrix3;
+
+/// A scene at one distance everywhere, seen by every camera.
+#[derive(Debug)]
+pub(in crate::warp::stitch) struct Sphere(pub(in crate::warp::stitch) f64);
+
+impl StitchDepth for Sphere {
+    fn distance(&self, _: &Vector3<f64>) -> f64 {
+        self.0
+    }
+    fn sees(&self, _: usize, _: &Vector3<f64>) -> bool {
+        true
+    }
+    fn nearest(&self) -> f64 {
+        self.0
+    }
+}
+
+/// A near panel (the plane z = 2 m, within a window of bearings) before a far wall (20 m).
+#[derive(Debug)]
+struct Panel;
+
+impl StitchDepth for Panel {
+    fn distance(&self, d: &Vector3<f64>) -> f64 {
+        let n = d.normalize();
+        let on = n.z > 0.0 && (n.x / n.z).abs() < 0.3 && (n.y / n.z).abs() < 0.2;
+        if on {
+            2.0 / n.z
+        } else {
+            20.0
+        }
+    }
+    fn sees(&self, _: usize, _: &Vector3<f64>) -> bool {
+        true
+    }
+    fn nearest(&self) -> f64 {
+        2.0
+    }
+}
+
+#[test]
+fn a_guided_table_keeps_the_taps_across_a_depth_edge_and_samples_the_pyramid_elsewhere() {
+    // a camera 0.4 m beside the output centre, about 3.5 of its pixels an output pixel:
+    // on the panel and on the wall its pixels sample the pyramid (level 1), a pixel whose
+    // footprint meets both (the panel's outline, 9 m of parallax apart) keeps its taps,
+    // each through its own surface
+    let model = Perspective::new(
+        Intrinsics::new(200.0, 200.0, 159.5, 119.5),
+        ImageSize::new(320, 240),
+    );
+    let camera = StitchCamera {
+        model: &model,
+        rotation: Matrix3::identity(),
+        translation: Vector3::new(-0.4, 0.0, 0.0),
+        max_theta: None,
+    };
+    let (w, h) = (360usize, 180usize);
+    let output = Equirect::new(
+        Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            179.5,
+            89.5,
+        ),
+        ImageSize::new(w as u32, h as u32),
+    );
+    let options = super::super::StitchOptions {
+        distance: 10.0,
+        blend_width: 5f64.to_radians(),
+        even_exposure: false,
+    };
+    let built = super::super::Stitch::tables_and_weights(
+        &output,
+        &Vector3::zeros(),
+        &[camera],
+        &[None],
+        options,
+        true,
+        Some(&Panel),
+    );
+    let table = &built.tables[0];
+    assert!(table.levels() > 1);
+    // per pixel: whether it has a block, and one in a pyramid level (beyond the source)
+    let source = 320 * 240;
+    let (mut blocks, mut level) = (vec![false; w * h], vec![false; w * h]);
+    for v in 0..h {
+        table.row_blocks(v, |u, p, _| {
+            blocks[v * w + u] = true;
+            level[v * w + u] |= p >= source;
+        });
+    }
+    // a pixel across the edge: its footprint (5×5 positions within half a pixel of its
+    // centre) meets both distances
+    let across = |u: usize, v: usize| {
+        let t = (0..25).filter_map(|k| {
+            let p = Point2::new(
+                u as f64 + (k % 5) as f64 / 4.0 - 0.5,
+                v as f64 + (k / 5) as f64 / 4.0 - 0.5,
+            );
+            output.unproject(&p).ok().map(|d| Panel.distance(&d))
+        });
+        let (lo, hi) = t.fold((f64::INFINITY, 0.0f64), |(l, h), t| (l.min(t), h.max(t)));
+        hi > 2.0 * lo
+    };
+    let (mut edge, mut pyramid) = (0, 0);
+    for (v, u) in (0..h).flat_map(|v| (0..w).map(move |u| (v, u))) {
+        if !blocks[v * w + u] {
+            continue;
+        }
+        if across(u, v) {
+            assert!(
+                !level[v * w + u],
+                "({u}, {v}) across the edge samples the pyramid"
+            );
+            edge += 1;
+        } else {
+            pyramid += level[v * w + u] as usize;
+        }
+    }
+    assert!(
+        edge > 80 && pyramid > 2000,
+        "{edge} edge, {pyramid} pyramid pixels"
+    );
+}
+
+#[test]
+fn a_guided_proxy_maps_only_into_the_image_and_its_table_spends_nothing_beyond() {
+    let model = Perspective::new(
+        Intrinsics::new(80.0, 80.0, 59.5, 39.5),
+        ImageSize::new(120, 80),
+    );
+    let camera = StitchCamera {
+        model: &model,
+        rotation: Matrix3::identity(),
+        translation: Vector3::new(-0.4, 0.1, 0.0),
+        max_theta: None,
+    };
+    let centre = Vector3::new(0.05, 0.0, 0.0);
+    let sphere = Sphere(3.0);
+    let guided = Proxy::guided((0, camera), centre, 10.0, Some(&sphere));
+    let fixed = Proxy::new(camera, centre, 3.0);
+    let output = Equirect::new(
+        Intrinsics::new(
+            60.0 / std::f64::consts::PI,
+            60.0 / std::f64::consts::PI,
+            59.5,
+            29.5,
+        ),
+        ImageSize::new(120, 60),
+    );
+    // the same positions inside the image (to the rounding: the guided proxy projects a
+    // pinhole's point directly, the fixed one through its unit bearing), none outside
+    let (mut inside, mut outside) = (0, 0);
+    for v in 0..60 {
+        for u in 0..120 {
+            let d = output.unproject(&Point2::new(u as f64, v as f64)).unwrap();
+            let mut got = Vec::new();
+            guided.project_all(&[Some(d)], &mut got);
+            match fixed.project(&d).ok().filter(|p| in_image(p, 120.0, 80.0)) {
+                Some(p) => {
+                    let q = got[0].expect("a position");
+                    assert!((q - p).norm() < 1e-9, "({u}, {v}): {q} vs {p}");
+                    inside += 1;
+                }
+                None => {
+                    assert_eq!(got[0], None, "({u}, {v})");
+                    outside += 1;
+                }
+            }
+        }
+    }
+    assert!(inside > 300 && outside > 2000, "{inside} {outside}");
+    // the tables: a pixel the fixed one covers wholly is covered by the guided one, with the
+    // same value where its neighbours' centres are inside too (the same scale estimate)
+    let build = |p: &Proxy| {
+        RemapTable::build_parallel(
+            &output,
+            p,
+            &Matrix3::identity(),
+            Wrap::None,
+            MAX_SUPERSAMPLE,
+        )
+    };
+    let (g, f) = (build(&guided), build(&fixed));
+    let mut src = RgbImage::new(120, 80);
+    for (y, x) in (0..80).flat_map(|y| (0..120).map(move |x| (y, x))) {
+        src.put_pixel(x, y, [(x * 2) as u8, (y * 3) as u8, (x ^ y) as u8]);
+    }
+    let (gi, fi) = (g.apply(&src), f.apply(&src));
+    let centre_inside = |u: i64, v: i64| {
+        (0..120).contains(&u)
+            && (0..60).contains(&v)
+            && fixed
+                .project(&output.unproject(&Point2::new(u as f64, v as f64)).unwrap())
+                .is_ok_and(|p| in_image(&p, 120.0, 80.0))
+    };
+    let mut same = 0;
+    for v in 0..60u32 {
+        for u in 0..120u32 {
+            if f.is_inside(u, v) {
+                assert!(g.is_inside(u, v), "({u}, {v})");
+            }
+            let (a, b) = (u as i64, v as i64);
+            let interior = [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)]
+                .iter()
+                .all(|(du, dv)| centre_inside(a + du, b + dv));
+            if interior && f.is_inside(u, v) {
+                assert_eq!(gi.pixel(u, v), fi.pixel(u, v), "({u}, {v})");
+                same += 1;
+            }
+            if !centre_inside(a, b) {
+                assert!(
+                    !g.is_inside(u, v) && gi.pixel(u, v) == [0, 0, 0],
+                    "({u}, {v})"
+                );
+            }
+        }
+    }
+    assert!(same > 250, "{same}");
+}
