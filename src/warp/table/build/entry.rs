@@ -78,14 +78,8 @@ impl RemapTable {
         surfaces: Option<&dyn Surfaces>,
         parallel: bool,
     ) -> RemapTable {
-        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, None);
-        if b.one_block {
-            b.shapes = pyramid::level_shapes(b.source_size, 5);
-        }
-        b.taps_below2 = taps_below * taps_below;
-        b.taps_cover = true;
-        b.surfaces = surfaces;
-        b.build(parallel)
+        let rule = (taps_below, surfaces);
+        Self::pyramid_above(dst, src, src_from_dst, rule, None, parallel)
     }
 
     /// [`RemapTable::build_pyramid_above`] mapping only the output pixels within `seen` (the
@@ -99,12 +93,25 @@ impl RemapTable {
         seen: Option<&Footprint>,
         parallel: bool,
     ) -> RemapTable {
+        Self::pyramid_above(dst, src, src_from_dst, (taps_below, None), seen, parallel)
+    }
+
+    /// The pyramid above `taps_below` source pixels, where `surfaces` allows it, within `seen`.
+    fn pyramid_above(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        (taps_below, surfaces): (f64, Option<&dyn Surfaces>),
+        seen: Option<&Footprint>,
+        parallel: bool,
+    ) -> RemapTable {
         let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, seen);
         if b.one_block {
             b.shapes = pyramid::level_shapes(b.source_size, 5);
         }
         b.taps_below2 = taps_below * taps_below;
         b.taps_cover = true;
+        b.surfaces = surfaces;
         b.build(parallel)
     }
 }
