@@ -120,7 +120,8 @@ class Warp:
         self, src: Camera, dst: Camera, supersample: int = 8, antialias: str = "pyramid"
     ) -> None:
         """supersample: 1 plain bilinear, up to 8 antialiased; antialias: "pyramid" (about
-        bilinear's cost) or "taps" (the command's bytes)."""
+        bilinear's cost), "taps" (a tap per source pixel) or "command" (the command's rule and
+        bytes: taps below 2 source pixels a pixel, 3 for a fisheye target, the pyramid above)."""
     @property
     def supersample(self) -> int: ...
     @property

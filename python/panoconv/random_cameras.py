@@ -277,7 +277,8 @@ class RandomCameraDataset:
     same generator), else the draw holding most is kept. `supersample` and `antialias` are
     `Warp`'s: a target pixel up to `supersample` source pixels wide averages them (1: plain
     bilinear; 8, the default), through the source's pyramid (`"pyramid"`, the default, about
-    the cost of bilinear) or a tap per source pixel (`"taps"`, the command's bytes).
+    the cost of bilinear), a tap per source pixel (`"taps"`) or the command's rule (`"command"`,
+    its bytes: the taps below 2 source pixels, 3 for a fisheye, the pyramid above).
     """
 
     def __init__(

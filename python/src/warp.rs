@@ -17,7 +17,9 @@ use panoconv::convert::kitti::{move_label, MovedLabel};
 use panoconv::kitti::Label as KittiLabel;
 use panoconv::reproject::depth::{depth_map, OcclusionFilter};
 use panoconv::reproject::visibility::Visibility;
-use panoconv::warp::{narrow_u8, pyramid, Footprint, RemapTable, Wrap, MAX_SUPERSAMPLE};
+use panoconv::warp::{
+    narrow_u8, pyramid, Footprint, RemapTable, Wrap, LENS_TAPS_BELOW, MAX_SUPERSAMPLE, TAPS_BELOW,
+};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use std::borrow::Cow;
@@ -32,9 +34,29 @@ pub struct Warp {
     source: Camera,
     target: Camera,
     supersample: u32,
-    /// Coarse pixels sample the source's pyramid (else a tap per source pixel: the command's).
-    pyramid: bool,
+    /// How coarse pixels average the source.
+    antialias: Antialias,
     table: OnceLock<RemapTable>,
+}
+
+/// A `Warp`'s antialiasing: how a target pixel several source pixels wide averages them.
+#[derive(Clone, Copy, PartialEq)]
+enum Antialias {
+    /// The source's pyramid from 1.5 source pixels (one to a few taps of a level).
+    Pyramid,
+    /// A tap per source pixel (up to `supersample`²).
+    Taps,
+    /// The command's rule: the taps below [`TAPS_BELOW`] source pixels ([`LENS_TAPS_BELOW`]
+    /// for a fisheye target), the pyramid above.
+    Command,
+}
+
+impl Antialias {
+    const NAMES: [(&'static str, Antialias); 3] = [
+        ("pyramid", Antialias::Pyramid),
+        ("taps", Antialias::Taps),
+        ("command", Antialias::Command),
+    ];
 }
 
 impl Warp {
@@ -133,9 +155,18 @@ impl Warp {
             Some((camera, turn)) => (camera.as_ref(), *turn),
             None => (dst, identity),
         };
-        let build = match self.pyramid {
-            true => RemapTable::build_pyramid_within,
-            false => RemapTable::build_within,
+        let build = match self.antialias {
+            // a 360° source wraps: the pyramid rules fall back to the taps there
+            Antialias::Command if wrap == Wrap::None => {
+                let below = match self.target.camera.projection() {
+                    OutputProjection::Fisheye => LENS_TAPS_BELOW,
+                    OutputProjection::Linear(_) => TAPS_BELOW,
+                };
+                let (seen, m) = (seen.as_ref(), &src_from_dst);
+                return RemapTable::build_pyramid_above_within(dst, src, m, below, seen, false);
+            }
+            Antialias::Pyramid => RemapTable::build_pyramid_within,
+            Antialias::Taps | Antialias::Command => RemapTable::build_within,
         };
         build(
             dst,
@@ -338,8 +369,10 @@ impl Warp {
     /// averaged (1: plain bilinear; 8, the default: antialiased up to 8 source pixels a
     /// pixel). `antialias`: how a target pixel two or more source pixels wide averages them:
     /// `"pyramid"` (the default: one to a few bilinear taps in the source's 2×2-box pyramid,
-    /// about the cost of bilinear) or `"taps"` (a tap per source pixel, the command's bytes).
-    /// The table is built on first use (`image`, `mask`, `build`) and kept.
+    /// about the cost of bilinear), `"taps"` (a tap per source pixel) or `"command"` (the
+    /// command's rule and bytes: the taps below 2 source pixels, 3 for a fisheye target, the
+    /// pyramid above; with `supersample` 8). The table is built on first use (`image`,
+    /// `mask`, `build`) and kept.
     #[new]
     #[pyo3(signature = (src, dst, supersample=8, antialias="pyramid"))]
     fn new(src: &Camera, dst: &Camera, supersample: u32, antialias: &str) -> PyResult<Self> {
@@ -348,32 +381,31 @@ impl Warp {
                 "supersample must be 1 to {MAX_SUPERSAMPLE}, not {supersample}"
             )));
         }
-        let pyramid = match antialias {
-            "pyramid" => true,
-            "taps" => false,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "antialias must be \"pyramid\" or \"taps\", not {other:?}"
-                )))
-            }
+        let Some(&(_, antialias)) = Antialias::NAMES.iter().find(|(n, _)| *n == antialias) else {
+            return Err(PyValueError::new_err(format!(
+                "antialias must be \"pyramid\", \"taps\" or \"command\", not {antialias:?}"
+            )));
         };
+        if antialias == Antialias::Command && supersample != MAX_SUPERSAMPLE {
+            return Err(PyValueError::new_err(format!(
+                "antialias=\"command\" is the command's supersample {MAX_SUPERSAMPLE}, not {supersample}"
+            )));
+        }
         Ok(Warp {
             source: src.at(src.centre),
             target: dst.at(src.centre),
             supersample,
-            pyramid,
+            antialias,
             table: OnceLock::new(),
         })
     }
 
-    /// How a target pixel two or more source pixels wide is antialiased: `"pyramid"` or
-    /// `"taps"`.
+    /// How a target pixel two or more source pixels wide is antialiased: `"pyramid"`,
+    /// `"taps"` or `"command"`.
     #[getter]
     fn antialias(&self) -> &'static str {
-        match self.pyramid {
-            true => "pyramid",
-            false => "taps",
-        }
+        let named = Antialias::NAMES.iter().find(|(_, a)| *a == self.antialias);
+        named.map_or("pyramid", |(n, _)| n)
     }
 
     /// Builds the table now (else on first use). Returns self.

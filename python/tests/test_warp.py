@@ -51,7 +51,7 @@ def source():
 
 def assert_same_as_the_command(out, dst):
     split, calib, src = source()
-    warp = panoconv.Warp(src, dst, supersample=8, antialias="taps")  # the command's antialiasing
+    warp = panoconv.Warp(src, dst, antialias="command")  # the command's antialiasing
     written = panoconv.read_calib(out / "calib" / f"{FRAME}.txt").camera
     assert (dst.size, dst.projection, dst.model) == (written.size, written.projection, written.model)
     image = warp.image(panoconv.read_image(split / "image_2" / f"{FRAME}.png"))
@@ -148,7 +148,7 @@ def test_other_pixel_formats_take_the_same_taps():
     flt = warp.image(rgb.astype(np.float32))
     assert flt.dtype == np.float32 and np.abs(flt - want).max() <= 1.0 + 1e-4
     assert np.abs(np.round(flt) - want).max() <= 1
-    # with the command's taps (no pyramid) the float result is within the kernel's rounding
+    # with a tap per source pixel (no pyramid) the float result is within the kernel's rounding
     taps = panoconv.Warp(src, dst, antialias="taps")
     flt = taps.image(rgb.astype(np.float32))
     assert np.abs(flt - taps.image(rgb)).max() <= 0.5 + 1e-4
@@ -222,3 +222,19 @@ def test_a_panorama_or_a_lens_as_the_source():
     inner = (want[:, 0] >= 0) & (want[:, 0] <= lw - 1) & (want[:, 1] >= 0) & (want[:, 1] <= lh - 1)
     assert inner.mean() > 0.95
     assert np.abs(got[m][inner, 0] - want[inner, 0]).max() < 0.01
+
+
+def test_antialias_names_the_rule_and_command_is_the_commands():
+    split, _, src = source()
+    # about 6 KITTI pixels a target pixel: the command's rule samples the pyramid here
+    dst = panoconv.Camera.equirect(320, 200, 120.0, 120.0, 159.5, 99.5, yaw_deg=10)
+    for name in ("pyramid", "taps", "command"):
+        assert panoconv.Warp(src, dst, antialias=name).antialias == name
+    with pytest.raises(ValueError, match='"pyramid", "taps" or "command"'):
+        panoconv.Warp(src, dst, antialias="box")
+    with pytest.raises(ValueError, match="supersample 8"):
+        panoconv.Warp(src, dst, supersample=4, antialias="command")
+    rgb = panoconv.read_image(split / "image_2" / f"{FRAME}.png")
+    command = panoconv.Warp(src, dst, antialias="command").image(rgb)
+    taps = panoconv.Warp(src, dst, antialias="taps").image(rgb)
+    assert (command != taps).any(axis=2).sum() > 1000, "coarse pixels take the pyramid"

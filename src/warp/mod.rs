@@ -20,7 +20,9 @@ pub use stitch::{
     FAR_SOURCE,
 };
 pub use stream::{warp_encode, PngSource};
-pub use table::{narrow_u8, pyramid, RemapTable, Wrap, MAX_SUPERSAMPLE};
+pub use table::{
+    narrow_u8, pyramid, RemapTable, Wrap, LENS_TAPS_BELOW, MAX_SUPERSAMPLE, TAPS_BELOW,
+};
 
 /// ⌊x⌋, exactly, without a libm call for 0 ≤ x < 2^52 (truncation there): a pixel or cell
 /// index on a per-tap path.

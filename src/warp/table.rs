@@ -34,6 +34,20 @@ pub use pyramid::{narrow_u8, pyramid};
 /// Largest supersampling grid side (n of the nu×nv grid per output pixel).
 pub const MAX_SUPERSAMPLE: u32 = 8;
 
+/// Source pixels (along a pixel's shorter axis) under which the command's tables take a tap
+/// per source pixel, and from which the source's pyramid ([`RemapTable::build_pyramid_above`]):
+/// at 1.5 (the pyramid's own rule) KITTI-360's image_00 loses 0.77 dB against the exact
+/// render (its pixels of 1.5 to 2 source pixels at level 1); from 2 on every zero-baseline
+/// stitch figure is the taps' (tests/kitti360_stitch.rs, tests/nuscenes_stitch.rs), and a
+/// KITTI target's too. A rig's stitch and a KITTI linear target use it.
+pub const TAPS_BELOW: f64 = 2.0;
+
+/// [`TAPS_BELOW`] of a fisheye target. A lens 2.5 source pixels a pixel lost 0.21 dB against
+/// the exact render through the pyramid above 2 (0.36 dB away from the rim: the level's blur,
+/// not the border), and gained 0.13 above 3; at 3.5 and 5 source pixels the pyramid gains 1.7
+/// and 1.1 dB on the taps (`tests/fisheye_target/render.rs`).
+pub const LENS_TAPS_BELOW: f64 = 3.0;
+
 /// Whether a tap at source column `x` lies within a source `w` pixels wide that does not wrap
 /// (its edges at -0.5 and w - 0.5; NaN does not).
 #[inline(always)]

@@ -11,7 +11,7 @@ use crate::geometry::augment::{view_id, Augment, View};
 use crate::kitti::Cam;
 use crate::kitti::Split;
 use crate::run::OnceMap;
-use crate::warp::{Footprint, ImageMapping, RemapTable};
+use crate::warp::{Footprint, ImageMapping, RemapTable, LENS_TAPS_BELOW, TAPS_BELOW};
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -205,17 +205,6 @@ impl<'a> Views<'a> {
         self.thin_views.load(Ordering::Relaxed)
     }
 }
-
-/// The source pixels (along a pixel's shorter axis) from which a linear target's pixel samples
-/// the source's pyramid instead of a tap per source pixel: the stitch's threshold, where the
-/// pyramid's figures against the exact renders equal the taps' (at 1.5 its blur costs more).
-const TAPS_BELOW: f64 = 2.0;
-
-/// [`TAPS_BELOW`] of a fisheye target. A lens 2.5 source pixels a pixel lost 0.21 dB against
-/// the exact render through the pyramid above 2 (0.36 dB away from the rim: the level's blur,
-/// not the border), and gained 0.13 above 3; at 3.5 and 5 source pixels the pyramid gains 1.7
-/// and 1.1 dB on the taps (`tests/fisheye_target/render.rs`).
-const LENS_TAPS_BELOW: f64 = 3.0;
 
 /// The remap table of `output` from `source`: a tap per source pixel below [`TAPS_BELOW`]
 /// ([`LENS_TAPS_BELOW`] for a lens) source pixels a pixel, the source's pyramid above. For a

@@ -7,7 +7,7 @@ use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
 use crate::camera::{perpendiculars, CameraModel, Intrinsics};
 use crate::warp::mask::EgoMask;
 use crate::warp::reach::{border_cone, Cone, Frustum, Gated, NearBound, Reach};
-use crate::warp::table::{RemapTable, Surfaces};
+use crate::warp::table::{RemapTable, Surfaces, TAPS_BELOW};
 use nalgebra::{Matrix3, Point2, Rotation3, Unit, Vector3};
 use rayon::prelude::*;
 use std::sync::LazyLock;
@@ -124,13 +124,6 @@ fn probe_turn(axis: &Unit<Vector3<f64>>) -> Rotation3<f64> {
         sqz + (1.0 - sqz) * cos,
     ))
 }
-
-/// Source pixels (along a sample's shorter axis) under which the fixed stitch's tables take
-/// a tap per source pixel, not the pyramid: at 1.5 (the pyramid's own rule) KITTI-360's
-/// image_00 loses 0.77 dB against the exact render (its pixels of 1.5 to 2 source pixels at
-/// level 1); from 2 on every zero-baseline figure is the taps' (tests/kitti360_stitch.rs,
-/// tests/nuscenes_stitch.rs).
-const TAPS_BELOW: f64 = 2.0;
 
 /// The distance from a sample's position within which a masked pixel centre is touched: half
 /// the footprint `rho` and a pixel, or for a pyramid sample (a table with levels, a pixel
