@@ -196,16 +196,7 @@ impl RemapTable {
         if (out.width(), out.height()) != (self.size.width, self.size.height) {
             *out = RgbImage::new(self.size.width, self.size.height);
         }
-        let w = self.size.width as usize;
-        if w == 0 {
-            return;
-        }
-        let data = self.input(src.as_raw());
-        out.as_raw_mut()
-            .par_chunks_mut(w * 3)
-            .enumerate()
-            .with_min_len(8)
-            .for_each(|(v, row)| self.row(&data, v, row, kernel, true));
+        self.rows_into(src, out, kernel, true);
     }
 
     /// As [`RemapTable::apply_into`] (`out` must have the table's size), writing only the
@@ -223,6 +214,12 @@ impl RemapTable {
             ),
             "image sizes differ from the table's"
         );
+        self.rows_into(src, out, Kernel::Auto, false);
+    }
+
+    /// Every row of `out` (the table's size) resampled from `src`, the groups without rounds
+    /// black where `blank`, else left as they are.
+    fn rows_into(&self, src: &RgbImage, out: &mut RgbImage, kernel: Kernel, blank: bool) {
         let w = self.size.width as usize;
         if w == 0 {
             return;
@@ -232,7 +229,7 @@ impl RemapTable {
             .par_chunks_mut(w * 3)
             .enumerate()
             .with_min_len(8)
-            .for_each(|(v, row)| self.row(&data, v, row, Kernel::Auto, false));
+            .for_each(|(v, row)| self.row(&data, v, row, kernel, blank));
     }
 
     /// The pixels of output row `v` in runs of groups the table stores rounds for, in order:
