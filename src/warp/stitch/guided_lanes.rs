@@ -89,12 +89,20 @@ impl GuidedPinhole<'_> {
     ) {
         let w = bearings.len() - 2;
         let distances = &c.distances[v * w..(v + 1) * w];
-        let bits = |d: &Vector3<f64>| d.map(f64::to_bits);
-        out.reserve(bearings.len());
-        for (g, group) in bearings.chunks(LANES).enumerate() {
+        let same = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            (a.x.to_bits(), a.y.to_bits(), a.z.to_bits())
+                == (b.x.to_bits(), b.y.to_bits(), b.z.to_bits())
+        };
+        let start = out.len();
+        out.resize(start + bearings.len(), None);
+        let out = &mut out[start..];
+        for (g, (group, out)) in bearings
+            .chunks(LANES)
+            .zip(out.chunks_mut(LANES))
+            .enumerate()
+        {
             if group.iter().all(Option::is_none) {
                 // (most of a row: beyond the camera's reach)
-                out.extend(std::iter::repeat_n(None, group.len()));
                 continue;
             }
             // the lanes whose bearing is the stored one of a pixel (column k - 1)
@@ -106,8 +114,7 @@ impl GuidedPinhole<'_> {
                 let Some(b) = b.filter(|_| k >= 1 && k <= w) else {
                     continue;
                 };
-                let stored = c.reach.bearing(k - 1, v);
-                if stored.is_some_and(|s| bits(&s) == bits(&b)) {
+                if c.reach.bearing(k - 1, v).is_some_and(|s| same(&s, &b)) {
                     (d[0][l], d[1][l], d[2][l]) = (b.x, b.y, b.z);
                     t[l] = distances[k - 1];
                     known[l] = true;
@@ -123,10 +130,12 @@ impl GuidedPinhole<'_> {
                 }
             }
             let (ok, [u, y]) = self.pixels(x);
-            out.extend(group.iter().enumerate().map(|(l, b)| match known[l] {
-                true => ok[l].then(|| Point2::new(u[l], y[l])),
-                false => cast(b.as_ref()?),
-            }));
+            for (l, (b, p)) in group.iter().zip(out).enumerate() {
+                *p = match known[l] {
+                    true => ok[l].then(|| Point2::new(u[l], y[l])),
+                    false => b.as_ref().and_then(cast),
+                };
+            }
         }
     }
 

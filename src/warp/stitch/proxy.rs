@@ -252,6 +252,7 @@ impl<'a> Proxy<'a> {
 
     /// The reference point at `distance` along unit bearing `n` from the output centre, where
     /// the camera saw it ([`StitchDepth::seen_at`]).
+    #[inline]
     pub(super) fn point_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
         let x = self.centre + n * distance;
         match self.depth.filter(|_| self.moves) {
@@ -266,6 +267,7 @@ impl<'a> Proxy<'a> {
     }
 
     /// The camera point of the reference point at `distance` along unit bearing `n`.
+    #[inline]
     pub(super) fn local_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
         self.camera.rotation * self.point_at(n, distance) + self.camera.translation
     }
@@ -318,6 +320,7 @@ impl<'a> Proxy<'a> {
     /// Whether camera point `q` lies within the camera's image as a depth-guided table's
     /// pixel centre must ([`Proxy::within`], then [`in_image`]), at least `rim` source
     /// pixels inside its border.
+    #[inline]
     pub(super) fn holds(&self, q: &Vector3<f64>, rim: f64) -> bool {
         let size = self.camera.model.size();
         let (w, h) = (
