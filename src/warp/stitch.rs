@@ -60,6 +60,7 @@ mod figures;
 mod fixed_proxy;
 mod gains;
 mod guided;
+mod guided_lanes;
 mod proxy;
 mod weights;
 

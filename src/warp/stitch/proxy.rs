@@ -2,6 +2,7 @@
 //! (steps 1 and 2 of the stitch's model), as a camera model a remap table is built through.
 
 use super::fixed_proxy::FixedPinhole;
+use super::guided_lanes::GuidedPinhole;
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use crate::warp::reach::Reach;
@@ -113,6 +114,22 @@ impl<'a> Proxy<'a> {
         &'c self,
         ds: &'c [Option<Vector3<f64>>],
     ) -> Option<impl Iterator<Item = Option<f64>> + 'c> {
+        let (c, v) = self.centre_row(ds)?;
+        let w = c.output.size().width as usize;
+        let same = |a: &Vector3<f64>, b: &Vector3<f64>| {
+            a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        Some(ds.iter().enumerate().map(move |(k, d)| {
+            let u = k.checked_sub(1).filter(|u| *u < w)?;
+            let stored = c.reach.bearing(u, v)?;
+            same(d.as_ref()?, &stored).then(|| c.distances[v * w + u])
+        }))
+    }
+
+    /// The output row of bearings `ds` when they are a table's row of centres, as
+    /// [`Proxy::centre_distances`] reads them: the row the output projects the first
+    /// bearing to, with the centres' distances.
+    fn centre_row(&self, ds: &[Option<Vector3<f64>>]) -> Option<(Centres<'a>, usize)> {
         let c = self.centres?;
         let size = c.output.size();
         let w = size.width as usize;
@@ -124,15 +141,21 @@ impl<'a> Proxy<'a> {
         if !(y >= 0.0 && y < size.height as f64) {
             return None;
         }
-        let v = y as usize;
-        let same = |a: &Vector3<f64>, b: &Vector3<f64>| {
-            a.iter().zip(b).all(|(a, b)| a.to_bits() == b.to_bits())
-        };
-        Some(ds.iter().enumerate().map(move |(k, d)| {
-            let u = k.checked_sub(1).filter(|u| *u < w)?;
-            let stored = c.reach.bearing(u, v)?;
-            same(d.as_ref()?, &stored).then(|| c.distances[v * w + u])
-        }))
+        Some((c, y as usize))
+    }
+
+    /// With a depth and the centres' distances, for a pinhole camera without a field-of-view
+    /// bound, what its projection of a row of centres in lanes reads ([`GuidedPinhole`]).
+    pub(super) fn guided_pinhole(&self) -> Option<GuidedPinhole<'a>> {
+        let size = self.size();
+        Some(GuidedPinhole {
+            rotation: self.camera.rotation,
+            translation: self.camera.translation,
+            centre: self.centre,
+            k: self.pinhole.filter(|_| self.camera.max_theta.is_none())?,
+            size: (size.width as f64, size.height as f64),
+            moved: self.depth.filter(|_| self.moves).map(|d| (d, self.index)),
+        })
     }
 
     /// The scene's distance along unit bearing `n` (a table's tap) from the distances of the
@@ -229,6 +252,7 @@ impl<'a> Proxy<'a> {
 
     /// The reference point at `distance` along unit bearing `n` from the output centre, where
     /// the camera saw it ([`StitchDepth::seen_at`]).
+    #[inline]
     pub(super) fn point_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
         let x = self.centre + n * distance;
         match self.depth.filter(|_| self.moves) {
@@ -243,6 +267,7 @@ impl<'a> Proxy<'a> {
     }
 
     /// The camera point of the reference point at `distance` along unit bearing `n`.
+    #[inline]
     pub(super) fn local_at(&self, n: &Vector3<f64>, distance: f64) -> Vector3<f64> {
         self.camera.rotation * self.point_at(n, distance) + self.camera.translation
     }
@@ -275,9 +300,27 @@ impl<'a> Proxy<'a> {
         }
     }
 
+    /// [`CameraModel::project_all`] centre by centre: [`Proxy::project_each`], then with a
+    /// depth the image bound.
+    pub(super) fn project_all_each(
+        &self,
+        bearings: &[Option<Vector3<f64>>],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        let start = out.len();
+        self.project_each(bearings, out);
+        if self.depth.is_some() {
+            let (w, h) = (self.size().width as f64, self.size().height as f64);
+            for p in &mut out[start..] {
+                *p = p.filter(|p| in_image(p, w, h));
+            }
+        }
+    }
+
     /// Whether camera point `q` lies within the camera's image as a depth-guided table's
     /// pixel centre must ([`Proxy::within`], then [`in_image`]), at least `rim` source
     /// pixels inside its border.
+    #[inline]
     pub(super) fn holds(&self, q: &Vector3<f64>, rim: f64) -> bool {
         let size = self.camera.model.size();
         let (w, h) = (
@@ -382,14 +425,14 @@ impl CameraModel for Proxy<'_> {
             // the same positions, a group of lanes at a time (`fixed_proxy.rs`)
             return fixed.project_all(bearings, out);
         }
-        let start = out.len();
-        self.project_each(bearings, out);
-        if self.depth.is_some() {
-            let (w, h) = (self.size().width as f64, self.size().height as f64);
-            for p in &mut out[start..] {
-                *p = p.filter(|p| in_image(p, w, h));
-            }
+        let guided = self.guided_pinhole().filter(|_| self.centres.is_some());
+        if let Some((lanes, row)) = guided.and_then(|g| Some((g, self.centre_row(bearings)?))) {
+            // the same positions, a group of lanes at a time (`guided_lanes.rs`)
+            let (w, h) = lanes.size;
+            let cast = |d: &Vector3<f64>| self.project(d).ok().filter(|p| in_image(p, w, h));
+            return lanes.project_row(bearings, row, out, &cast);
         }
+        self.project_all_each(bearings, out);
     }
 
     /// A row of output pixel centres takes the distances computed for them (see
