@@ -47,6 +47,7 @@ mod nuscenes_devkit;
 mod nuscenes_stitch;
 mod pandaset;
 mod pano;
+mod pano_pyramid;
 mod png;
 mod png_rows;
 mod preview;

@@ -7,7 +7,7 @@
 //! image is reported with its path, leaves no output, and the others are converted.
 
 use crate::camera::{ImageSize, LinearCamera};
-use crate::codec::png::{self as png, PngCompression};
+use crate::codec::png::PngCompression;
 use crate::error::{Error, Result};
 use crate::fs;
 use crate::fs::read_file;
@@ -16,7 +16,7 @@ use crate::run::journal::Previous;
 use crate::run::manifest::{FrameRecord, FrameStatus};
 use crate::run::OnceMap;
 use crate::run::{Claim, FrameWork, OutputFolder, OutputMode, Progress, Summary};
-use crate::warp::RemapTable;
+use crate::warp::{warp_encode, RemapTable};
 use nalgebra::Matrix3;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -141,14 +141,9 @@ impl Ctx<'_> {
             .map_err(|m| Error::file(&input.path, m))?;
         let mut outputs = Vec::new();
         for view in views.iter() {
-            // warped row by row as the encoder takes the rows (one image per worker already)
-            let size = view.table.size();
-            let png = png::encode_rgb8_rows(
-                size.width,
-                size.height,
-                self.job.png_compression,
-                |v, row| view.table.apply_row(&image, v, row),
-            );
+            // warped row by row as the encoder takes the rows (one image per worker already),
+            // from the source's pyramid built once where the table samples one
+            let png = warp_encode(&view.table, &image, self.job.png_compression);
             let txt = camera_text(view);
             for (ext, data) in [("png", png), ("txt", txt.into_bytes())] {
                 let name = format!("{}{}.{ext}", input.stem, view.suffix);

@@ -7,7 +7,7 @@ use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, Pr
 use crate::convert::folder::{FolderJob, FolderPlan, FolderView};
 use crate::error::{Error, Result};
 use crate::geometry::{view_camera, Scale};
-use crate::warp::{RemapTable, Wrap};
+use crate::warp::{RemapTable, Wrap, TAPS_BELOW};
 use nalgebra::{Matrix3, Point2, Vector3};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -136,11 +136,14 @@ impl PanoViews {
             .iter()
             .map(|&yaw| {
                 let source_from_output = rotation_ypr(yaw, self.pitch, 0.0);
-                let table = RemapTable::build(
+                // the KITTI targets' rule: the pyramid (wrapping) above 2 source pixels
+                let table = RemapTable::build_pyramid_above_wrap(
                     camera.as_ref(),
                     &source,
                     &source_from_output,
                     Wrap::Horizontal,
+                    TAPS_BELOW,
+                    false,
                 );
                 FolderView {
                     suffix: yaw_suffix(&self.yaws, yaw),

@@ -437,15 +437,25 @@ impl<'a> Builder<'a> {
         };
         let size = self.source_size;
         let offset = y0 * size.width + x0;
-        if x0 + 1 == size.width {
-            // The right neighbour is column 0 (across a 360° source's wrap, or the same column
-            // of a one-pixel-wide source): it is a block of its own, left column only.
+        if x0 + 1 == self.level_width(level) {
+            // The right neighbour is column 0 (across a 360° source's wrap, at any level, or
+            // the same column of a one-pixel-wide source): a block of its own, left column only.
             merge(&mut s.blocks, offset, [tl, bl, 0.0, 0.0]);
             merge(&mut s.blocks, y0 * size.width, [tr, br, 0.0, 0.0]);
         } else {
             merge(&mut s.blocks, offset, [tl, bl, tr, br]);
         }
         true
+    }
+
+    /// The width of pyramid level `level` (the source's at level 0): a block whose top-left
+    /// column is its last wraps (see [`Builder::add_tap`]).
+    #[inline(always)]
+    fn level_width(&self, level: u32) -> u32 {
+        match level {
+            0 => self.source_size.width,
+            k => self.shapes[k as usize].0,
+        }
     }
 
     /// The bilinear block of a tap at source position `p`: its top-left source pixel (x0, y0)

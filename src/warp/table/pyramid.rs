@@ -23,6 +23,19 @@ pub(crate) fn level_shapes(size: ImageSize, levels: u32) -> Vec<(u32, u32, u32)>
     out
 }
 
+/// [`level_shapes`] of a 360° source (its columns wrap): only the levels whose width is the
+/// source's divided exactly, so that a level's columns tile the full turn as the source's do
+/// and its last column's right neighbour is its column 0 (an odd width's last pixel, the last
+/// column repeated, would straddle the wrap). A 2048-wide panorama keeps all 5 levels, a
+/// 2000-wide one 5 (2000 = 16 · 125), an odd width level 0 alone (its taps).
+pub(crate) fn wrapping_level_shapes(size: ImageSize, levels: u32) -> Vec<(u32, u32, u32)> {
+    let mut shapes = level_shapes(size, levels);
+    let even = |k: usize| k < 32 && size.width.is_multiple_of(1u32 << k);
+    let kept = (0..shapes.len()).take_while(|&k| even(k)).count();
+    shapes.truncate(kept);
+    shapes
+}
+
 /// Rows of the buffer holding `levels` levels of a source of `size` (see [`level_shapes`]).
 pub(crate) fn pyramid_rows(size: ImageSize, levels: u32) -> u32 {
     let shapes = level_shapes(size, levels);
@@ -227,6 +240,22 @@ mod tests {
             }
         }
         assert!(drifted, "the case tells the two rules apart");
+    }
+
+    #[test]
+    fn a_wrapping_sources_levels_divide_its_width() {
+        let widths = |w: u32| -> Vec<u32> {
+            let shapes = wrapping_level_shapes(ImageSize::new(w, w / 2), 6);
+            // (the levels kept are the plain levels' first ones, rows and all)
+            assert_eq!(
+                shapes,
+                level_shapes(ImageSize::new(w, w / 2), 6)[..shapes.len()]
+            );
+            shapes.iter().map(|s| s.0).collect()
+        };
+        assert_eq!(widths(800), [800, 400, 200, 100, 50, 25]);
+        assert_eq!(widths(1000), [1000, 500, 250, 125]);
+        assert_eq!(widths(999), [999]);
     }
 
     #[test]

@@ -27,11 +27,12 @@ impl Builder<'_> {
         out: &mut Vec<Quad>,
     ) -> Option<u32> {
         let width = self.source_size.width;
+        let last = self.level_width(level);
         s.cells.clear();
         let (mut x_lo, mut y_lo, mut x_hi, mut y_hi) = (u32::MAX, u32::MAX, 0, 0);
         for p in taps.iter().flatten() {
             if let Some((x0, y0, w)) = self.block_at(*p, level) {
-                if x0 + 1 >= width {
+                if x0 + 1 >= last {
                     return None;
                 }
                 (x_lo, x_hi) = (x_lo.min(x0), x_hi.max(x0));

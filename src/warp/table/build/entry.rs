@@ -32,7 +32,8 @@ impl RemapTable {
     /// and apply, against a tap for each source pixel under it. Pixels finer than that are
     /// exactly [`RemapTable::build_within`]'s. Apply the
     /// table to [`RemapTable::input`]'s buffer (`apply` and `apply_into` build it). A 360°
-    /// source (its columns wrap) takes the taps of [`RemapTable::build_within`].
+    /// source (its columns wrap) takes the taps of [`RemapTable::build_within`] here (see
+    /// [`RemapTable::build_pyramid_above_wrap`] for its pyramid).
     ///
     /// [`pyramid`]: crate::warp::pyramid
     pub fn build_pyramid_within(
@@ -79,7 +80,23 @@ impl RemapTable {
         parallel: bool,
     ) -> RemapTable {
         let rule = (taps_below, surfaces);
-        Self::pyramid_above(dst, src, src_from_dst, rule, None, parallel)
+        Self::pyramid_above(dst, src, src_from_dst, Wrap::None, rule, None, parallel)
+    }
+
+    /// [`RemapTable::build_pyramid_above`] of a source whose columns may wrap (`wrap`): a 360°
+    /// panorama's views (`panoconv pano`). Its levels wrap as its columns do, those whose
+    /// widths divide the source's (all five of a 2048-wide panorama, four of a 1000-wide one,
+    /// none of an odd width: the taps). A pyramid sample's coverage is its centre's.
+    pub fn build_pyramid_above_wrap(
+        dst: &dyn CameraModel,
+        src: &dyn CameraModel,
+        src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
+        taps_below: f64,
+        parallel: bool,
+    ) -> RemapTable {
+        let rule = (taps_below, None);
+        Self::pyramid_above(dst, src, src_from_dst, wrap, rule, None, parallel)
     }
 
     /// [`RemapTable::build_pyramid_above`] mapping only the output pixels within `seen` (the
@@ -93,7 +110,8 @@ impl RemapTable {
         seen: Option<&Footprint>,
         parallel: bool,
     ) -> RemapTable {
-        Self::pyramid_above(dst, src, src_from_dst, (taps_below, None), seen, parallel)
+        let rule = (taps_below, None);
+        Self::pyramid_above(dst, src, src_from_dst, Wrap::None, rule, seen, parallel)
     }
 
     /// The pyramid above `taps_below` source pixels, where `surfaces` allows it, within `seen`.
@@ -101,17 +119,33 @@ impl RemapTable {
         dst: &dyn CameraModel,
         src: &dyn CameraModel,
         src_from_dst: &Matrix3<f64>,
+        wrap: Wrap,
         (taps_below, surfaces): (f64, Option<&dyn Surfaces>),
         seen: Option<&Footprint>,
         parallel: bool,
     ) -> RemapTable {
-        let mut b = Builder::new(dst, src, src_from_dst, Wrap::None, MAX_SUPERSAMPLE, seen);
-        if b.one_block {
-            b.shapes = pyramid::level_shapes(b.source_size, 5);
-        }
+        let mut b = Builder::new(dst, src, src_from_dst, wrap, MAX_SUPERSAMPLE, seen);
+        b.shapes = b.level_shapes(5);
         b.taps_below2 = taps_below * taps_below;
-        b.taps_cover = true;
+        // (a wrapping source's taps lie inside along its columns: a pyramid sample's coverage
+        // is its centre's, the taps' wherever its rows are inside, as a panorama's all are)
+        b.taps_cover = wrap == Wrap::None;
         b.surfaces = surfaces;
         b.build(parallel)
+    }
+}
+
+impl Builder<'_> {
+    /// The source pyramid's levels the table may sample, at most `levels` (level 0 first):
+    /// none where a tap's block may split but across a 360° source's wrap (a one-pixel-wide
+    /// source), a wrapping source's those whose widths divide its own.
+    fn level_shapes(&self, levels: u32) -> Vec<(u32, u32, u32)> {
+        match (self.one_block, self.wrap) {
+            (true, _) => pyramid::level_shapes(self.source_size, levels),
+            (false, Wrap::Horizontal) if self.source_size.width >= 2 => {
+                pyramid::wrapping_level_shapes(self.source_size, levels)
+            }
+            (false, _) => Vec::new(),
+        }
     }
 }

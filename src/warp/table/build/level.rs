@@ -13,7 +13,7 @@
 //! pixel, 44.31, 47.59, 49.12 dB and 25.2, at several times the build cost.
 
 use super::{local, Builder, Parts};
-use crate::warp::table::{column_inside, row_inside, MAX_SUPERSAMPLE};
+use crate::warp::table::{column_inside, row_inside, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
 
 /// The squared smaller scale (source pixels an output pixel) from which level 1 is sampled,
@@ -71,24 +71,34 @@ impl Builder<'_> {
     /// The bilinear block at pyramid level `level` of a tap at source position `p` (level-0
     /// pixels): its top-left pixel's column and buffer row, and the weights of top-left,
     /// bottom-left, top-right, bottom-right; None outside the source (level 0's border: which
-    /// taps are inside does not depend on the level).
+    /// taps are inside does not depend on the level). A 360° source's columns wrap at every
+    /// level (its levels' widths divide the source's: see `wrapping_level_shapes`): a block
+    /// at a level's last column has column 0 on its right ([`Builder::add_tap`] splits it).
     #[inline(always)]
     pub(super) fn block_at(&self, p: Point2<f64>, level: u32) -> Option<(u32, u32, [f64; 4])> {
         if level == 0 {
             return self.block(p);
         }
         let size = self.source_size;
-        if !column_inside(p.x, size.width as f64) || !row_inside(p.y, size.height as f64) {
+        let wraps = self.wrap == Wrap::Horizontal;
+        if !(wraps || column_inside(p.x, size.width as f64)) || !row_inside(p.y, size.height as f64)
+        {
             return None;
         }
         let (lw, lh, row) = self.shapes[level as usize];
         // level pixel x covers level-0 pixels 2^k·x to 2^k·(x + 1) - 1: its centre is at
         // 2^k·(x + 0.5) - 0.5
         let f = (1u32 << level) as f64;
-        let x = ((p.x + 0.5) / f - 0.5).clamp(0.0, lw as f64 - 1.0);
+        let x = (p.x + 0.5) / f - 0.5;
+        let x = match wraps {
+            // (rem_euclid may give lw itself for a tiny negative x: column 0, weight fx = 1)
+            true => x.rem_euclid(lw as f64),
+            false => x.clamp(0.0, lw as f64 - 1.0),
+        };
         let y = ((p.y + 0.5) / f - 0.5).clamp(0.0, lh as f64 - 1.0);
         // (x, y >= 0: truncation is floor; a level is at least 2×2)
-        let (x0, y0) = ((x as u32).min(lw - 2), (y as u32).min(lh - 2));
+        let x0 = (x as u32).min(lw - 1 - (!wraps) as u32);
+        let y0 = (y as u32).min(lh - 2);
         let (fx, fy) = (x - x0 as f64, y - y0 as f64);
         let (tl, bl) = ((1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy);
         let (tr, br) = (fx * (1.0 - fy), fx * fy);
