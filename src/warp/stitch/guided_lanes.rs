@@ -9,11 +9,21 @@
 //! tables project every reached pixel centre so; the other bearings of the row (columns -1
 //! and width, a bearing not stored) cast their own ray, as the per-pixel path does.
 
-use super::proxy::Centres;
 use super::StitchDepth;
-use crate::camera::Intrinsics;
+use crate::camera::{CameraModel, Intrinsics};
+use crate::warp::reach::Reach;
 use crate::warp::table::{column_inside, row_inside};
 use nalgebra::{Matrix3, Point2, Vector3};
+
+/// The distances of a depth-guided stitch's output pixel centres (the proxy's, read here a
+/// row at a time).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Centres<'a> {
+    pub(super) output: &'a dyn CameraModel,
+    pub(super) reach: &'a Reach,
+    /// Row-major, as [`super::guided::pixel_distances`] gives them.
+    pub(super) distances: &'a [f64],
+}
 
 /// Centres a group takes.
 const LANES: usize = 8;
@@ -230,7 +240,7 @@ mod tests {
         }
     }
 
-    /// Every row of centres of drawn rigs (a pinhole anywhere, turned anyhow, still or moved by
+    /// Every row of centres of drawn rigs (a pinhole anywhere, turned any way, still or moved by
     /// the depth) over drawn distance maps (some without a distance: 0, infinite, NaN), and
     /// the rows with some bearings changed by a bit (cast instead), None or not a row of
     /// centres: the lanes' positions are the per-pixel path's to the bit.

@@ -2,10 +2,10 @@
 //! (steps 1 and 2 of the stitch's model), as a camera model a remap table is built through.
 
 use super::fixed_proxy::FixedPinhole;
+pub(super) use super::guided_lanes::Centres;
 use super::guided_lanes::GuidedPinhole;
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
-use crate::warp::reach::Reach;
 use crate::warp::table::{column_inside, row_inside, Surfaces};
 use nalgebra::{Point2, Vector3};
 
@@ -37,15 +37,6 @@ pub(super) struct Proxy<'a> {
     /// projected directly (x/z, y/z), not through the model's unit bearing (a depth-guided
     /// table projects every tap's point; the fixed stitch keeps the model's path).
     pinhole: Option<Intrinsics>,
-}
-
-/// The distances of a depth-guided stitch's output pixel centres.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Centres<'a> {
-    pub(super) output: &'a dyn CameraModel,
-    pub(super) reach: &'a Reach,
-    /// Row-major, as [`super::guided::pixel_distances`] gives them.
-    pub(super) distances: &'a [f64],
 }
 
 /// A tap between output pixel centres takes their distances interpolated (in inverse distance)
