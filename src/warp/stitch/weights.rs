@@ -93,12 +93,20 @@ struct Saturation {
 /// scale is at most max(|fu|, |fv|)·(1 + (r + 0.01)²), here with 0.1 % to spare.
 fn saturated(s: &Saturation, p: &Point2<f64>, border: f64) -> bool {
     let k = &s.k;
-    let r = ((p.x - k.cu) / k.fu).hypot((p.y - k.cv) / k.fv);
-    if !(r <= 3.0) {
-        return false;
+    let (x, y) = ((p.x - k.cu) / k.fu, (p.y - k.cv) / k.fv);
+    let test = |r: f64| {
+        let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
+        r <= 3.0 && border >= s.width * most
+    };
+    // the test is monotone in r (each rounded step is): √(x² + y²) within 1e-12 of the
+    // hypotenuse on either side decides it without libm's `hypot` unless it falls between
+    let r = (x * x + y * y).sqrt();
+    let (below, above) = (r * (1.0 - 1e-12) - 1e-150, r * (1.0 + 1e-12) + 1e-150);
+    match (test(above), test(below)) {
+        (true, _) => true,
+        (false, false) => false,
+        _ => test(x.hypot(y)),
     }
-    let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
-    border >= s.width * most
 }
 
 /// sin and cos of [`SCALE_PROBE`], computed once.
