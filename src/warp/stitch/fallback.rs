@@ -36,15 +36,27 @@ pub(super) fn resolve(weights: &mut [Vec<f32>]) -> Vec<bool> {
         .into_par_iter()
         .zip(fallback.par_chunks_mut(PIECE))
         .for_each(|(mut parts, fallback)| {
-            for (i, flag) in fallback.iter_mut().enumerate() {
-                let seen = parts.iter().any(|w| w[i] > 0.0);
-                for w in parts.iter_mut() {
-                    let x = &mut w[i];
+            // camera by camera over the piece (loops the compiler vectorises)
+            let mut seen = [false; PIECE];
+            for w in &parts {
+                for (s, x) in seen.iter_mut().zip(w.iter()) {
+                    *s |= *x > 0.0;
+                }
+            }
+            for w in parts.iter_mut() {
+                for (x, s) in w.iter_mut().zip(&seen) {
                     if *x < 0.0 {
-                        *x = if seen { 0.0 } else { -*x };
+                        *x = if *s { 0.0 } else { -*x };
                     }
                 }
-                *flag = !seen && parts.iter().any(|w| w[i] > 0.0);
+            }
+            for w in &parts {
+                for (flag, x) in fallback.iter_mut().zip(w.iter()) {
+                    *flag |= *x > 0.0;
+                }
+            }
+            for (flag, s) in fallback.iter_mut().zip(&seen) {
+                *flag &= !*s;
             }
         });
     fallback
