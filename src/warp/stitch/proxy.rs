@@ -140,9 +140,14 @@ impl<'a> Proxy<'a> {
     /// surface ([`TAP_AGREE`]); None where they do not, or a centre has no distance.
     fn between_centres(&self, n: &Vector3<f64>) -> Option<f64> {
         let c = self.centres?;
+        self.between_centres_at(&c.output.project(n).ok()?)
+    }
+
+    /// [`Proxy::between_centres`] of the tap at output position `p`.
+    fn between_centres_at(&self, p: &Point2<f64>) -> Option<f64> {
+        let c = self.centres?;
         let size = c.output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let p = c.output.project(n).ok()?;
         let (x, y) = (crate::warp::floor(p.x), crate::warp::floor(p.y));
         if !(x >= 0.0 && y >= 0.0 && x + 1.0 < w as f64 && y + 1.0 < h as f64) {
             return None;
@@ -361,6 +366,29 @@ impl Surfaces for Proxy<'_> {
         let steps = (((u1 - u0).pow(2) + (v1 - v0).pow(2)) as f64).sqrt();
         let pixel = (a.normalize() - b.normalize()).norm() / steps;
         (hi - lo) * self.baseline <= SURFACE_AGREE * pixel
+    }
+
+    /// Each tap at the distance interpolated between the centres around its output position
+    /// where they lie on one surface ([`Proxy::between_centres`]), else at its own cast.
+    fn project_taps(
+        &self,
+        at: &[Point2<f64>],
+        ds: &[Option<Vector3<f64>>],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        if self.centres.is_none() || self.depth.is_none() {
+            return self.project_all(ds, out);
+        }
+        let (w, h) = (self.size().width as f64, self.size().height as f64);
+        out.extend(at.iter().zip(ds).map(|(p, d)| {
+            let d = d.as_ref()?;
+            match self.between_centres_at(p) {
+                Some(t) => self.project_at(d, t),
+                None => self.project(d),
+            }
+            .ok()
+            .filter(|p| in_image(p, w, h))
+        }));
     }
 }
 

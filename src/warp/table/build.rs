@@ -136,6 +136,8 @@ struct Parts {
     lanes: [Vec<f64>; 3],
     /// The source positions of a span of a row's centres.
     span: Vec<Option<Point2<f64>>>,
+    /// The output positions of a pixel's taps (row by row), for [`Surfaces::project_taps`].
+    at: Vec<Point2<f64>>,
 }
 
 impl<'a> Builder<'a> {
@@ -310,18 +312,15 @@ impl<'a> Builder<'a> {
             // (no scale estimate where the cap allows one tap)
             let (nu, nv, level, scales) = match self.cap {
                 1 => (1, 1, 0, (0.0, 0.0)),
-                cap => {
+                _ => {
                     let (su, sv) = scales2(
                         centre,
                         [here[u], here[u + 2]],
                         [above[u + 1], below[u + 1]],
                         period,
                     );
-                    // at a pyramid level the scales are 4^level times smaller
-                    let level = self.level_at((u, v), su.min(sv));
-                    let down = (1u32 << (2 * level)) as f64;
-                    let n = (count(su / down).min(cap), count(sv / down).min(cap));
-                    (n.0, n.1, level, (su, sv))
+                    let (nu, nv, level) = self.footprint((u, v), (su, sv));
+                    (nu, nv, level, (su, sv))
                 }
             };
             let taps = nu * nv;
@@ -422,7 +421,11 @@ impl<'a> Builder<'a> {
                 }
                 None => self.tap_bearings(u as f64, v as f64, nu, nv, &mut parts.bearings),
             }
-            self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+            match self.surfaces {
+                // a depth-guided source places the taps by their output positions too
+                Some(s) => self.taps_through(s, (u, v), (nu, nv), parts),
+                None => self.bearings_to_src(&mut parts.bearings, &mut parts.taps),
+            }
         }
     }
 
