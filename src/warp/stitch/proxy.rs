@@ -350,15 +350,18 @@ impl Surfaces for Proxy<'_> {
         let r = SURFACE_REACH;
         let (u0, u1) = (u.saturating_sub(r), (u + r).min(w - 1));
         let (v0, v1) = (v.saturating_sub(r), (v + r).min(h - 1));
-        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        // the nearest and farthest distances (their inverses are the inverses' extremes: a
+        // division rounds monotonically, so two divisions give the 25's result to the bit)
+        let (mut near, mut far) = (f64::INFINITY, 0.0f64);
         for row in c.distances[v0 * w..(v1 + 1) * w].chunks_exact(w) {
             for t in &row[u0..=u1] {
                 if !(*t > 0.0 && t.is_finite()) {
                     return false;
                 }
-                (lo, hi) = (lo.min(1.0 / t), hi.max(1.0 / t));
+                (near, far) = (near.min(*t), far.max(*t));
             }
         }
+        let (lo, hi) = (1.0 / far, 1.0 / near);
         // an output pixel's angle: the chord across the neighbourhood's diagonal over its steps
         let (Some(a), Some(b)) = (c.reach.bearing(u0, v0), c.reach.bearing(u1, v1)) else {
             return false;

@@ -11,7 +11,7 @@
 //! pixel 8 source pixels wide would take.
 
 /// The taps a side of a pixel by a depth edge. Against the exact render of the KITTI-360 offset
-/// rig at 360×180 (`tests/kitti360_stitch/depth_guided.rs`; its edge pixels span 3 to 10 source
+/// rig at 360×180 (`tests/kitti360_stitch/depth_guided.rs`; its pixels span up to 10 source
 /// pixels) a side's taps capped at 4 read 49.12 dB, regions [41.43, 46.24, 51.04, 49.20]; at 3,
 /// 48.65 dB (image_01's region 0.8 dB lower: its 10-pixel footprints alias); at 5, 49.00; the
 /// scale's count (up to 8), 49.04. A pyramid level per 2×2 or 4×4 sub-pixel (a quarter or a
