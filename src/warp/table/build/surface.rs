@@ -10,17 +10,18 @@
 //! its own distance, so each surface is sampled where it lies, at a quarter of the 8×8 taps a
 //! pixel 8 source pixels wide would take.
 
-/// The taps a side of a pixel by a depth edge. Against the exact render of the KITTI-360 offset
-/// rig at 360×180 (`tests/kitti360_stitch/depth_guided.rs`; its pixels span up to 10 source
-/// pixels) a side's taps capped at 4 read 49.12 dB, regions [41.43, 46.24, 51.04, 49.20]; at 3,
-/// 48.65 dB (image_01's region 0.8 dB lower: its 10-pixel footprints alias); at 5, 49.00; the
-/// scale's count (up to 8), 49.04. A pyramid level per 2×2 or 4×4 sub-pixel (a quarter or a
-/// sixteenth of the footprint) blurs the surfaces' silhouettes, 47.76 and 49.06 dB with image_02's
-/// region 1.3 and 0.2 dB lower; 2×2 or 3×3 taps at level 0 alias, 48.70 and 48.43 dB.
-pub(super) const EDGE_TAPS: u32 = 4;
-
 use super::{count, tap_offset, Builder, Parts};
 use nalgebra::{Point2, Vector3};
+
+/// The taps a side of a pixel by a depth edge. Against the exact render of the KITTI-360
+/// offset rig at 360×180 (`tests/kitti360_stitch/depth_guided.rs`; its pixels span up to 10
+/// source pixels) a side's taps capped at 4 read 49.12 dB, regions [41.43, 46.24, 51.04,
+/// 49.20]; at 3, 48.65 dB (image_01's region 0.8 dB lower: its 10-pixel footprints alias); at
+/// 5, 49.00; the scale's count (up to 8), 49.04. A pyramid level per 2×2 or 4×4 sub-pixel (a
+/// quarter or a sixteenth of the footprint) blurs the surfaces' silhouettes: 47.76 and 49.06
+/// dB, image_02's region 1.3 and 0.2 dB lower; 2×2 or 3×3 taps at level 0 alias: 48.70 and
+/// 48.43 dB.
+pub(super) const EDGE_TAPS: u32 = 4;
 
 /// The scene of a depth-guided source at the output's pixels.
 pub(crate) trait Surfaces: Sync {
@@ -29,9 +30,10 @@ pub(crate) trait Surfaces: Sync {
     /// surface's.
     fn one_surface(&self, u: usize, v: usize) -> bool;
 
-    /// Appends the source positions of a table's taps: at output positions `at`, along
-    /// bearings `ds` (in the source's frame), as [`crate::camera::CameraModel::project_all`]
-    /// gives them (the positions spare the bearings' projection into the output).
+    /// Appends the source positions of a table's taps at output positions `at` (the table's
+    /// output pixels, whose centres `one_surface` reads) along bearings `ds` (in the source's
+    /// frame), as [`crate::camera::CameraModel::project_all`] gives them: the positions spare
+    /// the bearings' projection back into the output.
     fn project_taps(
         &self,
         at: &[Point2<f64>],
