@@ -138,6 +138,8 @@ struct Parts {
     span: Vec<Option<Point2<f64>>>,
     /// The output positions of a pixel's taps (row by row), for [`Surfaces::project_taps`].
     at: Vec<Point2<f64>>,
+    /// Whether each mapped pixel of the current row lies on one surface, from its first.
+    one_surface: Vec<bool>,
 }
 
 impl<'a> Builder<'a> {
@@ -296,6 +298,16 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
+        // which of the row's mapped pixels lie on one surface, the row at once
+        let mapped = here[1..=w].iter().position(Option::is_some).unwrap_or(w);
+        if let Some(s) = self.surfaces.filter(|_| mapped < w && self.cap > 1) {
+            let end = w - here[1..=w]
+                .iter()
+                .rev()
+                .position(Option::is_some)
+                .unwrap_or(0);
+            s.one_surface_row(v, mapped..end, &mut parts.one_surface);
+        }
         let mut next = 0;
         while next < w {
             let u = next;
@@ -319,7 +331,8 @@ impl<'a> Builder<'a> {
                         [above[u + 1], below[u + 1]],
                         period,
                     );
-                    let (nu, nv, level) = self.footprint((u, v), (su, sv));
+                    let by_edge = || !parts.one_surface[u - mapped];
+                    let (nu, nv, level) = self.footprint(by_edge, (su, sv));
                     (nu, nv, level, (su, sv))
                 }
             };

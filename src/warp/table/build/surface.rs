@@ -12,6 +12,7 @@
 
 use super::{count, tap_offset, Builder, Parts};
 use nalgebra::{Point2, Vector3};
+use std::ops::Range;
 
 /// The taps a side of a pixel by a depth edge. Against the exact render of the KITTI-360
 /// offset rig at 360×180 (`tests/kitti360_stitch/depth_guided.rs`; its pixels span up to 10
@@ -30,6 +31,13 @@ pub(crate) trait Surfaces: Sync {
     /// surface's.
     fn one_surface(&self, u: usize, v: usize) -> bool;
 
+    /// [`Surfaces::one_surface`] of the pixels `columns` of output row `v`, into `out` (its
+    /// old contents dropped).
+    fn one_surface_row(&self, v: usize, columns: Range<usize>, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend(columns.map(|u| self.one_surface(u, v)));
+    }
+
     /// Appends the source positions of a table's taps at output positions `at` (the table's
     /// output pixels, whose centres `one_surface` reads) along bearings `ds` (in the source's
     /// frame), as [`crate::camera::CameraModel::project_all`] gives them: the positions spare
@@ -43,23 +51,20 @@ pub(crate) trait Surfaces: Sync {
 }
 
 impl Builder<'_> {
-    /// The footprint of output pixel (u, v), whose squared scales along u and v are
-    /// `(su, sv)`: its taps along each axis and the pyramid level they sample (its rule,
-    /// `level.rs`), at most [`EDGE_TAPS`] a side at level 0 where the source's scene puts a
-    /// depth edge by it.
+    /// The footprint of an output pixel whose squared scales along u and v are `(su, sv)`:
+    /// its taps along each axis and the pyramid level they sample (its rule, `level.rs`), at
+    /// most [`EDGE_TAPS`] a side at level 0 where the source's scene puts a depth edge by it
+    /// (`by_edge`, asked only where the pixel would sample the pyramid of a scene's source).
     #[inline]
     pub(super) fn footprint(
         &self,
-        (u, v): (usize, usize),
+        by_edge: impl FnOnce() -> bool,
         (su, sv): (f64, f64),
     ) -> (u32, u32, u32) {
         let mut level = self.level_of(su.min(sv));
         let mut most = self.cap;
-        if let Some(s) = self.surfaces {
-            // (the scene is asked only where the pixel would sample the pyramid)
-            if level > 0 && !s.one_surface(u, v) {
-                (level, most) = (0, most.min(EDGE_TAPS));
-            }
+        if level > 0 && self.surfaces.is_some() && by_edge() {
+            (level, most) = (0, most.min(EDGE_TAPS));
         }
         // at a pyramid level the scales are 4^level times smaller
         let down = (1u32 << (2 * level)) as f64;
@@ -142,14 +147,29 @@ mod tests {
         b.shapes = pyramid::level_shapes(b.source_size, 5);
         b.taps_below2 = 4.0;
         b.surfaces = Some(&scene);
-        assert_eq!(b.footprint((0, 5), (64.0, 64.0)), (1, 1, 3));
+        assert_eq!(
+            b.footprint(|| !scene.one_surface(0, 5), (64.0, 64.0)),
+            (1, 1, 3)
+        );
         // by an edge: level 0, 4×4 taps where the scale's count is 8 (and at most 8 without
         // the scene); the count where it is smaller; each axis alone
-        assert_eq!(b.footprint((1, 5), (64.0, 64.0)), (EDGE_TAPS, EDGE_TAPS, 0));
+        assert_eq!(
+            b.footprint(|| !scene.one_surface(1, 5), (64.0, 64.0)),
+            (EDGE_TAPS, EDGE_TAPS, 0)
+        );
         assert_eq!(EDGE_TAPS, 4);
-        assert_eq!(b.footprint((1, 5), (9.0, 9.0)), (3, 3, 0));
-        assert_eq!(b.footprint((1, 5), (64.0, 6.25)), (4, 3, 0));
+        assert_eq!(
+            b.footprint(|| !scene.one_surface(1, 5), (9.0, 9.0)),
+            (3, 3, 0)
+        );
+        assert_eq!(
+            b.footprint(|| !scene.one_surface(1, 5), (64.0, 6.25)),
+            (4, 3, 0)
+        );
         // below the pyramid's threshold the scene is not asked: the taps' count alone
-        assert_eq!(b.footprint((1, 5), (2.0, 2.0)), (1, 1, 0));
+        assert_eq!(
+            b.footprint(|| !scene.one_surface(1, 5), (2.0, 2.0)),
+            (1, 1, 0)
+        );
     }
 }
