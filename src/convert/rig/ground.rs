@@ -155,19 +155,19 @@ pub struct LocalGround {
 
 impl LocalGround {
     /// The local ground of `points` (see [`LocalGround`]), None without a plane; its knots
-    /// from the points `ground` lets through (those in no object's box: a parked car's low
-    /// returns would lift the road beside it).
+    /// from the points `ground` lets through, by index (those in no object's box: a parked
+    /// car's low returns would lift the road beside it).
     pub fn fit(
         points: &[Vector3<f64>],
         centre: &Vector3<f64>,
-        ground: impl Fn(&Vector3<f64>) -> bool,
+        ground: impl Fn(usize) -> bool,
     ) -> Option<LocalGround> {
         let plane = Ground::fit(points, centre)?;
         let mut heights = vec![Vec::new(); SECTORS * KNOTS];
-        for p in points.iter().filter(|p| ground(p)) {
+        for (i, p) in points.iter().enumerate() {
             let (sector, knot) = polar(centre, p);
             let (j, k) = (sector.round() as usize % SECTORS, knot.round() as usize);
-            if (1..KNOTS).contains(&k) {
+            if (1..KNOTS).contains(&k) && ground(i) {
                 heights[j * KNOTS + k].push(plane.height(p));
             }
         }
