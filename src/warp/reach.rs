@@ -386,6 +386,24 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                         fill(rows, (i0, i1), (j0, j1), whole, 0);
                         continue;
                     }
+                } else if whole_tiles && complete() {
+                    // per tile limits: a block beyond its tiles' widest limit (and planes)
+                    // lies beyond each tile's
+                    let tiles = || {
+                        (tjs.clone())
+                            .flat_map(|tj| tis.clone().map(move |ti| tj * tiles_across + ti))
+                    };
+                    let widest = tiles().map(|t| limits[t]).fold(0.0, f64::max);
+                    let widening = tiles().map(|t| widening[t]).fold(0.0, f64::max);
+                    if widest < std::f64::consts::PI {
+                        let planes = (cone.frustum)
+                            .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK + widening));
+                        let at = ((i0, i1), (j0, j1));
+                        let whole = whole_tile(cone, planes.as_ref(), k, output, widest, at);
+                        if whole == Some(false) {
+                            continue;
+                        }
+                    }
                 }
                 for tj in tjs.clone() {
                     for ti in tis.clone() {

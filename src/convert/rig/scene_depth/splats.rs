@@ -72,15 +72,17 @@ impl Splats {
                 let dy = (cy as f64 + 0.5 - y) / ry;
                 let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
                 let (x0, x1) = (floor(x - reach), ceil(x + reach));
-                // cells x0..x1 around the row (wrapped once, not divided for each)
+                // cells x0..x1 around the row, as at most two runs (the second from the row's
+                // start where it wraps; a run over a cell twice lowers it once)
                 let row = &mut splats.range[cy * width..(cy + 1) * width];
-                let mut cx = x0.rem_euclid(width as i64) as usize;
-                for _ in x0..x1 {
-                    row[cx] = row[cx].min(range);
-                    cx += 1;
-                    if cx == width {
-                        cx = 0;
-                    }
+                let start = x0.rem_euclid(width as i64) as usize;
+                let n = (x1 - x0).max(0) as usize;
+                let first = n.min(width - start);
+                for cell in &mut row[start..start + first] {
+                    *cell = cell.min(range);
+                }
+                for cell in &mut row[..(n - first).min(width)] {
+                    *cell = cell.min(range);
                 }
             }
         }
