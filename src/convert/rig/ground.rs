@@ -418,7 +418,7 @@ impl LocalGround {
             (sector - spread).floor() as i64,
             (sector + spread).floor() as i64 + 1,
         );
-        if !(last - first + 1 < SECTORS as i64) {
+        if last - first + 1 >= SECTORS as i64 {
             return None;
         }
         // the plane raised by m bounds a crossing at (h − m) / cos ψ, ψ the least angle a
