@@ -181,18 +181,18 @@ impl SceneDepth {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
         let motion = Motion::new(frame, &eyes);
-        let ground = LocalGround::fit(&points, &centre, |p| {
-            !solids.iter().any(|s| s.contains(p, BOX_MARGIN))
-        });
+        // per point, whether it lies in a box (the ground fit and the residual both ask)
+        let in_box: Vec<bool> = points.iter().map(|p| in_a_box(&solids, p)).collect();
+        let ground = LocalGround::fit(&points, &centre, |i| !in_box[i]);
         let noise = Noise::measure(&centre, &points);
-        let residual: Vec<Vector3<f64>> = points
-            .into_iter()
-            .filter(|p| {
-                ground
-                    .as_ref()
-                    .is_none_or(|g| g.height(p) > GROUND_FIT * 2.0)
+        let residual: Vec<Vector3<f64>> = (points.into_iter().zip(in_box))
+            .filter(|(p, in_box)| {
+                !in_box
+                    && ground
+                        .as_ref()
+                        .is_none_or(|g| g.height(p) > GROUND_FIT * 2.0)
             })
-            .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
+            .map(|(p, _)| p)
             .filter(|p| !motion.swept(&solids, p))
             .collect();
         let residual = noise.without_lone_returns(&centre, residual);
@@ -246,6 +246,16 @@ impl SceneDepth {
         });
         t
     }
+}
+
+/// Whether `p` lies in one of `solids` ([`BOX_MARGIN`]): the boxes whose bounding sphere
+/// one of p's offsets alone leaves (with room for its rounding) are passed over untested.
+fn in_a_box(solids: &[Solid], p: &Vector3<f64>) -> bool {
+    solids.iter().any(|s| {
+        let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
+        let v = p - s.centre;
+        !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach) && s.contains(p, BOX_MARGIN)
+    })
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
