@@ -28,7 +28,9 @@
 //! which camera i sees at most asin(b_i / t) from the bearing's direction: the cone is widened
 //! by that angle per tile of [`TILE`]×[`TILE`] positions, t a lower bound of the scene's
 //! distance over every bearing within the tile's angular radius (plus two turns A for the
-//! taps) of its middle position's bearing.
+//! taps) of its middle position's bearing; a pinhole's border planes are widened by the same
+//! angle (a point's signed angle from a plane through the camera moves by at most the angle
+//! its direction turns).
 
 use crate::camera::{CameraModel, ImageSize, ProjectionReject};
 use nalgebra::{Point2, Vector3};
@@ -81,8 +83,8 @@ pub(super) struct Cone<'a> {
     /// With a depth-guided stitch, b_i: the cone is widened per tile by asin(b_i / t) (no
     /// bound in a tile where t ≤ b_i).
     pub baseline: Option<f64>,
-    /// A pinhole camera's image border planes, which bound it within its cone (without a
-    /// baseline; see `reach/frustum.rs`).
+    /// A pinhole camera's image border planes, which bound it within its cone (widened per
+    /// tile as the cone is with a baseline; see `reach/frustum.rs`).
     pub frustum: Option<Frustum>,
 }
 
@@ -286,19 +288,21 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
         return None;
     };
     let limit = c + 2.0 * step * k + 1e-9;
-    // one limit for every position, or with a baseline one per tile
-    let limits: Vec<f64> = match (cone.baseline, &tiles) {
-        (None, _) => vec![limit],
+    // one limit for every position, or with a baseline one per tile (and the tile's
+    // parallax angle asin(b / t), which widens the planes as it widens the cone)
+    let (limits, widening): (Vec<f64>, Vec<f64>) = match (cone.baseline, &tiles) {
+        (None, _) => (vec![limit], vec![0.0]),
         (Some(b), Some(tiles)) => tiles
             .iter()
             .map(|&t| {
                 if b.is_finite() && b < t {
-                    limit + (b / t).asin()
+                    let parallax = (b / t).asin();
+                    (limit + parallax, parallax)
                 } else {
-                    f64::INFINITY
+                    (f64::INFINITY, f64::INFINITY)
                 }
             })
-            .collect(),
+            .unzip(),
         (Some(_), None) => return None,
     };
     if !limits.iter().any(|l| *l < std::f64::consts::PI) {
@@ -311,12 +315,15 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
         .iter()
         .map(|&limit| (limit < 3.0).then(|| (limit + 1e-6).cos()))
         .collect();
-    // with one limit, a pinhole's image border planes at the same angle beyond (and the
-    // border cone's slack)
-    let planes = (cone.frustum)
-        .filter(|_| limits.len() == 1)
-        .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK));
-    let position = |d: &Vector3<f64>, tile: usize| -> bool {
+    // a pinhole's image border planes at the same angle beyond as the cone's limit (and the
+    // border cone's slack), per tile with a baseline (none where the tile has no bound)
+    let planes = |tile: usize| -> Option<Slack> {
+        let widening = widening[tile];
+        (cone.frustum)
+            .filter(|_| widening.is_finite())
+            .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK + widening))
+    };
+    let position = |d: &Vector3<f64>, tile: usize, planes: Option<&Slack>| -> bool {
         let limit = limits[tile];
         if !d.x.is_finite() || !(limit < std::f64::consts::PI) {
             return true;
@@ -327,8 +334,9 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
             Some(c) => !(q.z < c * q.norm()),
             None => !(q.x.hypot(q.y).atan2(q.z) > limit),
         };
-        within && planes.as_ref().is_none_or(|p| p.holds(&q))
+        within && planes.is_none_or(|p| p.holds(&q))
     };
+    let single = (limits.len() == 1).then(|| planes(0)).flatten();
     let mut candidate = PositionSet::new(gw, gh);
     let words = candidate.words();
     let tiles_down = gh.div_ceil(TILE);
@@ -339,6 +347,10 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
         .for_each(|(bj, rows)| {
             let jb = bj * TILE * BLOCK;
             let fill = |rows: &mut [u64], (i0, i1), (j0, j1), whole: Option<bool>, tile| {
+                let tile_planes = match limits.len() {
+                    1 => single,
+                    _ => whole.is_none().then(|| planes(tile)).flatten(),
+                };
                 for j in j0..j1 {
                     let row = &mut rows[(j - jb) * words..][..words];
                     match whole {
@@ -346,7 +358,7 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                         Some(false) => {}
                         None => {
                             for i in i0..i1 {
-                                if position(&bearings[j * gw + i], tile) {
+                                if position(&bearings[j * gw + i], tile, tile_planes.as_ref()) {
                                     set::set(row, i);
                                 }
                             }
@@ -369,10 +381,28 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                 let (j0, j1) = (tjs.start * TILE, (tjs.end * TILE).min(gh));
                 if whole_tiles && limits.len() == 1 && complete() {
                     let at = ((i0, i1), (j0, j1));
-                    let whole = whole_tile(cone, planes.as_ref(), k, output, limits[0], at);
+                    let whole = whole_tile(cone, single.as_ref(), k, output, limits[0], at);
                     if whole.is_some() {
                         fill(rows, (i0, i1), (j0, j1), whole, 0);
                         continue;
+                    }
+                } else if whole_tiles && complete() {
+                    // per tile limits: a block beyond its tiles' widest limit (and planes)
+                    // lies beyond each tile's
+                    let tiles = || {
+                        (tjs.clone())
+                            .flat_map(|tj| tis.clone().map(move |ti| tj * tiles_across + ti))
+                    };
+                    let widest = tiles().map(|t| limits[t]).fold(0.0, f64::max);
+                    let widening = tiles().map(|t| widening[t]).fold(0.0, f64::max);
+                    if widest < std::f64::consts::PI {
+                        let planes = (cone.frustum)
+                            .map(|f| f.within(2.0 * step * k + 1e-9 + BORDER_SLACK + widening));
+                        let at = ((i0, i1), (j0, j1));
+                        let whole = whole_tile(cone, planes.as_ref(), k, output, widest, at);
+                        if whole == Some(false) {
+                            continue;
+                        }
                     }
                 }
                 for tj in tjs.clone() {
@@ -388,6 +418,10 @@ fn cone_reach_by(cone: &Cone, grid: &Grid, whole_tiles: bool) -> Option<Position
                         let whole = (whole_tiles && complete)
                             .then(|| {
                                 let at = ((i0, i1), (j0, j1));
+                                let planes = match limits.len() {
+                                    1 => single,
+                                    _ => planes(tile),
+                                };
                                 whole_tile(cone, planes.as_ref(), k, output, limits[tile], at)
                             })
                             .flatten();

@@ -148,25 +148,26 @@ pub struct LocalGround {
     raise: Vec<f64>,
     /// The least and largest raise.
     band: (f64, f64),
+
     /// The raise's bounds per cell of a Cartesian grid, which a ray is walked through.
     bounds: walk::Bounds,
 }
 
 impl LocalGround {
     /// The local ground of `points` (see [`LocalGround`]), None without a plane; its knots
-    /// from the points `ground` lets through (those in no object's box: a parked car's low
-    /// returns would lift the road beside it).
+    /// from the points `ground` lets through, by index (those in no object's box: a parked
+    /// car's low returns would lift the road beside it).
     pub fn fit(
         points: &[Vector3<f64>],
         centre: &Vector3<f64>,
-        ground: impl Fn(&Vector3<f64>) -> bool,
+        ground: impl Fn(usize) -> bool,
     ) -> Option<LocalGround> {
         let plane = Ground::fit(points, centre)?;
         let mut heights = vec![Vec::new(); SECTORS * KNOTS];
-        for p in points.iter().filter(|p| ground(p)) {
+        for (i, p) in points.iter().enumerate() {
             let (sector, knot) = polar(centre, p);
             let (j, k) = (sector.round() as usize % SECTORS, knot.round() as usize);
-            if (1..KNOTS).contains(&k) {
+            if (1..KNOTS).contains(&k) && ground(i) {
                 heights[j * KNOTS + k].push(plane.height(p));
             }
         }
@@ -379,13 +380,72 @@ impl LocalGround {
     }
 
     /// A lower bound of [`LocalGround::hit`] over the unit rays from `o` within `radius` of
-    /// unit `d`: the plane raised by the largest raise bounds it.
+    /// unit `d`: the plane raised by the largest raise bounds it, and from the centre's
+    /// vertical the ground per knot interval the rays may meet ([`LocalGround::radial_within`]).
     pub(super) fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
         let top = self.raised(self.band.1);
-        if top.height(o) <= 0.0 {
-            return 0.0;
+        let plain = match top.height(o) {
+            h if h <= 0.0 => 0.0,
+            _ => top.nearest_within(o, d, radius),
+        };
+        // (a viewpoint under the ground meets it at once)
+        if !self.on_axis(o) || self.height(o) <= 0.0 {
+            return plain;
         }
-        top.nearest_within(o, d, radius)
+        self.radial_within(o, d, radius)
+            .map_or(plain, |t| t.max(plain))
+    }
+
+    /// From `o` on the centre's vertical, a lower bound of [`LocalGround::hit`] over the unit
+    /// rays within `radius` of unit `d` (None where the cone holds a pole). Such a ray keeps
+    /// its azimuth, so the ground it meets is blended from the knots of the two sectors about
+    /// it ([`LocalGround::hit_radial`]): those of the sectors about the cone's azimuths
+    /// (sin Δ = sin(radius) / cos φ about d's, φ its latitude, a nanoradian to spare). A
+    /// crossing within knot interval k lies k·[`KNOT`] or more away horizontally, so as far
+    /// along the ray, and on or under the plane raised by the interval's largest raise: the
+    /// least over the intervals (and beyond the last knot) of the larger of the two.
+    fn radial_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> Option<f64> {
+        let n = d.norm();
+        let lat = (d.y / n).clamp(-1.0, 1.0).asin();
+        let reach = radius + 1e-9;
+        if !(lat.abs() + reach < std::f64::consts::FRAC_PI_2 - 1e-6) {
+            return None;
+        }
+        let per = SECTORS as f64 / std::f64::consts::TAU;
+        let spread = ((reach.sin() / lat.cos()).min(1.0).asin() + 1e-9) * per;
+        let sector = walk::turn(d.x, d.z) * per;
+        let (first, last) = (
+            (sector - spread).floor() as i64,
+            (sector + spread).floor() as i64 + 1,
+        );
+        if last - first + 1 >= SECTORS as i64 {
+            return None;
+        }
+        // the plane raised by m bounds a crossing at (h − m) / cos ψ, ψ the least angle a
+        // ray of the cone makes with the way down (as `Ground::nearest_within`)
+        let h = self.plane.height(o);
+        let down = (-self.plane.normal.dot(d) / n).clamp(-1.0, 1.0).acos();
+        let angle = (down - radius - 1e-9).max(0.0);
+        let under = |m: f64| match h - m {
+            above if above <= 0.0 => 0.0,
+            _ if angle >= std::f64::consts::FRAC_PI_2 => f64::INFINITY,
+            above => above / angle.cos() * (1.0 - 1e-9),
+        };
+        let highest = |k: usize| {
+            (first..=last)
+                .map(|j| self.raise[j.rem_euclid(SECTORS as i64) as usize * KNOTS + k])
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let mut t = f64::INFINITY;
+        let mut near = highest(0);
+        for k in 0..KNOTS {
+            // interval k (beyond the last knot, its raise)
+            let far = if k + 1 < KNOTS { highest(k + 1) } else { near };
+            let along = k as f64 * KNOT * (1.0 - 1e-9);
+            t = t.min(along.max(under(near.max(far))));
+            near = far;
+        }
+        Some(t)
     }
 
     /// A lower bound of the distance from `o` to the local ground.

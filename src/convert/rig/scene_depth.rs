@@ -30,11 +30,12 @@ mod faults;
 mod grid;
 mod motion;
 mod noise;
+mod occlusion;
 mod solid;
 mod splats;
 
 use super::ground::{Ground, LocalGround, GROUND_FIT};
-use crate::camera::{perpendiculars, CameraModel};
+use crate::camera::CameraModel;
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::Frame;
@@ -46,7 +47,6 @@ use noise::Noise;
 use serde::Serialize;
 use solid::Solid;
 use splats::{angles, Splats};
-use std::f64::consts::TAU;
 use std::sync::OnceLock;
 
 /// The distance of a ray that meets nothing (the sky), metres: 1 m of baseline is 0.1 mrad of
@@ -181,18 +181,18 @@ impl SceneDepth {
         let points: Vec<Vector3<f64>> = frame.lidar.iter().map(|p| p.position).collect();
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
         let motion = Motion::new(frame, &eyes);
-        let ground = LocalGround::fit(&points, &centre, |p| {
-            !solids.iter().any(|s| s.contains(p, BOX_MARGIN))
-        });
+        // per point, whether it lies in a box (the ground fit and the residual both ask)
+        let in_box: Vec<bool> = points.iter().map(|p| in_a_box(&solids, p)).collect();
+        let ground = LocalGround::fit(&points, &centre, |i| !in_box[i]);
         let noise = Noise::measure(&centre, &points);
-        let residual: Vec<Vector3<f64>> = points
-            .into_iter()
-            .filter(|p| {
-                ground
-                    .as_ref()
-                    .is_none_or(|g| g.height(p) > GROUND_FIT * 2.0)
+        let residual: Vec<Vector3<f64>> = (points.into_iter().zip(in_box))
+            .filter(|(p, in_box)| {
+                !in_box
+                    && ground
+                        .as_ref()
+                        .is_none_or(|g| g.height(p) > GROUND_FIT * 2.0)
             })
-            .filter(|p| !solids.iter().any(|s| s.contains(p, BOX_MARGIN)))
+            .map(|(p, _)| p)
             .filter(|p| !motion.swept(&solids, p))
             .collect();
         let residual = noise.without_lone_returns(&centre, residual);
@@ -246,94 +246,16 @@ impl SceneDepth {
         });
         t
     }
+}
 
-    /// Whether an exact surface lies along unit ray (o, d) nearer than `limit`
-    /// ([`SceneDepth::exact_hit`] < `limit`, without finding the nearest).
-    fn exact_before(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>, limit: f64) -> bool {
-        if (self.ground.as_ref()).is_some_and(|g| g.meets_before(o, d, limit)) {
-            return true;
-        }
-        let solids = self.solids_of(view);
-        self.grids[view].any(d, solids.len(), |k| {
-            let s = &solids[k];
-            (s.centre - o).dot(d) - s.radius < limit && s.hit(o, d).is_some_and(|t| t < limit)
-        })
-    }
-
-    /// The unit ray from camera `camera`'s eye to `x`: the eye, the direction and its length
-    /// (None without such a camera or for `x` at the eye).
-    fn eye_ray(&self, camera: usize, x: &Vector3<f64>) -> Option<EyeRay> {
-        let eye = *self.eyes.get(camera)?;
-        let v = x - eye;
-        let length = v.norm();
-        if !(length > 0.0) {
-            return None;
-        }
-        let d = v / length;
-        Some(EyeRay { eye, d, length })
-    }
-
-    /// [`StitchDepth::hidden_near`] along `ray` ([`SceneDepth::eye_ray`]).
-    fn hidden_along(&self, camera: usize, x: &Vector3<f64>, ray: &EyeRay, radius: f64) -> bool {
-        let EyeRay { eye, d, length } = *ray;
-        if !(radius > 0.0) {
-            return false;
-        }
-        let spread = radius.tan();
-        let nearer = length * 0.95 - SURFACE_TOLERANCE;
-        // the box's outline moves by the parallax across the eye's offset from the centre
-        let base = eye - self.centre;
-        // the rim's rays, made for the first box that passes the sphere test (most samples
-        // have none near)
-        let mut rim: Option<[Vector3<f64>; RING_RAYS]> = None;
-        let solids = self.solids_of(camera + 1);
-        let hides = |k: usize| {
-            let s = &solids[k];
-            // (the cone's test first: most listed boxes lie away from the footprint)
-            let oc = s.centre - eye;
-            let along = oc.dot(&d);
-            let reach = s.radius + along.max(0.0) * spread;
-            if along - s.radius >= nearer || oc.norm_squared() - along * along > reach * reach {
-                return false;
-            }
-            if s.contains(x, SURFACE_TOLERANCE) {
-                return false;
-            }
-            // a box that moved by m since the centre saw it: as if the eye had moved by −m
-            let base = base - self.motion.shift(camera, k);
-            let rays = rim.get_or_insert_with(|| ring(&d, spread));
-            rays.iter().any(|ray| {
-                // under a tenth of the footprint the blur mixes the box in as the centre sees it
-                let across = (base - ray * base.dot(ray)).norm();
-                s.hit(&eye, ray).is_some_and(|t| {
-                    t < nearer && across * (1.0 / t - 1.0 / length) > radius / 10.0
-                })
-            })
-        };
-        // the grid lists every box a rim ray within its reach may meet
-        if radius <= grid::REACH {
-            self.grids[camera + 1].any(&d, solids.len(), hides)
-        } else {
-            (0..solids.len()).any(hides)
-        }
-    }
-
-    /// [`StitchDepth::sees`] along `ray` ([`SceneDepth::eye_ray`]).
-    fn sees_along(&self, camera: usize, ray: &EyeRay) -> bool {
-        let EyeRay { eye, d, length } = ray;
-        if self.exact_before(
-            camera + 1,
-            eye,
-            d,
-            length - SURFACE_TOLERANCE - 1e-9 * length,
-        ) {
-            return false;
-        }
-        self.splats.get(camera + 1).is_none_or(|s| {
-            let (lon, lat) = angles(d);
-            s.range(lon, lat) >= length - self.noise.margin(*length)
-        })
-    }
+/// Whether `p` lies in one of `solids` ([`BOX_MARGIN`]): the boxes whose bounding sphere
+/// one of p's offsets alone leaves (with room for its rounding) are passed over untested.
+fn in_a_box(solids: &[Solid], p: &Vector3<f64>) -> bool {
+    solids.iter().any(|s| {
+        let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
+        let v = p - s.centre;
+        !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach) && s.contains(p, BOX_MARGIN)
+    })
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
@@ -361,26 +283,6 @@ fn residual_splats(
         .collect()
 }
 
-/// The [`RING_RAYS`] unit rays at angle atan(`spread`) around unit `d`.
-fn ring(d: &Vector3<f64>, spread: f64) -> [Vector3<f64>; RING_RAYS] {
-    static TURNS: std::sync::OnceLock<[(f64, f64); RING_RAYS]> = std::sync::OnceLock::new();
-    let turns = TURNS.get_or_init(|| {
-        std::array::from_fn(|k| {
-            let turn = k as f64 * TAU / RING_RAYS as f64;
-            (turn.cos(), turn.sin())
-        })
-    });
-    let (a, b) = perpendiculars(d);
-    std::array::from_fn(|k| (d + (a * turns[k].0 + b * turns[k].1) * spread).normalize())
-}
-
-/// A ray from an eye to a point ([`SceneDepth::eye_ray`]).
-struct EyeRay {
-    eye: Vector3<f64>,
-    d: Vector3<f64>,
-    length: f64,
-}
-
 impl StitchDepth for SceneDepth {
     fn distance(&self, d: &Vector3<f64>) -> f64 {
         // the splats first: a box beyond them is not tested
@@ -402,9 +304,8 @@ impl StitchDepth for SceneDepth {
     }
 
     fn sees_clean(&self, camera: usize, x: &Vector3<f64>, radius: f64) -> bool {
-        self.eye_ray(camera, x).is_some_and(|ray| {
-            self.sees_along(camera, &ray) && !self.hidden_along(camera, x, &ray, radius)
-        })
+        self.eye_ray(camera, x)
+            .is_some_and(|ray| self.clean_along(camera, x, &ray, radius))
     }
     fn nearest(&self) -> f64 {
         self.nearest
@@ -443,6 +344,7 @@ impl StitchDepth for SceneDepth {
 mod tests {
     use super::*;
     use crate::source::{LidarPoint, SourceBox};
+    use std::f64::consts::TAU;
 
     fn frame(points: Vec<Vector3<f64>>, objects: Vec<SourceBox>) -> Frame {
         Frame {

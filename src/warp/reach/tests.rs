@@ -34,10 +34,22 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
     let (plain, turned) = outputs();
     let locals = locals();
     let near = |d: &Vector3<f64>, _radius: f64| 2.0 + 1.5 * d.y;
+    // a 16:9 pinhole's border planes, widened per tile as the guided cone is
+    let pinhole = Perspective::new(
+        Intrinsics::new(300.0, 300.0, 191.5, 107.5),
+        ImageSize::new(384, 216),
+    );
+    let planes = Frustum::of(&pinhole);
     for output in [&plain as &dyn CameraModel, &turned] {
         let output_grid = OutputGrid::compute(output);
         let tiles = tile_nearest(&output_grid, &near);
-        for (half_angle, guided) in [(0.45, false), (1.1, false), (0.6, true)] {
+        let cases = [
+            (0.45, false, None),
+            (1.1, false, None),
+            (0.6, true, None),
+            (0.6, true, planes),
+        ];
+        for (half_angle, guided, frustum) in cases {
             let grid = Grid {
                 output: &output_grid,
                 tiles: guided.then_some(&tiles[..]),
@@ -48,11 +60,25 @@ fn the_tiles_decide_every_position_as_the_positions_alone_do() {
                     half_angle: Some(half_angle),
                     parallax: Some(if guided { 1.0 } else { 10.0 / 9.5 }),
                     baseline: guided.then_some(0.5),
-                    frustum: None,
+                    frustum,
                 };
                 let tiled = cone_reach_by(&cone, &grid, true).unwrap();
                 let alone = cone_reach_by(&cone, &grid, false).unwrap();
                 assert!(tiled == alone, "{output:?} {half_angle} {guided}");
+                // the planes leave out part of the guided cone's set
+                if frustum.is_some() {
+                    let round = Cone {
+                        frustum: None,
+                        ..cone
+                    };
+                    let round = cone_reach_by(&round, &grid, true).unwrap();
+                    let (gw, gh) = (output_grid.gw, output_grid.gh);
+                    let subset = (0..gh)
+                        .all(|j| (0..gw).all(|i| !tiled.contains(i, j) || round.contains(i, j)));
+                    let (cut, held) = (tiled.len(), round.len());
+                    assert!(subset, "{output:?}");
+                    assert!(cut < held, "{cut} of {held}");
+                }
                 // the cone holds some positions and leaves others
                 let held = tiled.len();
                 let all = output_grid.gw * output_grid.gh;

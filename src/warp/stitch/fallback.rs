@@ -15,26 +15,51 @@ use rayon::prelude::*;
 /// shown to see that point.
 pub const FALLBACK_SOURCE: u8 = 128;
 
+/// Pixels per piece of [`resolve`]'s one pass: every camera's weights of a piece stay in the
+/// cache while it is resolved.
+const PIECE: usize = 4096;
+
 /// Resolves the weights built with fallbacks as negative values: per pixel, the positive
 /// weights where there is one (negatives set to 0), else the negated fallbacks. Returns the
 /// pixels that took fallbacks.
 pub(super) fn resolve(weights: &mut [Vec<f32>]) -> Vec<bool> {
     let n = weights.first().map_or(0, Vec::len);
-    let seen: Vec<bool> = (0..n)
-        .into_par_iter()
-        .map(|i| weights.iter().any(|w| w[i] > 0.0))
-        .collect();
+    // per piece of the output, every camera's share of it
+    let mut pieces: Vec<Vec<&mut [f32]>> = (0..n.div_ceil(PIECE)).map(|_| Vec::new()).collect();
     for w in weights.iter_mut() {
-        w.par_iter_mut().zip(&seen).for_each(|(x, &seen)| {
-            if *x < 0.0 {
-                *x = if seen { 0.0 } else { -*x };
+        for (piece, part) in pieces.iter_mut().zip(w.chunks_mut(PIECE)) {
+            piece.push(part);
+        }
+    }
+    let mut fallback = vec![false; n];
+    pieces
+        .into_par_iter()
+        .zip(fallback.par_chunks_mut(PIECE))
+        .for_each(|(mut parts, fallback)| {
+            // camera by camera over the piece (loops the compiler vectorises)
+            let mut seen = [false; PIECE];
+            for w in &parts {
+                for (s, x) in seen.iter_mut().zip(w.iter()) {
+                    *s |= *x > 0.0;
+                }
+            }
+            for w in parts.iter_mut() {
+                for (x, s) in w.iter_mut().zip(&seen) {
+                    if *x < 0.0 {
+                        *x = if *s { 0.0 } else { -*x };
+                    }
+                }
+            }
+            for w in &parts {
+                for (flag, x) in fallback.iter_mut().zip(w.iter()) {
+                    *flag |= *x > 0.0;
+                }
+            }
+            for (flag, s) in fallback.iter_mut().zip(&seen) {
+                *flag &= !*s;
             }
         });
-    }
-    (0..n)
-        .into_par_iter()
-        .map(|i| !seen[i] && weights.iter().any(|w| w[i] > 0.0))
-        .collect()
+    fallback
 }
 
 #[cfg(test)]
@@ -49,5 +74,41 @@ mod tests {
         let fallback = resolve(&mut w);
         assert_eq!(w, vec![vec![0.5, 0.25, 0.0], vec![0.0, 0.75, 0.0]]);
         assert_eq!(fallback, vec![false, true, false]);
+    }
+
+    #[test]
+    fn the_pieces_resolve_as_a_pass_per_pixel_does() {
+        // four cameras over a few pieces and a partial one: every pixel resolved as its own
+        // loop over the cameras resolves it
+        let n = 3 * PIECE + 17;
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut weights: Vec<Vec<f32>> = (0..4)
+            .map(|_| {
+                (0..n)
+                    .map(|_| {
+                        state ^= state << 13;
+                        state ^= state >> 7;
+                        state ^= state << 17;
+                        // zero, positive and negative (a fallback) about equally
+                        [0.0, 0.25, -0.5, 1.0, -1.0, 0.0][(state >> 40) as usize % 6]
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut want = weights.clone();
+        let mut flags = vec![false; n];
+        for (i, flag) in flags.iter_mut().enumerate() {
+            let seen = want.iter().any(|w| w[i] > 0.0);
+            for w in want.iter_mut() {
+                if w[i] < 0.0 {
+                    w[i] = if seen { 0.0 } else { -w[i] };
+                }
+            }
+            *flag = !seen && want.iter().any(|w| w[i] > 0.0);
+        }
+        let fallback = resolve(&mut weights);
+        assert_eq!(weights, want);
+        assert_eq!(fallback, flags);
+        assert!(flags.iter().filter(|f| **f).count() > 100);
     }
 }

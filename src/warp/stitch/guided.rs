@@ -7,7 +7,7 @@ use super::{Stitch, StitchCamera, StitchOptions};
 use crate::camera::{CameraModel, ImageSize};
 use crate::error::Result;
 use crate::warp::mask::EgoMask;
-use crate::warp::reach::{border_cone, Cone, Reach};
+use crate::warp::reach::{border_cone, Cone, Frustum, Reach};
 use nalgebra::Vector3;
 
 /// The scene a depth-guided stitch is built through, in the reference frame.
@@ -75,8 +75,9 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
 /// from the camera (b = `baseline` from C), lies at most asin(b / t) from the bearing d: the
 /// bound is the plain bound of the bearings' directions (`local` rotates them into the
 /// camera's axes, parallax 1) with the cone widened by that angle per tile of the output, t a
-/// lower bound of the scene's distance there ([`StitchDepth::nearest_within`]). None (every
-/// pixel mapped) without a finite baseline.
+/// lower bound of the scene's distance there ([`StitchDepth::nearest_within`]); a pinhole's
+/// image border planes bound it further, widened by the same angle. None (every pixel
+/// mapped) without a finite baseline.
 pub(super) fn guided_cone<'a>(
     camera: &StitchCamera,
     local: &'a (dyn Fn(&Vector3<f64>) -> Vector3<f64> + Sync),
@@ -93,7 +94,8 @@ pub(super) fn guided_cone<'a>(
         half_angle,
         parallax: Some(1.0),
         baseline,
-        frustum: None,
+        // a pinhole's image border planes, widened per tile as the cone is
+        frustum: Frustum::of(camera.model).filter(|_| bounded),
     }
 }
 

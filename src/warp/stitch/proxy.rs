@@ -8,6 +8,7 @@ use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use crate::warp::table::{column_inside, row_inside, Surfaces};
 use nalgebra::{Point2, Vector3};
+use std::ops::Range;
 
 /// The mapping from output bearings to one camera's pixels through the proxy point, as a
 /// camera model for [`RemapTable`] (which asks the source model for `project` only).
@@ -38,6 +39,9 @@ pub(super) struct Proxy<'a> {
     /// table projects every tap's point; the fixed stitch keeps the model's path).
     pinhole: Option<Intrinsics>,
 }
+
+/// A window of output pixels: its top-left and bottom-right pixels.
+type Window = ((usize, usize), (usize, usize));
 
 /// A tap between output pixel centres takes their distances interpolated (in inverse distance)
 /// where the four around it lie on one surface: moving the tap's point from one of their
@@ -154,9 +158,14 @@ impl<'a> Proxy<'a> {
     /// surface ([`TAP_AGREE`]); None where they do not, or a centre has no distance.
     fn between_centres(&self, n: &Vector3<f64>) -> Option<f64> {
         let c = self.centres?;
+        self.between_centres_at(&c.output.project(n).ok()?)
+    }
+
+    /// [`Proxy::between_centres`] of the tap at output position `p`.
+    fn between_centres_at(&self, p: &Point2<f64>) -> Option<f64> {
+        let c = self.centres?;
         let size = c.output.size();
         let (w, h) = (size.width as usize, size.height as usize);
-        let p = c.output.project(n).ok()?;
         let (x, y) = (crate::warp::floor(p.x), crate::warp::floor(p.y));
         if !(x >= 0.0 && y >= 0.0 && x + 1.0 < w as f64 && y + 1.0 < h as f64) {
             return None;
@@ -186,6 +195,21 @@ impl<'a> Proxy<'a> {
         let top = s[0] + (s[1] - s[0]) * fx;
         let bottom = s[2] + (s[3] - s[2]) * fx;
         Some(1.0 / (top + (bottom - top) * fy))
+    }
+
+    /// Whether the distances of the window of output pixels from `(u0, v0)` to `(u1, v1)`,
+    /// nearest and farthest `(near, far)`, lie on one surface ([`SURFACE_AGREE`]).
+    fn agree(&self, ((u0, v0), (u1, v1)): Window, (near, far): (f64, f64)) -> bool {
+        let Some(c) = self.centres else { return false };
+        // (the inverses' extremes: a division rounds monotonically)
+        let (lo, hi) = (1.0 / far, 1.0 / near);
+        // an output pixel's angle: the chord across the neighbourhood's diagonal over its steps
+        let (Some(a), Some(b)) = (c.reach.bearing(u0, v0), c.reach.bearing(u1, v1)) else {
+            return false;
+        };
+        let steps = (((u1 - u0).pow(2) + (v1 - v0).pow(2)) as f64).sqrt();
+        let pixel = (a.normalize() - b.normalize()).norm() / steps;
+        (hi - lo) * self.baseline <= SURFACE_AGREE * pixel
     }
 
     /// [`CameraModel::project`] of bearing `d`, a table's tap: at the distance interpolated
@@ -379,22 +403,77 @@ impl Surfaces for Proxy<'_> {
         let r = SURFACE_REACH;
         let (u0, u1) = (u.saturating_sub(r), (u + r).min(w - 1));
         let (v0, v1) = (v.saturating_sub(r), (v + r).min(h - 1));
-        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        // the nearest and farthest distances (their inverses are the inverses' extremes)
+        let (mut near, mut far) = (f64::INFINITY, 0.0f64);
         for row in c.distances[v0 * w..(v1 + 1) * w].chunks_exact(w) {
             for t in &row[u0..=u1] {
                 if !(*t > 0.0 && t.is_finite()) {
                     return false;
                 }
-                (lo, hi) = (lo.min(1.0 / t), hi.max(1.0 / t));
+                (near, far) = (near.min(*t), far.max(*t));
             }
         }
-        // an output pixel's angle: the chord across the neighbourhood's diagonal over its steps
-        let (Some(a), Some(b)) = (c.reach.bearing(u0, v0), c.reach.bearing(u1, v1)) else {
-            return false;
+        self.agree(((u0, v0), (u1, v1)), (near, far))
+    }
+
+    /// The rows' spans of distances by column, then a sliding window along the row: the same
+    /// extremes as [`Proxy::one_surface`]'s, a fifth of the reads.
+    fn one_surface_row(&self, v: usize, columns: Range<usize>, out: &mut Vec<bool>) {
+        out.clear();
+        let Some(c) = self.centres.filter(|_| !columns.is_empty()) else {
+            out.resize(columns.len(), false);
+            return;
         };
-        let steps = (((u1 - u0).pow(2) + (v1 - v0).pow(2)) as f64).sqrt();
-        let pixel = (a.normalize() - b.normalize()).norm() / steps;
-        (hi - lo) * self.baseline <= SURFACE_AGREE * pixel
+        let (w, h) = (
+            c.output.size().width as usize,
+            c.output.size().height as usize,
+        );
+        let r = SURFACE_REACH;
+        let (v0, v1) = (v.saturating_sub(r), (v + r).min(h - 1));
+        let (c0, c1) = (
+            columns.start.saturating_sub(r),
+            (columns.end - 1 + r).min(w - 1),
+        );
+        // each column's nearest and farthest distance over rows v0..=v1; None: one has none
+        let spans: Vec<Option<(f64, f64)>> = (c0..=c1)
+            .map(|x| {
+                (v0..=v1).try_fold((f64::INFINITY, 0.0f64), |(near, far), y| {
+                    let t = c.distances[y * w + x];
+                    (t > 0.0 && t.is_finite()).then(|| (near.min(t), far.max(t)))
+                })
+            })
+            .collect();
+        out.extend(columns.map(|u| {
+            let (u0, u1) = (u.saturating_sub(r), (u + r).min(w - 1));
+            let window = (spans[u0 - c0..=u1 - c0].iter())
+                .try_fold((f64::INFINITY, 0.0f64), |(near, far), s| {
+                    s.map(|(n, f)| (near.min(n), far.max(f)))
+                });
+            window.is_some_and(|nf| self.agree(((u0, v0), (u1, v1)), nf))
+        }));
+    }
+
+    /// Each tap at the distance interpolated between the centres around its output position
+    /// where they lie on one surface ([`Proxy::between_centres`]), else at its own cast.
+    fn project_taps(
+        &self,
+        at: &[Point2<f64>],
+        ds: &[Option<Vector3<f64>>],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        if self.centres.is_none() || self.depth.is_none() {
+            return self.project_all(ds, out);
+        }
+        let (w, h) = (self.size().width as f64, self.size().height as f64);
+        out.extend(at.iter().zip(ds).map(|(p, d)| {
+            let d = d.as_ref()?;
+            match self.between_centres_at(p) {
+                Some(t) => self.project_at(d, t),
+                None => self.project(d),
+            }
+            .ok()
+            .filter(|p| in_image(p, w, h))
+        }));
     }
 }
 

@@ -93,12 +93,20 @@ struct Saturation {
 /// scale is at most max(|fu|, |fv|)·(1 + (r + 0.01)²), here with 0.1 % to spare.
 fn saturated(s: &Saturation, p: &Point2<f64>, border: f64) -> bool {
     let k = &s.k;
-    let r = ((p.x - k.cu) / k.fu).hypot((p.y - k.cv) / k.fv);
-    if !(r <= 3.0) {
-        return false;
+    let (x, y) = ((p.x - k.cu) / k.fu, (p.y - k.cv) / k.fv);
+    let test = |r: f64| {
+        let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
+        r <= 3.0 && border >= s.width * most
+    };
+    // the test is monotone in r (each rounded step is): √(x² + y²) within 1e-12 of the
+    // hypotenuse on either side decides it without libm's `hypot` unless it falls between
+    let r = (x * x + y * y).sqrt();
+    let (below, above) = (r * (1.0 - 1e-12) - 1e-150, r * (1.0 + 1e-12) + 1e-150);
+    match (test(above), test(below)) {
+        (true, _) => true,
+        (false, false) => false,
+        _ => test(x.hypot(y)),
     }
-    let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
-    border >= s.width * most
 }
 
 /// sin and cos of [`SCALE_PROBE`], computed once.
@@ -487,27 +495,37 @@ impl CameraPass<'_> {
     }
 
     /// The camera point of the scene's point at distance `t` along unit bearing `n`, and
-    /// whether the camera sees it cleanly, `far` the pixel's far flag and `inner` the scene
-    /// without far pixels: as the far scene's [`Proxy::point_at`], [`Proxy::local_at`] and
-    /// [`StitchDepth::sees_clean`] give them (a far pixel's point does not move and is not
-    /// seen; another's is `inner`'s), without projecting each point back to its pixel.
-    fn seen_through(
+    /// what decides whether the camera sees it cleanly, `far` the pixel's far flag and `inner`
+    /// the scene without far pixels: as the far scene's [`Proxy::point_at`],
+    /// [`Proxy::local_at`] and [`StitchDepth::sees_clean`] give them (a far pixel's point does
+    /// not move and is not seen; another's is `inner`'s), without projecting each point back
+    /// to its pixel.
+    fn seen_through<'b>(
         &self,
-        inner: &dyn StitchDepth,
+        inner: &'b dyn StitchDepth,
         far: bool,
         n: &Vector3<f64>,
         t: f64,
-    ) -> (Vector3<f64>, bool) {
+    ) -> (Vector3<f64>, Verdict<'b>) {
         let x = self.pass.centre + n * t;
         let x = match self.moves && !far {
             true => inner.seen_at(self.i, &x),
             false => x,
         };
         let q = self.camera.rotation * x + self.camera.translation;
-        (q, !far && inner.sees_clean(self.i, &x, self.footprint))
+        (
+            q,
+            if far {
+                Verdict::Hidden
+            } else {
+                Verdict::Ask(inner, x)
+            },
+        )
     }
 
-    /// The camera's weight at output pixel (u, v) (negative: a fallback weight).
+    /// The camera's weight at output pixel (u, v) (negative: a fallback weight). The occlusion
+    /// test, the costliest step, comes last: a pixel whose weight the margin or the ego mask
+    /// sets to 0 needs no verdict.
     fn pixel(&self, u: usize, v: usize) -> f32 {
         let WeightPass { reach, options, .. } = *self.pass;
         if !self.gives(u, v) {
@@ -517,7 +535,7 @@ impl CameraPass<'_> {
             return 0.0;
         };
         let proxy = self.proxy;
-        let (q, seen) = match (self.pass.distances, self.pass.depth) {
+        let (q, verdict) = match (self.pass.distances, self.pass.depth) {
             (Some(t), Some(depth)) => {
                 let n = d.normalize();
                 let at = v * self.pass.output.size().width as usize + u;
@@ -525,27 +543,43 @@ impl CameraPass<'_> {
                 // gives only a fallback there
                 match self.pass.scene {
                     Some((inner, far)) => self.seen_through(inner, far[at], &n, t[at]),
-                    None => {
-                        let x = proxy.point_at(&n, t[at]);
-                        (
-                            proxy.local_at(&n, t[at]),
-                            depth.sees_clean(self.i, &x, self.footprint),
-                        )
-                    }
+                    None => (
+                        proxy.local_at(&n, t[at]),
+                        Verdict::Ask(depth, proxy.point_at(&n, t[at])),
+                    ),
                 }
             }
-            _ => (proxy.local(&d), true),
+            _ => (proxy.local(&d), Verdict::Seen),
         };
-        let mut out = 0.0;
-        if let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) {
-            let wm = smoothstep(m / options.blend_width) as f32;
-            out = if seen { wm } else { -wm };
+        let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) else {
+            return 0.0;
+        };
+        let wm = smoothstep(m / options.blend_width) as f32;
+        if wm == 0.0 {
+            return 0.0;
         }
-        match self.mask {
-            Some(mask) if out != 0.0 && self.touches(mask, u, v, &q) => 0.0,
-            _ => out,
+        if self.mask.is_some_and(|mask| self.touches(mask, u, v, &q)) {
+            return 0.0;
+        }
+        let seen = match verdict {
+            Verdict::Seen => true,
+            Verdict::Hidden => false,
+            Verdict::Ask(depth, x) => depth.sees_clean(self.i, &x, self.footprint),
+        };
+        if seen {
+            wm
+        } else {
+            -wm
         }
     }
+}
+
+/// Whether a camera sees a pixel's scene point cleanly ([`CameraPass::pixel`]): known, or the
+/// scene's test of reference point `x`, asked only where the weight needs it.
+enum Verdict<'a> {
+    Seen,
+    Hidden,
+    Ask(&'a dyn StitchDepth, Vector3<f64>),
 }
 
 /// What a stitch's build gives: per camera its table and weights, and with a depth the

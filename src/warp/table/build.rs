@@ -136,6 +136,10 @@ struct Parts {
     lanes: [Vec<f64>; 3],
     /// The source positions of a span of a row's centres.
     span: Vec<Option<Point2<f64>>>,
+    /// The output positions of a pixel's taps (row by row), for [`Surfaces::project_taps`].
+    at: Vec<Point2<f64>>,
+    /// Whether each mapped pixel of the current row lies on one surface, from its first.
+    one_surface: Vec<bool>,
 }
 
 impl<'a> Builder<'a> {
@@ -294,6 +298,16 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
+        // which of the row's mapped pixels lie on one surface, the row at once
+        let mapped = here[1..=w].iter().position(Option::is_some).unwrap_or(w);
+        if let Some(s) = self.surfaces.filter(|_| mapped < w && self.cap > 1) {
+            let end = w - here[1..=w]
+                .iter()
+                .rev()
+                .position(Option::is_some)
+                .unwrap_or(0);
+            s.one_surface_row(v, mapped..end, &mut parts.one_surface);
+        }
         let mut next = 0;
         while next < w {
             let u = next;
@@ -310,18 +324,16 @@ impl<'a> Builder<'a> {
             // (no scale estimate where the cap allows one tap)
             let (nu, nv, level, scales) = match self.cap {
                 1 => (1, 1, 0, (0.0, 0.0)),
-                cap => {
+                _ => {
                     let (su, sv) = scales2(
                         centre,
                         [here[u], here[u + 2]],
                         [above[u + 1], below[u + 1]],
                         period,
                     );
-                    // at a pyramid level the scales are 4^level times smaller
-                    let level = self.level_at((u, v), su.min(sv));
-                    let down = (1u32 << (2 * level)) as f64;
-                    let n = (count(su / down).min(cap), count(sv / down).min(cap));
-                    (n.0, n.1, level, (su, sv))
+                    let by_edge = || !parts.one_surface[u - mapped];
+                    let (nu, nv, level) = self.footprint(by_edge, (su, sv));
+                    (nu, nv, level, (su, sv))
                 }
             };
             let taps = nu * nv;
@@ -422,7 +434,11 @@ impl<'a> Builder<'a> {
                 }
                 None => self.tap_bearings(u as f64, v as f64, nu, nv, &mut parts.bearings),
             }
-            self.bearings_to_src(&mut parts.bearings, &mut parts.taps);
+            match self.surfaces {
+                // a depth-guided source places the taps by their output positions too
+                Some(s) => self.taps_through(s, (u, v), (nu, nv), parts),
+                None => self.bearings_to_src(&mut parts.bearings, &mut parts.taps),
+            }
         }
     }
 

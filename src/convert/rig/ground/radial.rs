@@ -96,4 +96,46 @@ mod tests {
         // both sides of the knots' disc are tried
         assert!(inside > 1500 && beyond > 10, "{inside} {beyond}");
     }
+
+    #[test]
+    fn the_bound_per_knot_interval_holds_every_hit_in_its_cone_and_stays_positive_past_a_hill() {
+        let (rough, mut next) = rough(0x2545_f491_4f6c_dd1d);
+        // two sectors' far knots raised 2.5 m: above the centre, 1.6 m over the plane
+        let mut raise = rough.raise.clone();
+        for j in [3, 4] {
+            for k in KNOTS / 2..KNOTS {
+                raise[j * KNOTS + k] = 2.5;
+            }
+        }
+        let ground = LocalGround::with_raise(rough.plane, rough.centre, raise);
+        let o = ground.centre;
+        assert!(ground.raised(ground.band.1).height(&o) < 0.0);
+        let (mut positive, mut met) = (0, 0);
+        for k in 0..4000 {
+            // a cone of up to 3° about a bearing from 80° down to 30° up
+            let e = (-30.0 + next() * 110.0).to_radians();
+            let azimuth = next() * std::f64::consts::TAU;
+            let d = Vector3::new(azimuth.sin() * e.cos(), e.sin(), azimuth.cos() * e.cos());
+            let radius = (next() * 3.0).to_radians();
+            let bound = ground.nearest_within(&o, &d, radius);
+            if bound > 0.0 {
+                positive += 1;
+            }
+            // rays on the cone's rim and inside it
+            let (a, b) = crate::camera::perpendiculars(&d);
+            for r in 0..16 {
+                let turn = r as f64 * std::f64::consts::TAU / 16.0;
+                let off = radius * if r % 2 == 0 { 1.0 } else { next() };
+                let ray =
+                    (d * off.cos() + (a * turn.cos() + b * turn.sin()) * off.sin()).normalize();
+                if let Some(t) = ground.hit(&o, &ray) {
+                    met += 1;
+                    assert!(t >= bound, "cone {k}: hit {t} before the bound {bound}");
+                }
+            }
+        }
+        // the plane raised by the largest knot bounds nothing (the centre lies under it), the
+        // knot intervals most cones
+        assert!(positive > 3000 && met > 20_000, "{positive} {met}");
+    }
 }

@@ -31,7 +31,19 @@ impl Solid {
     pub(super) fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
         let oc = self.centre - o;
         let along = oc.dot(d);
-        if along < -self.radius || oc.norm_squared() - along * along > self.radius * self.radius {
+        self.hit_beside(o, d, along, oc.norm_squared() - along * along)
+    }
+
+    /// [`Solid::hit`] given the centre's distance `along` the ray and squared distance `off2`
+    /// off it (as `hit` computes them).
+    pub(super) fn hit_beside(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        along: f64,
+        off2: f64,
+    ) -> Option<f64> {
+        if along < -self.radius || off2 > self.radius * self.radius {
             return None;
         }
         let lo = self.box_from_reference * (o - self.centre);
@@ -52,6 +64,35 @@ impl Solid {
             t1 = t1.min(ta.max(tb));
         }
         (t0 <= t1 && t0 > 0.0).then_some(t0)
+    }
+
+    /// Whether the points of unit ray (o, d) from 0 to `length` may lie within `reach` of the
+    /// box: false only where none does (the box grown by `reach` and a micrometre in every
+    /// axis, the segment by a micrometre at each end, far beyond the arithmetic's rounding).
+    pub(super) fn near_segment(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        length: f64,
+        reach: f64,
+    ) -> bool {
+        const SLACK: f64 = 1e-6;
+        let lo = self.box_from_reference * (o - self.centre);
+        let ld = self.box_from_reference * d;
+        let (mut t0, mut t1) = (-SLACK, length + SLACK);
+        for a in 0..3 {
+            let grown = self.half[a] + reach + SLACK;
+            if ld[a].abs() < 1e-15 {
+                if lo[a].abs() > grown {
+                    return false;
+                }
+                continue;
+            }
+            let (ta, tb) = ((-grown - lo[a]) / ld[a], (grown - lo[a]) / ld[a]);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        t0 <= t1
     }
 
     /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit

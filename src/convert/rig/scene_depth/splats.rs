@@ -72,15 +72,17 @@ impl Splats {
                 let dy = (cy as f64 + 0.5 - y) / ry;
                 let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
                 let (x0, x1) = (floor(x - reach), ceil(x + reach));
-                // cells x0..x1 around the row (wrapped once, not divided for each)
+                // cells x0..x1 around the row, as at most two runs (the second from the row's
+                // start where it wraps; a run over a cell twice lowers it once)
                 let row = &mut splats.range[cy * width..(cy + 1) * width];
-                let mut cx = x0.rem_euclid(width as i64) as usize;
-                for _ in x0..x1 {
-                    row[cx] = row[cx].min(range);
-                    cx += 1;
-                    if cx == width {
-                        cx = 0;
-                    }
+                let start = x0.rem_euclid(width as i64) as usize;
+                let n = (x1 - x0).max(0) as usize;
+                let first = n.min(width - start);
+                for cell in &mut row[start..start + first] {
+                    *cell = cell.min(range);
+                }
+                for cell in &mut row[..(n - first).min(width)] {
+                    *cell = cell.min(range);
                 }
             }
         }
@@ -120,9 +122,7 @@ impl Splats {
     fn fill_gaps(&mut self) {
         let longest = (GAP_DEG * CELLS_PER_DEG).round() as usize;
         let (w, h) = (self.width, self.height);
-        for x in 0..w {
-            fill_line(&mut self.range, (x, w), h, longest);
-        }
+        fill_columns(&mut self.range, w, longest);
         for y in 0..h {
             fill_line(&mut self.range[y * w..(y + 1) * w], (0, 1), w, longest);
         }
@@ -263,6 +263,34 @@ fn extend_line(
             };
         }
         k = end;
+    }
+}
+
+/// [`fill_line`] of every column of `range` (rows of `w` cells), the rows read in order
+/// rather than each column down the buffer: per column, the row of its last filled cell so
+/// far. A gap's fill writes only cells above the row being read, so each column's fills are
+/// those of its own line.
+fn fill_columns(range: &mut [f32], w: usize, longest: usize) {
+    let mut last = vec![usize::MAX; w];
+    let h = range.len() / w.max(1);
+    for k in 0..h {
+        for x in 0..w {
+            let r = range[k * w + x];
+            if !r.is_finite() {
+                continue;
+            }
+            let j = last[x];
+            if j != usize::MAX && k - j > 1 && k - j - 1 <= longest {
+                let a = range[j * w + x];
+                let far = a.max(r);
+                let agree = (a - r).abs() <= GAP_AGREE as f32 * far;
+                for m in j + 1..k {
+                    let t = (m - j) as f32 / (k - j) as f32;
+                    range[m * w + x] = if agree { a + (r - a) * t } else { far };
+                }
+            }
+            last[x] = k;
+        }
     }
 }
 

@@ -40,6 +40,9 @@ struct Samples {
     at: Vec<Sample>,
     /// Per metre⁻¹ of the largest baseline's parallax: [`PARALLAX_PX`] of a pixel.
     parallax: f64,
+    /// Per sample, [`Samples::smooth`] along its row (bit 0) and its column (bit 1), each
+    /// asked once (a pixel between four samples reads four).
+    smooth: Vec<u8>,
 }
 
 impl Samples {
@@ -72,6 +75,28 @@ impl Samples {
             && (s[1] - 2.0 * s[2] + s[3]).abs() <= tolerance
     }
 
+    /// Sets [`Samples::smooth`] from the samples.
+    fn mark_smooth(&mut self) {
+        let w = self.width;
+        let mut smooth = vec![0u8; self.at.len()];
+        smooth
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(j, row)| {
+                for (i, s) in row.iter_mut().enumerate() {
+                    *s = u8::from(self.smooth((i, j), (1, 0)))
+                        | u8::from(self.smooth((i, j), (0, 1))) << 1;
+                }
+            });
+        self.smooth = smooth;
+    }
+
+    /// [`Samples::smooth`] of sample (i, j) along `bit`'s way, as marked (false beyond the
+    /// samples, as `smooth` answers there).
+    fn marked(&self, i: usize, j: usize, bit: u8) -> bool {
+        i < self.width && j < self.height && self.smooth[j * self.width + i] & bit != 0
+    }
+
     /// Pixel (u, v)'s interpolated distance, None where it is to be cast.
     fn interpolated(&self, u: usize, v: usize) -> Option<f64> {
         let (i, j) = (u / 2, v / 2);
@@ -81,13 +106,13 @@ impl Samples {
         };
         match (u % 2, v % 2) {
             (0, 0) => Some(self.get(i, j).t),
-            (1, 0) if self.smooth((i, j), (1, 0)) => mean(&[(i, j), (i + 1, j)]),
-            (0, 1) if self.smooth((i, j), (0, 1)) => mean(&[(i, j), (i, j + 1)]),
+            (1, 0) if self.marked(i, j, 1) => mean(&[(i, j), (i + 1, j)]),
+            (0, 1) if self.marked(i, j, 2) => mean(&[(i, j), (i, j + 1)]),
             (1, 1)
-                if self.smooth((i, j), (1, 0))
-                    && self.smooth((i, j + 1), (1, 0))
-                    && self.smooth((i, j), (0, 1))
-                    && self.smooth((i + 1, j), (0, 1)) =>
+                if self.marked(i, j, 1)
+                    && self.marked(i, j + 1, 1)
+                    && self.marked(i, j, 2)
+                    && self.marked(i + 1, j, 2) =>
             {
                 mean(&[(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)])
             }
@@ -132,12 +157,14 @@ pub(super) fn pixel_distances(
                 }
             }
         });
-    let samples = Samples {
+    let mut samples = Samples {
         width: cw,
         height: ch,
         at,
         parallax: PARALLAX_PX * reach.step() / baseline,
+        smooth: Vec::new(),
     };
+    samples.mark_smooth();
     let mut out = vec![0.0; w * h];
     out.par_chunks_mut(w.max(1))
         .enumerate()

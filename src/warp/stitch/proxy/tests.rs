@@ -3,6 +3,7 @@
 use super::*;
 use crate::camera::{Equirect, Intrinsics, Perspective};
 use crate::image::RgbImage;
+use crate::warp::reach::Reach;
 use crate::warp::table::{RemapTable, Wrap, MAX_SUPERSAMPLE};
 use nalgebra::Matrix3;
 
@@ -223,4 +224,72 @@ fn a_guided_proxy_maps_only_into_the_image_and_its_table_spends_nothing_beyond()
         }
     }
     assert!(same > 250, "{same}");
+}
+
+#[test]
+fn one_surface_row_decides_as_one_surface_pixel_by_pixel() {
+    // a drawn distance map: a smooth far surface, near splats (2-3 m: a depth edge for a
+    // 0.4 m baseline), centres without a distance (0, infinite, NaN); whole rows, spans at
+    // the borders and inside, and one pixel, each against the per-pixel rule
+    let model = Perspective::new(
+        Intrinsics::new(200.0, 200.0, 159.5, 119.5),
+        ImageSize::new(320, 240),
+    );
+    let camera = StitchCamera {
+        model: &model,
+        rotation: Matrix3::identity(),
+        translation: Vector3::new(-0.4, 0.0, 0.0),
+        max_theta: None,
+    };
+    let (w, h) = (97usize, 41usize);
+    let output = Equirect::new(
+        Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            (w as f64 - 1.0) / 2.0,
+            (h as f64 - 1.0) / 2.0,
+        ),
+        ImageSize::new(w as u32, h as u32),
+    );
+    let reach = Reach::new(&output, &[], None);
+    let mut state = 12345u64;
+    let mut draw = || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 33) as f64 / (1u64 << 31) as f64
+    };
+    let distances: Vec<f64> = (0..w * h)
+        .map(|i| match draw() {
+            r if r < 0.01 => 0.0,
+            r if r < 0.015 => f64::INFINITY,
+            r if r < 0.02 => f64::NAN,
+            r if r < 0.08 => 2.0 + r,
+            r => 10.0 + 0.001 * (i % w + i / w) as f64 + 1e-4 * r,
+        })
+        .collect();
+    let sphere = Sphere(10.0);
+    let proxy =
+        Proxy::guided((0, camera), Vector3::zeros(), 10.0, Some(&sphere)).with_centres(Centres {
+            output: &output,
+            reach: &reach,
+            distances: &distances,
+        });
+    let (mut row, mut one, mut edge) = (Vec::new(), 0, 0);
+    for v in 0..h {
+        for (a, b) in [(0, w), (3, 17), (w - 5, w), (40, 41)] {
+            proxy.one_surface_row(v, a..b, &mut row);
+            assert_eq!(row.len(), b - a);
+            for (k, u) in (a..b).enumerate() {
+                let expected = proxy.one_surface(u, v);
+                assert_eq!(row[k], expected, "({u}, {v}) in {a}..{b}");
+                if expected {
+                    one += 1;
+                } else {
+                    edge += 1;
+                }
+            }
+        }
+    }
+    assert!(one > 100 && edge > 100, "{one} on one surface, {edge} not");
 }

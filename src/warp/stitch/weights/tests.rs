@@ -127,6 +127,35 @@ fn a_saturated_pinhole_weight_is_the_measured_one() {
 }
 
 #[test]
+fn the_saturation_test_decides_as_with_the_hypotenuse() {
+    // the test as written with libm's hypot, against the borders at its threshold and one
+    // step either side of it, over the image and beyond r = 3
+    let k = Intrinsics::new(1000.0, 990.0, 959.5, 539.5);
+    let s = Saturation { width: 0.05, k };
+    let reference = |p: &Point2<f64>, border: f64| {
+        let r = ((p.x - k.cu) / k.fu).hypot((p.y - k.cv) / k.fv);
+        let most = k.fu.abs().max(k.fv.abs()) * (1.0 + (r + 0.01).powi(2)) * 1.001;
+        r <= 3.0 && border >= s.width * most
+    };
+    let (mut yes, mut no) = (0, 0);
+    for i in 0..40_000 {
+        let p = Point2::new(
+            (i % 200) as f64 * 25.0 - 1500.0,
+            (i / 200) as f64 * 20.0 - 1500.0,
+        );
+        let r = ((p.x - k.cu) / k.fu).hypot((p.y - k.cv) / k.fv);
+        let at = s.width * k.fu * (1.0 + (r + 0.01).powi(2)) * 1.001;
+        for border in [at, at.next_up(), at.next_down(), at * 0.5, at * 2.0] {
+            let want = reference(&p, border);
+            assert_eq!(saturated(&s, &p, border), want, "{p} {border}");
+            yes += usize::from(want);
+            no += usize::from(!want);
+        }
+    }
+    assert!(yes > 20_000 && no > 20_000, "{yes} {no}");
+}
+
+#[test]
 fn the_cosine_shortcuts_decide_as_the_angle_does() {
     let model = crate::camera::Unified::new(
         2.0,
