@@ -346,7 +346,9 @@ mod tests {
     use crate::source::{LidarPoint, SourceBox};
     use std::f64::consts::TAU;
 
-    fn frame(points: Vec<Vector3<f64>>, objects: Vec<SourceBox>) -> Frame {
+    /// A frame of `points` (a scan in the reference frame) and `objects`, nothing else: the
+    /// scene tests' input (`faults.rs` and `occlusion.rs` take it too).
+    pub(super) fn frame(points: Vec<Vector3<f64>>, objects: Vec<SourceBox>) -> Frame {
         Frame {
             id: "0".into(),
             provenance: Vec::new(),

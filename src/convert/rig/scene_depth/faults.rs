@@ -4,27 +4,10 @@
 //! The vehicle's own returns are the readers' ([`crate::source::VehicleBox`]).
 
 use super::*;
-use crate::source::LidarPoint;
 
+/// The shared scene tests' frame of `points` alone.
 fn frame(points: Vec<Vector3<f64>>) -> Frame {
-    Frame {
-        id: "0".into(),
-        provenance: Vec::new(),
-        rig: Vec::new(),
-        objects: Vec::new(),
-        regions: Vec::new(),
-        lidar: points
-            .into_iter()
-            .map(|position| LidarPoint {
-                position,
-                intensity: 0.0,
-            })
-            .collect(),
-        world_from_reference: None,
-        reference_from_lidar: None,
-        lidar_from_imu: None,
-        input_hashes: Vec::new(),
-    }
+    super::tests::frame(points, Vec::new())
 }
 
 /// A scanner at the origin (y down, z ahead): rings `ring_deg` apart in elevation from -10°

@@ -262,7 +262,7 @@ fn ring(d: &Vector3<f64>, spread: f64) -> [Vector3<f64>; RING_RAYS] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::source::{Frame, LidarPoint, SourceBox};
+    use crate::source::SourceBox;
     use crate::warp::StitchDepth;
 
     /// xorshift in [0, 1).
@@ -332,23 +332,7 @@ mod tests {
                 SourceBox::from_kitti("Car", [1.5, 1.8, 4.2], at, 0.1 * k as f64)
             })
             .collect();
-        let frame = Frame {
-            id: "0".into(),
-            provenance: Vec::new(),
-            rig: Vec::new(),
-            objects,
-            regions: Vec::new(),
-            lidar: (points.into_iter())
-                .map(|position| LidarPoint {
-                    position,
-                    intensity: 0.0,
-                })
-                .collect(),
-            world_from_reference: None,
-            reference_from_lidar: None,
-            lidar_from_imu: None,
-            input_hashes: Vec::new(),
-        };
+        let frame = super::super::tests::frame(points, objects);
         let eyes = vec![
             Vector3::new(0.8, -0.2, 0.5),
             Vector3::new(-0.7, 0.1, -0.9),

@@ -45,32 +45,47 @@ impl StitchDepth for Panel {
     }
 }
 
+/// A 320×240 pinhole, about 3.5 of its pixels a 360×180 equirect's pixel.
+fn side_model() -> Perspective {
+    Perspective::new(
+        Intrinsics::new(200.0, 200.0, 159.5, 119.5),
+        ImageSize::new(320, 240),
+    )
+}
+
+/// `model` looking along the output's axis from 0.4 m beside its centre.
+fn side_camera(model: &Perspective) -> StitchCamera<'_> {
+    StitchCamera {
+        model,
+        rotation: Matrix3::identity(),
+        translation: Vector3::new(-0.4, 0.0, 0.0),
+        max_theta: None,
+    }
+}
+
+/// The full-sphere equirect of `w`×`h` pixels.
+fn full_equirect(w: usize, h: usize) -> Equirect {
+    Equirect::new(
+        Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            (w as f64 - 1.0) / 2.0,
+            (h as f64 - 1.0) / 2.0,
+        ),
+        ImageSize::new(w as u32, h as u32),
+    )
+}
+
 #[test]
 fn a_guided_table_keeps_the_taps_across_a_depth_edge_and_samples_the_pyramid_elsewhere() {
     // a camera 0.4 m beside the output centre, about 3.5 of its pixels an output pixel:
     // on the panel and on the wall its pixels sample the pyramid (level 1), a pixel whose
     // footprint meets both (the panel's outline, 9 m of parallax apart) keeps its taps,
     // each through its own surface
-    let model = Perspective::new(
-        Intrinsics::new(200.0, 200.0, 159.5, 119.5),
-        ImageSize::new(320, 240),
-    );
-    let camera = StitchCamera {
-        model: &model,
-        rotation: Matrix3::identity(),
-        translation: Vector3::new(-0.4, 0.0, 0.0),
-        max_theta: None,
-    };
+    let model = side_model();
+    let camera = side_camera(&model);
     let (w, h) = (360usize, 180usize);
-    let output = Equirect::new(
-        Intrinsics::new(
-            w as f64 / std::f64::consts::TAU,
-            h as f64 / std::f64::consts::PI,
-            179.5,
-            89.5,
-        ),
-        ImageSize::new(w as u32, h as u32),
-    );
+    let output = full_equirect(w, h);
     let options = super::super::StitchOptions {
         distance: 10.0,
         blend_width: 5f64.to_radians(),
@@ -231,26 +246,10 @@ fn one_surface_row_decides_as_one_surface_pixel_by_pixel() {
     // a drawn distance map: a smooth far surface, near splats (2-3 m: a depth edge for a
     // 0.4 m baseline), centres without a distance (0, infinite, NaN); whole rows, spans at
     // the borders and inside, and one pixel, each against the per-pixel rule
-    let model = Perspective::new(
-        Intrinsics::new(200.0, 200.0, 159.5, 119.5),
-        ImageSize::new(320, 240),
-    );
-    let camera = StitchCamera {
-        model: &model,
-        rotation: Matrix3::identity(),
-        translation: Vector3::new(-0.4, 0.0, 0.0),
-        max_theta: None,
-    };
+    let model = side_model();
+    let camera = side_camera(&model);
     let (w, h) = (97usize, 41usize);
-    let output = Equirect::new(
-        Intrinsics::new(
-            w as f64 / std::f64::consts::TAU,
-            h as f64 / std::f64::consts::PI,
-            (w as f64 - 1.0) / 2.0,
-            (h as f64 - 1.0) / 2.0,
-        ),
-        ImageSize::new(w as u32, h as u32),
-    );
+    let output = full_equirect(w, h);
     let reach = Reach::new(&output, &[], None);
     let mut state = 12345u64;
     let mut draw = || {
