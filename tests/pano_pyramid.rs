@@ -18,9 +18,9 @@ use panoconv::warp::{RemapTable, Wrap};
 
 /// A view camera turned into the panorama's frame (`source_from_output`), for the exact render.
 #[derive(Debug)]
-struct Turned<'a> {
-    inner: &'a dyn CameraModel,
-    source_from_output: Matrix3<f64>,
+pub(crate) struct Turned<'a> {
+    pub(crate) inner: &'a dyn CameraModel,
+    pub(crate) source_from_output: Matrix3<f64>,
 }
 
 impl CameraModel for Turned<'_> {

@@ -27,6 +27,7 @@ mod export_classes;
 mod first_contact;
 mod first_run;
 mod fisheye;
+mod fisheye_pyramid;
 mod fisheye_target;
 mod footprint;
 mod fuzz_parsers;

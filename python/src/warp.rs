@@ -156,17 +156,22 @@ impl Warp {
             None => (dst, identity),
         };
         let build = match self.antialias {
-            // a 360° source wraps: the pyramid rules fall back to the taps there
-            Antialias::Command if wrap == Wrap::None => {
+            Antialias::Command => {
                 let below = match self.target.camera.projection() {
                     OutputProjection::Fisheye => LENS_TAPS_BELOW,
                     OutputProjection::Linear(_) => TAPS_BELOW,
                 };
                 let (seen, m) = (seen.as_ref(), &src_from_dst);
-                return RemapTable::build_pyramid_above_within(dst, src, m, below, seen, false);
+                // a 360° source's levels wrap as its columns do (`panoconv pano`'s tables)
+                return match wrap {
+                    Wrap::None => {
+                        RemapTable::build_pyramid_above_within(dst, src, m, below, seen, false)
+                    }
+                    _ => RemapTable::build_pyramid_above_wrap(dst, src, m, wrap, below, false),
+                };
             }
             Antialias::Pyramid => RemapTable::build_pyramid_within,
-            Antialias::Taps | Antialias::Command => RemapTable::build_within,
+            Antialias::Taps => RemapTable::build_within,
         };
         build(
             dst,

@@ -238,3 +238,32 @@ def test_antialias_names_the_rule_and_command_is_the_commands():
     command = panoconv.Warp(src, dst, antialias="command").image(rgb)
     taps = panoconv.Warp(src, dst, antialias="taps").image(rgb)
     assert (command != taps).any(axis=2).sum() > 1000, "coarse pixels take the pyramid"
+
+
+def test_a_panorama_source_with_the_command_s_rule_gives_panoconv_pano_s_bytes(
+    tmp_path, nuscenes_equirect
+):
+    # A 512x256 stitched panorama to a perspective view straight back (across its seam) 3.2
+    # source pixels a view pixel: the command's rule samples the panorama's wrapping pyramid
+    # there, as `panoconv pano` does, byte for byte.
+    out = tmp_path / "views"
+    panos = nuscenes_equirect / "training" / "image_2"
+    r = run(
+        "pano", "--input", panos, "--output", out, "--to", "perspective", "--yaw", "180",
+        "--fov", "90", "--vfov", "70", "--pano-width", "160", "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    first = sorted(panos.glob("*.png"))[0]
+    rgb = panoconv.read_image(first)
+    h, w = rgb.shape[:2]
+    assert (w, h) == (512, 256)
+    f = w / (2 * np.pi)
+    pano = panoconv.Camera.equirect(w, h, f, f, (w - 1) / 2, (h - 1) / 2)
+    want = panoconv.read_image(sorted(out.rglob(f"{first.stem}*.png"))[0])
+    vh, vw = want.shape[:2]
+    fv = 160 / (2 * np.pi)
+    back = panoconv.Camera.perspective(vw, vh, fv, fv, (vw - 1) / 2, (vh - 1) / 2, yaw_deg=180)
+    command = panoconv.Warp(pano, back, antialias="command").image(rgb)
+    assert np.array_equal(command, want), f"{(command != want).any(axis=2).sum()} pixels differ"
+    taps = panoconv.Warp(pano, back, antialias="taps").image(rgb)
+    assert (taps != want).any(axis=2).sum() > 100, "the view's pixels take the pyramid"

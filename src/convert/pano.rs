@@ -7,7 +7,7 @@ use crate::camera::{CameraModel, Equirect, ImageSize, Intrinsics, Projection, Pr
 use crate::convert::folder::{FolderJob, FolderPlan, FolderView};
 use crate::error::{Error, Result};
 use crate::geometry::{view_camera, Scale};
-use crate::warp::{RemapTable, Wrap, TAPS_BELOW};
+use crate::warp::{RemapTable, Wrap, LENS_TAPS_BELOW, TAPS_BELOW};
 use nalgebra::{Matrix3, Point2, Vector3};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -233,11 +233,13 @@ impl FisheyeView {
         let camera: Arc<dyn crate::camera::LinearCamera> =
             Arc::from(view_camera(self.projection, fu, fv, hfov, vfov)?);
         let source_from_output = Self::source_from_output(desc);
-        let table = RemapTable::build(
+        // a lens source's rule: the pyramid above 3 source pixels (tests/fisheye_pyramid.rs)
+        let table = RemapTable::build_pyramid_above(
             camera.as_ref(),
             &desc.camera,
             &source_from_output,
-            Wrap::None,
+            LENS_TAPS_BELOW,
+            false,
         );
         Ok(FolderView {
             suffix: String::new(),
