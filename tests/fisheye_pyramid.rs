@@ -4,7 +4,7 @@
 //! rule's excess over its own taps.
 
 use crate::common::{psnr, render_where};
-use crate::pano_pyramid::Turned;
+use crate::pano_pyramid::{checkerboard, deviation, Turned};
 use nalgebra::{Matrix3, Vector3};
 use panoconv::camera::description::CameraDescription;
 use panoconv::camera::{
@@ -14,7 +14,6 @@ use panoconv::camera::{
 use panoconv::convert::folder::FolderView;
 use panoconv::convert::pano::FisheyeView;
 use panoconv::geometry::Scale;
-use panoconv::image::RgbImage;
 use panoconv::tools::synth::{frames, GROUND_Y};
 use panoconv::warp::{RemapTable, Wrap};
 
@@ -120,31 +119,6 @@ fn fisheye_views_through_the_pyramid_match_the_exact_render_as_the_taps_do() {
             "{projection} {coarser}x: {by_command:.2} < {by_taps:.2} - 0.2 dB"
         );
     }
-}
-
-/// RMS deviation from the mean (grey levels) of `image` where `keep`, 2 px from the border.
-fn deviation(image: &RgbImage, keep: impl Fn(u32, u32) -> bool) -> f64 {
-    let (w, h) = (image.width(), image.height());
-    let values: Vec<f64> = (2..h - 2)
-        .flat_map(|v| (2..w - 2).map(move |u| (u, v)))
-        .filter(|&(u, v)| keep(u, v))
-        .map(|(u, v)| image.pixel(u, v)[0] as f64)
-        .collect();
-    let mean = values.iter().sum::<f64>() / values.len() as f64;
-    let se: f64 = values.iter().map(|x| (x - mean) * (x - mean)).sum();
-    (se / values.len() as f64).sqrt()
-}
-
-/// A checkerboard of squares of 2 source pixels turned by atan(3/4), `w`×`h`.
-fn checkerboard(w: u32, h: u32) -> RgbImage {
-    let mut image = RgbImage::new(w, h);
-    for (i, px) in image.as_raw_mut().chunks_mut(3).enumerate() {
-        let (x, y) = ((i as u32 % w) as f64, (i as u32 / w) as f64);
-        let (a, b) = (x * 0.8 + y * 0.6, -x * 0.6 + y * 0.8);
-        let white = ((a / 2.0).floor() + (b / 2.0).floor()).rem_euclid(2.0) == 0.0;
-        px.fill(if white { 255 } else { 0 });
-    }
-    image
 }
 
 /// The checkerboard lens image to a 50°×40° perspective view 2.2 to 5 times coarser than the
