@@ -103,7 +103,7 @@ print(sum(s["modality"] == "camera" for s in json.load(open(sys.argv[1]))))' \
         "$data/$version/sensor.json")
     convert=(nuscenes --input "$data" --version "$version")
     # the roof and the sensor's mount in PandaSet's LiDAR frame (tests/pandaset.rs)
-    [ -n "$pandaset" ] && convert+=(--vehicle-box=-1.2,-1.6,0.2,1.2,1.2,2.2)
+    [ -n "$pandaset" ] && convert+=(--vehicle-box=-1.0,-1.3,1.0,1.0,2.2,2.0)
     script="$here/opencv_stitch_nuscenes.py"
     [ "$naive" = 1 ] && script="$here/naive_stitch.py"
     python_args=("$script" --input "$data" --version "$version")

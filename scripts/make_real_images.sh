@@ -25,7 +25,7 @@ work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 "$python" tests/pandaset_nuscenes.py "$sequence" "$work/root" 00
 # the car's own returns in PandaSet's LiDAR frame (tests/pandaset.rs)
-box=-1.2,-1.6,0.2,1.2,1.2,2.2
+box=-1.0,-1.3,1.0,1.0,2.2,2.0
 for mode in fixed depth; do
     # the whole panorama's camera band, then a seam with parked cars 1-3 m from the cameras
     "$bin" nuscenes --to equirect --pano-width 2048 --crop 0,380,2048,400 --resize 1024x200 \

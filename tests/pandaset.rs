@@ -284,10 +284,11 @@ fn real_frames_convert_without_the_vehicles_returns_in_depth_and_with_fallbacks_
 }
 
 /// The car's own returns in PandaSet's LiDAR frame (x right, y forward, z up, its origin at the
-/// road under the sensor; `--vehicle-box`): the roof and the sensor's mount, 0.4-1.7 m up
-/// within a metre and a half of the origin. nuScenes' default box sits below a sensor 1.84 m
-/// up, so it does not fit this frame.
-const PANDASET_VEHICLE_BOX: &str = "-1.2,-1.6,0.2,1.2,1.2,2.2";
+/// road under the sensor; `--vehicle-box`): the Python reader's `VEHICLE_BOX`, the roof and
+/// the sensors' mount 1.35-1.6 m up, the front-left and front-right cameras' housings 1.5-1.7 m
+/// ahead included. nuScenes' default box sits below a sensor 1.84 m up, so it does not fit
+/// this frame.
+const PANDASET_VEHICLE_BOX: &str = "-1.0,-1.3,1.0,1.0,2.2,2.0";
 
 /// The PandaSet frames as a nuScenes data root (version v1.0-mini), made once.
 fn nuscenes_root() -> &'static Path {
@@ -323,4 +324,45 @@ fn the_nuscenes_format_path_of_the_real_frames_holds_the_same_bars() {
     let fixed = figures(&source, StitchMode::Fixed);
     assert_eq!(depth.len(), 4);
     check_bars("nuScenes tables", &depth, &fixed);
+}
+
+#[test]
+fn the_nuscenes_format_path_writes_no_depth_on_the_cars_own_body() {
+    // the nearest surface but the car's own (its roof, the cameras' housings 0.9-1.2 m from
+    // the panorama's centre) is a parked car 2.4 m from the sensor
+    let out = tempfile::tempdir().unwrap();
+    let run = common::panoconv([
+        "nuscenes",
+        "--input",
+        nuscenes_root().to_str().unwrap(),
+        "--version",
+        "v1.0-mini",
+        &format!("--vehicle-box={PANDASET_VEHICLE_BOX}"),
+        "--to",
+        "equirect",
+        "--pano-width",
+        "1024",
+        "--depth",
+        "-q",
+        "--output",
+        out.path().to_str().unwrap(),
+    ]);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let maps = out.path().join("training/depth_2");
+    let mut names: Vec<_> = std::fs::read_dir(&maps)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 4);
+    for path in &names {
+        let png = read_png(path);
+        let depth: Vec<u16> = (png.data.chunks(2))
+            .map(|b| u16::from_be_bytes([b[0], b[1]]))
+            .collect();
+        let near = depth.iter().filter(|&&d| d > 0 && d < 2 * 256).count();
+        let written = depth.iter().filter(|&&d| d > 0).count();
+        assert!(written > 5_000, "{path:?}: {written} depth pixels");
+        assert_eq!(near, 0, "{path:?}: {near} depth pixels nearer than 2 m");
+    }
 }
