@@ -54,6 +54,7 @@
 //! the exposure gains (step 5), `apply.rs` a frame's blend (step 4).
 
 mod apply;
+mod centre_fill;
 mod fallback;
 mod far_fill;
 mod figures;
@@ -126,6 +127,9 @@ pub struct Stitch {
     fallback: Option<Vec<bool>>,
     /// A depth-guided stitch's pixels stitched at the proxy distance ([`FAR_SOURCE`]).
     far: Option<Vec<bool>>,
+    /// A depth-guided stitch's pixels no camera weighs whose centre an image holds, in pixel
+    /// order (`centre_fill.rs`).
+    centre: Vec<centre_fill::CentreSample>,
 }
 
 /// One frame's stitch.
@@ -165,6 +169,7 @@ impl Stitch {
             distances: built.distances,
             fallback: built.fallback,
             far: built.far,
+            centre: built.centre,
         }
     }
 

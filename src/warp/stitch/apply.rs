@@ -7,6 +7,7 @@
 //! thread keeps from frame to frame, and the blend, the gains and the figures visit only
 //! there: a camera's cost follows the part of the output it reaches.
 
+use super::centre_fill::{bilinear, CentreSample};
 use super::{Stitch, Stitched, FALLBACK_SOURCE, FAR_SOURCE};
 use crate::image::RgbImage;
 use rayon::prelude::*;
@@ -42,7 +43,7 @@ impl RowSums {
 impl Stitch {
     /// The stitch of one frame's `images` (in the cameras' order, each of its camera's size).
     pub fn apply(&self, images: &[&RgbImage]) -> Stitched {
-        self.with_remapped(images, |remapped| self.blend(remapped))
+        self.with_remapped(images, |remapped| self.blend(remapped, images))
     }
 
     /// `f` of each camera's image remapped into the output (in the cameras' order), in the
@@ -73,8 +74,9 @@ impl Stitch {
         table.into_iter().flatten().chain(whole)
     }
 
-    /// The remapped images blended by the weights and the frame's exposure gains.
-    pub(super) fn blend(&self, remapped: &[RgbImage]) -> Stitched {
+    /// The remapped images blended by the weights and the frame's exposure gains; the centre
+    /// fill's pixels sampled from the cameras' `images` (`centre_fill.rs`).
+    pub(super) fn blend(&self, remapped: &[RgbImage], images: &[&RgbImage]) -> Stitched {
         let gains = self.gains(remapped);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let mut out = RgbImage::new(self.size.width, self.size.height);
@@ -95,15 +97,26 @@ impl Stitch {
                 }
                 let [fallback, far] =
                     [&self.fallback, &self.far].map(|f| f.as_ref().map(|f| &f[v * w..(v + 1) * w]));
-                for (u, s) in src_row.iter_mut().enumerate() {
-                    let best = sums.best[u].1;
-                    *s = if far.is_some_and(|f| f[u]) {
-                        best | FAR_SOURCE
+                let source_of = |u: usize, camera: u8| {
+                    if far.is_some_and(|f| f[u]) {
+                        camera | FAR_SOURCE
                     } else if fallback.is_some_and(|f| f[u]) {
-                        best | FALLBACK_SOURCE
+                        camera | FALLBACK_SOURCE
                     } else {
-                        best
-                    };
+                        camera
+                    }
+                };
+                for (u, s) in src_row.iter_mut().enumerate() {
+                    *s = source_of(u, sums.best[u].1);
+                }
+                for c in self.centre_row(v) {
+                    let u = c.at - v * w;
+                    let k = c.camera as usize;
+                    let sample = bilinear(images[k], c.x, c.y);
+                    for (p, x) in row[u * 3..u * 3 + 3].iter_mut().zip(sample) {
+                        *p = to_u8(gains[k] * x);
+                    }
+                    src_row[u] = source_of(u, c.camera);
                 }
             });
         Stitched {
@@ -111,6 +124,14 @@ impl Stitch {
             source,
             gains,
         }
+    }
+
+    /// The centre fill's pixels of output row `v`.
+    fn centre_row(&self, v: usize) -> &[CentreSample] {
+        let w = self.size.width as usize;
+        let from = self.centre.partition_point(|c| c.at < v * w);
+        let to = self.centre.partition_point(|c| c.at < (v + 1) * w);
+        &self.centre[from..to]
     }
 
     /// Row `v`'s sums over the cameras, camera by camera (each camera's weights and samples
@@ -205,6 +226,7 @@ mod tests {
             distances: None,
             fallback: Some(flags(5)),
             far: Some(flags(11)),
+            centre: Vec::new(),
         };
         (stitch, images)
     }
@@ -358,7 +380,8 @@ mod tests {
                 .all(|(k, c)| (k % 5 == 0) == (*c == 0)),
             "{count:?}"
         );
-        let stitched = stitch.blend(&images);
+        let refs: Vec<&RgbImage> = images.iter().collect();
+        let stitched = stitch.blend(&images, &refs);
         assert!(
             stitched.gains.iter().any(|g| (g - 1.0).abs() > 1e-3),
             "{:?}",

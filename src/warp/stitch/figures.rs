@@ -53,12 +53,12 @@ impl StitchFigures {
 impl Stitch {
     /// The figures of this stitch of `images` (as [`Stitch::apply`] takes them).
     pub fn figures(&self, images: &[&RgbImage]) -> StitchFigures {
-        self.with_remapped(images, |remapped| self.figures_of(remapped))
+        self.with_remapped(images, |remapped| self.figures_of(remapped, images))
     }
 
     /// [`Stitch::figures`] of the cameras' `remapped` images (valid where they weigh).
-    fn figures_of(&self, remapped: &[RgbImage]) -> StitchFigures {
-        let stitched = self.blend(remapped);
+    fn figures_of(&self, remapped: &[RgbImage], images: &[&RgbImage]) -> StitchFigures {
+        let stitched = self.blend(remapped, images);
         let (w, h) = (self.size.width as usize, self.size.height as usize);
         let covered: Vec<bool> = (0..w * h)
             .map(|i| {

@@ -1,6 +1,7 @@
 //! A stitch's remap tables and blend weights (steps 2, 3 and 6 of the stitch's model): each
 //! camera's angular margin, smoothed over the blend width, zero where its ego mask is touched.
 
+use super::centre_fill::{CentreFill, CentreSample};
 use super::far_fill::{far_pixels, FarScene};
 use super::proxy::{Centres, Proxy, FOV_SLACK};
 use super::{Stitch, StitchCamera, StitchDepth, StitchOptions};
@@ -284,13 +285,28 @@ impl Stitch {
             weights.push(pass.weights(i, camera, proxy, &table, mask));
             tables.push(table);
         }
-        let fallback = depth.map(|_| super::fallback::resolve(&mut weights));
+        let mut fallback = depth.map(|_| super::fallback::resolve(&mut weights));
+        // the pixels no camera weighs whose centre an image holds ([`super::centre_fill`])
+        let centre = match (depth, &distances, fallback.as_mut()) {
+            (Some(depth), Some(distances), Some(fallback)) if cameras.len() <= 64 => CentreFill {
+                reach: &reach,
+                tables: &tables,
+                size,
+                distances,
+                proxies,
+                masks,
+                depth,
+            }
+            .samples(&weights, fallback),
+            _ => Vec::new(),
+        };
         TablesAndWeights {
             tables,
             weights,
             distances,
             fallback,
             far,
+            centre,
         }
     }
 }
@@ -592,6 +608,8 @@ pub(super) struct TablesAndWeights {
     pub(super) fallback: Option<Vec<bool>>,
     /// With a depth, the pixels stitched at the proxy distance ([`super::far_fill`]).
     pub(super) far: Option<Vec<bool>>,
+    /// With a depth, the centre fill's pixels ([`super::centre_fill`]).
+    pub(super) centre: Vec<CentreSample>,
 }
 
 #[cfg(test)]
