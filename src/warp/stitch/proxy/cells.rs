@@ -60,11 +60,14 @@ pub(super) fn between(s: [f64; 4], fx: f64, fy: f64) -> f64 {
     1.0 / (top + (bottom - top) * fy)
 }
 
+/// A cell's top-left centre's coordinates' bits.
+type Key = (u64, u64);
+
 /// The last few cells of centres a pixel's taps read ([`Proxy::cell_inverses`]), by their
 /// top-left centre's coordinates' bits.
 #[derive(Default)]
 pub(super) struct Cells {
-    kept: [((u64, u64), Option<[f64; 4]>); 4],
+    kept: [(Key, Option<[f64; 4]>); 4],
     len: usize,
 }
 
