@@ -5,8 +5,9 @@ use super::fixed_proxy::FixedPinhole;
 pub(super) use super::guided_lanes::Centres;
 use super::guided_lanes::GuidedPinhole;
 use super::{StitchCamera, StitchDepth};
-use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject, Separable};
 use crate::warp::table::{column_inside, row_inside, Surfaces};
+use cells::{between, Cells};
 use nalgebra::{Point2, Vector3};
 use std::ops::Range;
 
@@ -159,42 +160,6 @@ impl<'a> Proxy<'a> {
     fn between_centres(&self, n: &Vector3<f64>) -> Option<f64> {
         let c = self.centres?;
         self.between_centres_at(&c.output.project(n).ok()?)
-    }
-
-    /// [`Proxy::between_centres`] of the tap at output position `p`.
-    fn between_centres_at(&self, p: &Point2<f64>) -> Option<f64> {
-        let c = self.centres?;
-        let size = c.output.size();
-        let (w, h) = (size.width as usize, size.height as usize);
-        let (x, y) = (crate::warp::floor(p.x), crate::warp::floor(p.y));
-        if !(x >= 0.0 && y >= 0.0 && x + 1.0 < w as f64 && y + 1.0 < h as f64) {
-            return None;
-        }
-        let (fx, fy) = (p.x - x, p.y - y);
-        let (u, v) = (x as usize, y as usize);
-        let i = v * w + u;
-        let t = [
-            c.distances[i],
-            c.distances[i + 1],
-            c.distances[i + w],
-            c.distances[i + w + 1],
-        ];
-        if !t.iter().all(|t| *t > 0.0 && t.is_finite()) {
-            return None;
-        }
-        let s = t.map(|t| 1.0 / t);
-        let (lo, hi) = s.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| {
-            (lo.min(*s), hi.max(*s))
-        });
-        // the pixel's angle: its diagonal's chord over √2
-        let (a, b) = (c.reach.bearing(u, v)?, c.reach.bearing(u + 1, v + 1)?);
-        let pixel = (a.normalize() - b.normalize()).norm() * std::f64::consts::FRAC_1_SQRT_2;
-        if !((hi - lo) * self.baseline <= TAP_AGREE * pixel) {
-            return None;
-        }
-        let top = s[0] + (s[1] - s[0]) * fx;
-        let bottom = s[2] + (s[3] - s[2]) * fx;
-        Some(1.0 / (top + (bottom - top) * fy))
     }
 
     /// Whether the distances of the window of output pixels from `(u0, v0)` to `(u1, v1)`,
@@ -465,15 +430,26 @@ impl Surfaces for Proxy<'_> {
             return self.project_all(ds, out);
         }
         let (w, h) = (self.size().width as f64, self.size().height as f64);
+        // a pixel's taps lie in a few cells of centres: each cell's distances read once
+        let mut cells = Cells::default();
         out.extend(at.iter().zip(ds).map(|(p, d)| {
             let d = d.as_ref()?;
-            match self.between_centres_at(p) {
+            let (x, y) = (crate::warp::floor(p.x), crate::warp::floor(p.y));
+            let s = cells.get((x, y), || self.cell_inverses(x, y));
+            match s.map(|s| between(s, p.x - x, p.y - y)) {
                 Some(t) => self.project_at(d, t),
                 None => self.project(d),
             }
             .ok()
             .filter(|p| in_image(p, w, h))
         }));
+    }
+
+    /// The output's own: a stitch's table is built from it gated by this camera's reach
+    /// ([`crate::warp::reach::Gated`]), whose `unproject` gives a tap of a pixel it keeps
+    /// the output's bearing (the tap's nearest pixel is its own).
+    fn tap_output(&self) -> Option<&dyn Separable> {
+        self.centres?.output.separable()
     }
 }
 
@@ -545,5 +521,6 @@ impl CameraModel for Proxy<'_> {
     }
 }
 
+mod cells;
 #[cfg(test)]
 pub(super) mod tests;

@@ -95,9 +95,13 @@ struct Builder<'a> {
     by_parts: Option<&'a dyn Separable>,
     /// With `by_parts`: the column shares of the pixel centres, columns -1..=width.
     centre_columns: Vec<Share>,
+    /// `by_parts`, or where the output is not separable itself the unprojection of its taps
+    /// by columns and rows that `surfaces` gives ([`Surfaces::tap_output`]): a supersampled
+    /// pixel's taps share their columns' and rows' shares.
+    tap_parts: Option<&'a dyn Separable>,
     /// The source's intrinsics where it is a pinhole ([`CameraModel::pinhole`]).
     pinhole: Option<Intrinsics>,
-    /// With `by_parts`: at index n, the column shares of the n taps of an n-wide supersampled
+    /// With `tap_parts`: at index n, the column shares of the n taps of an n-wide supersampled
     /// pixel, n per column (column-major), made by the first band that needs them.
     tap_columns: [OnceLock<Vec<Share>>; MAX_SUPERSAMPLE as usize + 1],
     /// The source pyramid's levels (width, height, first row) a coarse pixel may sample; empty
@@ -168,6 +172,7 @@ impl<'a> Builder<'a> {
             seen,
             by_parts,
             centre_columns,
+            tap_parts: by_parts,
             pinhole: src.pinhole(),
             tap_columns: Default::default(),
             shapes: Vec::new(),
@@ -421,7 +426,7 @@ impl<'a> Builder<'a> {
         if !self.local_taps(near, (nu, nv, level), &mut parts.taps) {
             // the taps row by row, each row's columns left to right
             parts.bearings.clear();
-            match self.by_parts {
+            match self.tap_parts {
                 Some(sep) => {
                     let columns = &self.tap_columns(sep, nu)[u * nu as usize..][..nu as usize];
                     let rows = &mut parts.tap_rows[nv as usize];

@@ -292,3 +292,101 @@ fn one_surface_row_decides_as_one_surface_pixel_by_pixel() {
     }
     assert!(one > 100 && edge > 100, "{one} on one surface, {edge} not");
 }
+
+/// The proxy as a table's scene without its shortcuts for a pixel's taps: each tap's bearing
+/// unprojected alone by the gated output (no `tap_output`) and each tap's cell of centres
+/// read alone. It counts the pixels it places and their taps cast on their own ray.
+struct TapByTap<'a> {
+    proxy: &'a Proxy<'a>,
+    pixels: std::sync::atomic::AtomicUsize,
+    cast: std::sync::atomic::AtomicUsize,
+}
+
+impl Surfaces for TapByTap<'_> {
+    fn one_surface(&self, u: usize, v: usize) -> bool {
+        self.proxy.one_surface(u, v)
+    }
+
+    fn one_surface_row(&self, v: usize, columns: Range<usize>, out: &mut Vec<bool>) {
+        self.proxy.one_surface_row(v, columns, out)
+    }
+
+    fn project_taps(
+        &self,
+        at: &[Point2<f64>],
+        ds: &[Option<Vector3<f64>>],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        (self.pixels).fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let p = self.proxy;
+        let (w, h) = (p.size().width as f64, p.size().height as f64);
+        out.extend(at.iter().zip(ds).map(|(at, d)| {
+            let d = d.as_ref()?;
+            match p.between_centres_at(at) {
+                Some(t) => p.project_at(d, t),
+                None => {
+                    (self.cast).fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    p.project(d)
+                }
+            }
+            .ok()
+            .filter(|q| in_image(q, w, h))
+        }));
+    }
+}
+
+#[test]
+fn a_guided_tables_taps_by_columns_rows_and_cells_are_the_tap_by_tap_ones_bit_for_bit() {
+    // the panel before the wall seen by a camera beside the centre, whose reach is cut by a
+    // cone narrower than its image (34° against 38.7° across): the table whose taps take
+    // their columns' and rows' shares and read each cell of centres once a pixel is the one
+    // built tap by tap through the gated output, to the bit
+    let model = side_model();
+    let camera = side_camera(&model);
+    let (w, h) = (360usize, 180usize);
+    let output = full_equirect(w, h);
+    let local = |d: &Vector3<f64>| d.normalize() * 10.0 + camera.translation;
+    let cone = crate::warp::reach::Cone {
+        local: &local,
+        half_angle: Some(0.6),
+        parallax: None,
+        baseline: None,
+        frustum: None,
+    };
+    let reach = Reach::new(&output, &[cone], None);
+    let gated = crate::warp::reach::Gated {
+        output: &output,
+        reach: &reach,
+        camera: 0,
+    };
+    // the scene's distances at the centres, some without one
+    let distances: Vec<f64> = (0..w * h)
+        .map(|i| match i % 89 {
+            0 => 0.0,
+            _ => (output.unproject(&Point2::new((i % w) as f64, (i / w) as f64)))
+                .map_or(f64::NAN, |d| Panel.distance(&d)),
+        })
+        .collect();
+    let proxy =
+        Proxy::guided((0, camera), Vector3::zeros(), 10.0, Some(&Panel)).with_centres(Centres {
+            output: &output,
+            reach: &reach,
+            distances: &distances,
+        });
+    let build = |s: &dyn Surfaces| {
+        let (id, below) = (Matrix3::identity(), crate::warp::table::TAPS_BELOW);
+        RemapTable::build_pyramid_guided(&gated, &proxy, &id, below, Some(s), false)
+    };
+    let alone = TapByTap {
+        proxy: &proxy,
+        pixels: Default::default(),
+        cast: Default::default(),
+    };
+    assert!(build(&proxy) == build(&alone));
+    // (pixels by the panel's outline: some of their taps cast their own ray)
+    let (placed, cast) = (alone.pixels.into_inner(), alone.cast.into_inner());
+    assert!(
+        placed > 500 && cast > 1000,
+        "{placed} pixels' taps placed, {cast} cast"
+    );
+}

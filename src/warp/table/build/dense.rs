@@ -108,7 +108,9 @@ fn tile(
                 (at + 1, fresh_top),
                 (at + gw + 1, true),
             ];
-            let mut w = [0i16; 4];
+            // the block's weights packed in one register, a corner's i16 per 16 bits (stored
+            // corner by corner, the test below would wait on four narrow stores)
+            let mut w = 0u64;
             let mut holds_big = false;
             for (k, &(i, fresh)) in cells.iter().enumerate() {
                 if !fresh || grid[i] == 0.0 {
@@ -118,16 +120,16 @@ fn tile(
                 sum += share;
                 // (sum >= 0: truncation is floor, without a libm call)
                 let r = (sum + 0.5) as i32;
-                w[k] = (r - given) as i16;
+                w |= ((r - given) as i16 as u16 as u64) << (16 * k);
                 given = r;
                 if share > top {
                     (big, top, holds_big) = (Some((out.len(), k)), share, true);
                 }
             }
-            if w != [0; 4] || holds_big {
+            if w != 0 || holds_big {
                 out.push(Quad {
                     offset: offset(x, y),
-                    w,
+                    w: std::array::from_fn(|k| (w >> (16 * k)) as u16 as i16),
                 });
             }
         }

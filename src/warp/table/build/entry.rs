@@ -131,6 +131,9 @@ impl RemapTable {
         // is its centre's, the taps' wherever its rows are inside, as a panorama's all are)
         b.taps_cover = wrap == Wrap::None;
         b.surfaces = surfaces;
+        if b.by_parts.is_none() {
+            b.tap_parts = surfaces.and_then(|s| s.tap_output());
+        }
         b.build(parallel)
     }
 }

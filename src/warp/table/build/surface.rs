@@ -11,6 +11,7 @@
 //! pixel 8 source pixels wide would take.
 
 use super::{count, tap_offset, Builder, Parts};
+use crate::camera::Separable;
 use nalgebra::{Point2, Vector3};
 use std::ops::Range;
 
@@ -48,6 +49,16 @@ pub(crate) trait Surfaces: Sync {
         ds: &[Option<Vector3<f64>>],
         out: &mut Vec<Option<Point2<f64>>>,
     );
+
+    /// The table's output camera's unprojection by columns and rows, where that camera gives
+    /// each tap of a pixel with a mapped centre a separable camera's bearing (a stitch's
+    /// output gated by a camera's reach: a tap is nearer its own pixel's centre than any
+    /// other's, and the gate keeps that pixel): a supersampled pixel's taps then take their
+    /// columns' and rows' shares, not each its own trigonometry. None (this default): each
+    /// tap unprojected alone.
+    fn tap_output(&self) -> Option<&dyn Separable> {
+        None
+    }
 }
 
 impl Builder<'_> {
