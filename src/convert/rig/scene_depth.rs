@@ -45,7 +45,7 @@ use motion::Motion;
 use nalgebra::Vector3;
 use noise::Noise;
 use serde::Serialize;
-use solid::Solid;
+use solid::{Solid, Solids};
 use splats::{angles, Splats};
 use std::sync::OnceLock;
 
@@ -161,6 +161,8 @@ pub struct SceneDepth {
     centre: Vector3<f64>,
     eyes: Vec<Vector3<f64>>,
     solids: Vec<Solid>,
+    /// The boxes seen from the centre, nearest first.
+    from_centre: Solids,
     ground: Option<LocalGround>,
     /// The scan's noise: the occlusion test's margin.
     noise: Noise,
@@ -209,6 +211,7 @@ impl SceneDepth {
             nearest = nearest.min((p - centre).norm());
         }
         SceneDepth {
+            from_centre: Solids::new(&solids, &centre),
             centre,
             eyes,
             solids,
@@ -231,10 +234,23 @@ impl SceneDepth {
     /// The nearest exact surface (box or ground) along unit ray (o, d) or `nearer`, whichever
     /// is nearer (infinite for none): `view` the index of o's grid (0 the centre, 1 + i eye i).
     fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>, nearer: f64) -> f64 {
+        self.exact_hit_listed(view, o, d, nearer).0
+    }
+
+    /// [`SceneDepth::exact_hit`], and whether o's grid lists a box at `d`.
+    fn exact_hit_listed(
+        &self,
+        view: usize,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        nearer: f64,
+    ) -> (f64, bool) {
         let ground = self.ground.as_ref().and_then(|g| g.hit(o, d));
         let mut t = ground.map_or(nearer, |g| g.min(nearer));
         let solids = self.solids_of(view);
+        let mut listed = false;
         self.grids[view].any(d, solids.len(), |k| {
+            listed = true;
             // (an entry point lies in the bounding sphere: not before along − radius)
             let s = &solids[k];
             if (s.centre - o).dot(d) - s.radius < t {
@@ -244,7 +260,7 @@ impl SceneDepth {
             }
             false
         });
-        t
+        (t, listed)
     }
 }
 
@@ -274,10 +290,12 @@ fn residual_splats(
         .chain(eyes)
         .enumerate()
         .map(|(view, o)| {
-            let mut s = Splats::new(*o, residual);
-            if view == 0 {
-                s.extend_edges(baseline);
+            if view > 0 {
+                // (an eye's buffer is looked up only where its camera sees)
+                return Splats::lazy(*o, residual);
             }
+            let mut s = Splats::new(*o, residual);
+            s.extend_edges(baseline);
             s
         })
         .collect()
@@ -291,6 +309,16 @@ impl StitchDepth for SceneDepth {
             s.range(lon, lat)
         });
         self.exact_hit(0, &self.centre, d, splat).min(FAR)
+    }
+
+    fn distance_and_may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> (f64, bool) {
+        let splat = self.splats.first().map_or(f64::INFINITY, |s| {
+            let (lon, lat) = angles(d);
+            s.range(lon, lat)
+        });
+        // (as `may_interpolate`: the grid lists every box within its reach of d)
+        let (t, listed) = self.exact_hit_listed(0, &self.centre, d, splat);
+        (t.min(FAR), radius <= grid::REACH && !listed)
     }
 
     fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
@@ -333,10 +361,7 @@ impl StitchDepth for SceneDepth {
             t = t.min(s.nearest_within(d, radius));
         }
         // (the boxes last: one farther than the bound so far cannot lower it, untested)
-        for s in &self.solids {
-            t = s.lower_within(&self.centre, d, radius, t);
-        }
-        t.min(FAR)
+        self.from_centre.lower_within(d, radius, t).min(FAR)
     }
 }
 
