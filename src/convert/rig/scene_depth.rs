@@ -184,7 +184,8 @@ impl SceneDepth {
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
         let motion = Motion::new(frame, &eyes);
         // per point, whether it lies in a box (the ground fit and the residual both ask)
-        let in_box: Vec<bool> = points.iter().map(|p| in_a_box(&solids, p)).collect();
+        let by_x = ByX::new(&solids);
+        let in_box: Vec<bool> = points.iter().map(|p| by_x.in_a_box(p)).collect();
         let ground = LocalGround::fit(&points, &centre, |i| !in_box[i]);
         let noise = Noise::measure(&centre, &points);
         let residual: Vec<Vector3<f64>> = (points.into_iter().zip(in_box))
@@ -264,14 +265,41 @@ impl SceneDepth {
     }
 }
 
-/// Whether `p` lies in one of `solids` ([`BOX_MARGIN`]): the boxes whose bounding sphere
-/// one of p's offsets alone leaves (with room for its rounding) are passed over untested.
-fn in_a_box(solids: &[Solid], p: &Vector3<f64>) -> bool {
-    solids.iter().any(|s| {
-        let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
-        let v = p - s.centre;
-        !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach) && s.contains(p, BOX_MARGIN)
-    })
+/// The boxes in order of their centres' x, for [`ByX::in_a_box`].
+struct ByX<'a> {
+    solids: Vec<&'a Solid>,
+    /// The largest reach of a box's sphere from its centre ([`ByX::in_a_box`]).
+    widest: f64,
+}
+
+impl<'a> ByX<'a> {
+    fn new(solids: &'a [Solid]) -> Self {
+        let mut by_x: Vec<&Solid> = solids.iter().collect();
+        by_x.sort_by(|a, b| a.centre.x.total_cmp(&b.centre.x));
+        let widest = (solids.iter())
+            .map(|s| (s.radius + BOX_MARGIN) * (1.0 + 1e-12))
+            .fold(0.0, f64::max);
+        ByX {
+            solids: by_x,
+            widest,
+        }
+    }
+
+    /// Whether `p` lies in one of the boxes ([`BOX_MARGIN`]): the boxes whose bounding sphere
+    /// one of p's offsets alone leaves (with room for its rounding) are passed over untested,
+    /// those whose centre's x lies beyond twice the widest reach from p's without a look.
+    fn in_a_box(&self, p: &Vector3<f64>) -> bool {
+        let first = (self.solids).partition_point(|s| s.centre.x < p.x - self.widest * 2.0);
+        self.solids[first..]
+            .iter()
+            .take_while(|s| s.centre.x <= p.x + self.widest * 2.0)
+            .any(|s| {
+                let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
+                let v = p - s.centre;
+                !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach)
+                    && s.contains(p, BOX_MARGIN)
+            })
+    }
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
