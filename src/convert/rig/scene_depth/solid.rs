@@ -96,7 +96,9 @@ impl Solid {
     }
 
     /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit
-    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it.
+    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it
+    /// ([`Solids::lower_within`] computes it from the origin's parts kept).
+    #[cfg(test)]
     pub(super) fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
         let oc = self.centre - o;
         let far = oc.norm();
