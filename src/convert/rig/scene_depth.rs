@@ -45,7 +45,7 @@ use motion::Motion;
 use nalgebra::Vector3;
 use noise::Noise;
 use serde::Serialize;
-use solid::Solid;
+use solid::{Solid, Solids};
 use splats::{angles, Splats};
 use std::sync::OnceLock;
 
@@ -161,6 +161,8 @@ pub struct SceneDepth {
     centre: Vector3<f64>,
     eyes: Vec<Vector3<f64>>,
     solids: Vec<Solid>,
+    /// The boxes seen from the centre, nearest first.
+    from_centre: Solids,
     ground: Option<LocalGround>,
     /// The scan's noise: the occlusion test's margin.
     noise: Noise,
@@ -182,7 +184,8 @@ impl SceneDepth {
         let solids: Vec<Solid> = frame.objects.iter().map(Solid::new).collect();
         let motion = Motion::new(frame, &eyes);
         // per point, whether it lies in a box (the ground fit and the residual both ask)
-        let in_box: Vec<bool> = points.iter().map(|p| in_a_box(&solids, p)).collect();
+        let by_x = ByX::new(&solids);
+        let in_box: Vec<bool> = points.iter().map(|p| by_x.in_a_box(p)).collect();
         let ground = LocalGround::fit(&points, &centre, |i| !in_box[i]);
         let noise = Noise::measure(&centre, &points);
         let residual: Vec<Vector3<f64>> = (points.into_iter().zip(in_box))
@@ -209,6 +212,7 @@ impl SceneDepth {
             nearest = nearest.min((p - centre).norm());
         }
         SceneDepth {
+            from_centre: Solids::new(&solids, &centre),
             centre,
             eyes,
             solids,
@@ -231,10 +235,23 @@ impl SceneDepth {
     /// The nearest exact surface (box or ground) along unit ray (o, d) or `nearer`, whichever
     /// is nearer (infinite for none): `view` the index of o's grid (0 the centre, 1 + i eye i).
     fn exact_hit(&self, view: usize, o: &Vector3<f64>, d: &Vector3<f64>, nearer: f64) -> f64 {
+        self.exact_hit_listed(view, o, d, nearer).0
+    }
+
+    /// [`SceneDepth::exact_hit`], and whether o's grid lists a box at `d`.
+    fn exact_hit_listed(
+        &self,
+        view: usize,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        nearer: f64,
+    ) -> (f64, bool) {
         let ground = self.ground.as_ref().and_then(|g| g.hit(o, d));
         let mut t = ground.map_or(nearer, |g| g.min(nearer));
         let solids = self.solids_of(view);
+        let mut listed = false;
         self.grids[view].any(d, solids.len(), |k| {
+            listed = true;
             // (an entry point lies in the bounding sphere: not before along − radius)
             let s = &solids[k];
             if (s.centre - o).dot(d) - s.radius < t {
@@ -244,18 +261,45 @@ impl SceneDepth {
             }
             false
         });
-        t
+        (t, listed)
     }
 }
 
-/// Whether `p` lies in one of `solids` ([`BOX_MARGIN`]): the boxes whose bounding sphere
-/// one of p's offsets alone leaves (with room for its rounding) are passed over untested.
-fn in_a_box(solids: &[Solid], p: &Vector3<f64>) -> bool {
-    solids.iter().any(|s| {
-        let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
-        let v = p - s.centre;
-        !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach) && s.contains(p, BOX_MARGIN)
-    })
+/// The boxes in order of their centres' x, for [`ByX::in_a_box`].
+struct ByX<'a> {
+    solids: Vec<&'a Solid>,
+    /// The largest reach of a box's sphere from its centre ([`ByX::in_a_box`]).
+    widest: f64,
+}
+
+impl<'a> ByX<'a> {
+    fn new(solids: &'a [Solid]) -> Self {
+        let mut by_x: Vec<&Solid> = solids.iter().collect();
+        by_x.sort_by(|a, b| a.centre.x.total_cmp(&b.centre.x));
+        let widest = (solids.iter())
+            .map(|s| (s.radius + BOX_MARGIN) * (1.0 + 1e-12))
+            .fold(0.0, f64::max);
+        ByX {
+            solids: by_x,
+            widest,
+        }
+    }
+
+    /// Whether `p` lies in one of the boxes ([`BOX_MARGIN`]): the boxes whose bounding sphere
+    /// one of p's offsets alone leaves (with room for its rounding) are passed over untested,
+    /// those whose centre's x lies beyond twice the widest reach from p's without a look.
+    fn in_a_box(&self, p: &Vector3<f64>) -> bool {
+        let first = (self.solids).partition_point(|s| s.centre.x < p.x - self.widest * 2.0);
+        self.solids[first..]
+            .iter()
+            .take_while(|s| s.centre.x <= p.x + self.widest * 2.0)
+            .any(|s| {
+                let reach = (s.radius + BOX_MARGIN) * (1.0 + 1e-12);
+                let v = p - s.centre;
+                !(v.x.abs() > reach || v.y.abs() > reach || v.z.abs() > reach)
+                    && s.contains(p, BOX_MARGIN)
+            })
+    }
 }
 
 /// The residual points' buffers seen from `centre` (its surfaces' edges against the sky
@@ -274,10 +318,12 @@ fn residual_splats(
         .chain(eyes)
         .enumerate()
         .map(|(view, o)| {
-            let mut s = Splats::new(*o, residual);
-            if view == 0 {
-                s.extend_edges(baseline);
+            if view > 0 {
+                // (an eye's buffer is looked up only where its camera sees)
+                return Splats::lazy(*o, residual);
             }
+            let mut s = Splats::new(*o, residual);
+            s.extend_edges(baseline);
             s
         })
         .collect()
@@ -291,6 +337,16 @@ impl StitchDepth for SceneDepth {
             s.range(lon, lat)
         });
         self.exact_hit(0, &self.centre, d, splat).min(FAR)
+    }
+
+    fn distance_and_may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> (f64, bool) {
+        let splat = self.splats.first().map_or(f64::INFINITY, |s| {
+            let (lon, lat) = angles(d);
+            s.range(lon, lat)
+        });
+        // (as `may_interpolate`: the grid lists every box within its reach of d)
+        let (t, listed) = self.exact_hit_listed(0, &self.centre, d, splat);
+        (t.min(FAR), radius <= grid::REACH && !listed)
     }
 
     fn sees(&self, camera: usize, x: &Vector3<f64>) -> bool {
@@ -333,10 +389,7 @@ impl StitchDepth for SceneDepth {
             t = t.min(s.nearest_within(d, radius));
         }
         // (the boxes last: one farther than the bound so far cannot lower it, untested)
-        for s in &self.solids {
-            t = s.lower_within(&self.centre, d, radius, t);
-        }
-        t.min(FAR)
+        self.from_centre.lower_within(d, radius, t).min(FAR)
     }
 }
 

@@ -44,6 +44,12 @@ pub trait StitchDepth: Sync + std::fmt::Debug {
         true
     }
 
+    /// [`StitchDepth::distance`] and [`StitchDepth::may_interpolate`] of one bearing in one
+    /// call (a scene may share their work).
+    fn distance_and_may_interpolate(&self, d: &Vector3<f64>, radius: f64) -> (f64, bool) {
+        (self.distance(d), self.may_interpolate(d, radius))
+    }
+
     /// A lower bound of [`StitchDepth::distance`] over every bearing, metres (0 for none).
     fn nearest(&self) -> f64;
 

@@ -7,6 +7,7 @@
 
 use nalgebra::Vector3;
 use std::f64::consts::FRAC_PI_2;
+use std::sync::OnceLock;
 
 /// Cells per side of a cube face.
 const SIDE: usize = 32;
@@ -79,7 +80,9 @@ fn cells() -> Vec<(Vector3<f64>, f64, f64)> {
 impl BoxGrid {
     /// The grid of the boxes `spheres` (centre, radius) seen from `origin`.
     pub(super) fn new(origin: &Vector3<f64>, spheres: &[(Vector3<f64>, f64)]) -> Self {
-        let cells = cells();
+        // (the same for every grid: computed once)
+        static CELLS: OnceLock<Vec<(Vector3<f64>, f64, f64)>> = OnceLock::new();
+        let cells = CELLS.get_or_init(cells);
         let words = spheres.len().div_ceil(64).max(1);
         let mut bits = vec![0u64; cells.len() * words];
         for (k, (centre, radius)) in spheres.iter().enumerate() {

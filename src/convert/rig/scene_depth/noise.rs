@@ -5,7 +5,6 @@
 
 use super::{SCAN_TOLERANCE, SPLAT_DEG};
 use nalgebra::Vector3;
-use std::collections::HashMap;
 
 /// Returns nearer than this to the viewpoint do not measure the ring spacing (parallax between
 /// the sensor and the output centre), metres.
@@ -34,7 +33,9 @@ impl Noise {
     /// The noise of the scan `points` seen from `origin`: its ring spacing is the median of
     /// the elevation gaps above [`SAME_RING_DEG`] between returns of one azimuth bin.
     pub(super) fn measure(origin: &Vector3<f64>, points: &[Vector3<f64>]) -> Noise {
-        let mut bins: HashMap<i64, Vec<f64>> = HashMap::new();
+        // per azimuth bin (from −180°), the elevations
+        let count = (360.0 / SPACING_BIN_DEG).round() as i64 + 2;
+        let mut bins: Vec<Vec<f64>> = vec![Vec::new(); count as usize];
         for p in points {
             let v = p - origin;
             let range = v.norm();
@@ -43,12 +44,11 @@ impl Noise {
             }
             let azimuth = v.x.atan2(v.z).to_degrees();
             let elevation = (-v.y / range).asin().to_degrees();
-            bins.entry((azimuth / SPACING_BIN_DEG).floor() as i64)
-                .or_default()
-                .push(elevation);
+            let bin = (azimuth / SPACING_BIN_DEG).floor() as i64 + count / 2;
+            bins[bin.clamp(0, count - 1) as usize].push(elevation);
         }
         let mut gaps = Vec::new();
-        for e in bins.values_mut() {
+        for e in &mut bins {
             e.sort_by(f64::total_cmp);
             gaps.extend(
                 e.windows(2)
@@ -113,43 +113,193 @@ impl Noise {
                 .floor()
                 .max(1.0)
         };
+        // per ray its row and azimuth (+π; None at the origin)
+        let placed: Vec<Option<(i64, f64)>> = rays
+            .iter()
+            .map(|(d, r)| (*r > 0.0).then(|| (row_of(d), d.x.atan2(d.z) + std::f64::consts::PI)))
+            .collect();
+        let column = |azimuth: f64, n: f64| {
+            ((azimuth / std::f64::consts::TAU * n).floor() as i64).min(n as i64 - 1)
+        };
+        let buckets = Buckets::new(&placed, columns, column);
+        rays.iter()
+            .zip(&placed)
+            .enumerate()
+            .map(|(i, ((d, r), placed))| {
+                let Some((row, azimuth)) = *placed else {
+                    return false;
+                };
+                let margin = self.margin(*r);
+                !(row - 1..=row + 1).any(|y| {
+                    let Some(n) = buckets.columns(y) else {
+                        return false;
+                    };
+                    let at = column(azimuth, n);
+                    (at - 1..=at + 1).any(|x| {
+                        let x = x.rem_euclid(n as i64);
+                        buckets.list(y, x).iter().any(|&j| {
+                            j != i
+                                && rays[j].0.dot(d) >= cos_reach
+                                && (rays[j].1 - r).abs() <= margin
+                        })
+                    })
+                })
+            })
+            .collect()
+    }
+}
+
+/// [`Noise::lone`]'s buckets: per row of elevation its columns of azimuth, each cell the
+/// rays in it in increasing order.
+struct Buckets {
+    /// The first row held.
+    first: i64,
+    /// Per row held, its column count and its first cell.
+    rows: Vec<(f64, usize)>,
+    /// Per cell, where its rays start in `rays` (one more: the end).
+    starts: Vec<usize>,
+    rays: Vec<usize>,
+}
+
+impl Buckets {
+    /// The buckets of rays at `placed` (row, azimuth + π), `columns` a row's column count,
+    /// `column` the column of an azimuth in a row of that many.
+    fn new(
+        placed: &[Option<(i64, f64)>],
+        columns: impl Fn(i64) -> f64,
+        column: impl Fn(f64, f64) -> i64,
+    ) -> Self {
+        let rows_held = placed.iter().flatten().map(|p| p.0);
+        let (first, last) = rows_held.fold((i64::MAX, i64::MIN), |(a, b), r| (a.min(r), b.max(r)));
+        let mut rows = Vec::new();
+        let mut cells = 0;
+        for row in first..=last {
+            let n = columns(row);
+            rows.push((n, cells));
+            cells += n as usize;
+        }
+        let cell = |row: i64, azimuth: f64| {
+            let (n, start) = rows[(row - first) as usize];
+            start + column(azimuth, n) as usize
+        };
+        // (a counting sort of the rays by cell, each cell's in increasing order)
+        let mut starts = vec![0usize; cells + 1];
+        for &(row, azimuth) in placed.iter().flatten() {
+            starts[cell(row, azimuth) + 1] += 1;
+        }
+        for k in 1..starts.len() {
+            starts[k] += starts[k - 1];
+        }
+        let mut next = starts.clone();
+        let mut rays = vec![0; starts[cells]];
+        for (i, p) in placed.iter().enumerate() {
+            if let Some((row, azimuth)) = p {
+                let at = &mut next[cell(*row, *azimuth)];
+                rays[*at] = i;
+                *at += 1;
+            }
+        }
+        Buckets {
+            first,
+            rows,
+            starts,
+            rays,
+        }
+    }
+
+    /// Row `row`'s column count (None: no ray lies in it).
+    fn columns(&self, row: i64) -> Option<f64> {
+        let k = usize::try_from(row.checked_sub(self.first)?).ok()?;
+        self.rows.get(k).map(|r| r.0)
+    }
+
+    /// The rays of cell (`row`, `x`), `x` within the row's columns.
+    fn list(&self, row: i64, x: i64) -> &[usize] {
+        let cell = self.rows[(row - self.first) as usize].1 + x as usize;
+        &self.rays[self.starts[cell]..self.starts[cell + 1]]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// [`Noise::lone`] as a map of buckets keyed by (row, column): the reference.
+    fn lone_by_map(noise: &Noise, origin: &Vector3<f64>, points: &[Vector3<f64>]) -> Vec<bool> {
+        let reach = (NEIGHBOUR_SPACINGS * noise.spacing).max(SPLAT_DEG.to_radians());
+        let rays: Vec<(Vector3<f64>, f64)> = (points.iter())
+            .map(|p| ((p - origin).normalize(), (p - origin).norm()))
+            .collect();
+        let row_of = |d: &Vector3<f64>| ((-d.y).clamp(-1.0, 1.0).asin() / reach).floor() as i64;
+        let columns = |row: i64| {
+            let far = ((row as f64).abs().max(((row + 1) as f64).abs()) * reach).min(1.5);
+            ((std::f64::consts::TAU * far.cos()) / reach)
+                .floor()
+                .max(1.0)
+        };
         let column = |d: &Vector3<f64>, n: f64| {
             let azimuth = d.x.atan2(d.z) + std::f64::consts::PI;
             ((azimuth / std::f64::consts::TAU * n).floor() as i64).min(n as i64 - 1)
         };
         let mut buckets: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-        for (i, (d, r)) in rays.iter().enumerate() {
-            if *r > 0.0 {
-                let row = row_of(d);
-                buckets
-                    .entry((row, column(d, columns(row))))
-                    .or_default()
-                    .push(i);
-            }
+        for (i, (d, _)) in rays.iter().enumerate() {
+            let row = row_of(d);
+            let key = (row, column(d, columns(row)));
+            buckets.entry(key).or_default().push(i);
         }
-        rays.iter()
-            .enumerate()
+        (rays.iter().enumerate())
             .map(|(i, (d, r))| {
-                if !(*r > 0.0) {
-                    return false;
-                }
-                let margin = self.margin(*r);
-                let row = row_of(d);
-                !(row - 1..=row + 1).any(|y| {
+                !(row_of(d) - 1..=row_of(d) + 1).any(|y| {
                     let n = columns(y);
-                    let at = column(d, n);
-                    (at - 1..=at + 1).any(|x| {
-                        let x = x.rem_euclid(n as i64);
-                        buckets.get(&(y, x)).is_some_and(|list| {
+                    (column(d, n) - 1..=column(d, n) + 1).any(|x| {
+                        let list = buckets.get(&(y, x.rem_euclid(n as i64)));
+                        list.is_some_and(|list| {
                             list.iter().any(|&j| {
                                 j != i
-                                    && rays[j].0.dot(d) >= cos_reach
-                                    && (rays[j].1 - r).abs() <= margin
+                                    && rays[j].0.dot(d) >= reach.cos()
+                                    && (rays[j].1 - r).abs() <= noise.margin(*r)
                             })
                         })
                     })
                 })
             })
             .collect()
+    }
+
+    #[test]
+    fn the_lone_returns_are_those_the_map_of_buckets_finds() {
+        let mut state = 0x1f83_d9ab_fb41_bd6b_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // scattered returns (many lone), a few dense patches (none lone), near the poles too
+        let mut points = Vec::new();
+        for k in 0..6000 {
+            let d = Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let d = if k % 3 == 0 {
+                Vector3::new(d.x * 0.05, -1.0, d.z * 0.05).normalize()
+            } else {
+                d
+            };
+            points.push(d * (3.0 + 30.0 * next()));
+            if k % 4 == 0 {
+                let e = (d + Vector3::new(next(), next(), next()) * 0.004).normalize();
+                points.push(e * (points.last().unwrap().norm() + 0.05));
+            }
+        }
+        let origin = Vector3::new(0.1, 0.2, -0.3);
+        for spacing in [0.2f64, 1.0, 3.0] {
+            let noise = Noise {
+                spacing: spacing.to_radians(),
+            };
+            let got = noise.lone(&origin, &points);
+            assert_eq!(got, lone_by_map(&noise, &origin, &points), "{spacing}");
+            let lone = got.iter().filter(|l| **l).count();
+            assert!(lone > 500 && lone < points.len() - 1000, "{lone}");
+        }
     }
 }

@@ -96,7 +96,9 @@ impl Solid {
     }
 
     /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit
-    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it.
+    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it
+    /// ([`Solids::lower_within`] computes it from the origin's parts kept).
+    #[cfg(test)]
     pub(super) fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
         let oc = self.centre - o;
         let far = oc.norm();
@@ -111,7 +113,9 @@ impl Solid {
     }
 
     /// `t.min(self.nearest_within(o, d, radius))`, without the cone's test where the box's
-    /// nearest distance from `o` could not lower `t`.
+    /// nearest distance from `o` could not lower `t` ([`Solids::lower_within`] of every box
+    /// at once).
+    #[cfg(test)]
     pub(super) fn lower_within(
         &self,
         o: &Vector3<f64>,
@@ -126,11 +130,127 @@ impl Solid {
         t.min(self.nearest_within(o, d, radius))
     }
 
+    /// The parts of [`Solid::nearest_within`] that depend only on `o`.
+    fn seen_from(&self, o: &Vector3<f64>) -> SeenFrom {
+        let oc = self.centre - o;
+        let far = oc.norm();
+        let inside = !(far > self.radius);
+        SeenFrom {
+            near: if inside {
+                f64::NEG_INFINITY
+            } else {
+                (far - self.radius) * (1.0 - 1e-9)
+            },
+            oc,
+            far,
+            spread: (self.radius / far).asin(),
+        }
+    }
+
     pub(super) fn contains(&self, p: &Vector3<f64>, margin: f64) -> bool {
         if (p - self.centre).norm() > self.radius + margin {
             return false;
         }
         let l = self.box_from_reference * (p - self.centre);
         (0..3).all(|a| l[a].abs() <= self.half[a] + margin)
+    }
+}
+
+/// A box's bounding sphere seen from a fixed origin: what [`Solid::nearest_within`] computes
+/// from the origin alone.
+#[derive(Debug, Clone)]
+struct SeenFrom {
+    /// The sphere's nearest distance (−∞: the origin lies in it).
+    near: f64,
+    oc: Vector3<f64>,
+    far: f64,
+    /// Its angular radius.
+    spread: f64,
+}
+
+/// The boxes seen from one origin, nearest first: [`Solids::lower_within`] stops at the
+/// first box that cannot lower its bound.
+#[derive(Debug, Clone)]
+pub(super) struct Solids(Vec<SeenFrom>);
+
+impl Solids {
+    pub(super) fn new(solids: &[Solid], o: &Vector3<f64>) -> Self {
+        let mut seen: Vec<SeenFrom> = solids.iter().map(|s| s.seen_from(o)).collect();
+        seen.sort_by(|a, b| a.near.total_cmp(&b.near));
+        Solids(seen)
+    }
+
+    /// `t` lowered by [`Solid::lower_within`] of every box from the origin, the same value
+    /// (a box nearest-first no nearer than the bound so far, and every box after it, leaves
+    /// it as it is).
+    pub(super) fn lower_within(&self, d: &Vector3<f64>, radius: f64, mut t: f64) -> f64 {
+        for b in &self.0 {
+            if b.near == f64::NEG_INFINITY {
+                t = t.min(0.0);
+                continue;
+            }
+            if b.near >= t {
+                break;
+            }
+            let off_axis = (b.oc.dot(d) / b.far).clamp(-1.0, 1.0).acos();
+            let beyond = off_axis > radius + b.spread + 1e-9;
+            t = t.min(if beyond { f64::INFINITY } else { b.near });
+        }
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_boxes_nearest_first_lower_a_bound_as_each_box_does() {
+        let mut state = 0x6c8e_9cf5_7093_2bd5_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let o = Vector3::new(0.2, -0.3, 0.1);
+        // boxes all around, one holding the origin in its bounding sphere
+        let mut solids: Vec<Solid> = (0..60)
+            .map(|_| {
+                let c = Vector3::new(next() - 0.5, 0.2 * (next() - 0.5), next() - 0.5) * 60.0;
+                let b = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], c, next() * 6.0);
+                Solid::new(&b)
+            })
+            .collect();
+        solids.push(Solid::new(&SourceBox::from_kitti(
+            "Car",
+            [1.5, 1.8, 4.0],
+            Vector3::new(0.0, 0.5, 1.0),
+            0.0,
+        )));
+        let all = Solids::new(&solids, &o);
+        let (mut lowered, mut zero) = (0, 0);
+        for k in 0..20_000 {
+            let d = Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize();
+            let radius = [0.002, 0.02, 0.2][k % 3];
+            let t = [f64::INFINITY, 5.0 + 40.0 * next(), f64::NAN][k / 3 % 3];
+            let sphere = if k % 2 == 0 {
+                &solids[..60]
+            } else {
+                &solids[..]
+            };
+            let want = sphere
+                .iter()
+                .fold(t, |t, s| s.lower_within(&o, &d, radius, t));
+            let got = if k % 2 == 0 {
+                Solids::new(sphere, &o).lower_within(&d, radius, t)
+            } else {
+                all.lower_within(&d, radius, t)
+            };
+            assert_eq!(got.to_bits(), want.to_bits(), "{d} {radius} {t}");
+            lowered += usize::from(want < t || (t.is_nan() && want.is_finite()));
+            zero += usize::from(want == 0.0);
+        }
+        assert!(lowered > 2000 && zero > 5000, "{lowered} {zero}");
     }
 }

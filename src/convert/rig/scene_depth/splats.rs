@@ -6,6 +6,8 @@ use super::{CELLS_PER_DEG, EDGE_DEG, GAP_AGREE, GAP_DEG, SPLAT_DEG};
 use nalgebra::Vector3;
 use std::f64::consts::{PI, TAU};
 
+mod strips;
+
 /// The longitude (about the reference frame's y axis, from +z, in (−π, π]) and latitude of
 /// `d` (0 and 0 for a zero `d`): `atan2` and `asin` to a tenth of a nanoradian, without libm
 /// (the splats are looked up at every ray a depth-guided stitch casts).
@@ -26,6 +28,8 @@ pub(super) struct Splats {
     /// Per row, the least range of each run of [`BLOCK`] cells (the last run shorter):
     /// [`Splats::nearest_within`] takes a whole run's least at once.
     blocks: Vec<f32>,
+    /// Drawn on demand ([`Splats::lazy`]; `range` and `blocks` are then empty).
+    strips: Option<strips::Strips>,
 }
 
 /// Cells per run whose least range is kept ([`Splats::nearest_within`]).
@@ -46,49 +50,35 @@ impl Splats {
     }
 
     pub(super) fn new(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
-        let width = (360.0 * CELLS_PER_DEG) as usize;
-        let height = (180.0 * CELLS_PER_DEG) as usize;
+        let (width, height) = buffer_size();
         let mut splats = Splats {
             width,
             height,
             range: vec![f32::INFINITY; width * height],
             blocks: Vec::new(),
+            strips: None,
         };
-        let radius = SPLAT_DEG * CELLS_PER_DEG;
         for p in points {
-            let v = p - origin;
-            let range = v.norm();
-            if !(range > 0.0) {
-                continue;
-            }
-            let (x, y) = splats.cell_of(&v);
-            let lat = (y / height as f64) * PI - PI / 2.0;
-            // a disc on the sphere: wider in cells of longitude away from the equator
-            let stretch = 1.0 / lat.cos().max(0.05);
-            let (rx, ry) = ((radius * stretch).min(width as f64 / 2.0), radius);
-            let (y0, y1) = (floor(y - ry).max(0) as usize, ceil(y + ry).max(0) as usize);
-            let range = range as f32;
-            for cy in y0..y1.min(height) {
-                let dy = (cy as f64 + 0.5 - y) / ry;
-                let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
-                let (x0, x1) = (floor(x - reach), ceil(x + reach));
-                // cells x0..x1 around the row, as at most two runs (the second from the row's
-                // start where it wraps; a run over a cell twice lowers it once)
-                let row = &mut splats.range[cy * width..(cy + 1) * width];
-                let start = x0.rem_euclid(width as i64) as usize;
-                let n = (x1 - x0).max(0) as usize;
-                let first = n.min(width - start);
-                for cell in &mut row[start..start + first] {
-                    *cell = cell.min(range);
-                }
-                for cell in &mut row[..(n - first).min(width)] {
-                    *cell = cell.min(range);
-                }
+            if let Some(disc) = Disc::of(&origin, p) {
+                disc.draw(&mut splats.range, (0, width));
             }
         }
         splats.fill_gaps();
         splats.index_blocks();
         splats
+    }
+
+    /// The buffer of [`Splats::new`], each strip of its columns drawn and filled on its first
+    /// lookup ([`strips`]): a camera's lookups cover only the longitudes it sees.
+    pub(super) fn lazy(origin: Vector3<f64>, points: &[Vector3<f64>]) -> Self {
+        let (width, height) = buffer_size();
+        Splats {
+            width,
+            height,
+            range: Vec::new(),
+            blocks: Vec::new(),
+            strips: Some(strips::Strips::new(&origin, points)),
+        }
     }
 
     /// Sets [`Splats::blocks`] from the ranges.
@@ -103,6 +93,9 @@ impl Splats {
 
     /// The least range of row `y`'s cells `a..b` (within the row), by whole runs where it can.
     fn least_in_row(&self, y: usize, a: usize, b: usize) -> f32 {
+        if let Some(strips) = &self.strips {
+            return (a..b).fold(f32::INFINITY, |t, x| t.min(strips.cell(x, y)));
+        }
         let row = &self.range[y * self.width..(y + 1) * self.width];
         let runs = &self.blocks[y * self.width.div_ceil(BLOCK)..];
         let (first, last) = (a.div_ceil(BLOCK), b / BLOCK);
@@ -120,12 +113,7 @@ impl Splats {
     /// [`GAP_AGREE`] of the farther), else the farther one's: a gap across a depth
     /// discontinuity is the background's, so a fill never makes an occluder.
     fn fill_gaps(&mut self) {
-        let longest = (GAP_DEG * CELLS_PER_DEG).round() as usize;
-        let (w, h) = (self.width, self.height);
-        fill_columns(&mut self.range, w, longest);
-        for y in 0..h {
-            fill_line(&mut self.range[y * w..(y + 1) * w], (0, 1), w, longest);
-        }
+        fill_window(&mut self.range, self.width);
     }
 
     /// Carries each surface's edge against the sky (no return) out by the parallax of a camera
@@ -135,7 +123,8 @@ impl Splats {
     /// by its parallax; the sky next to it placed at the surface's distance is sampled through
     /// the edge as the viewpoint sees it, not taken as hidden by it.
     pub(super) fn extend_edges(&mut self, baseline: f64) {
-        if !(baseline > 0.0) {
+        // (a lazy buffer, an eye's, is not extended)
+        if !(baseline > 0.0) || self.strips.is_some() {
             return;
         }
         let (w, h) = (self.width, self.height);
@@ -207,7 +196,91 @@ impl Splats {
             c => c.rem_euclid(w),
         } as usize;
         let cy = (crate::warp::floor(y).max(0.0) as usize).min(self.height - 1);
+        if let Some(strips) = &self.strips {
+            return strips.cell(cx, cy) as f64;
+        }
         self.range[cy * self.width + cx] as f64
+    }
+}
+
+/// The width and height of a buffer, cells.
+fn buffer_size() -> (usize, usize) {
+    (
+        (360.0 * CELLS_PER_DEG) as usize,
+        (180.0 * CELLS_PER_DEG) as usize,
+    )
+}
+
+/// The longest run of empty cells that [`Splats::fill_gaps`] closes.
+fn longest_gap() -> usize {
+    (GAP_DEG * CELLS_PER_DEG).round() as usize
+}
+
+/// A residual point's disc in a buffer: its cell position, its half-width in cells of
+/// longitude and its range.
+#[derive(Debug, Clone, Copy)]
+struct Disc {
+    x: f64,
+    y: f64,
+    rx: f64,
+    range: f32,
+}
+
+impl Disc {
+    /// Point `p`'s disc seen from `origin` (None for a point at the origin).
+    fn of(origin: &Vector3<f64>, p: &Vector3<f64>) -> Option<Disc> {
+        let (width, height) = buffer_size();
+        let v = p - origin;
+        let range = v.norm();
+        if !(range > 0.0) {
+            return None;
+        }
+        let (lon, lat) = angles(&v);
+        let (x, y) = (
+            (lon + PI) / TAU * width as f64,
+            (lat + PI / 2.0) / PI * height as f64,
+        );
+        let lat = (y / height as f64) * PI - PI / 2.0;
+        // a disc on the sphere: wider in cells of longitude away from the equator
+        let stretch = 1.0 / lat.cos().max(0.05);
+        let rx = (SPLAT_DEG * CELLS_PER_DEG * stretch).min(width as f64 / 2.0);
+        let range = range as f32;
+        Some(Disc { x, y, rx, range })
+    }
+
+    /// The disc's columns in every row it covers as at most two runs within [0, width) (the
+    /// second from the row's start where it wraps): `reach` its half-width, the runs' union
+    /// holding every row's cells for `reach` = `rx`.
+    fn runs(&self, reach: f64) -> [(usize, usize); 2] {
+        let width = buffer_size().0;
+        let (x0, x1) = (floor(self.x - reach), ceil(self.x + reach));
+        let start = x0.rem_euclid(width as i64) as usize;
+        let n = (x1 - x0).max(0) as usize;
+        let first = n.min(width - start);
+        [(start, start + first), (0, (n - first).min(width))]
+    }
+
+    /// Lowers the cells of `range` that the disc covers to its range: `range` the columns
+    /// `window` (a..b) of every row of the buffer, row after row (a run over a cell twice
+    /// lowers it once).
+    fn draw(&self, range: &mut [f32], (a, b): (usize, usize)) {
+        let height = buffer_size().1;
+        let ry = SPLAT_DEG * CELLS_PER_DEG;
+        let (y, rx) = (self.y, self.rx);
+        let (y0, y1) = (floor(y - ry).max(0) as usize, ceil(y + ry).max(0) as usize);
+        for cy in y0..y1.min(height) {
+            let dy = (cy as f64 + 0.5 - y) / ry;
+            let reach = rx * (1.0 - dy * dy).max(0.0).sqrt();
+            let row = &mut range[cy * (b - a)..(cy + 1) * (b - a)];
+            for (start, end) in self.runs(reach) {
+                let (start, end) = (start.max(a), end.min(b));
+                if start < end {
+                    for cell in &mut row[start - a..end - a] {
+                        *cell = cell.min(self.range);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -263,6 +336,15 @@ fn extend_line(
             };
         }
         k = end;
+    }
+}
+
+/// [`Splats::fill_gaps`] of a buffer's columns `w` wide (every row).
+fn fill_window(range: &mut [f32], w: usize) {
+    let longest = longest_gap();
+    fill_columns(range, w, longest);
+    for row in range.chunks_mut(w.max(1)) {
+        fill_line(row, (0, 1), w, longest);
     }
 }
 

@@ -131,12 +131,7 @@ pub(super) fn pixel_distances(
     baseline: f64,
 ) -> Vec<f64> {
     let (w, h) = (size.width as usize, size.height as usize);
-    let cast = |u: usize, v: usize| {
-        reach.bearing(u, v).map(|d| {
-            let n = d.normalize();
-            (depth.distance(&n), n)
-        })
-    };
+    let cast = |u: usize, v: usize| reach.bearing(u, v).map(|d| depth.distance(&d.normalize()));
     // (a pixel lies within two turns of each sample it is interpolated from)
     let (cw, ch, within) = (w.div_ceil(2), h.div_ceil(2), 2.0 * reach.step());
     let mut at = vec![
@@ -150,8 +145,9 @@ pub(super) fn pixel_distances(
         .enumerate()
         .for_each(|(j, row)| {
             for (i, s) in row.iter_mut().enumerate() {
-                if let Some((t, n)) = cast(2 * i, 2 * j) {
-                    let smooth = t > 0.0 && t.is_finite() && depth.may_interpolate(&n, within);
+                if let Some(d) = reach.bearing(2 * i, 2 * j) {
+                    let (t, may) = depth.distance_and_may_interpolate(&d.normalize(), within);
+                    let smooth = t > 0.0 && t.is_finite() && may;
                     let inverse = if smooth { 1.0 / t } else { f64::NAN };
                     *s = Sample { t, inverse };
                 }
@@ -172,7 +168,7 @@ pub(super) fn pixel_distances(
             for (u, t) in row.iter_mut().enumerate() {
                 *t = match samples.interpolated(u, v) {
                     Some(t) => t,
-                    None => cast(u, v).map_or(0.0, |(t, _)| t),
+                    None => cast(u, v).unwrap_or(0.0),
                 };
             }
         });
