@@ -107,7 +107,12 @@ impl Solid {
                 return f64::INFINITY;
             }
         }
-        // (a part in 1e9 and a nanometre cover the rounding of the box's frame)
+        self.nearest_from(o)
+    }
+
+    /// A lower bound of the distance from `o` to any point of the box: its nearest point's
+    /// (a part in 1e9 and a nanometre cover the rounding of the box's frame).
+    fn nearest_from(&self, o: &Vector3<f64>) -> f64 {
         (self.distance_from(o) * (1.0 - 1e-9) - 1e-9).max(0.0)
     }
 
@@ -129,6 +134,10 @@ impl Solid {
     ) -> f64 {
         let far = (self.centre - o).norm();
         if far > self.radius && (far - self.radius) * (1.0 - 1e-9) >= t {
+            return t;
+        }
+        // (`nearest_within` is infinite or this bound: no cone's test where it cannot lower t)
+        if self.nearest_from(o) >= t {
             return t;
         }
         t.min(self.nearest_within(o, d, radius))
