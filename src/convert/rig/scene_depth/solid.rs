@@ -136,10 +136,6 @@ impl Solid {
         if far > self.radius && (far - self.radius) * (1.0 - 1e-9) >= t {
             return t;
         }
-        // (`nearest_within` is infinite or this bound: no cone's test where it cannot lower t)
-        if self.nearest_from(o) >= t {
-            return t;
-        }
         t.min(self.nearest_within(o, d, radius))
     }
 
