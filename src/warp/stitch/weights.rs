@@ -397,11 +397,11 @@ impl WeightPass<'_> {
         let saturation = (camera.model.pinhole())
             .filter(|_| b > 0.0 && b.is_finite())
             .map(|k| Saturation { width: b, k });
-        // with a depth each pixel's point lies at its own distance: no tile bound
-        let tiles = match self.distances {
-            None => TileBound::of(camera, b, reach.step(), options.distance),
-            _ => None,
-        };
+        let tiles = TileBound::of(camera, b, reach.step(), options.distance);
+        // with a depth each pixel's point lies at its own distance: its direction from the
+        // eye departs from its bearing's by the eye's offset from the centre (and the
+        // depth's motion) over that distance
+        let offset = self.centre + camera.rotation.transpose() * camera.translation;
         let pass = CameraPass {
             pass: self,
             i,
@@ -413,6 +413,7 @@ impl WeightPass<'_> {
             saturation,
             footprint: footprint_angle(camera),
             moves: proxy.motion_bound() > 0.0,
+            offset,
         };
         let mut wi = vec![0f32; w * h];
         wi.par_chunks_mut((w * TILE).max(1))
@@ -460,6 +461,8 @@ struct CameraPass<'a> {
     footprint: f64,
     /// Whether the depth moves points for this camera ([`StitchDepth::seen_at`]).
     moves: bool,
+    /// The output centre less the camera's eye, metres.
+    offset: Vector3<f64>,
 }
 
 impl CameraPass<'_> {
@@ -477,9 +480,22 @@ impl CameraPass<'_> {
         }
         let (mu, mv) = ((u0 + u1 - 1) / 2, (v0 + v1 - 1) / 2);
         let k = (mu - u0).max(u1 - 1 - mu).max(mv - v0).max(v1 - 1 - mv);
-        reach
-            .bearing(mu, mv)
-            .is_some_and(|d| bound.saturates(self.proxy, &d, k))
+        let Some(d) = reach.bearing(mu, mv) else {
+            return false;
+        };
+        let Some(distances) = self.pass.distances else {
+            return bound.saturates(self.proxy, &d, k);
+        };
+        // the nearest of the tile's points (none decided where one is not finite)
+        let w = self.pass.output.size().width as usize;
+        let nearest = (v0..v1)
+            .flat_map(|v| &distances[v * w + u0..v * w + u1])
+            .try_fold(f64::INFINITY, |a, &t| t.is_finite().then(|| a.min(t)));
+        let Some(nearest) = nearest else {
+            return false;
+        };
+        let parallax = (&self.offset, self.proxy.motion_bound());
+        bound.saturates_guided(self.proxy, &d.normalize(), k, parallax, nearest)
     }
 
     /// Whether the camera may give output pixel (u, v) a weight: within its reach, and its
@@ -498,9 +514,14 @@ impl CameraPass<'_> {
         let Some(d) = reach.bearing(u, v) else {
             return 0.0;
         };
-        match self.mask {
-            Some(mask) if self.touches(mask, u, v, &self.proxy.local(&d)) => 0.0,
-            _ => 1.0,
+        let (q, verdict) = self.point(u, v, &d);
+        if self.mask.is_some_and(|mask| self.touches(mask, u, v, &q)) {
+            return 0.0;
+        }
+        if self.seen(verdict) {
+            1.0
+        } else {
+            -1.0
         }
     }
 
@@ -550,8 +571,29 @@ impl CameraPass<'_> {
         let Some(d) = reach.bearing(u, v) else {
             return 0.0;
         };
+        let (q, verdict) = self.point(u, v, &d);
+        let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) else {
+            return 0.0;
+        };
+        let wm = smoothstep(m / options.blend_width) as f32;
+        if wm == 0.0 {
+            return 0.0;
+        }
+        if self.mask.is_some_and(|mask| self.touches(mask, u, v, &q)) {
+            return 0.0;
+        }
+        if self.seen(verdict) {
+            wm
+        } else {
+            -wm
+        }
+    }
+
+    /// The camera point output pixel (u, v) (bearing `d`) samples, and what decides whether
+    /// the camera sees it cleanly.
+    fn point(&self, u: usize, v: usize, d: &Vector3<f64>) -> (Vector3<f64>, Verdict<'_>) {
         let proxy = self.proxy;
-        let (q, verdict) = match (self.pass.distances, self.pass.depth) {
+        match (self.pass.distances, self.pass.depth) {
             (Some(t), Some(depth)) => {
                 let n = d.normalize();
                 let at = v * self.pass.output.size().width as usize + u;
@@ -565,27 +607,17 @@ impl CameraPass<'_> {
                     ),
                 }
             }
-            _ => (proxy.local(&d), Verdict::Seen),
-        };
-        let Some(m) = margin_capped(self.camera, &q, self.deep, self.saturation.as_ref()) else {
-            return 0.0;
-        };
-        let wm = smoothstep(m / options.blend_width) as f32;
-        if wm == 0.0 {
-            return 0.0;
+            _ => (proxy.local(d), Verdict::Seen),
         }
-        if self.mask.is_some_and(|mask| self.touches(mask, u, v, &q)) {
-            return 0.0;
-        }
-        let seen = match verdict {
+    }
+
+    /// Whether the camera sees the pixel's point cleanly (the occlusion test, the costliest
+    /// step: asked last, only where the weight needs it).
+    fn seen(&self, verdict: Verdict) -> bool {
+        match verdict {
             Verdict::Seen => true,
             Verdict::Hidden => false,
             Verdict::Ask(depth, x) => depth.sees_clean(self.i, &x, self.footprint),
-        };
-        if seen {
-            wm
-        } else {
-            -wm
         }
     }
 }

@@ -96,20 +96,33 @@ impl Solid {
     }
 
     /// A lower bound of [`Solid::hit`] over the unit rays from `o` within `radius` of unit
-    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in it
-    /// ([`Solids::lower_within`] computes it from the origin's parts kept).
+    /// `d` (infinite: none of them meets the bounding sphere): an entry point lies in the box,
+    /// no nearer than the box's nearest point to `o` ([`Solids::lower_within`] computes it from
+    /// the origin's parts kept).
     #[cfg(test)]
     pub(super) fn nearest_within(&self, o: &Vector3<f64>, d: &Vector3<f64>, radius: f64) -> f64 {
         let oc = self.centre - o;
         let far = oc.norm();
-        if !(far > self.radius) {
-            return 0.0;
+        if far > self.radius {
+            let off_axis = (oc.dot(d) / far).clamp(-1.0, 1.0).acos();
+            if off_axis > radius + (self.radius / far).asin() + 1e-9 {
+                return f64::INFINITY;
+            }
         }
-        let off_axis = (oc.dot(d) / far).clamp(-1.0, 1.0).acos();
-        if off_axis > radius + (self.radius / far).asin() + 1e-9 {
-            return f64::INFINITY;
-        }
-        (far - self.radius) * (1.0 - 1e-9)
+        self.nearest_from(o)
+    }
+
+    /// A lower bound of the distance from `o` to any point of the box: its nearest point's
+    /// (a part in 1e9 and a nanometre cover the rounding of the box's frame).
+    fn nearest_from(&self, o: &Vector3<f64>) -> f64 {
+        (self.distance_from(o) * (1.0 - 1e-9) - 1e-9).max(0.0)
+    }
+
+    /// The distance from `p` to the box's nearest point (0 inside it).
+    fn distance_from(&self, p: &Vector3<f64>) -> f64 {
+        let l = self.box_from_reference * (p - self.centre);
+        let out = |a: usize| (l[a].abs() - self.half[a]).max(0.0);
+        Vector3::new(out(0), out(1), out(2)).norm()
     }
 
     /// `t.min(self.nearest_within(o, d, radius))`, without the cone's test where the box's
@@ -141,6 +154,7 @@ impl Solid {
             } else {
                 (far - self.radius) * (1.0 - 1e-9)
             },
+            nearest: self.nearest_from(o),
             oc,
             far,
             spread: (self.radius / far).asin(),
@@ -162,6 +176,8 @@ impl Solid {
 struct SeenFrom {
     /// The sphere's nearest distance (−∞: the origin lies in it).
     near: f64,
+    /// The box's nearest point's distance ([`Solid::nearest_from`]).
+    nearest: f64,
     oc: Vector3<f64>,
     far: f64,
     /// Its angular radius.
@@ -186,7 +202,7 @@ impl Solids {
     pub(super) fn lower_within(&self, d: &Vector3<f64>, radius: f64, mut t: f64) -> f64 {
         for b in &self.0 {
             if b.near == f64::NEG_INFINITY {
-                t = t.min(0.0);
+                t = t.min(b.nearest);
                 continue;
             }
             if b.near >= t {
@@ -194,7 +210,7 @@ impl Solids {
             }
             let off_axis = (b.oc.dot(d) / b.far).clamp(-1.0, 1.0).acos();
             let beyond = off_axis > radius + b.spread + 1e-9;
-            t = t.min(if beyond { f64::INFINITY } else { b.near });
+            t = t.min(if beyond { f64::INFINITY } else { b.nearest });
         }
         t
     }
@@ -252,5 +268,67 @@ mod tests {
             zero += usize::from(want == 0.0);
         }
         assert!(lowered > 2000 && zero > 5000, "{lowered} {zero}");
+    }
+
+    #[test]
+    fn the_nearest_distance_within_a_cone_is_the_boxs_nearest_point_and_bounds_every_hit() {
+        // a car nearly broadside, 8 m ahead and 2 m aside (its bounding sphere 2.3 m, its side
+        // 0.9 m from its centre)
+        let car = SourceBox::from_kitti("Car", [1.5, 1.8, 4.0], Vector3::new(2.0, 1.0, 8.0), 0.3);
+        let s = Solid::new(&car);
+        let mut state = 0x853c_49e6_748f_ea9b_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut hits, mut tighter) = (0, 0);
+        for k in 0..20_000 {
+            let o = Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 4.0;
+            let aim = s.centre + Vector3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 5.0;
+            let d = (aim - o).normalize();
+            let radius = [0.002, 0.02, 0.2][k % 3];
+            let bound = s.nearest_within(&o, &d, radius);
+            // the nearest point's distance, measured by a grid over the box's faces
+            let near = (0..=20)
+                .flat_map(|i| (0..=20).map(move |j| (i, j)))
+                .flat_map(|(i, j)| {
+                    let (a, b) = (i as f64 / 10.0 - 1.0, j as f64 / 10.0 - 1.0);
+                    [
+                        Vector3::new(1.0, a, b),
+                        Vector3::new(-1.0, a, b),
+                        Vector3::new(a, 1.0, b),
+                        Vector3::new(a, -1.0, b),
+                        Vector3::new(a, b, 1.0),
+                        Vector3::new(a, b, -1.0),
+                    ]
+                });
+            let nearest = near
+                .map(|u| (car.rotation * u.component_mul(&s.half) + s.centre - o).norm())
+                .fold(f64::INFINITY, f64::min);
+            // the bound is the nearest point's distance (the grid's points lie up to 0.2 m
+            // apart on a face, so up to 0.15 m farther), or infinite
+            assert!(
+                bound.is_infinite() || (bound <= nearest + 1e-9 && bound > nearest - 0.15),
+                "{bound} {nearest}"
+            );
+            // and it bounds the hits of rays within the cone
+            let a = d.cross(&Vector3::new(0.36, 0.48, 0.8)).normalize();
+            let b = d.cross(&a);
+            for _ in 0..10 {
+                let (angle, turn) = (radius * next().sqrt(), next() * std::f64::consts::TAU);
+                let e =
+                    (d * angle.cos() + (a * turn.cos() + b * turn.sin()) * angle.sin()).normalize();
+                if let Some(t) = s.hit(&o, &e) {
+                    assert!(t >= bound, "{t} < {bound}");
+                    hits += 1;
+                }
+            }
+            // (the bounding sphere's bound, far − radius, is looser by up to a metre here)
+            let far = (s.centre - o).norm();
+            tighter += usize::from(bound.is_finite() && bound > far - s.radius + 0.5);
+        }
+        assert!(hits > 20_000 && tighter > 5000, "{hits} {tighter}");
     }
 }

@@ -84,6 +84,43 @@ impl TileBound {
             return false;
         }
         let turn = (chord / rho).asin() * (1.0 + 1e-9) + 1e-9;
+        self.saturates_within(proxy, &q, turn)
+    }
+
+    /// [`TileBound::saturates`] for a depth-guided stitch, each pixel's point at its own
+    /// distance t ≥ `nearest` from the output centre along its unit bearing n: camera i sees
+    /// it at q = t·(R·n + w/t + R·m/t), w = R·(centre − eye) (`offset` = centre − eye) and m
+    /// the depth's motion of it, |m| ≤ `motion`. Of unit `middle` n₀, R·n lies within the
+    /// chord k·A of R·n₀, and w/t on the segment from 0 to w/`nearest`, so q/t lies within
+    /// ρ = k·A + |w|/(2·`nearest`) + `motion`/`nearest` of a = R·n₀ + w/(2·`nearest`), and q
+    /// within asin(ρ/|a|) of a's direction.
+    pub(super) fn saturates_guided(
+        &self,
+        proxy: &Proxy,
+        middle: &Vector3<f64>,
+        k: usize,
+        (offset, motion): (&Vector3<f64>, f64),
+        nearest: f64,
+    ) -> bool {
+        if !(nearest > 0.0 && motion >= 0.0) {
+            return false;
+        }
+        let rotation = &proxy.camera.rotation;
+        let half = rotation * offset / (2.0 * nearest);
+        let a = rotation * middle + half;
+        let rho = (k as f64 * self.step + 1e-9 + half.norm() + motion / nearest) * (1.0 + 1e-8);
+        let along = a.norm();
+        if !(rho < 0.5 * along) {
+            return false;
+        }
+        // (1e-8 rad covers the rotation's departure from orthonormal, under 1e-9)
+        let turn = (rho / along).asin() * (1.0 + 1e-9) + 1e-8;
+        self.saturates_within(proxy, &a, turn)
+    }
+
+    /// Whether every camera point within angle `turn` of camera point `q` has a weight of
+    /// exactly 1 in `proxy`'s camera.
+    fn saturates_within(&self, proxy: &Proxy, q: &Vector3<f64>, turn: f64) -> bool {
         let theta = q.x.hypot(q.y).atan2(q.z) + turn;
         if !(theta <= self.widest) {
             return false;
@@ -198,6 +235,128 @@ mod tests {
             // half the turn: some tile decided whole has a pixel the per-pixel test does not
             // saturate (at 0.8 of it none, on these cameras)
             let (_, wrong) = decide(camera, &output, &reach, 0.5);
+            assert!(wrong > 0, "camera {i}: a looser bound passes");
+        }
+    }
+
+    /// xorshift in [0, 1).
+    fn uniform(state: &mut u64) -> f64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// [`decide`] for a depth-guided stitch: each pixel's point at its own distance (4-34 m,
+    /// drawn per pixel) moved by up to `motion` (drawn), the bound told the parallax's
+    /// distance times `loosen`.
+    fn decide_guided(
+        camera: &StitchCamera,
+        output: &Equirect,
+        reach: &Reach,
+        motion: f64,
+        loosen: f64,
+    ) -> (usize, usize) {
+        let width = 5f64.to_radians();
+        let centre = Vector3::new(0.05, -0.1, 0.02);
+        let proxy = Proxy::new(*camera, centre, 10.0);
+        let bound = TileBound::of(camera, width, reach.step(), 10.0).unwrap();
+        let saturation = Saturation { width, k: bound.k };
+        let offset = centre + camera.rotation.transpose() * camera.translation;
+        let size = output.size();
+        let (w, h) = (size.width as usize, size.height as usize);
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let distances: Vec<f64> = (0..w * h)
+            .map(|_| 4.0 + 30.0 * uniform(&mut state))
+            .collect();
+        let (mut whole, mut wrong) = (0, 0);
+        for v0 in (0..h).step_by(TILE) {
+            for u0 in (0..w).step_by(TILE) {
+                let (u1, v1) = ((u0 + TILE).min(w), (v0 + TILE).min(h));
+                let (mu, mv) = ((u0 + u1 - 1) / 2, (v0 + v1 - 1) / 2);
+                let k = (mu - u0).max(u1 - 1 - mu).max(mv - v0).max(v1 - 1 - mv);
+                let d = reach.bearing(mu, mv).unwrap().normalize();
+                let nearest = (v0..v1)
+                    .flat_map(|v| (u0..u1).map(move |u| v * w + u))
+                    .map(|at| distances[at])
+                    .fold(f64::INFINITY, f64::min);
+                let parallax = (&offset, motion);
+                if !bound.saturates_guided(&proxy, &d, k, parallax, nearest * loosen) {
+                    continue;
+                }
+                whole += 1;
+                let one = (v0..v1).all(|v| {
+                    (u0..u1).all(|u| {
+                        let n = reach.bearing(u, v).unwrap().normalize();
+                        let shift = Vector3::new(
+                            uniform(&mut state) - 0.5,
+                            uniform(&mut state) - 0.5,
+                            uniform(&mut state) - 0.5,
+                        );
+                        let x = centre + n * distances[v * w + u] + shift.normalize() * motion;
+                        let q = camera.rotation * x + camera.translation;
+                        let shortcut = margin_capped(camera, &q, None, Some(&saturation));
+                        let measured = margin(camera, &q).map(|m| smoothstep(m / width) as f32);
+                        shortcut == Some(width) && measured == Some(1.0)
+                    })
+                });
+                wrong += usize::from(!one);
+            }
+        }
+        (whole, wrong)
+    }
+
+    #[test]
+    fn a_guided_tile_decided_whole_has_every_weight_one_and_a_looser_bound_fails() {
+        // pinholes with baselines of 0.5-0.8 m, one with a field of view, the points 4 m away
+        // and farther moved by up to 0.3 m
+        let wide = Perspective::new(
+            Intrinsics::new(400.0, 380.0, 300.5, 250.0),
+            ImageSize::new(640, 480),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
+            ImageSize::new(1920, 1080),
+        );
+        let turn = |yaw: f64, pitch: f64| {
+            *Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), 0.0).matrix()
+        };
+        let cameras = [
+            (&wide, turn(30.0, 10.0), Vector3::new(0.4, 0.1, -0.3), None),
+            (
+                &narrow,
+                turn(-70.0, -5.0),
+                Vector3::new(-0.6, 0.2, 0.3),
+                None,
+            ),
+            (
+                &wide,
+                turn(160.0, 0.0),
+                Vector3::new(0.6, 0.0, 0.3),
+                Some(0.6),
+            ),
+        ]
+        .map(|(model, rotation, translation, max_theta)| StitchCamera {
+            model: model as &dyn CameraModel,
+            rotation,
+            translation,
+            max_theta,
+        });
+        let (w, h) = (1440u32, 720u32);
+        let k = Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            w as f64 / 2.0 - 0.5,
+            h as f64 / 2.0 - 0.5,
+        );
+        let output = Equirect::new(k, ImageSize::new(w, h));
+        let reach = Reach::new(&output, &[], None);
+        for (i, camera) in cameras.iter().enumerate() {
+            let (whole, wrong) = decide_guided(camera, &output, &reach, 0.3, 1.0);
+            assert!(wrong == 0 && whole > 50, "camera {i}: {whole} {wrong}");
+            // the parallax's distance taken 10 times as far: a tile decided whole has a pixel
+            // the per-pixel test does not saturate
+            let (_, wrong) = decide_guided(camera, &output, &reach, 0.3, 10.0);
             assert!(wrong > 0, "camera {i}: a looser bound passes");
         }
     }
