@@ -377,3 +377,48 @@ fn crop_scale_rule_with_the_paper_numbers() {
     assert!((b.cv - (a.cv - 20.0)).abs() < 1e-12);
     assert_eq!(cropped.size(), ImageSize::new(469, 128));
 }
+
+#[test]
+fn a_crop_past_the_panoramas_seam_is_refused_naming_the_columns() {
+    // a 360° panorama of 2048 columns: a window over its seam would show the cars a turn
+    // later without their labels, so it is an error (exit 2, nothing written)
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o");
+    let refused = Command::new(env!("CARGO_BIN_EXE_panoconv"))
+        .args([
+            "kitti",
+            "--to",
+            "equirect",
+            "--full-360",
+            "--pano-width",
+            "2048",
+        ])
+        .args(["--crop", "1700,400,700,250", "--quiet", "--input"])
+        .arg(sample())
+        .arg("--output")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("crop 1700,400,700,250") && stderr.contains("columns 0 to 2048"),
+        "{stderr}"
+    );
+    assert!(!out.join("training/image_2").exists(), "{stderr}");
+    // the same window inside the columns converts
+    run(
+        &[
+            "kitti",
+            "--to",
+            "equirect",
+            "--full-360",
+            "--pano-width",
+            "2048",
+            "--crop",
+            "1300,400,700,250",
+        ],
+        &sample(),
+        &out,
+    );
+}

@@ -371,8 +371,29 @@ pub fn output_camera_over(
     others: &[&dyn CameraModel],
 ) -> Result<Box<dyn LinearCamera>> {
     let canvas = canvas_camera(spec, src_k, source, others)?;
+    if let Some(crop) = spec.crop.filter(|_| spec.projection.wraps()) {
+        crop_within_one_turn(spec.projection, &crop, canvas.intrinsics())?;
+    }
     let (k, size) = crop_and_resize(spec.crop, spec.resize, canvas.intrinsics(), canvas.size())?;
     Ok(spec.projection.camera(k, size))
+}
+
+/// A crop of a projection whose longitude wraps must keep its columns within ±180°: past it the
+/// image shows the same longitudes a turn later, where no label or depth point is placed.
+fn crop_within_one_turn(projection: Projection, crop: &Crop, k: Intrinsics) -> Result<()> {
+    // the edges of the columns at ±π (pixel centres at integers)
+    let first = (k.cu - PI * k.fu + 0.5 - 1e-6).ceil() as i64;
+    let end = (k.cu + PI * k.fu + 0.5 + 1e-6).floor() as i64;
+    let crop_end = crop.x + i64::from(crop.width);
+    if crop.x >= first && crop_end <= end {
+        return Ok(());
+    }
+    Err(Error::Setup(format!(
+        "crop {},{},{},{}: its columns {} to {} reach past ±180° of the {projection} output \
+         (columns {first} to {end}), where the image repeats a turn later but its labels and \
+         depth do not; keep the crop within columns {first} to {end}",
+        crop.x, crop.y, crop.width, crop.height, crop.x, crop_end
+    )))
 }
 
 /// Intrinsics and size of a canvas after the spec's crop, then resize.

@@ -203,6 +203,10 @@ fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> 
             let Err(e) = job.target.camera(k, &source) else {
                 continue;
             };
+            let text = e.to_string();
+            if !text.ends_with(" is too large") {
+                return Err(Error::Setup(format!("frame {first}: {text}")));
+            }
             let option = match job.target.scale() {
                 crate::geometry::Scale::PanoWidth(w) => format!("--pano-width {w}"),
                 crate::geometry::Scale::PixelsPerDegree(d) => format!("--px-per-deg {d}"),
@@ -210,7 +214,7 @@ fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> 
             };
             return Err(Error::Setup(format!(
                 "{option} is too large: frame {first} would give an {} (the limit is 65535 pixels a side); choose a smaller scale",
-                e.to_string().trim_end_matches(" is too large")
+                text.trim_end_matches(" is too large")
             )));
         }
     }
