@@ -56,17 +56,26 @@ pub struct DepthMap {
 }
 
 impl DepthMap {
-    /// The 16-bit KITTI encoding: round(d·256), 0 = none, saturating at 65535 (256 m).
+    /// The 16-bit KITTI encoding: round(d·256), 0 = none. A distance past what 16 bits hold
+    /// (255.998 m, a long-range LiDAR's returns) is written as none: clamped, it would read as
+    /// a false 255.996 m.
     pub fn to_u16(&self) -> Vec<u16> {
-        self.values
-            .iter()
-            .map(|&d| (d * 256.0).round().clamp(0.0, 65535.0) as u16)
-            .collect()
+        self.values.iter().map(|&d| encode(d)).collect()
     }
 
-    /// Number of pixels that hold a depth.
+    /// Number of pixels whose depth is written ([`DepthMap::to_u16`] not 0).
     pub fn valid(&self) -> usize {
-        self.values.iter().filter(|&&d| d > 0.0).count()
+        self.values.iter().filter(|&&d| encode(d) != 0).count()
+    }
+}
+
+/// round(d·256) where it fits 16 bits, else 0 (none).
+fn encode(d: f64) -> u16 {
+    let v = (d * 256.0).round();
+    if v > 0.0 && v <= f64::from(u16::MAX) {
+        v as u16
+    } else {
+        0
     }
 }
 
@@ -209,4 +218,20 @@ fn occlusion_mask(
             true
         })
         .collect()
+}
+
+#[cfg(test)]
+mod encoding_tests {
+    use super::*;
+
+    #[test]
+    fn distances_past_16_bits_are_written_as_none_not_clamped() {
+        let map = DepthMap {
+            width: 6,
+            height: 1,
+            values: vec![0.0, 1.0, 255.99, 255.998, 256.5, 306.0],
+        };
+        assert_eq!(map.to_u16(), vec![0, 256, 65533, 65535, 0, 0]);
+        assert_eq!(map.valid(), 3);
+    }
 }
