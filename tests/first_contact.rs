@@ -381,8 +381,9 @@ fn kitti360_poses_without_images_are_not_frames_and_are_named() {
     assert_success(&run);
     assert!(
         run.stderr.contains(
-            "panoconv: 2 poses without the images of --cameras not converted (not frames): \
-             2013_05_28_drive_0000_sync/0000000253, 2013_05_28_drive_0000_sync/0000000260\n"
+            "panoconv: 2 poses without an image of every chosen camera (--cameras, default \
+             all) not converted (not frames): 2013_05_28_drive_0000_sync/0000000253, \
+             2013_05_28_drive_0000_sync/0000000260\n"
         ),
         "{}",
         run.stderr

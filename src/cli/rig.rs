@@ -366,7 +366,8 @@ fn report(summary: &RigSummary, job: &RigJob) {
             .map(String::as_str)
             .collect();
         eprintln!(
-            "panoconv: {} without the images of --cameras not converted (not frames): {}{}",
+            "panoconv: {} without an image of every chosen camera (--cameras, default all) not \
+             converted (not frames): {}{}",
             count(summary.not_frames.len(), "pose"),
             first.join(", "),
             if summary.not_frames.len() > 5 {
