@@ -258,3 +258,83 @@ fn inspects_a_converted_dataset() {
     // P2 stays the source camera for cylindrical outputs: still two calibrations
     assert_eq!(j["calibrations"].as_array().unwrap().len(), 2);
 }
+
+/// Cuts `path` to `len` bytes.
+fn cut(path: &Path, len: u64) {
+    let f = std::fs::OpenOptions::new().write(true).open(path).unwrap();
+    f.set_len(len).unwrap();
+}
+
+#[test]
+fn reports_truncated_images_and_missing_or_broken_scans() {
+    let s = Scratch::synth();
+    // a clean copy first: the checks below find nothing on it
+    let run = inspect(&[s.input.as_os_str()]);
+    assert_eq!(run.code, 0, "{}{}", run.stdout, run.stderr);
+    assert!(run.stdout.contains("problems: none"), "{}", run.stdout);
+
+    // image_2 cut inside a chunk (its header, and so its size, still reads)
+    let img = s.input_file("training/image_2/000001.png");
+    let len = std::fs::metadata(&img).unwrap().len();
+    cut(&img, len / 2);
+    // image_3 cut exactly before its IEND chunk (12 bytes: length, type, CRC)
+    let right = s.input_file("training/image_3/000002.png");
+    let right_len = std::fs::metadata(&right).unwrap().len();
+    cut(&right, right_len - 12);
+    // one training scan missing while the others are there; one scan 5 bytes too long
+    std::fs::remove_file(s.input_file("training/velodyne/000002.bin")).unwrap();
+    let bin = s.input_file("training/velodyne/000000.bin");
+    let bin_len = std::fs::metadata(&bin).unwrap().len();
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes.extend_from_slice(&[0; 5]);
+    std::fs::write(&bin, &bytes).unwrap();
+    // a split without any scan is not a problem: testing has only this one
+    std::fs::remove_file(s.input_file("testing/velodyne/000003.bin")).unwrap();
+
+    let run = inspect(&[s.input.as_os_str()]);
+    assert_eq!(run.code, 1, "{}{}", run.stdout, run.stderr);
+    let out = &run.stdout;
+    for want in [
+        "training/image_2/000001.png: truncated: the IDAT chunk at byte ".to_owned(),
+        format!("but the file ends at byte {}", len / 2),
+        format!(
+            "training/image_3/000002.png: truncated: {} bytes, ending after the IDAT chunk at byte {} without the IEND chunk",
+            right_len - 12,
+            right_len - 12
+        ),
+        "training/velodyne/000002.bin: missing (2 of the split's 3 frames have a velodyne file)"
+            .to_owned(),
+        format!(
+            "training/velodyne/000000.bin: {} bytes is not a whole number of 16-byte points",
+            bin_len + 5
+        ),
+        "problems: 4".to_owned(),
+    ] {
+        assert!(out.contains(&want), "{want:?} not in\n{out}");
+    }
+    assert!(!out.contains("testing/velodyne"), "{out}");
+
+    let j = json(&inspect(&[s.input.as_os_str(), "--json".as_ref()]));
+    let problems = j["problems"].as_array().unwrap();
+    let files: Vec<&str> = problems
+        .iter()
+        .map(|p| p["file"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        files,
+        [
+            "training/image_2/000001.png",
+            "training/image_3/000002.png",
+            "training/velodyne/000000.bin",
+            "training/velodyne/000002.bin",
+        ]
+    );
+    // the truncated image_2 is not counted among the sizes: 3 whole images of 4 frames
+    let sized: u64 = j["image_sizes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|z| z["count"].as_u64().unwrap())
+        .sum();
+    assert_eq!(sized, 3);
+}

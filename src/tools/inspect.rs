@@ -6,6 +6,7 @@ use crate::codec::png;
 use crate::error::{Error, Result};
 use crate::fs::read_lines;
 use crate::kitti::{Calib, Cam, Dataset, Label, SourceCamera, Split};
+use crate::tools::inspect_files::{companion_problems, image_problem};
 use crate::tools::inspect_rig::{inspect_rig, RigReport};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -27,7 +28,7 @@ pub struct Report {
     pub splits: Vec<SplitReport>,
     /// Label lines per class (every split with labels).
     pub classes: BTreeMap<String, usize>,
-    /// Sizes of the `image_2` images, most common first.
+    /// Sizes of the whole `image_2` images (a truncated one is a problem), most common first.
     pub image_sizes: Vec<SizeCount>,
     /// Distinct calibrations of camera 2 (P2, with the written camera if any), most common first.
     pub calibrations: Vec<CalibCount>,
@@ -146,7 +147,7 @@ impl std::fmt::Display for Problem {
 }
 
 impl Problem {
-    fn file(file: &str, message: impl Into<String>) -> Self {
+    pub(crate) fn file(file: &str, message: impl Into<String>) -> Self {
         Problem {
             file: file.to_owned(),
             line: None,
@@ -231,15 +232,19 @@ impl Tally {
                 self.labels(split, id);
             }
         }
+        self.problems.extend(companion_problems(split));
         self.orphans(split);
     }
 
-    /// The frame's image size.
+    /// The frame's image size, when the image is whole (its chunks through IEND).
     fn image(&mut self, split: &Split, id: &str) {
         let image_rel = rel(split, "image_2", id, ".png");
         let image_path = split.image_path(Cam::C2, id);
         match png::read_file_size(&image_path) {
-            Ok(s) => *self.sizes.entry(s).or_default() += 1,
+            Ok(s) => match image_problem(split, id) {
+                Some(p) => self.problems.push(p),
+                None => *self.sizes.entry(s).or_default() += 1,
+            },
             // What the conversion says of it, rather than the png crate's signature error.
             Err(_) if is_jpeg(&image_path) => self.problems.push(Problem::file(
                 &image_rel,
