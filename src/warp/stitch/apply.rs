@@ -372,7 +372,7 @@ mod tests {
             stitch.pair_sums_by_pixel(&images)
         );
         // every pair overlaps somewhere, and the fallback's pixels are left out
-        let (count, _) = stitch.pair_sums(&images);
+        let count = stitch.pair_sums(&images).counts();
         assert!(
             count
                 .iter()
