@@ -351,7 +351,7 @@ def test_pandaset_writes_every_near_cuboid_once_on_its_car(pandaset):
     assert panoconv.verify(out).ok
     adapter = PandaSet(seq)
     assert adapter.frames() == ["00", "20", "40", "60"]
-    assert "76 poses without the images" in log, log  # the frames cut from the sequence, named
+    assert "76 poses without an image of every chosen camera" in log, log  # the frames cut from the sequence, named
     checked = 0
     for frame in adapter.frames():
         split = out / "training"
