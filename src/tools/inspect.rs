@@ -232,7 +232,8 @@ impl Tally {
                 self.labels(split, id);
             }
         }
-        self.problems.extend(companion_problems(split));
+        let companions = companion_problems(split).into_iter();
+        (self.problems).extend(companions.map(|(file, m)| Problem::file(&file, m)));
         self.orphans(split);
     }
 
@@ -242,7 +243,7 @@ impl Tally {
         let image_path = split.image_path(Cam::C2, id);
         match png::read_file_size(&image_path) {
             Ok(s) => match image_problem(split, id) {
-                Some(p) => self.problems.push(p),
+                Some((file, m)) => self.problems.push(Problem::file(&file, m)),
                 None => *self.sizes.entry(s).or_default() += 1,
             },
             // What the conversion says of it, rather than the png crate's signature error.

@@ -5,7 +5,6 @@
 //! split is checked in the time its directory listings take.
 
 use crate::kitti::{Cam, Split};
-use crate::tools::inspect::Problem;
 use std::fs::File;
 use std::path::Path;
 
@@ -105,14 +104,17 @@ const COMPANIONS: [Companion; 2] = [
     },
 ];
 
-/// The image_2 PNG's problem past its header, as a [`Problem`].
-pub(crate) fn image_problem(split: &Split, id: &str) -> Option<Problem> {
+/// A file's problem: its path within the dataset and the message.
+pub(crate) type FileProblem = (String, String);
+
+/// The image_2 PNG's problem past its header.
+pub(crate) fn image_problem(split: &Split, id: &str) -> Option<FileProblem> {
     let path = split.image_path(Cam::C2, id);
-    png_incomplete(&path).map(|m| Problem::file(&rel(split, &path), m))
+    png_incomplete(&path).map(|m| (rel(split, &path), m))
 }
 
 /// Missing and broken image_3 PNGs and velodyne scans of the split's frames.
-pub(crate) fn companion_problems(split: &Split) -> Vec<Problem> {
+pub(crate) fn companion_problems(split: &Split) -> Vec<FileProblem> {
     let mut problems = Vec::new();
     for c in &COMPANIONS {
         let Some(first) = split.frames.first() else {
@@ -135,8 +137,8 @@ pub(crate) fn companion_problems(split: &Split) -> Vec<Problem> {
             let path = (c.path)(split, id);
             let file = rel(split, &path);
             if have.binary_search(id).is_err() {
-                problems.push(Problem::file(
-                    &file,
+                problems.push((
+                    file,
                     format!(
                         "missing ({some} of the split's {} frames have a {} file)",
                         split.frames.len(),
@@ -144,7 +146,7 @@ pub(crate) fn companion_problems(split: &Split) -> Vec<Problem> {
                     ),
                 ));
             } else if let Some(m) = (c.check)(&path) {
-                problems.push(Problem::file(&file, m));
+                problems.push((file, m));
             }
         }
     }
