@@ -18,16 +18,20 @@ pub struct Scan {
     pub dropped_non_finite: usize,
 }
 
+/// What is wrong with a scan of `len` bytes by its length alone (not a whole number of
+/// points), or None: what [`parse`] refuses, and what `panoconv inspect` reports.
+pub fn length_problem(len: u64) -> Option<String> {
+    (!len.is_multiple_of(POINT_BYTES as u64)).then(|| {
+        format!(
+            "{len} bytes is not a whole number of 16-byte points (x, y, z, reflectance as float32): truncated or not a velodyne scan"
+        )
+    })
+}
+
 /// Parses a scan; a size that is not a whole number of points is a broken file.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
-    if !bytes.len().is_multiple_of(POINT_BYTES) {
-        return Err(Error::file(
-            path,
-            format!(
-                "{} bytes is not a whole number of 16-byte points (x, y, z, reflectance as float32): truncated or not a velodyne scan",
-                bytes.len()
-            ),
-        ));
+    if let Some(problem) = length_problem(bytes.len() as u64) {
+        return Err(Error::file(path, problem));
     }
     let mut scan = Scan::default();
     scan.points.reserve(bytes.len() / POINT_BYTES);

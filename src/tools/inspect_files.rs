@@ -8,9 +8,6 @@ use crate::kitti::{Cam, Split};
 use std::fs::File;
 use std::path::Path;
 
-/// Bytes of a point in a velodyne scan (x, y, z, reflectance as float32).
-const POINT_BYTES: u64 = 16;
-
 /// What is wrong with the PNG at `path` past its header, or None when its chunks run whole
 /// through IEND. The header itself is read (and reported) by the size check; unreadable files
 /// are reported there too.
@@ -59,6 +56,7 @@ fn read_at(f: &mut File, pos: u64, buf: &mut [u8]) -> std::io::Result<()> {
 
 #[cfg(not(unix))]
 fn read_at(f: &mut File, pos: u64, buf: &mut [u8]) -> std::io::Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
     f.seek(SeekFrom::Start(pos))?;
     f.read_exact(buf)
 }
@@ -66,12 +64,7 @@ fn read_at(f: &mut File, pos: u64, buf: &mut [u8]) -> std::io::Result<()> {
 /// What is wrong with the velodyne scan at `path` by its length alone (the conversion's
 /// parser refuses the same), or None.
 pub(crate) fn scan_incomplete(path: &Path) -> Option<String> {
-    let len = std::fs::metadata(path).ok()?.len();
-    (len % POINT_BYTES != 0).then(|| {
-        format!(
-            "{len} bytes is not a whole number of 16-byte points (x, y, z, reflectance as float32): truncated or not a velodyne scan"
-        )
-    })
+    crate::kitti::velodyne::length_problem(std::fs::metadata(path).ok()?.len())
 }
 
 /// `split/…`, a file of the split relative to the dataset root.

@@ -148,6 +148,36 @@ mod tests {
     use crate::warp::reach::Reach;
     use nalgebra::Rotation3;
 
+    /// The tile tests' pinholes: a wide one off-centre and a narrow one.
+    fn pinholes() -> (Perspective, Perspective) {
+        let wide = Perspective::new(
+            Intrinsics::new(400.0, 380.0, 300.5, 250.0),
+            ImageSize::new(640, 480),
+        );
+        let narrow = Perspective::new(
+            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
+            ImageSize::new(1920, 1080),
+        );
+        (wide, narrow)
+    }
+
+    /// camera_from_reference's rotation of a camera turned by `yaw` and `pitch` (degrees).
+    fn turn(yaw: f64, pitch: f64) -> nalgebra::Matrix3<f64> {
+        *Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), 0.0).matrix()
+    }
+
+    /// The tile tests' output: a 1440x720 equirect panorama.
+    fn equirect_1440() -> Equirect {
+        let (w, h) = (1440u32, 720u32);
+        let k = Intrinsics::new(
+            w as f64 / std::f64::consts::TAU,
+            h as f64 / std::f64::consts::PI,
+            w as f64 / 2.0 - 0.5,
+            h as f64 / 2.0 - 0.5,
+        );
+        Equirect::new(k, ImageSize::new(w, h))
+    }
+
     /// Per bound, the tiles it decides whole and, of those, the ones with a pixel whose
     /// measured weight is below 1.
     fn decide(
@@ -193,17 +223,7 @@ mod tests {
     fn a_tile_decided_whole_has_every_weight_one_and_a_looser_bound_fails() {
         // a wide pinhole off-centre with a baseline, turned and tilted; a narrow one; one with
         // a field of view (the fov's margin, not the border's, sets part of its band)
-        let wide = Perspective::new(
-            Intrinsics::new(400.0, 380.0, 300.5, 250.0),
-            ImageSize::new(640, 480),
-        );
-        let narrow = Perspective::new(
-            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
-            ImageSize::new(1920, 1080),
-        );
-        let turn = |yaw: f64, pitch: f64| {
-            *Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), 0.0).matrix()
-        };
+        let (wide, narrow) = pinholes();
         let cameras = [
             (&wide, turn(30.0, 10.0), Vector3::new(0.4, 0.1, -0.3), None),
             (
@@ -220,14 +240,7 @@ mod tests {
             translation,
             max_theta,
         });
-        let (w, h) = (1440u32, 720u32);
-        let k = Intrinsics::new(
-            w as f64 / std::f64::consts::TAU,
-            h as f64 / std::f64::consts::PI,
-            w as f64 / 2.0 - 0.5,
-            h as f64 / 2.0 - 0.5,
-        );
-        let output = Equirect::new(k, ImageSize::new(w, h));
+        let output = equirect_1440();
         let reach = Reach::new(&output, &[], None);
         for (i, camera) in cameras.iter().enumerate() {
             let (whole, wrong) = decide(camera, &output, &reach, 1.0);
@@ -310,17 +323,7 @@ mod tests {
     fn a_guided_tile_decided_whole_has_every_weight_one_and_a_looser_bound_fails() {
         // pinholes with baselines of 0.5-0.8 m, one with a field of view, the points 4 m away
         // and farther moved by up to 0.3 m
-        let wide = Perspective::new(
-            Intrinsics::new(400.0, 380.0, 300.5, 250.0),
-            ImageSize::new(640, 480),
-        );
-        let narrow = Perspective::new(
-            Intrinsics::new(1500.0, 1500.0, 959.5, 539.5),
-            ImageSize::new(1920, 1080),
-        );
-        let turn = |yaw: f64, pitch: f64| {
-            *Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), 0.0).matrix()
-        };
+        let (wide, narrow) = pinholes();
         let cameras = [
             (&wide, turn(30.0, 10.0), Vector3::new(0.4, 0.1, -0.3), None),
             (
@@ -342,14 +345,7 @@ mod tests {
             translation,
             max_theta,
         });
-        let (w, h) = (1440u32, 720u32);
-        let k = Intrinsics::new(
-            w as f64 / std::f64::consts::TAU,
-            h as f64 / std::f64::consts::PI,
-            w as f64 / 2.0 - 0.5,
-            h as f64 / 2.0 - 0.5,
-        );
-        let output = Equirect::new(k, ImageSize::new(w, h));
+        let output = equirect_1440();
         let reach = Reach::new(&output, &[], None);
         for (i, camera) in cameras.iter().enumerate() {
             let (whole, wrong) = decide_guided(camera, &output, &reach, 0.3, 1.0);
