@@ -41,6 +41,7 @@ mod kitti360_stitch;
 mod kitti_benchmark;
 mod labels;
 mod labels_meant;
+mod missing_scan;
 mod nuscenes;
 mod nuscenes_command;
 mod nuscenes_depth_stitch;

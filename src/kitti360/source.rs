@@ -7,7 +7,7 @@
 //! collide. The manifest's parameters record the rule (`frame_ids`).
 
 use super::calib::{CAMERAS, DEFAULT_FISHEYE_FOV_DEG};
-use super::sequence::{Options, Sequence};
+use super::sequence::{scan_path, Options, Sequence};
 use crate::camera::CameraModel;
 use crate::error::{Error, Result};
 use crate::source::{
@@ -371,6 +371,15 @@ impl RigSource for Kitti360Source {
     fn frame_folder(&self, item: &RigItem) -> PathBuf {
         let seq = &self.sequences[item.part].0;
         seq.root.join("data_2d_raw").join(&seq.name)
+    }
+
+    fn scan_file(&self, item: &RigItem) -> Option<(PathBuf, String)> {
+        let seq = &self.sequences.get(item.part)?.0;
+        let frame = u32::try_from(item.index).ok()?;
+        let what = format!("frame {frame}'s Velodyne scan");
+        self.selection
+            .lidar
+            .then(|| (scan_path(&seq.root, &seq.name, frame), what))
     }
 }
 

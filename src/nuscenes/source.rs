@@ -284,6 +284,17 @@ impl RigSource for NuScenesSource {
     fn frame_folder(&self, _item: &RigItem) -> PathBuf {
         self.selection.input.join("samples")
     }
+
+    fn scan_file(&self, item: &RigItem) -> Option<(PathBuf, String)> {
+        if !self.selection.lidar {
+            return None;
+        }
+        let d = &self.dataset;
+        let sample = d.scenes.get(item.part)?.samples.get(item.index as usize)?;
+        let data = d.keyframe(sample, &d.lidar).ok()?;
+        let what = format!("sample {sample}'s {} sweep", d.lidar);
+        Some((d.dataroot.join(&data.filename), what))
+    }
 }
 
 #[cfg(test)]

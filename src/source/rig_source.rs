@@ -140,6 +140,14 @@ pub trait RigSource: Sync {
     /// The folder named when a frame fails without a file of its own to name (a panic, a
     /// style pass over the group).
     fn frame_folder(&self, item: &RigItem) -> PathBuf;
+
+    /// The LiDAR scan the frame of `item` reads, when the source was opened to read scans:
+    /// its file and its name in a message (`sample TOKEN's LIDAR_TOP sweep`). A frame that
+    /// fails on that file is told what of the run reads it and how to do without it. None:
+    /// no scan is read, or the source names none.
+    fn scan_file(&self, _item: &RigItem) -> Option<(PathBuf, String)> {
+        None
+    }
 }
 
 /// A value a manifest or an objects record holds, serialised (the selections' and records'

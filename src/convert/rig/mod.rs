@@ -12,6 +12,7 @@
 //! - `frame_cache.rs`: what a frame's views share (its scan's positions, its scene);
 //! - `stitch_cache.rs`: the fixed stitches a run keeps for frames of the same geometry;
 //! - `gray.rs`: the 8-bit PNG of the source map;
+//! - `scan_error.rs`: a frame that fails on its scan told what reads the scan;
 //! - `canvas.rs`: the output canvas and scale a rig's flags ask for;
 //! - `job.rs`, `setup.rs` and `run.rs`: a rig run's job, what it checks before anything is
 //!   written, its frames, files and manifest, for any dataset.
@@ -24,6 +25,7 @@ mod job;
 mod objects;
 mod pass;
 mod run;
+mod scan_error;
 mod scene_depth;
 mod setup;
 mod stitch_cache;

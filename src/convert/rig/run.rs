@@ -14,6 +14,7 @@ use super::pass::{
     convert_view, count_objects, output_camera, read_images_hashed, CameraInfo, ClassFilter,
     RigOptions,
 };
+use super::scan_error::explain_scan_error;
 use super::scene_depth::StitchMode;
 use super::setup::{check_cameras, check_output_camera, read_ego_masks, Masks};
 use super::stitch_cache::StitchCache;
@@ -176,14 +177,15 @@ impl Ctx<'_> {
     /// The frame of `item`, read once per run: the set-up check's read when it is that frame.
     fn read(&self, item: &RigItem) -> Result<SourceFrame> {
         let mut first = self.first.lock().unwrap_or_else(|e| e.into_inner());
-        match first.take() {
+        let read = match first.take() {
             Some((id, read)) if id == item.id => read,
             other => {
                 *first = other;
                 drop(first);
                 self.source.read(item)
             }
-        }
+        };
+        read.map_err(|e| explain_scan_error(self.job, self.source, item, e))
     }
 
     /// Reads a frame and its chosen cameras' images, and draws its output views: everything
