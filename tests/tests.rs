@@ -24,6 +24,7 @@ mod depth;
 mod eval_depth;
 mod export;
 mod export_classes;
+mod failed_run_output;
 mod first_contact;
 mod first_run;
 mod fisheye;

@@ -13,6 +13,7 @@ use crate::run::Progress;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
+use std::sync::Mutex;
 use std::time::Instant;
 
 /// What the run does with what the output folder already holds.
@@ -64,6 +65,9 @@ pub struct OutputFolder {
     mode: OutputMode,
     resumable: bool,
     started: Instant,
+    /// The folders [`Self::create_dirs`] made, parents first: removed when the run ends if
+    /// still empty.
+    created: Mutex<Vec<PathBuf>>,
     _lock: OutputLock,
 }
 
@@ -91,8 +95,30 @@ impl OutputFolder {
             mode: c.mode,
             resumable: c.resumable,
             started: c.started,
+            created: Mutex::default(),
             _lock: lock,
         })
+    }
+
+    /// Creates the folders the run writes into (`training/image_2`, ...), noting those it
+    /// makes, the ones between them and the root included. Those still empty when the run
+    /// ends are removed again, so that a run that wrote no frame (every one failed, or a stop
+    /// before the first) leaves no empty `image_2/` that looks like a dataset; only folders
+    /// this run made, only empty ones. Shards share the folders (another may be about to
+    /// write into one), so a sharded run removes none.
+    pub fn create_dirs(&self, dirs: impl IntoIterator<Item = PathBuf>) -> Result<()> {
+        let mut created = self.created.lock().unwrap_or_else(|e| e.into_inner());
+        for dir in dirs {
+            let mut missing = Vec::new();
+            let mut d = dir.as_path();
+            while d.starts_with(&self.root) && d != self.root && !d.exists() {
+                missing.push(d.to_path_buf());
+                d = d.parent().unwrap_or(&self.root);
+            }
+            std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+            created.extend(missing.into_iter().rev());
+        }
+        Ok(())
     }
 
     /// The output folder.
@@ -175,6 +201,19 @@ impl OutputFolder {
             progress,
             stop,
         ))
+    }
+}
+
+impl Drop for OutputFolder {
+    /// The folders this run made that it left empty, deepest first (before the lock goes).
+    fn drop(&mut self) {
+        if self.shard.is_some() {
+            return;
+        }
+        let created = self.created.get_mut().unwrap_or_else(|e| e.into_inner());
+        for dir in created.iter().rev() {
+            let _ = std::fs::remove_dir(dir); // only if empty
+        }
     }
 }
 

@@ -26,6 +26,17 @@ pub(crate) fn report(run: &Summary, noun: &str, output: &Path) {
     } else {
         String::new()
     };
+    if run.converted == 0 && run.failed > 0 {
+        // no rate of nothing; and the folder holds no dataset, only the failures' record
+        eprintln!(
+            "panoconv: 0 {noun}s converted, {} failed in {:.2} s: nothing written to {} but \
+             its manifest, which records the failures",
+            run.failed,
+            run.seconds,
+            output.display(),
+        );
+        return;
+    }
     eprintln!(
         "panoconv: {} converted{resumed}, {} failed in {:.2} s ({}) -> {}",
         count(run.converted, noun),

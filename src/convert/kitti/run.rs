@@ -48,7 +48,7 @@ pub fn run_kitti(
     let previous = folder.previous(&parameters)?;
     check_output_size(job, &dataset, &frames)?;
     folder.prepare()?;
-    create_output_folders(job, &dataset)?;
+    create_output_folders(job, &dataset, &folder)?;
 
     let ctx = Context::new(job, style.as_ref(), &dataset);
     let style_pass = style
@@ -222,7 +222,8 @@ fn check_output_size(job: &KittiJob, dataset: &Dataset, frames: &[FrameRef]) -> 
 }
 
 /// Creates every output folder the job writes into, per split.
-fn create_output_folders(job: &KittiJob, dataset: &Dataset) -> Result<()> {
+fn create_output_folders(job: &KittiJob, dataset: &Dataset, folder: &OutputFolder) -> Result<()> {
+    let mut dirs = Vec::new();
     for split in &dataset.splits {
         let mut kinds = vec![OutputKind::Image(Cam::C2), OutputKind::Calib];
         if split.has_labels {
@@ -239,15 +240,12 @@ fn create_output_folders(job: &KittiJob, dataset: &Dataset) -> Result<()> {
         }
         for k in kinds {
             if let Some(p) = split.output_path(k, "x") {
-                let dir = job
-                    .output
-                    .join(&split.name)
-                    .join(p.parent().unwrap_or(Path::new("")));
-                std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+                let parent = p.parent().unwrap_or(Path::new(""));
+                dirs.push(job.output.join(&split.name).join(parent));
             }
         }
     }
-    Ok(())
+    folder.create_dirs(dirs)
 }
 
 /// Files that look like frames but cannot be read as one: reported, not silently skipped.
@@ -307,10 +305,10 @@ impl FrameWork for KittiFrames<'_> {
     }
 }
 
-/// `OUT/ImageSets/<split>.txt`: the view ids written per split.
+/// `OUT/ImageSets/<split>.txt`: the view ids written per split; none when no frame was
+/// written (empty lists would make a folder of failures look like an empty dataset).
 fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Result<()> {
     let dir = output.join(IMAGE_SETS);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     let mut by_split: HashMap<String, Vec<String>> = HashMap::new();
     journal.for_each_record(|r| {
         if r.status != FrameStatus::Ok {
@@ -323,6 +321,10 @@ fn write_image_sets(output: &Path, dataset: &Dataset, journal: &Journal) -> Resu
             ids.push(r.id);
         }
     })?;
+    if by_split.is_empty() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     for split in &dataset.splits {
         let mut ids = by_split.remove(&split.name).unwrap_or_default();
         ids.sort_unstable();

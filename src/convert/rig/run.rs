@@ -459,7 +459,7 @@ pub fn run_rig(
         check_output_camera(job, source, item, read)?;
     }
     folder.prepare()?;
-    create_output_folders(job, folder.root())?;
+    create_output_folders(job, &folder)?;
     let mut ctx = Ctx::new(job, source, masks, style.as_ref());
     ctx.first = Mutex::new(first.map(|(item, read)| (item.id.clone(), read)));
     let mut run = folder.start(
@@ -487,18 +487,13 @@ pub fn run_rig(
 }
 
 /// The folders of `OUT/training/` the job writes into.
-fn create_output_folders(job: &RigJob, root: &Path) -> Result<()> {
-    for kind in OUTPUTS {
-        if (kind == OutputKind::Depth && job.run.depth.is_none())
+fn create_output_folders(job: &RigJob, folder: &OutputFolder) -> Result<()> {
+    let kinds = OUTPUTS.into_iter().filter(|&kind| {
+        !((kind == OutputKind::Depth && job.run.depth.is_none())
             || (kind == OutputKind::StitchDepth && !(job.stitch_depth && job.depth_guided()))
-            || (kind == OutputKind::Mask(Cam::C2) && !job.mask)
-        {
-            continue;
-        }
-        let dir = root.join(SPLIT).join(kind.folder());
-        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-    }
-    Ok(())
+            || (kind == OutputKind::Mask(Cam::C2) && !job.mask))
+    });
+    folder.create_dirs(kinds.map(|kind| folder.root().join(SPLIT).join(kind.folder())))
 }
 
 impl<'a> Ctx<'a> {
