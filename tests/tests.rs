@@ -58,6 +58,7 @@ mod preview_text;
 mod raw;
 mod resume;
 mod rig_canvas;
+mod rig_coverage;
 mod rig_mask;
 mod rig_plugin;
 mod rig_stream;

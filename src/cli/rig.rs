@@ -14,8 +14,7 @@ use clap::Args;
 use nalgebra::Vector3;
 use panoconv::camera::{ImageSize, OutputProjection};
 use panoconv::convert::rig::{
-    rig_output_spec, run_rig, uncovered_share, CanvasFlags, ObjectRule, RigJob, RigSpec,
-    RigSummary, StitchMode,
+    rig_output_spec, run_rig, CanvasFlags, ObjectRule, RigJob, RigSpec, RigSummary, StitchMode,
 };
 use panoconv::convert::run_options::{DepthJob, RunOptions};
 use panoconv::error::Error;
@@ -27,6 +26,8 @@ use panoconv::source::RigSource;
 use panoconv::warp::StitchOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+mod coverage;
 
 /// `--stitch-mode`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -94,7 +95,8 @@ pub(super) struct RigArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_centre, allow_hyphen_values = true)]
     centre: Option<Vector3<f64>>,
     /// Scale given as the width of a full 360° panorama (2048 → 325.95 px/rad). Default: 2048
-    /// for a panorama of several cameras, else the first camera's focal length.
+    /// for a panorama of several cameras, else the first camera's focal length. Given alone,
+    /// a panorama of several cameras is the whole sphere (--crop cuts the band).
     #[arg(long, value_name = "PIXELS", conflicts_with = "px_per_deg")]
     pano_width: Option<u32>,
     /// Scale in pixels per degree at the image centre.
@@ -208,17 +210,22 @@ impl RigArgs {
         Ok(())
     }
 
-    /// The output camera. A panorama of several cameras covers 360°; one camera, or a
-    /// perspective view, the first camera's field of view.
-    fn target(&self, cameras: usize) -> Result<Target> {
-        let flags = CanvasFlags {
+    /// The scale and canvas flags as given.
+    fn canvas_flags(&self) -> CanvasFlags {
+        CanvasFlags {
             pano_width: self.pano_width,
             px_per_deg: self.px_per_deg,
             full_360: self.full_360,
             size: self.size,
             crop: self.crop,
             resize: self.resize,
-        };
+        }
+    }
+
+    /// The output camera. A panorama of several cameras covers 360°; one camera, or a
+    /// perspective view, the first camera's field of view.
+    fn target(&self, cameras: usize) -> Result<Target> {
+        let flags = self.canvas_flags();
         Ok(match (projection_of(self.to), &self.camera) {
             (OutputProjection::Fisheye, Some(file)) => {
                 if flags.sized_flag().is_some() {
@@ -312,6 +319,7 @@ pub(super) fn run_rig_command<S: RigSource>(
     let job = &job;
     if !args.run.quiet {
         report(&summary, job);
+        coverage::report_coverage(job, &args.canvas_flags());
     }
     if let Some(code) = exit_code(&summary.run) {
         return Ok(code);
@@ -386,18 +394,4 @@ fn report(summary: &RigSummary, job: &RigJob) {
         );
     }
     super::shared::outcome::report_style(summary.style_runs);
-    warn_uncovered(job);
-}
-
-/// Says so when most of a written frame has no camera (a whole sphere of a rig that covers a
-/// band).
-fn warn_uncovered(job: &RigJob) {
-    if let Some((share, file)) = uncovered_share(&job.run.output).filter(|(s, _)| *s > 0.5) {
-        eprintln!(
-            "panoconv: warning: {:.0} % of {} has no camera (source_2 = 255): without \
-             --full-360 or a scale a panorama covers the band its cameras see; --crop cuts one",
-            share * 100.0,
-            file.display()
-        );
-    }
 }

@@ -45,9 +45,26 @@ pub fn rig_output_spec(
     })
 }
 
-/// The share of the first written frame's pixels that no camera covers (`source_2` =
-/// [`crate::warp::NO_SOURCE`]) in the rig output `output`; None when it has none to read.
-pub fn uncovered_share(output: &Path) -> Option<(f64, PathBuf)> {
+/// Which of a rig output's first written frame its cameras cover, from its `source_2`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Coverage {
+    /// The source map read (`OUT/training/source_2/ID.png`).
+    pub file: PathBuf,
+    /// Its width and height.
+    pub size: (u32, u32),
+    /// The share of its pixels that no camera covers (`source_2` =
+    /// [`crate::warp::NO_SOURCE`]).
+    pub uncovered: f64,
+    /// The first and last rows with a camera's pixel (None: none has one); the rows above
+    /// and below look beyond every camera (a whole sphere's poles).
+    pub rows: Option<(u32, u32)>,
+    /// The share of the pixels of those rows and the rows between that no camera covers.
+    pub uncovered_within: f64,
+}
+
+/// The coverage of the first written frame of the rig output `output`; None when it has none
+/// to read.
+pub fn coverage(output: &Path) -> Option<Coverage> {
     let dir = output.join(super::SPLIT).join("source_2");
     let mut names: Vec<PathBuf> = std::fs::read_dir(&dir)
         .ok()?
@@ -56,13 +73,35 @@ pub fn uncovered_share(output: &Path) -> Option<(f64, PathBuf)> {
         .filter(|p| p.extension().is_some_and(|e| e == "png"))
         .collect();
     names.sort();
-    let first = names.into_iter().next()?;
-    let bytes = std::fs::read(&first).ok()?;
-    let image = crate::codec::png::decode_rgb8(&bytes, &first).ok()?;
-    let pixels = image.as_raw().chunks_exact(3);
-    let n = pixels.len();
-    let black = pixels.filter(|p| p[0] == crate::warp::NO_SOURCE).count();
-    Some((black as f64 / n.max(1) as f64, first))
+    let file = names.into_iter().next()?;
+    let bytes = std::fs::read(&file).ok()?;
+    let image = crate::codec::png::decode_rgb8(&bytes, &file).ok()?;
+    let (w, h) = (image.width(), image.height());
+    if w == 0 {
+        return None;
+    }
+    // uncovered pixels per row
+    let per_row: Vec<usize> = (image.as_raw().chunks_exact(3 * w as usize))
+        .map(|row| {
+            let pixels = row.chunks_exact(3);
+            pixels.filter(|p| p[0] == crate::warp::NO_SOURCE).count()
+        })
+        .collect();
+    let seen = |n: &usize| *n < w as usize;
+    let rows = per_row
+        .iter()
+        .position(seen)
+        .zip(per_row.iter().rposition(seen));
+    let uncovered = per_row.iter().sum::<usize>();
+    let within = rows.map_or(0, |(a, b)| per_row[a..=b].iter().sum::<usize>());
+    let band_pixels = rows.map_or(0, |(a, b)| (b - a + 1) * w as usize);
+    Some(Coverage {
+        file,
+        size: (w, h),
+        uncovered: uncovered as f64 / (w as usize * h as usize).max(1) as f64,
+        rows: rows.map(|(a, b)| (a as u32, b as u32)),
+        uncovered_within: within as f64 / band_pixels.max(1) as f64,
+    })
 }
 
 #[cfg(test)]

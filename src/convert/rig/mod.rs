@@ -30,7 +30,7 @@ mod scene_depth;
 mod setup;
 mod stitch_cache;
 
-pub use canvas::{rig_output_spec, uncovered_share, CanvasFlags, DEFAULT_PANO_WIDTH};
+pub use canvas::{coverage, rig_output_spec, CanvasFlags, Coverage, DEFAULT_PANO_WIDTH};
 pub use ground::Ground;
 pub use job::{ObjectCounts, RigJob, RigSpec, RigSummary, SPLIT};
 pub use objects::{
