@@ -34,6 +34,7 @@ mod footprint;
 mod fuzz_parsers;
 mod help_examples;
 mod inspect;
+mod inspect_pandaset;
 mod kitti360;
 mod kitti360_command;
 mod kitti360_options;

@@ -565,7 +565,8 @@ pub enum Inspection {
 }
 
 /// Inspects `root`: a KITTI layout (one split with `only`), else a nuScenes or KITTI-360 root
-/// (described; `only` names a KITTI split, so it is refused there).
+/// (described; `only` names a KITTI split, so it is refused there); a PandaSet sequence is
+/// refused with what reads it.
 pub fn inspect_root(root: &Path, only: Option<&str>) -> Result<Inspection> {
     if !root.join("training").is_dir() && !root.join("testing").is_dir() {
         if let Some(rig) = inspect_rig(root)? {
@@ -577,6 +578,9 @@ pub fn inspect_root(root: &Path, only: Option<&str>) -> Result<Inspection> {
                 )));
             }
             return Ok(Inspection::Rig(rig));
+        }
+        if let Some(refusal) = super::inspect_pandaset::pandaset_refusal(root) {
+            return Err(refusal);
         }
     }
     inspect(root, only).map(Inspection::Kitti)
