@@ -35,6 +35,7 @@ mod fuzz_parsers;
 mod help_examples;
 mod inspect;
 mod inspect_pandaset;
+mod inspect_rig_output;
 mod kitti360;
 mod kitti360_command;
 mod kitti360_options;

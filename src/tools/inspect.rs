@@ -56,6 +56,10 @@ pub struct SplitReport {
 /// The folders of a split besides image_2 and calib, in the order they are listed.
 const OPTIONAL_FOLDERS: [&str; 4] = ["label_2", "image_3", "velodyne", "depth_2"];
 
+/// The folders only panoconv writes (a rig output's source map, objects records and stitch
+/// depth; the masks of `--mask`), listed after calib when present (their absence is normal).
+const PANOCONV_FOLDERS: [&str; 5] = ["source_2", "mask_2", "mask_3", "stitch_depth_2", "objects"];
+
 /// An image size and how many frames have it.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct SizeCount {
@@ -221,6 +225,7 @@ impl Tally {
             folders: std::iter::once("image_2")
                 .chain(OPTIONAL_FOLDERS)
                 .chain(std::iter::once("calib"))
+                .chain(PANOCONV_FOLDERS)
                 .filter(|f| split.dir.join(f).is_dir())
                 .map(str::to_owned)
                 .collect(),
@@ -499,20 +504,8 @@ impl Report {
         let _ = writeln!(s, "projections: {}", projections.join(", "));
         // A loader that projects with P2 lands far from the written boxes (about 100 px on
         // the real frames in equirect): say so where a user looks first.
-        let not_p2: Vec<String> = self
-            .projections
-            .iter()
-            .filter(|(p, _)| !matches!(p.as_str(), "kitti" | "perspective"))
-            .map(|(p, n)| format!("{p} {n}"))
-            .collect();
-        if !not_p2.is_empty() {
-            let _ = writeln!(
-                s,
-                "P2: not the camera of these images ({}): it is a pinhole kept for LiDAR \
-                 field-of-view filters; project with the projection:, K2: and C2: lines \
-                 (docs/formats.md), or take u, v, distance from `panoconv labels-to-pixels`",
-                not_p2.join(", ")
-            );
+        for note in super::inspect_p2::p2_notes(&self.calibrations) {
+            let _ = writeln!(s, "{note}");
         }
     }
 

@@ -5,6 +5,7 @@ pub mod depth_array;
 pub mod eval_depth;
 pub mod inspect;
 mod inspect_files;
+mod inspect_p2;
 mod inspect_pandaset;
 pub mod inspect_rig;
 pub mod predictions;
