@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::fs::read_lines;
 use crate::kitti::{Calib, Cam, Dataset, Label, SourceCamera, Split};
 use crate::tools::inspect_files::{companion_problems, image_problem};
+use crate::tools::inspect_p2::{p2_notes, Camera2};
 use crate::tools::inspect_rig::{inspect_rig, RigReport};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -504,7 +505,17 @@ impl Report {
         let _ = writeln!(s, "projections: {}", projections.join(", "));
         // A loader that projects with P2 lands far from the written boxes (about 100 px on
         // the real frames in equirect): say so where a user looks first.
-        for note in super::inspect_p2::p2_notes(&self.calibrations) {
+        let written: Vec<Camera2> = (self.calibrations.iter())
+            .filter_map(|c| {
+                c.written.as_ref().map(|w| Camera2 {
+                    projection: &w.projection,
+                    p2: ([c.fu, c.fv, c.cu, c.cv], c.c2),
+                    written: ([w.fu, w.fv, w.cu, w.cv], w.c2),
+                    frames: c.count,
+                })
+            })
+            .collect();
+        for note in p2_notes(&written) {
             let _ = writeln!(s, "{note}");
         }
     }

@@ -5,43 +5,48 @@
 //! no camera of the rig, whose view (a LiDAR field-of-view filter's) is a forward wedge of a
 //! panorama. Told apart by the calib itself: a nominal `P2` has `K2`'s intrinsics and `C2`.
 
-use super::inspect::CalibCount;
 use std::collections::BTreeMap;
 
+/// One distinct calibration with a written camera, as the note sees it.
+pub(crate) struct Camera2<'a> {
+    /// The `projection:` line.
+    pub projection: &'a str,
+    /// P2's fu, fv, cu, cv and its centre.
+    pub p2: ([f64; 4], [f64; 3]),
+    /// `K2:`'s fu, fv, cu, cv and `C2:`.
+    pub written: ([f64; 4], [f64; 3]),
+    /// Frames with this calibration.
+    pub frames: usize,
+}
+
 /// Whether `c`'s `P2` is the nominal pinhole of its written camera (a rig output's).
-fn is_nominal(c: &CalibCount) -> bool {
-    let Some(w) = &c.written else {
-        return false;
-    };
+fn is_nominal(c: &Camera2) -> bool {
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
-    [(c.fu, w.fu), (c.fv, w.fv), (c.cu, w.cu), (c.cv, w.cv)]
-        .into_iter()
-        .chain((0..3).map(|i| (c.c2[i], w.c2[i])))
-        .all(|(a, b)| close(a, b))
+    let (k, centre) = c.p2;
+    let (k2, c2) = c.written;
+    (k.iter().zip(&k2))
+        .chain(centre.iter().zip(&c2))
+        .all(|(&a, &b)| close(a, b))
 }
 
 /// `equirect 3, fisheye 1`: frames per projection.
-fn counts(calibs: &[&CalibCount]) -> String {
+fn counts(calibs: &[&Camera2]) -> String {
     let mut by: BTreeMap<&str, usize> = BTreeMap::new();
     for c in calibs {
-        let w = c.written.as_ref().expect("only written cameras");
-        *by.entry(w.projection.as_str()).or_default() += c.count;
+        *by.entry(c.projection).or_default() += c.frames;
     }
     let parts: Vec<String> = by.iter().map(|(p, n)| format!("{p} {n}")).collect();
     parts.join(", ")
 }
 
 /// The note's lines (none when every image is P2's, or has no written camera).
-pub(crate) fn p2_notes(calibrations: &[CalibCount]) -> Vec<String> {
+pub(crate) fn p2_notes(calibrations: &[Camera2]) -> Vec<String> {
     let how = "project with the projection:, K2: and C2: lines (docs/formats.md), or take u, \
                v, distance from `panoconv labels-to-pixels`";
-    let not_p2 = calibrations.iter().filter(|c| {
-        c.written
-            .as_ref()
-            .is_some_and(|w| w.projection != "perspective")
-    });
-    let (nominal, source): (Vec<&CalibCount>, Vec<&CalibCount>) =
-        not_p2.partition(|c| is_nominal(c));
+    let not_p2 = calibrations
+        .iter()
+        .filter(|c| c.projection != "perspective");
+    let (nominal, source): (Vec<&Camera2>, Vec<&Camera2>) = not_p2.partition(|c| is_nominal(c));
     let mut notes = Vec::new();
     if !source.is_empty() {
         notes.push(format!(
@@ -52,7 +57,8 @@ pub(crate) fn p2_notes(calibrations: &[CalibCount]) -> Vec<String> {
     }
     if let Some(first) = nominal.first() {
         // the pinhole's view of the image's left half: atan(cu / fu)
-        let half_deg = (first.cu / first.fu).atan().to_degrees();
+        let [fu, _, cu, _] = first.written.0;
+        let half_deg = (cu / fu).atan().to_degrees();
         notes.push(format!(
             "P2: not the camera of these images ({}): P0 to P3 are the nominal pinhole K2·[I | \
              −C2] of the written camera (a rig output's), no camera of the rig; a LiDAR \
