@@ -5,6 +5,7 @@ Python adapter (panoconv.sources.pandaset) with the options of `panoconv nuscene
 import os
 import subprocess
 import sys
+from typing import Optional
 
 PANDASET_HELP = """Convert a PandaSet sequence (a folder in PandaSet's layout: camera/, lidar/,
 annotations/cuboids/, meta/): its six cameras stitched into a panorama (or the cameras of
@@ -63,6 +64,12 @@ def _vehicle_box(given):
     return (tuple(v[:3]), tuple(v[3:]))
 
 
+def _source_options(lidar: Optional[str], box) -> str:
+    """The adapter's options as `rig-stream --source-options` records them in the manifest."""
+    corners = "none" if box is None else ",".join(repr(float(v)) for c in box for v in c)
+    return f"pandaset lidar={lidar or 'none'} vehicle_box={corners}"
+
+
 def pandaset(args: list) -> int:
     from .rig import command, convert_rig
 
@@ -93,17 +100,16 @@ def pandaset(args: list) -> int:
     try:
         from .sources.pandaset import VEHICLE_BOX, PandaSet
 
-        source = PandaSet(
-            given,
-            lidar=None if lidar == "none" else (lidar or "both"),
-            vehicle_box=VEHICLE_BOX if box is True else box,
-        )
+        which = None if lidar == "none" else (lidar or "both")
+        vehicle_box = VEHICLE_BOX if box is True else box
+        source = PandaSet(given, lidar=which, vehicle_box=vehicle_box)
     except ImportError as e:
         sys.stderr.write(f"panoconv: error: {e}: pip install panoconv[pandaset]\n")
         return 2
     except (OSError, ValueError, KeyError, IndexError) as e:
         sys.stderr.write(f"panoconv: error: {given}: {e}\n")
         return 2
+    rest += ["--source-options", _source_options(which, vehicle_box)]
     return convert_rig(source, output, rest)
 
 
