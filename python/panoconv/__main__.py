@@ -64,6 +64,31 @@ def _vehicle_box(given):
     return (tuple(v[:3]), tuple(v[3:]))
 
 
+def _without_scan(rest: list) -> Optional[str]:
+    """With `--lidar none` there is no scan: the error for an option that needs one, else None;
+    a stitch left to its default (depth-guided) is asked for fixed (`rest` grows), with a note,
+    so that the manifest records the stitch the frames get."""
+    if "--depth" in rest:
+        return (
+            "--depth writes the LiDAR's depth, and --lidar none reads no scan: "
+            "drop --depth or choose --lidar both, pandar64 or pandargt"
+        )
+    mode, _ = _take(rest, ("--stitch-mode",))
+    if mode == "depth":
+        return (
+            "--stitch-mode depth is guided by the LiDAR's scan, and --lidar none reads none: "
+            "use --stitch-mode fixed or choose --lidar both, pandar64 or pandargt"
+        )
+    if mode is None:
+        rest += ["--stitch-mode", "fixed"]
+        if "--quiet" not in rest and "-q" not in rest:
+            sys.stderr.write(
+                "panoconv: --lidar none: no scan to guide the stitch, so it is fixed "
+                "(--stitch-mode fixed: every pixel at --stitch-distance)\n"
+            )
+    return None
+
+
 def _source_options(lidar: Optional[str], box) -> str:
     """The adapter's options as `rig-stream --source-options` records them in the manifest."""
     corners = "none" if box is None else ",".join(repr(float(v)) for c in box for v in c)
@@ -97,6 +122,11 @@ def pandaset(args: list) -> int:
             f"panoconv: error: --vehicle-box {vehicle!r}: X0,Y0,Z0,X1,Y1,Z1 (metres) or none\n"
         )
         return 2
+    if lidar == "none":
+        problem = _without_scan(rest)
+        if problem:
+            sys.stderr.write(f"panoconv: error: {problem}\n")
+            return 2
     try:
         from .sources.pandaset import VEHICLE_BOX, PandaSet
 
