@@ -17,6 +17,7 @@ Usage: python -m panoconv pandaset --input SEQ --to PROJECTION --output OUT [OPT
 PandaSet's options:
   -i, --input <SEQ>      The sequence folder (e.g. /data/pandaset/002)
       --lidar <WHICH>    both (default), pandar64 (360°) or pandargt (forward), or none
+                         (no scan: no --depth, and the stitch is fixed)
       --vehicle-box <BOX>
                          The car's own returns, dropped: X0,Y0,Z0,X1,Y1,Z1 (least and
                          greatest corner in the LiDAR's pose frame, metres) or none
