@@ -5,6 +5,7 @@ Python adapter (panoconv.sources.pandaset) with the options of `panoconv nuscene
 import os
 import subprocess
 import sys
+from typing import Optional
 
 PANDASET_HELP = """Convert a PandaSet sequence (a folder in PandaSet's layout: camera/, lidar/,
 annotations/cuboids/, meta/): its six cameras stitched into a panorama (or the cameras of
@@ -16,6 +17,7 @@ Usage: python -m panoconv pandaset --input SEQ --to PROJECTION --output OUT [OPT
 PandaSet's options:
   -i, --input <SEQ>      The sequence folder (e.g. /data/pandaset/002)
       --lidar <WHICH>    both (default), pandar64 (360°) or pandargt (forward), or none
+                         (no scan: no --depth, and the stitch is fixed)
       --vehicle-box <BOX>
                          The car's own returns, dropped: X0,Y0,Z0,X1,Y1,Z1 (least and
                          greatest corner in the LiDAR's pose frame, metres) or none
@@ -63,6 +65,37 @@ def _vehicle_box(given):
     return (tuple(v[:3]), tuple(v[3:]))
 
 
+def _without_scan(rest: list) -> Optional[str]:
+    """With `--lidar none` there is no scan: the error for an option that needs one, else None;
+    a stitch left to its default (depth-guided) is asked for fixed (`rest` grows), with a note,
+    so that the manifest records the stitch the frames get."""
+    if "--depth" in rest:
+        return (
+            "--depth writes the LiDAR's depth, and --lidar none reads no scan: "
+            "drop --depth or choose --lidar both, pandar64 or pandargt"
+        )
+    mode, _ = _take(rest, ("--stitch-mode",))
+    if mode == "depth":
+        return (
+            "--stitch-mode depth is guided by the LiDAR's scan, and --lidar none reads none: "
+            "use --stitch-mode fixed or choose --lidar both, pandar64 or pandargt"
+        )
+    if mode is None:
+        rest += ["--stitch-mode", "fixed"]
+        if "--quiet" not in rest and "-q" not in rest:
+            sys.stderr.write(
+                "panoconv: --lidar none: no scan to guide the stitch, so it is fixed "
+                "(--stitch-mode fixed: every pixel at --stitch-distance)\n"
+            )
+    return None
+
+
+def _source_options(lidar: Optional[str], box) -> str:
+    """The adapter's options as `rig-stream --source-options` records them in the manifest."""
+    corners = "none" if box is None else ",".join(repr(float(v)) for c in box for v in c)
+    return f"pandaset lidar={lidar or 'none'} vehicle_box={corners}"
+
+
 def pandaset(args: list) -> int:
     from .rig import command, convert_rig
 
@@ -90,20 +123,24 @@ def pandaset(args: list) -> int:
             f"panoconv: error: --vehicle-box {vehicle!r}: X0,Y0,Z0,X1,Y1,Z1 (metres) or none\n"
         )
         return 2
+    if lidar == "none":
+        problem = _without_scan(rest)
+        if problem:
+            sys.stderr.write(f"panoconv: error: {problem}\n")
+            return 2
     try:
         from .sources.pandaset import VEHICLE_BOX, PandaSet
 
-        source = PandaSet(
-            given,
-            lidar=None if lidar == "none" else (lidar or "both"),
-            vehicle_box=VEHICLE_BOX if box is True else box,
-        )
+        which = None if lidar == "none" else (lidar or "both")
+        vehicle_box = VEHICLE_BOX if box is True else box
+        source = PandaSet(given, lidar=which, vehicle_box=vehicle_box)
     except ImportError as e:
         sys.stderr.write(f"panoconv: error: {e}: pip install panoconv[pandaset]\n")
         return 2
     except (OSError, ValueError, KeyError, IndexError) as e:
         sys.stderr.write(f"panoconv: error: {given}: {e}\n")
         return 2
+    rest += ["--source-options", _source_options(which, vehicle_box)]
     return convert_rig(source, output, rest)
 
 

@@ -40,6 +40,11 @@ pub(super) struct RigStreamArgs {
     /// detection evaluation does).
     #[arg(long)]
     keep_unseen: bool,
+    /// The serving adapter's own options (how it reads its dataset, e.g. PandaSet's `--lidar`),
+    /// as one text: recorded in the manifest's parameters, so `--resume` with other options is
+    /// refused like any other changed parameter.
+    #[arg(long, value_name = "TEXT")]
+    source_options: Option<String>,
     #[command(flatten)]
     rig: RigArgs,
 }
@@ -51,7 +56,9 @@ pub(super) fn rig_stream(args: RigStreamArgs) -> Result<ExitCode> {
         let step = rig
             .lidar_azimuth_step_deg
             .unwrap_or(DEFAULT_AZIMUTH_STEP_DEG);
-        let source = WorldRigSource::new(rig, peer)?.keeping_unseen(args.keep_unseen);
+        let source = WorldRigSource::new(rig, peer)?
+            .keeping_unseen(args.keep_unseen)
+            .with_options(args.source_options.clone());
         let names: Vec<String> = source.cameras(0).iter().map(|c| c.name.clone()).collect();
         let cameras = chosen(&names, args.cameras.as_deref())?;
         let camera = |name: &str| {

@@ -7,8 +7,9 @@
 //! R_cam·v + center_cam for v = (∓l/2, ∓h/2, ∓w/2) in the order v0..v7 of
 //! `get_cuboid_verts_faces` (v0..v3 the face at −w/2, v4..v7 the one at +w/2). 2D boxes are
 //! [x1, y1, x2, y2] in the pixel convention of K (pixel centres at integers, as KITTI's P2).
+//! A fisheye's camera frame is the lens's own (its calib's R2 turns it into the level axes).
 
-use crate::camera::{OutputCamera, OutputProjection, Projection};
+use crate::camera::{FisheyeCamera, OutputCamera, OutputProjection, Projection};
 use crate::error::{Error, Result};
 use crate::export::{round_to, ExportData, Frame, Object};
 use crate::reproject::labels::{box_bounds, clip};
@@ -49,6 +50,34 @@ struct Image {
     projection: &'static str,
     src_90_rotate: u32,
     src_flagged: bool,
+    /// A fisheye's lens, as its calib lines give it (Omni3D readers ignore extra keys).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    lens: Option<LensEntry>,
+}
+
+/// The calib's `model2:`, `D2:`, `fov2:` and `R2:` lines of a fisheye output.
+#[derive(Serialize)]
+struct LensEntry {
+    model: &'static str,
+    #[serde(rename = "D")]
+    d: Vec<f64>,
+    /// Full field of view, degrees.
+    fov: f64,
+    /// The camera's axes in the level rect frame (row-major 3×3): the 3D fields of the image's
+    /// annotations are in the camera's axes, X_rect = R · X_cam + C2.
+    #[serde(rename = "R")]
+    r: [[f64; 3]; 3],
+}
+
+impl LensEntry {
+    fn of(camera: &FisheyeCamera) -> Self {
+        LensEntry {
+            model: camera.lens.name(),
+            d: camera.lens.parameters().iter().map(|(_, v)| *v).collect(),
+            fov: 2.0 * camera.lens.max_theta().to_degrees(),
+            r: rows(&camera.rect_from_camera),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -171,12 +200,18 @@ fn annotation<'a>(
             (bottom - frame.centre, r_cam(label.rotation_y), [h, w, l])
         }
     };
+    // The box in the level axes at the optical centre, which the camera projects from.
     let corners = UNIT_CORNERS.map(|[x, y, z]| r * Vector3::new(x * l, y * h, z * w) + center);
-    a.bbox3D_cam = corners.map(|c| point(&c));
-    a.center_cam = point(&center);
-    a.dimensions = [w, h, l];
-    a.R_cam = rows(&r);
     let camera: &dyn OutputCamera = frame.camera.as_ref();
+    // Omni3D's 3D values are in the camera's own axes: a turned lens (R2) sees X − C2 as
+    // R2ᵀ·(X − C2), and a trainer projects them with the lens alone.
+    let cam_from_rect = camera
+        .as_fisheye()
+        .map_or_else(Matrix3::identity, |f| f.rect_from_camera.transpose());
+    a.bbox3D_cam = corners.map(|c| point(&(cam_from_rect * c)));
+    a.center_cam = point(&(cam_from_rect * center));
+    a.dimensions = [w, h, l];
+    a.R_cam = rows(&(cam_from_rect * r));
     let mut visible = false;
     if let Some(b) = box_bounds(&corners, camera).filter(|b| b.iter().all(|v| v.is_finite())) {
         a.bbox2D_proj = b.map(|v| round_to(v, 4));
@@ -234,6 +269,7 @@ pub fn render(data: &ExportData, split: &str, frames: &[&Frame]) -> Result<(Stri
             projection: f.camera.projection().name(),
             src_90_rotate: 0,
             src_flagged: false,
+            lens: f.camera.as_fisheye().map(LensEntry::of),
         });
         for o in &f.objects {
             let name = data.categories[o.category].as_str();

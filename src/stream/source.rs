@@ -40,6 +40,7 @@ pub struct WorldRigSource<S> {
     command: &'static str,
     peer: Mutex<S>,
     keep_unseen: bool,
+    options: Option<String>,
 }
 
 impl<S: WorldSource> WorldRigSource<S> {
@@ -54,6 +55,7 @@ impl<S: WorldSource> WorldRigSource<S> {
             command,
             peer: Mutex::new(peer),
             keep_unseen: false,
+            options: None,
         })
     }
 
@@ -61,6 +63,13 @@ impl<S: WorldSource> WorldRigSource<S> {
     /// as nuScenes' evaluation does).
     pub fn keeping_unseen(mut self, keep: bool) -> Self {
         self.keep_unseen = keep;
+        self
+    }
+
+    /// The same source with the adapter's own options (how it reads its dataset), recorded in
+    /// the manifest so that a resume with other options is refused.
+    pub fn with_options(mut self, options: Option<String>) -> Self {
+        self.options = options;
         self
     }
 
@@ -172,6 +181,10 @@ impl<S: WorldSource> RigSource for WorldRigSource<S> {
         m.insert("input".into(), record_value(&self.rig.root));
         m.insert("source".into(), record_value(&self.rig.name));
         m.insert("keep_unseen".into(), record_value(self.keep_unseen));
+        // absent when not given: earlier manifests of other adapters stay valid for --resume
+        if let Some(options) = &self.options {
+            m.insert("source_options".into(), record_value(options));
+        }
         m
     }
 

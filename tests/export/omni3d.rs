@@ -215,3 +215,143 @@ fn omni3d_equirect_centres_project_to_the_labels_to_pixels_pixel() {
         "center_cam lands {max_diff} px from labels-to-pixels"
     );
 }
+
+/// The pixel of a bearing `p` (camera axes) through the lens an Omni3D image entry names, by
+/// the models' own formulas (docs/fisheye.md); None beyond half the field of view.
+fn lens_pixel(image: &Value, p: [f64; 3]) -> Option<(f64, f64)> {
+    let k: Vec<f64> = image["K"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(floats)
+        .collect();
+    let d = floats(&image["D"]);
+    let [x, y, z] = p;
+    let r = x.hypot(y);
+    let theta = r.atan2(z);
+    if theta > f(&image["fov"]).to_radians() / 2.0 {
+        return None;
+    }
+    let (a, b) = match image["model"].as_str().unwrap() {
+        "kannala_brandt" => {
+            let t2 = theta * theta;
+            let td = theta * (1.0 + t2 * (d[0] + t2 * (d[1] + t2 * (d[2] + t2 * d[3]))));
+            (td * x / r, td * y / r)
+        }
+        "eucm" => {
+            let (alpha, beta) = (d[0], d[1]);
+            let den = alpha * (beta * (x * x + y * y) + z * z).sqrt() + (1.0 - alpha) * z;
+            (x / den, y / den)
+        }
+        m => panic!("no formula for {m} here"),
+    };
+    Some((k[0] * a + k[1] * b + k[2], k[4] * b + k[5]))
+}
+
+/// Omni3D's 12 box edges as corner pairs (v0..v3 one face, v4..v7 the other).
+const EDGES: [(usize, usize); 12] = [
+    (0, 1),
+    (1, 2),
+    (2, 3),
+    (3, 0),
+    (4, 5),
+    (5, 6),
+    (6, 7),
+    (7, 4),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+];
+
+/// A lens turned 10° nose down (and 0.5° roll): Omni3D's 3D values are in the lens's own axes,
+/// so its edges, sampled and projected through the image entry's lens alone (no R2), bound
+/// `bbox2D_proj` to 0.01 px. Kannala-Brandt 190° and EUCM with α = 0 (a pinhole: K alone).
+#[test]
+fn omni3d_turned_lens_boxes_project_in_the_cameras_own_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    let pinhole = dir.path().join("pinhole.json");
+    std::fs::write(
+        &pinhole,
+        r#"{"version": 1, "model": "eucm", "width": 1280, "height": 966, "max_fov_deg": 120,
+            "fx": 500, "fy": 500, "cx": 639.5, "cy": 482.5, "alpha": 0, "beta": 1,
+            "rotation": {"yaw_deg": 0, "pitch_deg": -10, "roll_deg": 0.5}}"#,
+    )
+    .unwrap();
+    let front = repo().join("fixtures/cameras/front.json");
+    for (n, camera) in [front.as_path(), pinhole.as_path()].into_iter().enumerate() {
+        let cam = camera.to_str().unwrap();
+        let (_out_dir, out) = convert(&synthetic_dir(), "fisheye", &["--camera", cam]);
+        let ann = dir.path().join(format!("ann{n}"));
+        assert_success(&export(&out, "omni3d", &ann, &[]));
+        let file = read_json(&ann.join("Omni3D_train.json"));
+        let images: BTreeMap<u64, &Value> = file["images"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| (i["id"].as_u64().unwrap(), i))
+            .collect();
+        for image in images.values() {
+            let stem = Path::new(image["file_path"].as_str().unwrap())
+                .file_stem()
+                .unwrap()
+                .to_str()
+                .unwrap()
+                .to_owned();
+            let calib = read_text(&out.join(format!("training/calib/{stem}.txt")));
+            let r: Vec<f64> = image["R"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(floats)
+                .collect();
+            assert_eq!(
+                r,
+                calib_values(&calib, "R2").unwrap(),
+                "R is the calib's R2"
+            );
+            assert_eq!(floats(&image["D"]), calib_values(&calib, "D2").unwrap());
+        }
+        let (mut checked, mut worst) = (0, 0.0f64);
+        for a in file["annotations"].as_array().unwrap() {
+            if a["valid3D"] != true || a["behind_camera"] == true {
+                continue;
+            }
+            let image = images[&a["image_id"].as_u64().unwrap()];
+            let c: Vec<Vec<f64>> = a["bbox3D_cam"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(floats)
+                .collect();
+            let mut px = Vec::new();
+            for (i, j) in EDGES {
+                for s in 0..=4000 {
+                    let t = s as f64 / 4000.0;
+                    let p = [0, 1, 2].map(|k| c[i][k] + t * (c[j][k] - c[i][k]));
+                    px.push(lens_pixel(image, p));
+                }
+            }
+            // A box partly beyond the field of view is bounded by the clipped edges: skipped.
+            let Some(px) = px.into_iter().collect::<Option<Vec<_>>>() else {
+                continue;
+            };
+            let bounds = [
+                px.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+                px.iter().map(|p| p.1).fold(f64::MAX, f64::min),
+                px.iter().map(|p| p.0).fold(f64::MIN, f64::max),
+                px.iter().map(|p| p.1).fold(f64::MIN, f64::max),
+            ];
+            for (got, want) in floats(&a["bbox2D_proj"]).iter().zip(bounds) {
+                worst = worst.max((got - want).abs());
+            }
+            checked += 1;
+        }
+        eprintln!(
+            "omni3d {}: {checked} boxes, bbox2D_proj max |difference| {worst:.2e} px",
+            camera.file_name().unwrap().to_string_lossy()
+        );
+        assert!(checked >= 3, "too few boxes checked ({checked})");
+        assert!(worst <= 0.01, "{cam}: bbox2D_proj off by {worst} px");
+    }
+}
