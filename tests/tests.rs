@@ -59,6 +59,7 @@ mod rig_canvas;
 mod rig_mask;
 mod rig_plugin;
 mod rig_stream;
+mod rig_uncovered;
 mod sample;
 mod scale;
 mod setup_text;
