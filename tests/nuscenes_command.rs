@@ -210,13 +210,14 @@ fn one_camera_is_converted_alone_with_exact_boxes() {
             "--to",
             "perspective",
             "--cameras",
-            "CAM_BACK",
+            "CAM_FRONT",
             "--keep-unseen",
         ],
     );
     assert_success(&run);
     let w = written(&out, "000001");
-    // the camera's own size and centre: C2 is CAM_BACK's optical centre
+    // the camera's own size and centre: C2 is CAM_FRONT's optical centre (a perspective output
+    // looks along the level frame's forward axis, which CAM_FRONT sees)
     assert_eq!(w.camera.size(), panoconv::camera::ImageSize::new(400, 225));
     let truth = truths(&w, FIRST_FRAME + 1);
     assert!(!w.labels.labels.is_empty());
@@ -238,7 +239,7 @@ fn one_camera_is_converted_alone_with_exact_boxes() {
         );
     }
     let m = read_manifest(&out);
-    assert_eq!(m["parameters"]["cameras"], serde_json::json!(["CAM_BACK"]));
+    assert_eq!(m["parameters"]["cameras"], serde_json::json!(["CAM_FRONT"]));
 }
 
 #[test]

@@ -64,6 +64,7 @@ mod rig_coverage;
 mod rig_mask;
 mod rig_plugin;
 mod rig_stream;
+mod rig_uncovered;
 mod sample;
 mod scale;
 mod setup_text;

@@ -357,6 +357,12 @@ fn report(summary: &RigSummary, job: &RigJob) {
         job.objects.max_distance,
         o.outside
     );
+    if o.uncovered > 0 {
+        eprintln!(
+            "panoconv: {} dropped: on no pixel the chosen cameras give (--cameras)",
+            count(o.uncovered, "object")
+        );
+    }
     if o.barely_visible > 0 {
         eprintln!(
             "panoconv: {} written as DontCare regions: less of them visible than \

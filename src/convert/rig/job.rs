@@ -155,6 +155,10 @@ pub struct ObjectCounts {
     pub unseen: usize,
     /// Dropped: outside the output image.
     pub outside: usize,
+    /// Dropped: on no pixel a chosen camera gives (`--cameras` leaving part of the image
+    /// empty).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub uncovered: usize,
     /// Written as DontCare regions: too little of them visible (`--min-visible`).
     #[serde(skip_serializing_if = "is_zero")]
     pub barely_visible: usize,
@@ -178,6 +182,7 @@ impl ObjectCounts {
                 Some(DropReason::Distance) => c.distance += 1,
                 Some(DropReason::Unseen) => c.unseen += 1,
                 Some(DropReason::Outside) => c.outside += 1,
+                Some(DropReason::Uncovered) => c.uncovered += 1,
                 Some(DropReason::BarelyVisible) => c.barely_visible += 1,
             }
         }
@@ -192,6 +197,7 @@ impl ObjectCounts {
         self.distance += o.distance;
         self.unseen += o.unseen;
         self.outside += o.outside;
+        self.uncovered += o.uncovered;
         self.barely_visible += o.barely_visible;
     }
 }

@@ -18,6 +18,7 @@
 //!   written, its frames, files and manifest, for any dataset.
 
 mod canvas;
+mod coverage;
 mod frame_cache;
 mod gray;
 mod ground;

@@ -6,12 +6,16 @@
 //!    lowest [`GROUND_MARGIN`] of it, where the ground under the object is hit (else `unseen`;
 //!    `min_points` 0 turns this off);
 //! 3. its exact 2D box meets the output image (else `outside`);
-//! 4. the visibility rule accepts that box ([`Visibility`]; else `barely_visible`, and the
-//!    box is written as a DontCare region).
+//! 4. some chosen camera sees a pixel of that box (`coverage.rs`; else `uncovered`: with a
+//!    subset of `--cameras`, the part of the image no camera gives holds no object);
+//! 5. the visibility rule accepts the covered part of that box ([`Visibility`], the part not
+//!    covered counted as outside the image; else `barely_visible`, and the box is written as
+//!    a DontCare region). The written box is the object's whole exact 2D box.
 //!
 //! Each object's outcome (its class, instance, distance, LiDAR points, tilt, and the reason it
 //! was dropped) is kept for the frame's `objects/` record.
 
+use super::coverage::Coverage;
 use crate::camera::CameraModel;
 use crate::reproject::source_box::source_box_in_image;
 use crate::reproject::visibility::Visibility;
@@ -50,6 +54,8 @@ pub enum DropReason {
     Unseen,
     /// Its 2D box misses the output image.
     Outside,
+    /// No chosen camera sees any pixel of its 2D box.
+    Uncovered,
     /// Its 2D box fails the visibility rule: written as a DontCare region.
     BarelyVisible,
 }
@@ -138,12 +144,12 @@ pub struct PlacedObject {
 
 /// The written objects of `objects` placed in `camera` (centre `centre`, the reference
 /// frame's axes) and every object's outcome, in the objects' order; classes that
-/// `keep_class` refuses are dropped first.
+/// `keep_class` refuses are dropped first, and what no camera of `coverage` sees.
 pub(super) fn label_objects(
     objects: &[SourceBox],
     lidar: &[LidarPoint],
-    centre: &Vector3<f64>,
-    camera: &dyn CameraModel,
+    (centre, camera): (&Vector3<f64>, &dyn CameraModel),
+    coverage: &Coverage,
     rule: &ObjectRule,
     keep_class: &(dyn Fn(&SourceBox) -> Option<DropReason> + Sync),
 ) -> (Vec<PlacedObject>, Vec<ObjectOutcome>) {
@@ -164,9 +170,11 @@ pub(super) fn label_objects(
                 }
             }
             if outcome.dropped.is_none() {
-                match source_box_in_image(b, centre, camera) {
-                    Some(image) => {
-                        let dont_care = !rule.visibility.sees(&image);
+                let image = source_box_in_image(b, centre, camera);
+                match image.map(|i| (i, coverage.covered(b, centre, camera, &i))) {
+                    Some((_, None)) => outcome.dropped = Some(DropReason::Uncovered),
+                    Some((image, Some(covered))) => {
+                        let dont_care = !rule.visibility.sees(&covered);
                         if dont_care {
                             outcome.dropped = Some(DropReason::BarelyVisible);
                         }
@@ -197,6 +205,17 @@ mod tests {
             position: Vector3::new(x, y, z),
             intensity: 0.0,
         }
+    }
+
+    const ORIGIN: Vector3<f64> = Vector3::new(0.0, 0.0, 0.0);
+
+    fn at_origin(camera: &Perspective) -> (&Vector3<f64>, &dyn CameraModel) {
+        (&ORIGIN, camera)
+    }
+
+    /// The output camera itself as the one chosen camera: every pixel covered.
+    fn all(camera: &Perspective) -> Coverage<'_> {
+        Coverage::single(camera)
     }
 
     /// The KITTI label lines of the placed objects.
@@ -239,10 +258,14 @@ mod tests {
             visibility: Visibility::OFF,
         };
         let objects = [seen, far, unseen, behind.clone()];
-        let (placed, outcomes) =
-            label_objects(&objects, &lidar, &Vector3::zeros(), &camera, &rule, &|_| {
-                None
-            });
+        let (placed, outcomes) = label_objects(
+            &objects,
+            &lidar,
+            at_origin(&camera),
+            &all(&camera),
+            &rule,
+            &|_| None,
+        );
         assert_eq!(placed.len(), 1);
         assert_eq!((placed[0].index, placed[0].truncation), (0, 0.0));
         assert!(lines(&objects, &placed)[0].starts_with("Car 0.00 0 "));
@@ -260,8 +283,8 @@ mod tests {
         let (_, outcomes) = label_objects(
             &[behind],
             &[],
-            &Vector3::zeros(),
-            &camera,
+            at_origin(&camera),
+            &all(&camera),
             &ObjectRule {
                 min_points: 0,
                 ..rule
@@ -291,8 +314,14 @@ mod tests {
             visibility: Visibility::OFF,
         };
         let objects = [upright, tilted.clone()];
-        let (placed, outcomes) =
-            label_objects(&objects, &[], &Vector3::zeros(), &camera, &rule, &|_| None);
+        let (placed, outcomes) = label_objects(
+            &objects,
+            &[],
+            at_origin(&camera),
+            &all(&camera),
+            &rule,
+            &|_| None,
+        );
         let lines = lines(&objects, &placed);
         assert_eq!(lines.len(), 2);
         assert!(!outcomes[0].is_tilted() && outcomes[1].is_tilted());

@@ -9,6 +9,7 @@
 //! frame to frame (KITTI-360's level frame follows gravity, not the vehicle), so the stitch's
 //! tables are built per frame, unless the geometry repeats exactly (`stitch_cache.rs`).
 
+use super::coverage::Coverage;
 use super::frame_cache::FrameCache;
 use super::objects::{label_objects, DropReason, ObjectOutcome, ObjectRule, PlacedObject};
 use super::scene_depth::{at_proxy, distance_map, frame_stitch_in, StitchMode};
@@ -184,7 +185,7 @@ fn output_centre(chosen: &[&RigCamera], options: &RigOptions) -> Vector3<f64> {
 
 /// How many objects `camera` would hold as labels (what an augmented view's draw counts).
 pub fn count_objects(
-    frame: &Frame,
+    (frame, info): (&Frame, &[CameraInfo]),
     camera: &dyn OutputCamera,
     options: &RigOptions,
     keep_class: ClassFilter,
@@ -194,8 +195,8 @@ pub fn count_objects(
     let (_, outcomes) = label_objects(
         &listed_objects(frame, options).0,
         &frame.lidar,
-        &centre,
-        camera,
+        (&centre, camera),
+        &Coverage::of(frame, info, &options.cameras)?,
         &options.objects,
         keep_class,
     );
@@ -335,8 +336,8 @@ pub(super) fn convert_view(
     let (mut labels, objects) = label_objects(
         &listed,
         &frame.lidar,
-        &centre,
-        camera.as_ref(),
+        (&centre, camera.as_ref()),
+        &Coverage::of(frame, info, &options.cameras)?,
         &options.objects,
         keep_class,
     );

@@ -156,7 +156,8 @@ impl Ctx<'_> {
         for i in 0..aug.count {
             let id = view_id(&item.id, aug.count, i)
                 .ok_or_else(|| Error::Setup(format!("frame {}: view {i} has no id", item.id)))?;
-            let count = |camera: &dyn OutputCamera| count_objects(frame, camera, options, keep);
+            let count =
+                |camera: &dyn OutputCamera| count_objects((frame, info), camera, options, keep);
             let drawn = draw_view(
                 aug,
                 (SPLIT, &item.id),
