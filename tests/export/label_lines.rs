@@ -154,8 +154,10 @@ fn a_rig_output_with_dont_care_lines_exports_each_box_with_its_line() {
         "512",
     ]);
     args.extend([
+        // (the nuScenes fixture's cameras do not see the lowest rows of a near object's
+        // box, which count as hidden: a looser share keeps some objects)
         "--min-visible",
-        "40,0.9",
+        "20,0.6",
         "--quiet",
         "--output",
         out.to_str().unwrap(),
