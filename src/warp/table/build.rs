@@ -304,10 +304,10 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
-        // which of the row's mapped pixels lie on one surface: from the first pixel that asks
-        // to the row's last mapped one, at once (none asks where no footprint reaches the
-        // pyramid, as a lens's magnified pixels)
-        let mut surface_from: Option<usize> = None;
+        // which of the row's mapped pixels lie on one surface: the first few pixels that ask
+        // alone (only a depth edge's ask where no footprint reaches the pyramid, as a lens's
+        // magnified pixels), then the rest of the row at once
+        let (mut asked, mut surface_from) = (0, None);
         let mut next = 0;
         while next < w {
             let u = next;
@@ -333,6 +333,10 @@ impl<'a> Builder<'a> {
                     );
                     let by_edge = || {
                         let Some(s) = self.surfaces else { return false };
+                        if surface_from.is_none() && asked < s.asked_alone() {
+                            asked += 1;
+                            return !s.one_surface(u, v);
+                        }
                         let from = *surface_from.get_or_insert_with(|| {
                             let tail = here[1..=w].iter().rev().position(Option::is_some);
                             let end = w - tail.unwrap_or(0);
