@@ -131,7 +131,11 @@ mod tests {
             178.0 + 9.0 * next(),
             176.0 + 9.0 * next(),
         );
-        let skew = if rig.is_multiple_of(2) { 0.0 } else { 0.4 * next() };
+        let skew = if rig.is_multiple_of(2) {
+            0.0
+        } else {
+            0.4 * next()
+        };
         Unified::new(xi, distortion, k, skew, ImageSize::new(350, 350), max_theta).unwrap()
     }
 
