@@ -7,7 +7,7 @@
 
 use super::lens_domain::{check_intrinsics, field_angle, front_halfspace_of, FisheyeError};
 use super::lens_model::LensModel;
-use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
+use super::{CameraModel, ImageSize, Intrinsics, MeiModel, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::any::Any;
 use std::f64::consts::PI;
@@ -183,6 +183,22 @@ impl<M: LensModel> CameraModel for Lens<M> {
 
     fn front_halfspace(&self) -> Option<Vector3<f64>> {
         front_halfspace_of(self.max_theta)
+    }
+
+    /// This lens as a [`super::Unified`] where its model is MEI's (alone or boxed).
+    fn unified(&self) -> Option<super::Unified> {
+        let any = self.model.as_any();
+        let model = any.downcast_ref::<MeiModel>().or_else(|| {
+            let boxed = any.downcast_ref::<Box<dyn LensModel>>()?;
+            (**boxed).as_any().downcast_ref::<MeiModel>()
+        })?;
+        Some(Lens {
+            model: *model,
+            k: self.k,
+            size: self.size,
+            max_theta: self.max_theta,
+            edge: self.edge,
+        })
     }
 
     /// The model by its name and parameters (what makes two models equal), then every field.

@@ -155,6 +155,14 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
         None
     }
 
+    /// `Some(lens)` where this camera is a unified (MEI) lens in its own axes: its
+    /// [`CameraModel::project`] and [`CameraModel::project_point`] are exactly that lens's, so
+    /// that a stitch's table may project many points in lanes of its own. None otherwise, and
+    /// for a camera wrapping another.
+    fn unified(&self) -> Option<Unified> {
+        None
+    }
+
     /// Project a point given relative to the optical centre (any length).
     fn project_point(&self, p: &Vector3<f64>) -> Result<Point2<f64>, ProjectionReject> {
         let n = p.norm();

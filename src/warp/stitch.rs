@@ -62,6 +62,7 @@ mod fixed_proxy;
 mod gains;
 mod guided;
 mod guided_lanes;
+mod guided_lens;
 mod proxy;
 mod weights;
 

@@ -42,8 +42,10 @@ pub(super) fn far_pixels(
         .enumerate()
         .for_each(|(v, row)| {
             // per distance, the camera that held the row's last pixel is asked first (the
-            // answer is whether any holds: the same in any order)
+            // answer is whether any holds: the same in any order); the scene's distance is
+            // asked first after a pixel held there (a lens's wide image holds most of a row)
             let mut first = [0usize; 2];
+            let mut scene_first = false;
             for (u, flag) in row.iter_mut().enumerate() {
                 let t = distances[v * w + u];
                 let Some(d) = reach.bearing(u, v).filter(|_| t < far) else {
@@ -63,8 +65,16 @@ pub(super) fn far_pixels(
                     found.is_some()
                 };
                 let [at_far, at_scene] = &mut first;
-                // (the far test first: most pixels no camera holds at either distance)
-                *flag = held(far, 0.0, at_far) && !held(t, RIM, at_scene);
+                // (else the far test first: most pixels of a row beyond every image are held
+                // at neither distance)
+                if scene_first && held(t, RIM, at_scene) {
+                    continue;
+                }
+                // (where the scene's distance was asked above, it was not held there)
+                let held_far = held(far, 0.0, at_far);
+                let held_scene = held_far && !scene_first && held(t, RIM, at_scene);
+                *flag = held_far && !held_scene;
+                scene_first = held_scene;
             }
         });
     out
@@ -217,5 +227,80 @@ mod tests {
         assert!(lost <= 20, "{lost} pixels the fixed stitch gives are black");
         // and none where a camera's image holds the scene's point
         assert!(!guided.filled_far(45, 45) && !guided.filled_far(135, 45));
+    }
+
+    #[test]
+    fn far_pixels_are_those_held_at_the_proxy_distance_and_not_at_the_scenes() {
+        // two 60° pinholes 1 m apart, turned 33° outwards, over drawn runs of distances (near,
+        // mid, beyond the proxy, none): each pixel's flag is the rule's, asked of every camera
+        // at both distances, whatever order the rows ask them in
+        let model = Perspective::new(
+            Intrinsics::new(69.3, 69.3, 59.5, 39.5),
+            ImageSize::new(120, 80),
+        );
+        let camera = |x: f64, yaw: f64| {
+            let rotation = *Rotation3::from_euler_angles(0.0, yaw, 0.0).matrix();
+            StitchCamera {
+                model: &model,
+                rotation,
+                translation: -(rotation * Vector3::new(x, 0.0, 0.0)),
+                max_theta: None,
+            }
+        };
+        let cameras = [
+            camera(-0.5, 33f64.to_radians()),
+            camera(0.5, -33f64.to_radians()),
+        ];
+        let (w, h) = (180usize, 90usize);
+        let output = Equirect::new(
+            Intrinsics::new(
+                90.0 / std::f64::consts::PI,
+                90.0 / std::f64::consts::PI,
+                89.5,
+                44.5,
+            ),
+            ImageSize::new(w as u32, h as u32),
+        );
+        let all = |d: &Vector3<f64>| *d;
+        let cone = || crate::warp::reach::Cone {
+            local: &all,
+            half_angle: None,
+            parallax: None,
+            baseline: None,
+            frustum: None,
+        };
+        let reach = Reach::new(&output, &[cone(), cone()], None);
+        let (centre, far) = (Vector3::new(0.0, 0.1, 0.0), 10.0);
+        let proxies: Vec<Proxy> = (cameras.iter().enumerate())
+            .map(|(i, c)| Proxy::guided((i, *c), centre, far, Some(&Sphere(1.5))))
+            .collect();
+        let distances: Vec<f64> = (0..w * h)
+            .map(|i| match (i / 7 + i / w) % 5 {
+                0 => 1.5,
+                1 => 1.2 + 0.01 * (i % 7) as f64,
+                2 => 4.0,
+                3 => 20.0,
+                _ => 0.0,
+            })
+            .collect();
+        let flags = far_pixels(&reach, output.size(), &distances, &proxies, far);
+        let held = |n: &Vector3<f64>, t: f64, rim: f64| {
+            (proxies.iter()).any(|p| p.holds(&p.local_at(n, t), rim))
+        };
+        let mut kinds = [0usize; 3];
+        for v in 0..h {
+            for u in 0..w {
+                let t = distances[v * w + u];
+                let want = reach.bearing(u, v).filter(|_| t < far).is_some_and(|d| {
+                    let n = d.normalize();
+                    let (at_far, at_scene) = (held(&n, far, 0.0), held(&n, t, RIM));
+                    kinds[at_far as usize + at_scene as usize] += 1;
+                    at_far && !at_scene
+                });
+                assert_eq!(flags[v * w + u], want, "({u}, {v})");
+            }
+        }
+        // (pixels held at neither distance, at one and at both)
+        assert!(kinds.iter().all(|k| *k > 200), "{kinds:?}");
     }
 }

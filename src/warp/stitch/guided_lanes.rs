@@ -1,13 +1,15 @@
 //! A depth-guided table's row of output pixel centres seen by a pinhole camera without a
-//! field-of-view bound, a group of lanes at a time: each centre whose bearing is the one the
-//! reach bound stored for it takes the distance map's distance, and its scene point (its unit
-//! bearing at that distance from the output centre, where the camera saw it) is turned into
-//! the camera's axes and projected with the very operations of `Proxy::project_at` (nalgebra's
-//! `normalize`, its products and sums in its order, the pinhole's front test and division),
-//! then kept where it lies within the image: the same positions, bit for bit, in loops without
-//! branches that vectorise (with AVX2 where the processor has it). A depth-guided stitch's
-//! tables project every reached pixel centre so; the other bearings of the row (columns -1
-//! and width, a bearing not stored) cast their own ray, as the per-pixel path does.
+//! field-of-view bound, or by a unified (MEI) lens (`guided_lens.rs`), a group of lanes at a
+//! time: each centre whose bearing is the one the reach bound stored for it takes the distance
+//! map's distance, and its scene point (its unit bearing at that distance from the output
+//! centre, where the camera saw it) is turned into the camera's axes and projected with the
+//! very operations of `Proxy::project_at` (nalgebra's `normalize`, its products and sums in its
+//! order, the camera's own projection), then kept where it lies within the image: the same
+//! positions, bit for bit, in loops without branches that vectorise (with AVX2 where the
+//! processor has it). A depth-guided stitch's tables project every reached pixel centre so;
+//! the other bearings of the row (columns -1 and width, a bearing not stored) cast their own
+//! ray, as the per-pixel path does, and a centre the lanes cannot decide (a lens's point within
+//! a hair of its field of view's edge) is projected alone.
 
 use super::StitchDepth;
 use crate::camera::{CameraModel, Intrinsics};
@@ -26,51 +28,86 @@ pub(super) struct Centres<'a> {
 }
 
 /// Centres a group takes.
-const LANES: usize = 8;
+pub(super) const LANES: usize = 8;
 /// One coordinate of a group, a lane each.
-type Lanes = [f64; LANES];
+pub(super) type Lanes = [f64; LANES];
 
 /// The pinhole's front test on a camera point, squared: z² above this share of its squared
 /// norm (`Proxy::pixel`'s).
 const MIN_FORWARD2: f64 = 1e-18;
 
-/// What a depth-guided proxy of a pinhole camera without a field-of-view bound reads.
+/// A camera's projection of a group of camera points in lanes, with the very operations of
+/// `Proxy::pixel` and the image bound `in_image` after it.
+pub(super) trait LaneCamera {
+    /// The pixels of camera points `q` (x, y, z lanes), per lane whether they decide it (else
+    /// it is projected alone) and whether it has a pixel within the image.
+    fn pixels(&self, q: [Lanes; 3]) -> (Decided, [Lanes; 2]);
+}
+
+/// Per lane of a group, whether its point was decided in lanes and whether it has a pixel
+/// within the image there.
+pub(super) struct Decided {
+    pub(super) decided: [bool; LANES],
+    pub(super) inside: [bool; LANES],
+}
+
+/// What a depth-guided proxy projecting its centres in lanes reads: the camera's pose, the
+/// output centre, where the depth moves points, and the camera's projection in lanes.
 #[derive(Clone, Copy)]
-pub(super) struct GuidedPinhole<'a> {
+pub(super) struct GuidedLanes<'a, C> {
     /// camera_from_reference.
     pub(super) rotation: Matrix3<f64>,
     pub(super) translation: Vector3<f64>,
     /// The output centre.
     pub(super) centre: Vector3<f64>,
-    /// The camera's intrinsics and image size (width, height).
-    pub(super) k: Intrinsics,
-    pub(super) size: (f64, f64),
     /// Where the depth moves points for this camera: the depth and the camera's index
     /// ([`StitchDepth::seen_at`], asked centre by centre).
     pub(super) moved: Option<(&'a dyn StitchDepth, usize)>,
+    pub(super) camera: C,
 }
 
-impl GuidedPinhole<'_> {
+/// A pinhole camera's projection in lanes: its intrinsics and image size (width, height).
+#[derive(Clone, Copy)]
+pub(super) struct PinholeLanes {
+    pub(super) k: Intrinsics,
+    pub(super) size: (f64, f64),
+}
+
+/// What a depth-guided proxy of a pinhole camera without a field-of-view bound reads.
+pub(super) type GuidedPinhole<'a> = GuidedLanes<'a, PinholeLanes>;
+
+/// How a row's centres are projected one by one: a bearing not stored for its pixel (its own
+/// ray, within the image; None for None), and a stored one the lanes leave undecided (at its
+/// pixel's distance, within the image).
+pub(super) struct Alone<'a> {
+    pub(super) cast: &'a dyn Fn(&Vector3<f64>) -> Option<Point2<f64>>,
+    pub(super) at: &'a AtDistance<'a>,
+}
+
+/// A bearing's position at a distance (within the image).
+pub(super) type AtDistance<'a> = dyn Fn(&Vector3<f64>, f64) -> Option<Point2<f64>> + 'a;
+
+impl<C: LaneCamera> GuidedLanes<'_, C> {
     /// Appends to `out` the positions of the output centres of row `v` (`bearings`, columns
     /// -1..=width, as the table's build gives them), `Proxy::project_all`'s: a bearing equal
     /// to the one `centres` stored for its pixel at the pixel's distance, any other through
-    /// `cast` (its own ray, within the image; None for None).
+    /// `alone.cast`; a centre the lanes leave undecided through `alone.at`.
     pub(super) fn project_row(
         &self,
         bearings: &[Option<Vector3<f64>>],
         (centres, v): (Centres, usize),
         out: &mut Vec<Option<Point2<f64>>>,
-        cast: &dyn Fn(&Vector3<f64>) -> Option<Point2<f64>>,
+        alone: Alone,
     ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2 (checked just above).
-            return unsafe { self.project_row_avx2(bearings, (centres, v), out, cast) };
+            return unsafe { self.project_row_avx2(bearings, (centres, v), out, alone) };
         }
-        self.project_row_any(bearings, (centres, v), out, cast)
+        self.project_row_any(bearings, (centres, v), out, alone)
     }
 
-    /// [`GuidedPinhole::project_row`] compiled for AVX2 (the same IEEE operations, the same
+    /// [`GuidedLanes::project_row`] compiled for AVX2 (the same IEEE operations, the same
     /// bits).
     ///
     /// # Safety
@@ -84,9 +121,9 @@ impl GuidedPinhole<'_> {
         bearings: &[Option<Vector3<f64>>],
         row: (Centres, usize),
         out: &mut Vec<Option<Point2<f64>>>,
-        cast: &dyn Fn(&Vector3<f64>) -> Option<Point2<f64>>,
+        alone: Alone,
     ) {
-        self.project_row_any(bearings, row, out, cast)
+        self.project_row_any(bearings, row, out, alone)
     }
 
     #[inline(always)]
@@ -95,7 +132,7 @@ impl GuidedPinhole<'_> {
         bearings: &[Option<Vector3<f64>>],
         (c, v): (Centres, usize),
         out: &mut Vec<Option<Point2<f64>>>,
-        cast: &dyn Fn(&Vector3<f64>) -> Option<Point2<f64>>,
+        alone: Alone,
     ) {
         let w = bearings.len() - 2;
         let distances = &c.distances[v * w..(v + 1) * w];
@@ -139,11 +176,12 @@ impl GuidedPinhole<'_> {
                     (x[0][l], x[1][l], x[2][l]) = (q.x, q.y, q.z);
                 }
             }
-            let (ok, [u, y]) = self.pixels(x);
+            let (lanes, [u, y]) = self.camera.pixels(self.local(x));
             for (l, (b, p)) in group.iter().zip(out).enumerate() {
-                *p = match known[l] {
-                    true => ok[l].then(|| Point2::new(u[l], y[l])),
-                    false => b.as_ref().and_then(cast),
+                *p = match (known[l], lanes.decided[l]) {
+                    (true, true) => lanes.inside[l].then(|| Point2::new(u[l], y[l])),
+                    (true, false) => b.as_ref().and_then(|b| (alone.at)(b, t[l])),
+                    (false, _) => b.as_ref().and_then(alone.cast),
                 };
             }
         }
@@ -165,31 +203,46 @@ impl GuidedPinhole<'_> {
         x
     }
 
-    /// The camera pixels of a group's reference points `x` and whether each has one within
-    /// the image: `Proxy::pixel` of `rotation * x + translation`, then `in_image`.
+    /// The camera points of a group's reference points `x`: `rotation * x + translation`.
     #[inline(always)]
-    fn pixels(&self, x: [Lanes; 3]) -> ([bool; LANES], [Lanes; 2]) {
-        let (r, tr, k) = (&self.rotation, &self.translation, &self.k);
-        let (w, h) = self.size;
-        let mut ok = [false; LANES];
-        let mut px = [[0.0; LANES]; 2];
+    fn local(&self, x: [Lanes; 3]) -> [Lanes; 3] {
+        let (r, tr) = (&self.rotation, &self.translation);
+        let mut q = [[0.0; LANES]; 3];
         for l in 0..LANES {
             // nalgebra's product is (r0·x + r1·y) + r2·z
-            let q = [0, 1, 2]
-                .map(|i| r[(i, 0)] * x[0][l] + r[(i, 1)] * x[1][l] + r[(i, 2)] * x[2][l] + tr[i]);
+            for i in 0..3 {
+                q[i][l] = r[(i, 0)] * x[0][l] + r[(i, 1)] * x[1][l] + r[(i, 2)] * x[2][l] + tr[i];
+            }
+        }
+        q
+    }
+}
+
+impl LaneCamera for PinholeLanes {
+    /// `Proxy::pixel` of a pinhole (its front test and division), then `in_image`: every lane
+    /// decided.
+    #[inline(always)]
+    fn pixels(&self, q: [Lanes; 3]) -> (Decided, [Lanes; 2]) {
+        let k = &self.k;
+        let (w, h) = self.size;
+        let mut inside = [false; LANES];
+        let mut px = [[0.0; LANES]; 2];
+        for l in 0..LANES {
+            let q = [q[0][l], q[1][l], q[2][l]];
             let norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
             let front = q[2] > 0.0 && q[2] * q[2] > MIN_FORWARD2 * norm2;
             let z = 1.0 / q[2];
             let (u, v) = k.to_pixel(q[0] * z, q[1] * z);
-            ok[l] = front && column_inside(u, w) && row_inside(v, h);
+            inside[l] = front && column_inside(u, w) && row_inside(v, h);
             (px[0][l], px[1][l]) = (u, v);
         }
-        (ok, px)
+        let decided = [true; LANES];
+        (Decided { decided, inside }, px)
     }
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::super::proxy::Proxy;
     use super::super::StitchCamera;
     use super::*;
@@ -199,8 +252,8 @@ mod tests {
     /// A scene 7 m away whose points within 9 m of a spot move 0.35 m for the camera (a box
     /// driving by), or none.
     #[derive(Debug)]
-    struct Drawn {
-        moving: bool,
+    pub(in crate::warp::stitch) struct Drawn {
+        pub(in crate::warp::stitch) moving: bool,
     }
 
     const SPOT: [f64; 3] = [2.0, 0.5, 5.0];
@@ -231,7 +284,7 @@ mod tests {
     }
 
     /// xorshift draws in [-1, 1).
-    fn draws(mut state: u64) -> impl FnMut() -> f64 {
+    pub(in crate::warp::stitch) fn draws(mut state: u64) -> impl FnMut() -> f64 {
         move || {
             state ^= state << 13;
             state ^= state >> 7;

@@ -3,7 +3,8 @@
 
 use super::fixed_proxy::FixedPinhole;
 pub(super) use super::guided_lanes::Centres;
-use super::guided_lanes::GuidedPinhole;
+use super::guided_lanes::{Alone, GuidedLanes, GuidedPinhole, PinholeLanes};
+use super::guided_lens::LensLanes;
 use super::{StitchCamera, StitchDepth};
 use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject, Separable};
 use crate::warp::table::{column_inside, row_inside, Surfaces};
@@ -39,6 +40,9 @@ pub(super) struct Proxy<'a> {
     /// projected directly (x/z, y/z), not through the model's unit bearing (a depth-guided
     /// table projects every tap's point; the fixed stitch keeps the model's path).
     pinhole: Option<Intrinsics>,
+    /// With a depth, the camera's projection in lanes where it is a unified (MEI) lens with a
+    /// field-of-view bound: a depth-guided table projects its rows of centres so.
+    lens: Option<LensLanes>,
 }
 
 /// A window of output pixels: its top-left and bottom-right pixels.
@@ -92,6 +96,8 @@ impl<'a> Proxy<'a> {
                 f64::INFINITY
             },
             pinhole: depth.and(camera.model.pinhole()),
+            lens: (depth.and(camera.model.unified()).zip(fov_cos))
+                .and_then(|(lens, fov_cos)| LensLanes::of(&lens, fov_cos)),
         }
     }
 
@@ -144,14 +150,27 @@ impl<'a> Proxy<'a> {
     /// bound, what its projection of a row of centres in lanes reads ([`GuidedPinhole`]).
     pub(super) fn guided_pinhole(&self) -> Option<GuidedPinhole<'a>> {
         let size = self.size();
-        Some(GuidedPinhole {
+        Some(self.guided_lanes(PinholeLanes {
+            k: self.pinhole.filter(|_| self.camera.max_theta.is_none())?,
+            size: (size.width as f64, size.height as f64),
+        }))
+    }
+
+    /// With a depth and the centres' distances, for a unified (MEI) lens with a field-of-view
+    /// bound, what its projection of a row of centres in lanes reads (`guided_lens.rs`).
+    pub(super) fn guided_lens(&self) -> Option<GuidedLanes<'a, LensLanes>> {
+        Some(self.guided_lanes(self.lens?))
+    }
+
+    /// What a projection of a row of centres in lanes through `camera` reads.
+    fn guided_lanes<C>(&self, camera: C) -> GuidedLanes<'a, C> {
+        GuidedLanes {
             rotation: self.camera.rotation,
             translation: self.camera.translation,
             centre: self.centre,
-            k: self.pinhole.filter(|_| self.camera.max_theta.is_none())?,
-            size: (size.width as f64, size.height as f64),
             moved: self.depth.filter(|_| self.moves).map(|d| (d, self.index)),
-        })
+            camera,
+        }
     }
 
     /// The scene's distance along unit bearing `n` (a table's tap) from the distances of the
@@ -187,7 +206,7 @@ impl<'a> Proxy<'a> {
     }
 
     /// [`CameraModel::project`] of bearing `d` through the scene's point at `distance`.
-    fn project_at(
+    pub(super) fn project_at(
         &self,
         d: &Vector3<f64>,
         distance: f64,
@@ -471,14 +490,27 @@ impl CameraModel for Proxy<'_> {
             // the same positions, a group of lanes at a time (`fixed_proxy.rs`)
             return fixed.project_all(bearings, out);
         }
-        let guided = self.guided_pinhole().filter(|_| self.centres.is_some());
-        if let Some((lanes, row)) = guided.and_then(|g| Some((g, self.centre_row(bearings)?))) {
-            // the same positions, a group of lanes at a time (`guided_lanes.rs`)
-            let (w, h) = lanes.size;
-            let cast = |d: &Vector3<f64>| self.project(d).ok().filter(|p| in_image(p, w, h));
-            return lanes.project_row(bearings, row, out, &cast);
+        // with the centres' distances, the same positions a group of lanes at a time
+        // (`guided_lanes.rs`), a bearing not stored for its pixel cast alone
+        let (pinhole, lens) = (self.guided_pinhole(), self.guided_lens());
+        let row = (pinhole.is_some() || lens.is_some())
+            .then(|| self.centre_row(bearings))
+            .flatten();
+        let Some(row) = row else {
+            return self.project_all_each(bearings, out);
+        };
+        let (w, h) = (self.size().width as f64, self.size().height as f64);
+        let cast = |d: &Vector3<f64>| self.project(d).ok().filter(|p| in_image(p, w, h));
+        let at = |d: &Vector3<f64>, t| self.project_at(d, t).ok().filter(|p| in_image(p, w, h));
+        let alone = Alone {
+            cast: &cast,
+            at: &at,
+        };
+        match (pinhole, lens) {
+            (Some(lanes), _) => lanes.project_row(bearings, row, out, alone),
+            (_, Some(lanes)) => lanes.project_row(bearings, row, out, alone),
+            _ => self.project_all_each(bearings, out),
         }
-        self.project_all_each(bearings, out);
     }
 
     /// A row of output pixel centres takes the distances computed for them (see

@@ -142,7 +142,8 @@ struct Parts {
     span: Vec<Option<Point2<f64>>>,
     /// The output positions of a pixel's taps (row by row), for [`Surfaces::project_taps`].
     at: Vec<Point2<f64>>,
-    /// Whether each mapped pixel of the current row lies on one surface, from its first.
+    /// Whether each mapped pixel of the current row lies on one surface, from the first that
+    /// asked.
     one_surface: Vec<bool>,
 }
 
@@ -303,16 +304,10 @@ impl<'a> Builder<'a> {
         let w = self.dst.size().width as usize;
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         parts.tap_rows.iter_mut().for_each(Vec::clear);
-        // which of the row's mapped pixels lie on one surface, the row at once
-        let mapped = here[1..=w].iter().position(Option::is_some).unwrap_or(w);
-        if let Some(s) = self.surfaces.filter(|_| mapped < w && self.cap > 1) {
-            let end = w - here[1..=w]
-                .iter()
-                .rev()
-                .position(Option::is_some)
-                .unwrap_or(0);
-            s.one_surface_row(v, mapped..end, &mut parts.one_surface);
-        }
+        // which of the row's mapped pixels lie on one surface: the first few pixels that ask
+        // alone (only a depth edge's ask where no footprint reaches the pyramid, as a lens's
+        // magnified pixels), then the rest of the row at once
+        let (mut asked, mut surface_from) = (0, None);
         let mut next = 0;
         while next < w {
             let u = next;
@@ -336,7 +331,20 @@ impl<'a> Builder<'a> {
                         [above[u + 1], below[u + 1]],
                         period,
                     );
-                    let by_edge = || !parts.one_surface[u - mapped];
+                    let by_edge = || {
+                        let Some(s) = self.surfaces else { return false };
+                        if surface_from.is_none() && asked < s.asked_alone() {
+                            asked += 1;
+                            return !s.one_surface(u, v);
+                        }
+                        let from = *surface_from.get_or_insert_with(|| {
+                            let tail = here[1..=w].iter().rev().position(Option::is_some);
+                            let end = w - tail.unwrap_or(0);
+                            s.one_surface_row(v, u..end, &mut parts.one_surface);
+                            u
+                        });
+                        !parts.one_surface[u - from]
+                    };
                     let (nu, nv, level) = self.footprint(by_edge, (su, sv));
                     (nu, nv, level, (su, sv))
                 }

@@ -390,3 +390,111 @@ fn a_guided_tables_taps_by_columns_rows_and_cells_are_the_tap_by_tap_ones_bit_fo
         "{placed} pixels' taps placed, {cast} cast"
     );
 }
+
+/// The proxy as a table's scene, asking `alone` pixels of a row alone before the rest of the
+/// row at once; it counts the pixels asked alone and the rows asked at once.
+struct Asking<'a> {
+    proxy: &'a Proxy<'a>,
+    alone: usize,
+    pixels: std::sync::atomic::AtomicUsize,
+    rows: std::sync::atomic::AtomicUsize,
+}
+
+impl<'a> Asking<'a> {
+    fn new(proxy: &'a Proxy<'a>, alone: usize) -> Self {
+        Asking {
+            proxy,
+            alone,
+            pixels: Default::default(),
+            rows: Default::default(),
+        }
+    }
+}
+
+impl Surfaces for Asking<'_> {
+    fn one_surface(&self, u: usize, v: usize) -> bool {
+        (self.pixels).fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.proxy.one_surface(u, v)
+    }
+
+    fn one_surface_row(&self, v: usize, columns: Range<usize>, out: &mut Vec<bool>) {
+        (self.rows).fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.proxy.one_surface_row(v, columns, out)
+    }
+
+    fn asked_alone(&self) -> usize {
+        self.alone
+    }
+
+    fn project_taps(
+        &self,
+        at: &[Point2<f64>],
+        ds: &[Option<Vector3<f64>>],
+        out: &mut Vec<Option<Point2<f64>>>,
+    ) {
+        self.proxy.project_taps(at, ds, out)
+    }
+
+    fn tap_output(&self) -> Option<&dyn Separable> {
+        self.proxy.tap_output()
+    }
+}
+
+#[test]
+fn a_guided_table_asks_its_rows_alone_or_at_once_alike() {
+    // the panel before the wall, each output pixel about 3.5 camera pixels (every pixel asks
+    // whether it lies on one surface): the table that asks each row's first pixels alone and
+    // the rest at once is the one that asks every pixel alone, and the one that asks each row
+    // at once, to the bit
+    let model = side_model();
+    let camera = side_camera(&model);
+    let (w, h) = (360usize, 180usize);
+    let output = full_equirect(w, h);
+    let local = |d: &Vector3<f64>| d.normalize() * 10.0 + camera.translation;
+    let cone = crate::warp::reach::Cone {
+        local: &local,
+        half_angle: Some(0.8),
+        parallax: None,
+        baseline: None,
+        frustum: None,
+    };
+    let reach = Reach::new(&output, &[cone], None);
+    let gated = crate::warp::reach::Gated {
+        output: &output,
+        reach: &reach,
+        camera: 0,
+    };
+    let distances: Vec<f64> = (0..w * h)
+        .map(|i| match i % 89 {
+            0 => 0.0,
+            _ => (output.unproject(&Point2::new((i % w) as f64, (i / w) as f64)))
+                .map_or(f64::NAN, |d| Panel.distance(&d)),
+        })
+        .collect();
+    let proxy =
+        Proxy::guided((0, camera), Vector3::zeros(), 10.0, Some(&Panel)).with_centres(Centres {
+            output: &output,
+            reach: &reach,
+            distances: &distances,
+        });
+    let build = |s: &dyn Surfaces| {
+        let (id, below) = (Matrix3::identity(), crate::warp::table::TAPS_BELOW);
+        RemapTable::build_pyramid_guided(&gated, &proxy, &id, below, Some(s), false)
+    };
+    let some = Asking::new(&proxy, proxy.asked_alone());
+    let each = Asking::new(&proxy, usize::MAX);
+    let rows = Asking::new(&proxy, 0);
+    let table = build(&some);
+    assert!(table == build(&each));
+    assert!(table == build(&rows));
+    let counts = |a: Asking| (a.pixels.into_inner(), a.rows.into_inner());
+    let (some, each, rows) = (counts(some), counts(each), counts(rows));
+    // (each way taken: the first pixels of a row alone, then the rest of it at once)
+    assert!(some.0 > 500 && some.1 > 50, "{some:?}");
+    assert!(each.0 > 3000 && each.1 == 0, "{each:?}");
+    assert!(rows.0 == 0 && rows.1 > 50, "{rows:?}");
+    assert!(
+        some.0 < each.0 && some.0 >= 16 * some.1,
+        "{some:?} {each:?}"
+    );
+}

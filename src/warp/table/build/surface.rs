@@ -25,6 +25,9 @@ use std::ops::Range;
 /// 48.43 dB.
 pub(super) const EDGE_TAPS: u32 = 4;
 
+/// [`Surfaces::asked_alone`]'s count.
+const ASKED_ALONE: usize = 16;
+
 /// The scene of a depth-guided source at the output's pixels.
 pub(crate) trait Surfaces: Sync {
     /// Whether output pixel (u, v) and its eight neighbours (those within the output) lie on
@@ -37,6 +40,15 @@ pub(crate) trait Surfaces: Sync {
     fn one_surface_row(&self, v: usize, columns: Range<usize>, out: &mut Vec<bool>) {
         out.clear();
         out.extend(columns.map(|u| self.one_surface(u, v)));
+    }
+
+    /// How many pixels of a row a table's build asks [`Surfaces::one_surface`] alone before
+    /// it asks [`Surfaces::one_surface_row`] for the rest of the row, from the next pixel
+    /// that asks: a window alone reads its 25 distances, a row 10 a pixel, so the few depth
+    /// edges of a long row of pixels that need no answer (a lens's magnified pixels) cost less
+    /// alone.
+    fn asked_alone(&self) -> usize {
+        ASKED_ALONE
     }
 
     /// Appends the source positions of a table's taps at output positions `at` (the table's
