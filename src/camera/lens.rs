@@ -7,7 +7,7 @@
 
 use super::lens_domain::{check_intrinsics, field_angle, front_halfspace_of, FisheyeError};
 use super::lens_model::LensModel;
-use super::{CameraModel, ImageSize, Intrinsics, MeiModel, ProjectionReject};
+use super::{CameraModel, ImageSize, Intrinsics, ProjectionReject};
 use nalgebra::{Point2, Vector3};
 use std::any::Any;
 use std::f64::consts::PI;
@@ -185,15 +185,14 @@ impl<M: LensModel> CameraModel for Lens<M> {
         front_halfspace_of(self.max_theta)
     }
 
-    /// This lens as a [`super::Unified`] where its model is MEI's (alone or boxed).
-    fn unified(&self) -> Option<super::Unified> {
-        let any = self.model.as_any();
-        let model = any.downcast_ref::<MeiModel>().or_else(|| {
-            let boxed = any.downcast_ref::<Box<dyn LensModel>>()?;
-            (**boxed).as_any().downcast_ref::<MeiModel>()
-        })?;
+    /// This lens, its model boxed (see [`CameraModel::lens`]).
+    fn lens(&self) -> Option<Lens> {
+        let model = match self.model.as_any().downcast_ref::<Box<dyn LensModel>>() {
+            Some(already) => already.clone(),
+            None => self.model.boxed(),
+        };
         Some(Lens {
-            model: *model,
+            model,
             k: self.k,
             size: self.size,
             max_theta: self.max_theta,

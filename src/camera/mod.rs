@@ -155,11 +155,11 @@ pub trait CameraModel: Send + Sync + std::fmt::Debug {
         None
     }
 
-    /// `Some(lens)` where this camera is a unified (MEI) lens in its own axes: its
+    /// `Some(lens)` where this camera is a [`Lens`] in its own axes: its
     /// [`CameraModel::project`] and [`CameraModel::project_point`] are exactly that lens's, so
-    /// that a stitch's table may project many points in lanes of its own. None otherwise, and
-    /// for a camera wrapping another.
-    fn unified(&self) -> Option<Unified> {
+    /// that a stitch's table may project many points in lanes of its own (a unified/MEI lens:
+    /// [`Lens::downcast`]). None otherwise, and for a camera wrapping another.
+    fn lens(&self) -> Option<Lens> {
         None
     }
 

@@ -6,7 +6,7 @@ pub(super) use super::guided_lanes::Centres;
 use super::guided_lanes::{Alone, GuidedLanes, GuidedPinhole, PinholeLanes};
 use super::guided_lens::LensLanes;
 use super::{StitchCamera, StitchDepth};
-use crate::camera::{CameraModel, ImageSize, Intrinsics, ProjectionReject, Separable};
+use crate::camera::{CameraModel, ImageSize, Intrinsics, MeiModel, ProjectionReject, Separable};
 use crate::warp::table::{column_inside, row_inside, Surfaces};
 use cells::{between, Cells};
 use nalgebra::{Point2, Vector3};
@@ -96,7 +96,8 @@ impl<'a> Proxy<'a> {
                 f64::INFINITY
             },
             pinhole: depth.and(camera.model.pinhole()),
-            lens: (depth.and(camera.model.unified()).zip(fov_cos))
+            lens: (depth.and_then(|_| camera.model.lens()?.downcast::<MeiModel>()))
+                .zip(fov_cos)
                 .and_then(|(lens, fov_cos)| LensLanes::of(&lens, fov_cos)),
         }
     }
