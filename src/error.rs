@@ -75,6 +75,10 @@ pub enum Error {
     /// the message says how far it got and what to do.
     #[error("{0}")]
     DeviceFull(String),
+    /// The process serving the frames (`rig-stream`'s peer) no longer answers: no later frame
+    /// can be read, so the run stops taking frames (the frame asked is not recorded as failed).
+    #[error("{0}")]
+    SourceLost(String),
 }
 
 impl Error {
@@ -111,6 +115,11 @@ impl Error {
 }
 
 impl Error {
+    /// Whether the frames' source is gone ([`Error::SourceLost`]): a run stops taking frames.
+    pub fn is_source_lost(&self) -> bool {
+        matches!(self, Error::SourceLost(_))
+    }
+
     /// Whether the output device refused a write for a reason every later write shares (no
     /// space, no quota, a read-only file system): a run stops taking frames then.
     pub fn is_device_full(&self) -> bool {

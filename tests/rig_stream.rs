@@ -359,7 +359,8 @@ fn wire_open(root: &Path) -> Value {
 }
 
 /// Runs `panoconv rig-stream --output OUT ARGS` served by `answer` (a request → its header and
-/// payload); returns the exit code and stderr.
+/// payload; a null header: the peer vanishes, closing its streams, instead of answering);
+/// returns the exit code and stderr.
 fn serve(out: &Path, args: &[&str], answer: impl Fn(&Value) -> (Value, Vec<u8>)) -> (i32, String) {
     let mut child = Command::new(BIN)
         .arg("rig-stream")
@@ -377,6 +378,9 @@ fn serve(out: &Path, args: &[&str], answer: impl Fn(&Value) -> (Value, Vec<u8>))
         let request: Value = serde_json::from_str(&line.unwrap()).unwrap();
         assert_eq!(request["protocol"], 1);
         let (mut header, payload) = answer(&request);
+        if header.is_null() {
+            break;
+        }
         header["bytes"] = json!(payload.len());
         let mut message = header.to_string().into_bytes();
         message.push(b'\n');
@@ -540,6 +544,50 @@ fn a_bad_answer_fails_its_frame_naming_the_frame_and_the_field() {
             "{want}: {files:?}"
         );
     }
+}
+
+/// A peer that vanishes mid-run (its process killed) stops the run: the frame it did not
+/// answer is not recorded as failed (nor is any later one), the exit is 1 with one message
+/// saying how far the run got, and `--resume` with the peer back converts the rest, byte for
+/// byte as one whole run.
+#[test]
+fn a_vanished_source_stops_the_run_and_a_resume_finishes_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().join("toy");
+    write_toy(&root);
+    let whole = tmp.path().join("whole");
+    let (code, stderr) = serve(&whole, &ARGS, toy_answer(&root, |_, _| {}));
+    assert_eq!(code, 0, "{stderr}");
+    let out = tmp.path().join("out");
+    let (code, stderr) = serve(&out, &ARGS, toy_answer(&root, |h, _| *h = Value::Null));
+    assert_eq!(code, 1, "{stderr}");
+    assert!(
+        stderr.contains("frame 000001: the source process closed the stream")
+            && stderr.contains("stopped answering after 1 of 2 frames")
+            && stderr.contains("--resume"),
+        "{stderr}"
+    );
+    assert_eq!(
+        stderr.matches("closed the stream").count(),
+        1,
+        "reported once: {stderr}"
+    );
+    let manifest: Value =
+        serde_json::from_str(&common::read_text(&out.join("panoconv.json"))).unwrap();
+    let frames = manifest["frames"].as_array().unwrap();
+    assert_eq!(
+        frames.len(),
+        1,
+        "only the answered frame is recorded: {frames:?}"
+    );
+    assert_eq!(frames[0]["status"], "ok");
+    let resume: Vec<&str> = ARGS.iter().copied().chain(["--resume"]).collect();
+    let (code, stderr) = serve(&out, &resume, toy_answer(&root, |_, _| {}));
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        tree_bytes(&whole) == tree_bytes(&out),
+        "resumed run differs from the whole run"
+    );
 }
 
 #[test]

@@ -58,7 +58,7 @@ pub fn to_py(e: panoconv::error::Error) -> PyErr {
             text.clone(),
         ),
         // (no file of their own: the message says what went wrong)
-        Error::Setup(_) | Error::Style(_) | Error::DeviceFull(_) => {
+        Error::Setup(_) | Error::Style(_) | Error::DeviceFull(_) | Error::SourceLost(_) => {
             (None, None, None, text.clone())
         }
     };

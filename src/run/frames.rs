@@ -45,6 +45,8 @@ pub struct FrameRun<'a> {
     /// The first write the output device refused for want of space (or being read-only): no
     /// new item is taken after it, since every one would fail the same way.
     device_full: OnceLock<Error>,
+    /// Set when the frames' source stopped answering: no new group is taken after it.
+    source_lost: OnceLock<Error>,
     /// Items whose outputs exist (converted or kept from the previous run).
     written: AtomicUsize,
     /// Items given to [`Self::run`], and of those the ones taken and the ones kept.
@@ -97,6 +99,7 @@ impl<'a> FrameRun<'a> {
             progress,
             stop,
             device_full: OnceLock::new(),
+            source_lost: OnceLock::new(),
             written: AtomicUsize::new(0),
             offered: 0,
             taken: 0,
@@ -140,8 +143,12 @@ impl<'a> FrameRun<'a> {
     /// One group: for each item, None when it was not taken (stopped, device full),
     /// Some(true) when kept from the previous run, Some(false) when converted or failed.
     fn group<W: FrameWork>(&self, work: &W, group: &[W::Item]) -> Vec<Option<bool>> {
-        // SIGINT/SIGTERM or a full device: take no new group; those in flight finish.
-        if self.stop.load(Ordering::Relaxed) || self.device_full.get().is_some() {
+        // SIGINT/SIGTERM, a full device or a lost source: take no new group; those in flight
+        // finish.
+        if self.stop.load(Ordering::Relaxed)
+            || self.device_full.get().is_some()
+            || self.source_lost.get().is_some()
+        {
             return vec![None; group.len()];
         }
         let mut outcomes = vec![Some(true); group.len()];
@@ -175,6 +182,12 @@ impl<'a> FrameRun<'a> {
                 Err(e) if e.is_device_full() => {
                     // Not this item's fault: it is left for a later run, reported once.
                     let _ = self.device_full.set(e);
+                    outcomes[i] = None;
+                    continue;
+                }
+                Err(e) if e.is_source_lost() => {
+                    // Nor this: the source is gone; the item is left for --resume.
+                    let _ = self.source_lost.set(e);
                     outcomes[i] = None;
                     continue;
                 }
@@ -217,6 +230,16 @@ impl<'a> FrameRun<'a> {
                 format!("output device full ({e}): free space, then convert the images not in the manifest again")
             }
         });
+        let source_lost = self.source_lost.into_inner().map(|e| {
+            let resume = match self.resumable {
+                true => "run again with --resume once it answers",
+                false => "convert the frames not in the manifest again",
+            };
+            format!(
+                "{e}: the frames' source stopped answering after {written} of {} frames; {resume}",
+                self.offered
+            )
+        });
         // On a full device the manifest may not fit either: then say so with the rest.
         let when_full = |e: Error| match &device_full {
             Some(full) => Error::DeviceFull(format!(
@@ -231,8 +254,9 @@ impl<'a> FrameRun<'a> {
             converted: finished.frames - finished.failed,
             failed: finished.failed,
             resumed: self.resumed,
-            interrupted: interrupted && device_full.is_none(),
+            interrupted: interrupted && device_full.is_none() && source_lost.is_none(),
             device_full,
+            source_lost,
             seconds: self.started.elapsed().as_secs_f64(),
             tables_built,
         })

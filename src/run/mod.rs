@@ -63,6 +63,8 @@ pub struct Summary {
     pub interrupted: bool,
     /// Stopped because the output device refused writes: what to tell the user.
     pub device_full: Option<String>,
+    /// Stopped because the frames' source no longer answers: what to tell the user.
+    pub source_lost: Option<String>,
     /// Wall-clock duration of the run, seconds.
     pub seconds: f64,
     /// Distinct remap tables built (one per source camera and output camera).

@@ -81,9 +81,11 @@ impl<R: BufRead + Send, W: Write + Send> WorldSource for StreamPeer<R, W> {
     fn read(&mut self, id: &str) -> Result<WorldFrame> {
         let root = self.root.clone();
         let fail = |field: &str, m: String| frame_error(&root, id, field, m);
+        // a broken stream breaks every later request too: the run stops instead of failing
+        // each frame left
         let (header, payload) = self
             .request(json!({"op": "read", "frame": id}))
-            .map_err(|m| fail("read", m))?;
+            .map_err(|m| Error::SourceLost(format!("{}: frame {id}: {m}", root.display())))?;
         if let Some(e) = header.get("error").filter(|e| !e.is_null()) {
             let field = header
                 .get("field")

@@ -69,12 +69,12 @@ fn rate(items: usize, seconds: f64, noun: &str) -> String {
     }
 }
 
-/// The exit code of a run that stopped short or failed items (1: a full device or failed
-/// items, 130: interrupted), saying why; None when every item was converted (the caller may
+/// The exit code of a run that stopped short or failed items (1: a full device, a lost source
+/// or failed items, 130: interrupted), saying why; None when every item was converted (the caller may
 /// go on, e.g. to `--export`, and then exits 0).
 pub(crate) fn exit_code(run: &Summary) -> Option<ExitCode> {
-    if let Some(full) = &run.device_full {
-        eprintln!("panoconv: {full}");
+    if let Some(stopped) = run.device_full.as_ref().or(run.source_lost.as_ref()) {
+        eprintln!("panoconv: {stopped}");
         return Some(ExitCode::from(EXIT_FRAMES_FAILED));
     }
     if run.interrupted {
