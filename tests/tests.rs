@@ -77,6 +77,7 @@ mod tidy;
 mod truncated_images;
 mod trust;
 mod unproject;
+mod unproject_rig;
 mod vehicle_box;
 mod verify;
 mod warp;

@@ -137,7 +137,8 @@ pub(super) struct UnprojectArgs {
     trained_focal: Option<f64>,
     /// Which image each result's 2D box belongs to: `source` (KITTI's benchmark scores the
     /// box against the original label_2: the 3D box through the calib's P2, clipped to the
-    /// source image) or `converted` (the image the detector ran on).
+    /// source image) or `converted` (the image the detector ran on; always so for a rig
+    /// output, whose P2 is no source camera, and a perspective one).
     #[arg(long = "box", value_enum, default_value_t = BoxArg::Source)]
     box_image: BoxArg,
     /// The source images' size for `--box source` [default: read from the source dataset the

@@ -72,6 +72,21 @@ pub enum BoxChoice {
     Converted,
 }
 
+/// Whether `calib`'s `P2` is the nominal pinhole `K2·[I | −C2]` of its written camera, as a rig
+/// output (`nuscenes`, `kitti360`, the Python sources) writes it: no camera of the rig, so no
+/// source image its boxes could belong to (see `inspect_p2.rs`).
+fn p2_is_nominal(calib: &Calib) -> bool {
+    let (Ok(p2), Some(k2), Some(c2)) = (calib.camera(Cam::C2), calib.k_out[2], calib.c_out[2])
+    else {
+        return false;
+    };
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
+    let k = |k: &crate::camera::Intrinsics| [k.fu, k.fv, k.cu, k.cv];
+    (k(&p2.k).iter().zip(&k(&k2)))
+        .chain(p2.centre.iter().zip(c2.iter()))
+        .all(|(&a, &b)| close(a, b))
+}
+
 /// The size of the source image of frame `id`, whose written calib is in `calib_dir`: from
 /// the source dataset that the manifest of the converted dataset holding `calib_dir` names
 /// (`parameters.input`, the same split, `image_2/ID.png`).
@@ -150,8 +165,8 @@ pub fn labels_to_pixels(split_dir: &Path, output: &Path) -> Result<FolderSummary
 /// Pixel-format predictions `input/*.txt` → KITTI result lines `output/*.txt`, using the calib
 /// (and image size) of each frame. `trained_fv`: rescale distances from a detector trained on
 /// perspective images of that vertical focal length. `boxes`: which image the 2D boxes belong
-/// to (a calib without `projection:`, or a perspective one whose P2 is the output camera, has
-/// one image only).
+/// to (a calib without `projection:`, a perspective one whose P2 is the output camera, or a rig
+/// output's, whose P2 is no source camera, has one image only).
 pub fn unproject(
     calib_dir: &Path,
     images_dir: &Path,
@@ -171,7 +186,7 @@ pub fn unproject(
                 None | Some(crate::camera::OutputProjection::Linear(
                     crate::camera::Projection::Perspective
                 ))
-            );
+            ) || p2_is_nominal(&calib);
             let source = match boxes {
                 BoxChoice::Source { size } if !converted_only => {
                     let size = match size {
