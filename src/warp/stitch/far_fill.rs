@@ -161,28 +161,34 @@ mod tests {
     use crate::warp::NO_SOURCE;
     use nalgebra::Rotation3;
 
-    #[test]
-    fn a_near_scene_between_two_cameras_is_stitched_at_the_proxy_distance_not_left_black() {
-        // two 60° pinholes 1 m apart, turned 33° outwards: their fields of view meet 4.6 m out,
-        // so a scene at 1.5 m leaves a wedge between them that the 10 m sphere closes
-        let model = Perspective::new(
+    /// A 60° pinhole of 120x80 px.
+    fn pinhole() -> Perspective {
+        Perspective::new(
             Intrinsics::new(69.3, 69.3, 59.5, 39.5),
             ImageSize::new(120, 80),
-        );
+        )
+    }
+
+    /// `model` twice, 1 m apart along x, each turned 33° outwards.
+    fn outward_pair(model: &Perspective) -> [StitchCamera<'_>; 2] {
         let camera = |x: f64, yaw: f64| {
             let rotation = *Rotation3::from_euler_angles(0.0, yaw, 0.0).matrix();
             StitchCamera {
-                model: &model,
+                model,
                 rotation,
                 translation: -(rotation * Vector3::new(x, 0.0, 0.0)),
                 max_theta: None,
             }
         };
-        let cameras = [
+        [
             camera(-0.5, 33f64.to_radians()),
             camera(0.5, -33f64.to_radians()),
-        ];
-        let output = Equirect::new(
+        ]
+    }
+
+    /// A 180x90 px equirect of the whole sphere.
+    fn equirect_180() -> Equirect {
+        Equirect::new(
             Intrinsics::new(
                 90.0 / std::f64::consts::PI,
                 90.0 / std::f64::consts::PI,
@@ -190,7 +196,16 @@ mod tests {
                 44.5,
             ),
             ImageSize::new(180, 90),
-        );
+        )
+    }
+
+    #[test]
+    fn a_near_scene_between_two_cameras_is_stitched_at_the_proxy_distance_not_left_black() {
+        // two 60° pinholes 1 m apart, turned 33° outwards: their fields of view meet 4.6 m out,
+        // so a scene at 1.5 m leaves a wedge between them that the 10 m sphere closes
+        let model = pinhole();
+        let cameras = outward_pair(&model);
+        let output = equirect_180();
         let centre = Vector3::zeros();
         let options = StitchOptions::default();
         let images: Vec<crate::image::RgbImage> = (0..2)
@@ -234,33 +249,10 @@ mod tests {
         // two 60° pinholes 1 m apart, turned 33° outwards, over drawn runs of distances (near,
         // mid, beyond the proxy, none): each pixel's flag is the rule's, asked of every camera
         // at both distances, whatever order the rows ask them in
-        let model = Perspective::new(
-            Intrinsics::new(69.3, 69.3, 59.5, 39.5),
-            ImageSize::new(120, 80),
-        );
-        let camera = |x: f64, yaw: f64| {
-            let rotation = *Rotation3::from_euler_angles(0.0, yaw, 0.0).matrix();
-            StitchCamera {
-                model: &model,
-                rotation,
-                translation: -(rotation * Vector3::new(x, 0.0, 0.0)),
-                max_theta: None,
-            }
-        };
-        let cameras = [
-            camera(-0.5, 33f64.to_radians()),
-            camera(0.5, -33f64.to_radians()),
-        ];
+        let model = pinhole();
+        let cameras = outward_pair(&model);
         let (w, h) = (180usize, 90usize);
-        let output = Equirect::new(
-            Intrinsics::new(
-                90.0 / std::f64::consts::PI,
-                90.0 / std::f64::consts::PI,
-                89.5,
-                44.5,
-            ),
-            ImageSize::new(w as u32, h as u32),
-        );
+        let output = equirect_180();
         let all = |d: &Vector3<f64>| *d;
         let cone = || crate::warp::reach::Cone {
             local: &all,

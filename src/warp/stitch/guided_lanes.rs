@@ -293,13 +293,13 @@ pub(super) mod tests {
         }
     }
 
-    /// Every row of centres of drawn rigs (a pinhole anywhere, turned any way, still or moved by
-    /// the depth) over drawn distance maps (some without a distance: 0, infinite, NaN), and
-    /// the rows with some bearings changed by a bit (cast instead), None or not a row of
-    /// centres: the lanes' positions are the per-pixel path's to the bit.
-    #[test]
-    fn the_lanes_give_the_per_pixel_positions_bit_for_bit() {
-        let (w, h) = (250usize, 123usize);
+    /// The size of [`rows_output`]'s panorama.
+    pub(in crate::warp::stitch) const ROWS_OUTPUT: (u32, u32) = (250, 123);
+
+    /// The bit-for-bit tests' output: a 250x123 equirect over the middle of the sphere, every
+    /// bearing reached (one camera).
+    pub(in crate::warp::stitch) fn rows_output() -> (Equirect, Reach) {
+        let (w, h) = ROWS_OUTPUT;
         let output = Equirect::new(
             Intrinsics::new(
                 w as f64 / std::f64::consts::TAU,
@@ -307,7 +307,7 @@ pub(super) mod tests {
                 124.5,
                 61.0,
             ),
-            ImageSize::new(w as u32, h as u32),
+            ImageSize::new(w, h),
         );
         let all = |d: &Vector3<f64>| *d;
         let cone = Cone {
@@ -318,6 +318,17 @@ pub(super) mod tests {
             frustum: None,
         };
         let reach = Reach::new(&output, &[cone], None);
+        (output, reach)
+    }
+
+    /// Every row of centres of drawn rigs (a pinhole anywhere, turned any way, still or moved by
+    /// the depth) over drawn distance maps (some without a distance: 0, infinite, NaN), and
+    /// the rows with some bearings changed by a bit (cast instead), None or not a row of
+    /// centres: the lanes' positions are the per-pixel path's to the bit.
+    #[test]
+    fn the_lanes_give_the_per_pixel_positions_bit_for_bit() {
+        let (w, h) = (ROWS_OUTPUT.0 as usize, ROWS_OUTPUT.1 as usize);
+        let (output, reach) = rows_output();
         let gated = Gated {
             output: &output,
             reach: &reach,

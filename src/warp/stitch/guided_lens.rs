@@ -103,13 +103,13 @@ impl LaneCamera for LensLanes {
 
 #[cfg(test)]
 mod tests {
-    use super::super::guided_lanes::tests::{draws, Drawn};
+    use super::super::guided_lanes::tests::{draws, rows_output, Drawn, ROWS_OUTPUT};
     use super::super::guided_lanes::{Alone, Centres, LANES};
     use super::super::proxy::Proxy;
     use super::super::StitchCamera;
     use super::*;
-    use crate::camera::{CameraModel, Equirect, ImageSize, Lens};
-    use crate::warp::reach::{Cone, Gated, Reach};
+    use crate::camera::{CameraModel, ImageSize, Lens};
+    use crate::warp::reach::Gated;
     use nalgebra::{Matrix3, Point2, Rotation3, Vector3};
     use std::cell::Cell;
 
@@ -147,25 +147,8 @@ mod tests {
     /// leave to the per-pixel path (beyond the lens's own field of view, within the stitch's).
     #[test]
     fn the_lens_lanes_give_the_per_pixel_positions_bit_for_bit() {
-        let (w, h) = (250usize, 123usize);
-        let output = Equirect::new(
-            Intrinsics::new(
-                w as f64 / std::f64::consts::TAU,
-                h as f64 / 3.0,
-                124.5,
-                61.0,
-            ),
-            ImageSize::new(w as u32, h as u32),
-        );
-        let all = |d: &Vector3<f64>| *d;
-        let cone = Cone {
-            local: &all,
-            half_angle: None,
-            parallax: None,
-            baseline: None,
-            frustum: None,
-        };
-        let reach = Reach::new(&output, &[cone], None);
+        let (w, h) = (ROWS_OUTPUT.0 as usize, ROWS_OUTPUT.1 as usize);
+        let (output, reach) = rows_output();
         let gated = Gated {
             output: &output,
             reach: &reach,
