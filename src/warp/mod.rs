@@ -16,8 +16,8 @@ pub use kernel::Kernel;
 pub use mapping::{ImageMapping, NO_SOURCE};
 pub use mask::EgoMask;
 pub use stitch::{
-    Stitch, StitchCamera, StitchDepth, StitchFigures, StitchOptions, Stitched, FALLBACK_SOURCE,
-    FAR_SOURCE,
+    grid_applies, GridBox, GridScene, GroundHit, Stitch, StitchCamera, StitchDepth, StitchFigures,
+    StitchOptions, Stitched, FALLBACK_SOURCE, FAR_SOURCE,
 };
 pub use stream::{warp_encode, PngSource};
 pub use table::{

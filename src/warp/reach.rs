@@ -43,7 +43,7 @@ mod grid;
 mod set;
 pub(super) use frustum::Frustum;
 use frustum::Slack;
-use grid::OutputGrid;
+pub(in crate::warp) use grid::OutputGrid;
 use set::PositionSet;
 
 /// Pixels the candidates are widened by.

@@ -51,7 +51,8 @@
 //! The files: `proxy.rs` the mapping through the proxy point (steps 1 and 2; a pinhole's in
 //! lanes, `fixed_proxy.rs`), `weights.rs` the
 //! tables and the blend weights with their margins and ego masks (steps 2, 3 and 6), `gains.rs`
-//! the exposure gains (step 5), `apply.rs` a frame's blend (step 4).
+//! the exposure gains (step 5), `apply.rs` a frame's blend (step 4), `grid.rs` the depth-guided
+//! stitch of pinhole rigs through a distance grid in the output's own pixels.
 
 mod apply;
 mod centre_fill;
@@ -60,6 +61,7 @@ mod far_fill;
 mod figures;
 mod fixed_proxy;
 mod gains;
+mod grid;
 mod guided;
 mod guided_lanes;
 mod guided_lens;
@@ -69,6 +71,7 @@ mod weights;
 pub use fallback::FALLBACK_SOURCE;
 pub use far_fill::FAR_SOURCE;
 pub use figures::StitchFigures;
+pub use grid::{grid_applies, GridBox, GridScene, GroundHit};
 pub use guided::StitchDepth;
 
 use super::mask::EgoMask;

@@ -27,6 +27,7 @@ use rayon::prelude::*;
 mod blocks;
 mod build;
 mod pyramid;
+pub(crate) mod sampled;
 
 pub(crate) use build::Surfaces;
 pub use pyramid::{narrow_u8, pyramid};

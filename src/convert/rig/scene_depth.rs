@@ -28,6 +28,7 @@
 #[cfg(test)]
 mod faults;
 mod grid;
+mod grid_scene;
 mod motion;
 mod noise;
 mod occlusion;
@@ -39,7 +40,7 @@ use crate::camera::CameraModel;
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::Frame;
-use crate::warp::{EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
+use crate::warp::{grid_applies, EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
 use grid::BoxGrid;
 use motion::Motion;
 use nalgebra::Vector3;
@@ -133,6 +134,11 @@ pub(super) fn frame_stitch_in(
     if at_proxy(frame, cameras.len(), mode) {
         let stitch = Stitch::build_masked(output, centre, cameras, masks, options)?;
         return Ok((stitch, StitchMode::Fixed));
+    }
+    if grid_applies(cameras) {
+        let scene = grid_scene::grid_scene(frame, centre, &eyes);
+        let stitch = Stitch::build_grid(output, centre, cameras, masks, options, &scene)?;
+        return Ok((stitch, StitchMode::Depth));
     }
     let scene = scene.get_or_init(|| SceneDepth::new(frame, *centre, eyes));
     let stitch = Stitch::build_guided(output, centre, cameras, masks, options, scene)?;

@@ -18,11 +18,11 @@ static LATEST: Mutex<Option<(ExactKey, Arc<OutputGrid>)>> = Mutex::new(None);
 #[derive(Debug)]
 pub(in crate::warp) struct OutputGrid {
     /// Bearings, row-major (NaN: none).
-    pub(super) bearings: Vec<Vector3<f64>>,
-    pub(super) gw: usize,
+    pub(in crate::warp) bearings: Vec<Vector3<f64>>,
+    pub(in crate::warp) gw: usize,
     pub(super) gh: usize,
     /// A: the largest turn between adjacent positions, radians.
-    pub(super) step: f64,
+    pub(in crate::warp) step: f64,
     /// Per tile of [`TILE`]×[`TILE`] positions (row-major): whether each has a bearing.
     pub(super) complete: Vec<bool>,
 }

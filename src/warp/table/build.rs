@@ -29,7 +29,8 @@ mod surface;
 pub(crate) use surface::Surfaces;
 
 use band::{Band, CentreRow};
-use quantize::{merge, quantize, quantize_block};
+pub(in crate::warp::table) use quantize::quantize_block;
+use quantize::{merge, quantize};
 
 /// Rows built together by one task of [`RemapTable::build_parallel`]: each band maps the rows
 /// just above and below it too, so wider bands repeat less of that work.

@@ -82,7 +82,12 @@ pub(super) fn quantize(s: &mut Scratch, inside: u32, taps: u32, out: &mut Vec<Qu
 /// rounded, the largest one (first on ties) taking up the rounding error so that the sum is
 /// `total` exactly; it moves by at most 1.5/16384.
 #[inline(always)]
-pub(super) fn quantize_block(offset: u32, w: [f64; 4], total: i32, scale: f64) -> Quad {
+pub(in crate::warp::table) fn quantize_block(
+    offset: u32,
+    w: [f64; 4],
+    total: i32,
+    scale: f64,
+) -> Quad {
     let y = w.map(|x| x * scale);
     let q = y.map(|x| (x + 0.5) as i32);
     // (the running maximum in a register: a select, not a load, per weight)

@@ -1,0 +1,382 @@
+//! The scene's distance from the output centre at every output pixel centre, built in the
+//! output's own grid once a frame: each return of the scan in its nearest pixel (nearest
+//! wins), the gaps along a column between two returns closed where they lie on one surface
+//! (linearly in inverse distance; else each side's distance to the gap's middle), short gaps
+//! along rows, the boxes ray-cast exactly (nearest wins), a wall's top return carried up where
+//! the scan's top ring ends on it, then the ground where the ray meets it, and the far
+//! distance elsewhere. A scan's rings are degrees apart (1.33° for nuScenes' HDL-32E, 7.6 px
+//! at 2048 px): a pixel between two rings is interpolated, never left at the far distance, or
+//! a camera would sample a far point through a near facade.
+
+use super::{Bearings, GridBox, GridScene};
+use crate::camera::CameraModel;
+use nalgebra::Vector3;
+
+/// Where a pixel's distance came from.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[repr(u8)]
+pub(super) enum Origin {
+    /// Nothing yet (after the build: the output has no bearing there).
+    Empty,
+    /// A return of the scan in this pixel.
+    Return,
+    /// Interpolated between returns of one surface (column) or beside them (row).
+    Fill,
+    /// Carried up from the column's top return (a wall above the top ring).
+    Up,
+    /// The ground.
+    Ground,
+    /// Nothing known: the far distance.
+    Far,
+    /// A box's face.
+    Box,
+}
+
+/// No box at the pixel.
+pub(super) const NO_BOX: u16 = u16::MAX;
+
+/// The distance of a ray that meets nothing the scan shows (the sky), metres: 1 m of baseline
+/// is 0.1 mrad of parallax there.
+pub(super) const FAR_DISTANCE: f32 = 10_000.0;
+/// Longest column gap (output rows) the ring fill closes: 7° at 2048 px, past the widest ring
+/// spacing of the scanners read (the Pandar64's 6° at its bottom).
+const MAX_COLUMN_GAP_RAD: f64 = 7.0 * std::f64::consts::PI / 180.0;
+/// Longest row gap (output columns) the row fill closes: the scan's azimuth step is about one
+/// output pixel at 2048 px.
+const MAX_ROW_GAP: usize = 3;
+/// Returns nearer than this to the output centre are not splatted (the vehicle's own body,
+/// which the readers' vehicle box removes where it is given), metres.
+const MIN_RANGE: f64 = 0.3;
+/// The farthest ground distance taken, metres.
+const GROUND_LIMIT: f64 = 100.0;
+
+/// The grid, row-major, the output's size.
+pub(super) struct DistanceGrid {
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) d: Vec<f32>,
+    pub(super) origin: Vec<Origin>,
+    /// The box whose face gives the pixel's distance (its index in the scene's boxes), or
+    /// [`NO_BOX`].
+    pub(super) box_id: Vec<u16>,
+}
+
+impl DistanceGrid {
+    /// The grid of `scene` seen from `centre` through `output` (`step`: the output's angular
+    /// pixel size at its middle row, radians).
+    pub(super) fn build(
+        output: &dyn CameraModel,
+        bearing: Bearings,
+        centre: &Vector3<f64>,
+        scene: &GridScene,
+        step: f64,
+    ) -> Self {
+        let size = output.size();
+        let (width, height) = (size.width as usize, size.height as usize);
+        let mut g = Self {
+            width,
+            height,
+            d: vec![0.0; width * height],
+            origin: vec![Origin::Empty; width * height],
+            box_id: vec![NO_BOX; width * height],
+        };
+        // a 360° output's columns repeat every period (its width, or more for a crop of it)
+        let period = output
+            .horizontal_period()
+            .filter(|p| p.is_finite() && *p >= width as f64);
+        g.splat(output, centre, &scene.points, period);
+        let column_gap = ((MAX_COLUMN_GAP_RAD / step.max(1e-6)) as usize).max(1);
+        g.fill_columns(column_gap);
+        g.fill_rows();
+        // the boxes before the carry: a tall box's top return is not a wall's (its faces end
+        // where the box does)
+        for (k, b) in scene.boxes.iter().enumerate() {
+            g.raster_box(output, bearing, centre, b, k as u16, period);
+        }
+        g.carry_up(bearing);
+        g.ground_and_far(bearing, scene);
+        g
+    }
+
+    /// Each return into its nearest pixel, nearest distance winning.
+    fn splat(
+        &mut self,
+        output: &dyn CameraModel,
+        centre: &Vector3<f64>,
+        points: &[Vector3<f64>],
+        period: Option<f64>,
+    ) {
+        let (w, h) = (self.width as i64, self.height as i64);
+        for p in points {
+            let r = p - centre;
+            let dist = r.norm();
+            if !(dist >= MIN_RANGE) {
+                continue;
+            }
+            let Ok(px) = output.project(&(r / dist)) else {
+                continue;
+            };
+            let x = period.map_or(px.x, |p| (px.x + 0.5).rem_euclid(p) - 0.5);
+            let (u, v) = (x.round() as i64, px.y.round() as i64);
+            if !(0..h).contains(&v) || !(0..w).contains(&u) {
+                continue;
+            }
+            let i = (v * w + u) as usize;
+            let d = dist as f32;
+            if self.origin[i] == Origin::Empty || d < self.d[i] {
+                self.d[i] = d;
+                self.origin[i] = Origin::Return;
+            }
+        }
+    }
+
+    /// Closes each column's gaps of at most `max_gap` rows between two returns: in inverse
+    /// distance, linearly, where the two lie on one surface (their relative difference under a
+    /// bound growing with the gap), else each side's distance to the gap's middle.
+    fn fill_columns(&mut self, max_gap: usize) {
+        let (w, h) = (self.width, self.height);
+        for u in 0..w {
+            let mut last: Option<usize> = None;
+            for v in 0..h {
+                let i = v * w + u;
+                if self.origin[i] != Origin::Return {
+                    continue;
+                }
+                if let Some(l) = last {
+                    let gap = v - l - 1;
+                    if gap > 0 && gap <= max_gap {
+                        self.fill_column_gap(u, l, v);
+                    }
+                }
+                last = Some(v);
+            }
+        }
+    }
+
+    /// Fills rows l+1..v of column u between the returns at rows l and v.
+    fn fill_column_gap(&mut self, u: usize, l: usize, v: usize) {
+        let w = self.width;
+        let gap = v - l - 1;
+        let (s0, s1) = (1.0 / self.d[l * w + u], 1.0 / self.d[v * w + u]);
+        let rel = (s0 - s1).abs() / s0.max(s1);
+        // the bound grows with the gap: a surface seen at a grazing angle (the road) changes
+        // its distance along the column
+        let one_surface = rel < 0.03 + 0.02 * gap as f32;
+        for k in 1..=gap {
+            let t = k as f32 / (gap + 1) as f32;
+            let s = match (one_surface, t < 0.5) {
+                (true, _) => s0 + t * (s1 - s0),
+                (false, true) => s0,
+                (false, false) => s1,
+            };
+            let j = (l + k) * w + u;
+            self.d[j] = 1.0 / s;
+            self.origin[j] = Origin::Fill;
+        }
+    }
+
+    /// Closes short gaps along rows (columns the scan's azimuth step missed): the farther
+    /// side's distance where the sides differ (a near surface is not widened), their inverse-
+    /// distance mean where they agree.
+    fn fill_rows(&mut self) {
+        let (w, h) = (self.width, self.height);
+        for v in 0..h {
+            let row = v * w;
+            let mut last: Option<usize> = None;
+            for u in 0..w {
+                if self.origin[row + u] == Origin::Empty {
+                    continue;
+                }
+                if let Some(l) = last {
+                    let gap = u - l - 1;
+                    if gap > 0 && gap <= MAX_ROW_GAP {
+                        let (d0, d1) = (self.d[row + l], self.d[row + u]);
+                        let agree = (d0 - d1).abs() < 0.05 * d0.min(d1);
+                        let d = if agree {
+                            2.0 / (1.0 / d0 + 1.0 / d1)
+                        } else {
+                            d0.max(d1)
+                        };
+                        for k in l + 1..u {
+                            self.d[row + k] = d;
+                            self.origin[row + k] = Origin::Fill;
+                        }
+                    }
+                }
+                last = Some(u);
+            }
+        }
+    }
+
+    /// Above a column's top return, where that return lies on the scan's top ring (a surface
+    /// taller than the ring reaches) above the horizon and not on a box: its distance carried
+    /// up to the top. (A top return at or below the horizon is the ground's or a low
+    /// object's: the sky above it stays the sky.)
+    fn carry_up(&mut self, bearing: Bearings) {
+        let (w, h) = (self.width, self.height);
+        // the top ring's highest row: the first row holding returns in 2 % of the columns
+        // (lone high returns aside); the frame's pitch moves a ring by a few rows
+        let Some(top_ring) = (0..h).find(|&v| {
+            (0..w)
+                .filter(|&u| self.origin[v * w + u] == Origin::Return)
+                .count()
+                > w / 50
+        }) else {
+            return;
+        };
+        for u in 0..w {
+            let Some(v) = (0..h).find(|&v| self.origin[v * w + u] != Origin::Empty) else {
+                continue;
+            };
+            let on_box = (v..(v + 4).min(h)).any(|y| self.origin[y * w + u] == Origin::Box);
+            // (the reference frame's y points down)
+            let above_horizon = bearing.at(u as isize, v as isize).y < 0.0;
+            if v <= top_ring + 8 && above_horizon && !on_box {
+                let d = self.d[v * w + u];
+                for k in 0..v {
+                    self.d[k * w + u] = d;
+                    self.origin[k * w + u] = Origin::Up;
+                }
+            }
+        }
+    }
+
+    /// What is still empty: the ground where the ray meets it (under [`GROUND_LIMIT`]), else
+    /// the far distance; a pixel without a bearing stays empty.
+    fn ground_and_far(&mut self, bearing: Bearings, scene: &GridScene) {
+        let w = self.width;
+        for (i, o) in self.origin.iter_mut().enumerate() {
+            if *o != Origin::Empty {
+                continue;
+            }
+            let b = bearing.at((i % w) as isize, (i / w) as isize);
+            if !b.x.is_finite() {
+                continue;
+            }
+            let ground = scene
+                .ground
+                .as_ref()
+                .and_then(|g| g(&b))
+                .filter(|t| *t > 0.0 && *t < GROUND_LIMIT);
+            (self.d[i], *o) = match ground {
+                Some(t) => (t as f32, Origin::Ground),
+                None => (FAR_DISTANCE, Origin::Far),
+            };
+        }
+    }
+
+    /// The box's faces, ray-cast exactly over its corners' bounding rectangle in the output;
+    /// nearest wins. A box holding the centre, or one a corner of which the output cannot
+    /// show, is left to the scan.
+    fn raster_box(
+        &mut self,
+        output: &dyn CameraModel,
+        bearing: Bearings,
+        centre: &Vector3<f64>,
+        b: &GridBox,
+        id: u16,
+        period: Option<f64>,
+    ) {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let rt = b.rotation.transpose();
+        let o = rt * (centre - b.centre);
+        if o.x.abs() < b.half.x && o.y.abs() < b.half.y && o.z.abs() < b.half.z {
+            return;
+        }
+        let mut us = Vec::with_capacity(8);
+        let (mut v0, mut v1) = (h, -1i64);
+        for corner in b.corners() {
+            let Ok(px) = output.project(&(corner - centre).normalize()) else {
+                return;
+            };
+            us.push(px.x);
+            v0 = v0.min(px.y.floor() as i64 - 1);
+            v1 = v1.max(px.y.ceil() as i64 + 1);
+        }
+        if let Some(p) = period {
+            // columns taken in one turn: a box across the turn's seam on one side of it
+            for u in us.iter_mut() {
+                *u = (*u + 0.5).rem_euclid(p) - 0.5;
+            }
+            let (lo, hi) = min_max(&us);
+            if hi - lo > p / 2.0 {
+                for u in us.iter_mut().filter(|u| **u < p / 2.0) {
+                    *u += p;
+                }
+            }
+        }
+        let (lo, hi) = min_max(&us);
+        let (u0, u1) = (lo.floor() as i64 - 1, hi.ceil() as i64 + 1);
+        // (a full turn's columns wrap; a crop's beyond it are not in the output)
+        let full_turn = period.is_some_and(|p| p == w as f64);
+        let (u0, u1) = if full_turn {
+            (u0, u1.min(u0 + w - 1))
+        } else {
+            (u0, u1)
+        };
+        for v in v0.max(0)..=v1.min(h - 1) {
+            for uu in u0..=u1 {
+                let u = match (full_turn, period) {
+                    (true, _) => uu.rem_euclid(w),
+                    // a crop of a turn: its columns one turn on, where the box lies past it
+                    (false, Some(p)) if uu >= w => uu - p as i64,
+                    _ => uu,
+                };
+                if !(0..w).contains(&u) {
+                    continue;
+                }
+                let u = u as usize;
+                let i = v as usize * self.width + u;
+                let dir = bearing.at(u as isize, v as isize);
+                if !dir.x.is_finite() {
+                    continue;
+                }
+                if let Some(t) = slab(&o, &(rt * dir), &b.half) {
+                    if self.origin[i] == Origin::Empty || (t as f32) < self.d[i] {
+                        self.d[i] = t as f32;
+                        self.origin[i] = Origin::Box;
+                        self.box_id[i] = id;
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn min_max(values: &[f64]) -> (f64, f64) {
+    values
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, c), &u| (a.min(u), c.max(u)))
+}
+
+/// The entry distance of the ray o + t·dir into the box |x| ≤ half (o outside it), if any.
+pub(super) fn slab(o: &Vector3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) -> Option<f64> {
+    let (mut t0, mut t1) = (0.0f64, f64::MAX);
+    for k in 0..3 {
+        if dir[k].abs() < 1e-12 {
+            if o[k].abs() > half[k] {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((-half[k] - o[k]) / dir[k], (half[k] - o[k]) / dir[k]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    (t0 <= t1 && t0 > 0.0).then_some(t0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_slab_test_meets_a_box_at_its_near_face() {
+        let half = Vector3::new(1.0, 2.0, 3.0);
+        let o = Vector3::new(0.0, 0.0, -10.0);
+        let t = slab(&o, &Vector3::z(), &half).expect("a hit");
+        assert!((t - 7.0).abs() < 1e-12, "{t}");
+        assert!(slab(&o, &-Vector3::z(), &half).is_none());
+        assert!(slab(&o, &Vector3::new(0.5, 0.0, 1.0).normalize(), &half).is_none());
+    }
+}
