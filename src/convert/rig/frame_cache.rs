@@ -4,7 +4,7 @@
 //! several views of the same centre and cameras: neither is rebuilt per view. It also carries
 //! the run's fixed stitches by geometry (`stitch_cache.rs`), which frames share.
 
-use super::scene_depth::SceneDepth;
+use super::scene_depth::FrameScene;
 use super::stitch_cache::StitchCache;
 use crate::source::Frame;
 use nalgebra::Vector3;
@@ -15,7 +15,7 @@ use std::sync::{Arc, OnceLock};
 pub(super) struct FrameCache {
     points: OnceLock<Vec<Vector3<f64>>>,
     /// The frame's scene as the depth-guided stitch sees it.
-    pub(super) scene: OnceLock<SceneDepth>,
+    pub(super) scene: FrameScene,
     /// The run's fixed stitches, kept across frames (None: each frame builds its own).
     pub(super) stitches: Option<Arc<StitchCache>>,
 }

@@ -40,7 +40,9 @@ use crate::camera::CameraModel;
 use crate::error::Result;
 use crate::reproject::depth::DepthMap;
 use crate::source::Frame;
-use crate::warp::{grid_applies, EgoMask, Stitch, StitchCamera, StitchDepth, StitchOptions};
+use crate::warp::{
+    grid_applies, EgoMask, GridScene, Stitch, StitchCamera, StitchDepth, StitchOptions,
+};
 use grid::BoxGrid;
 use motion::Motion;
 use nalgebra::Vector3;
@@ -102,7 +104,7 @@ pub fn frame_stitch(
     options: StitchOptions,
     mode: StitchMode,
 ) -> Result<(Stitch, StitchMode)> {
-    let scene = OnceLock::new();
+    let scene = FrameScene::default();
     frame_stitch_in(
         (frame, &scene),
         output,
@@ -120,10 +122,18 @@ pub(super) fn at_proxy(frame: &Frame, cameras: usize, mode: StitchMode) -> bool 
     mode == StitchMode::Fixed || frame.lidar.is_empty() || cameras < 2
 }
 
-/// [`frame_stitch`] with the frame's scene built on first use into `scene`, so that the views
-/// of one frame (same centre, same eyes) share it.
+/// A frame's scene as its depth-guided stitch reads it, built on first use: the grid's for a
+/// rig of pinholes, else the per-ray one. The views of one frame (same centre, same eyes)
+/// share it.
+#[derive(Default)]
+pub(super) struct FrameScene {
+    rays: OnceLock<SceneDepth>,
+    grid: OnceLock<GridScene>,
+}
+
+/// [`frame_stitch`] with the frame's scene built on first use into `scene`.
 pub(super) fn frame_stitch_in(
-    (frame, scene): (&Frame, &OnceLock<SceneDepth>),
+    (frame, scene): (&Frame, &FrameScene),
     output: &dyn CameraModel,
     centre: &Vector3<f64>,
     (cameras, eyes): (&[StitchCamera], Vec<Vector3<f64>>),
@@ -136,11 +146,11 @@ pub(super) fn frame_stitch_in(
         return Ok((stitch, StitchMode::Fixed));
     }
     if grid_applies(cameras) {
-        let scene = grid_scene::grid_scene(frame, centre, &eyes);
-        let stitch = Stitch::build_grid(output, centre, cameras, masks, options, &scene)?;
+        let scene = (scene.grid).get_or_init(|| grid_scene::grid_scene(frame, centre, &eyes));
+        let stitch = Stitch::build_grid(output, centre, cameras, masks, options, scene)?;
         return Ok((stitch, StitchMode::Depth));
     }
-    let scene = scene.get_or_init(|| SceneDepth::new(frame, *centre, eyes));
+    let scene = (scene.rays).get_or_init(|| SceneDepth::new(frame, *centre, eyes));
     let stitch = Stitch::build_guided(output, centre, cameras, masks, options, scene)?;
     Ok((stitch, StitchMode::Depth))
 }

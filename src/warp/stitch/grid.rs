@@ -104,12 +104,30 @@ pub fn grid_applies(cameras: &[StitchCamera]) -> bool {
         .all(|c| c.model.pinhole().is_some() && c.max_theta.is_none())
 }
 
-/// One row's share of the build: per camera its blocks and weights (negative: a fallback
-/// weight), the far fill's pixels.
+/// One row's share of the build: per camera its blocks and, from its first sampled column, its
+/// weights (negative: a fallback weight); the far fill's pixels.
 struct Row {
     blocks: Vec<RowBlocks>,
-    weights: Vec<Vec<f32>>,
+    weights: Vec<(usize, Vec<f32>)>,
     far: Vec<bool>,
+}
+
+/// A thread's buffers for its rows: per camera a row of samples and weights, all None and 0
+/// between rows (a row clears only the columns it set).
+struct Scratch {
+    samples: Vec<Vec<Option<Sample>>>,
+    weights: Vec<Vec<f32>>,
+    found: Vec<(usize, View)>,
+}
+
+impl Scratch {
+    fn new(cameras: usize, width: usize) -> Self {
+        Self {
+            samples: vec![vec![None; width]; cameras],
+            weights: vec![vec![0.0; width]; cameras],
+            found: Vec::with_capacity(cameras),
+        }
+    }
 }
 
 impl Stitch {
@@ -159,19 +177,31 @@ fn tables_and_weights(
         .collect();
     let rows: Vec<Row> = (0..h)
         .into_par_iter()
-        .map(|v| row(v, (&views, &sampled), (&grid, bearing, &tiles), options))
+        .map_init(
+            || Scratch::new(cameras.len(), w),
+            |scratch, v| {
+                row(
+                    v,
+                    scratch,
+                    (&views, &sampled),
+                    (&grid, bearing, &tiles),
+                    options,
+                )
+            },
+        )
         .collect();
     let mut sampled = sampled;
-    let mut weights: Vec<Vec<f32>> = vec![Vec::with_capacity(w * h); cameras.len()];
+    // (zeroed pages: a camera's weights are written only where it samples)
+    let mut weights: Vec<Vec<f32>> = vec![vec![0.0; w * h]; cameras.len()];
     let mut far = Vec::with_capacity(w * h);
-    for r in rows {
-        for ((table, blocks), (all, row)) in sampled
+    for (v, r) in rows.into_iter().enumerate() {
+        for ((table, blocks), (all, (first, row))) in sampled
             .iter_mut()
             .zip(r.blocks)
             .zip(weights.iter_mut().zip(r.weights))
         {
             table.push(blocks);
-            all.extend_from_slice(&row);
+            all[v * w + first..][..row.len()].copy_from_slice(&row);
         }
         far.extend_from_slice(&r.far);
     }
@@ -233,17 +263,21 @@ fn cull(views: &[GridCamera], grid: &DistanceGrid, bearing: Bearings, proxy: f64
 /// Output row `v`'s samples and weights of every camera.
 fn row(
     v: usize,
+    scratch: &mut Scratch,
     (views, sampled): (&[GridCamera], &[SampledRows]),
     (grid, bearing, tiles): (&DistanceGrid, Bearings, &[u64]),
     options: StitchOptions,
 ) -> Row {
     let w = grid.width;
-    let n = views.len();
     let tw = w.div_ceil(TILE);
-    let mut samples: Vec<Vec<Option<Sample>>> = vec![vec![None; w]; n];
-    let mut weights: Vec<Vec<f32>> = vec![vec![0.0; w]; n];
+    let Scratch {
+        samples,
+        weights,
+        found,
+    } = scratch;
+    // per camera the columns it samples
+    let mut spans = vec![(w, 0); views.len()];
     let mut far = vec![false; w];
-    let mut found: Vec<(usize, View)> = Vec::with_capacity(n);
     for u in 0..w {
         let i = v * w + u;
         if grid.origin[i] == Origin::Empty {
@@ -263,14 +297,14 @@ fn row(
                 }
             }
         };
-        at(grid.d[i] as f64, moved, &mut found);
+        at(grid.d[i] as f64, moved, found);
         if found.is_empty() && moved.is_some() {
             // a moving box's point where no camera saw it then: the point as C2 sees it
-            at(grid.d[i] as f64, None, &mut found);
+            at(grid.d[i] as f64, None, found);
         }
         if found.is_empty() {
             for d in [options.distance, SKY] {
-                at(d, None, &mut found);
+                at(d, None, found);
                 if !found.is_empty() {
                     far[u] = true;
                     found.iter_mut().for_each(|(_, view)| view.occluded = false);
@@ -278,7 +312,7 @@ fn row(
                 }
             }
         }
-        for (k, view) in &found {
+        for (k, view) in found.iter() {
             samples[*k][u] = Some(Sample {
                 x: view.x,
                 y: view.y,
@@ -289,15 +323,22 @@ fn row(
             } else {
                 view.weight
             };
+            spans[*k] = (spans[*k].0.min(u), u + 1);
         }
     }
+    let mut blocks = Vec::with_capacity(views.len());
+    let mut row_weights = Vec::with_capacity(views.len());
+    for (k, table) in sampled.iter().enumerate() {
+        let (first, end) = spans[k];
+        let span = first.min(end)..end;
+        blocks.push(table.row(&samples[k], span.clone()));
+        row_weights.push((span.start, weights[k][span.clone()].to_vec()));
+        samples[k][span.clone()].fill(None);
+        weights[k][span].fill(0.0);
+    }
     Row {
-        blocks: sampled
-            .iter()
-            .zip(&samples)
-            .map(|(t, s)| t.row(s))
-            .collect(),
-        weights,
+        blocks,
+        weights: row_weights,
         far,
     }
 }

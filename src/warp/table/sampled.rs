@@ -10,6 +10,7 @@ use super::{Cover, RemapTable};
 use crate::camera::ImageSize;
 use crate::warp::kernel::{Quad, LANES, WEIGHT_ONE};
 use crate::warp::table::build::quantize_block;
+use std::ops::Range;
 
 /// The most levels a sampled table reads (level 0 the source): a pixel 16 or more source
 /// pixels wide samples the last.
@@ -63,14 +64,16 @@ impl SampledRows {
         }
     }
 
-    /// The blocks of one row of `samples` (one per output column). Needs no state but the
-    /// source's shape: rows may be made in parallel.
-    pub(crate) fn row(&self, samples: &[Option<Sample>]) -> RowBlocks {
+    /// The blocks of one row of `samples` (one per output column), every sample outside the
+    /// columns `span` None (their groups are not looked at). Needs no state but the source's
+    /// shape: rows may be made in parallel.
+    pub(crate) fn row(&self, samples: &[Option<Sample>], span: Range<usize>) -> RowBlocks {
         let mut out = RowBlocks::default();
         let groups = samples.len().div_ceil(LANES);
         let mut gap: Option<u32> = None;
         for (g, group) in samples.chunks(LANES).enumerate() {
-            if group.iter().all(Option::is_none) {
+            let outside = g * LANES >= span.end || (g + 1) * LANES <= span.start;
+            if outside || group.iter().all(Option::is_none) {
                 gap.get_or_insert(g as u32);
                 continue;
             }
@@ -186,7 +189,7 @@ mod tests {
                     })
                 })
                 .collect();
-            let row = rows.row(&samples);
+            let row = rows.row(&samples, 0..samples.len());
             rows.push(row);
         }
         let table = rows.finish();
@@ -221,7 +224,7 @@ mod tests {
                 })
             })
             .collect();
-        let row = rows.row(&samples);
+        let row = rows.row(&samples, 0..samples.len());
         rows.push(row);
         let table = rows.finish();
         assert!(table.levels() >= 4, "levels {}", table.levels());

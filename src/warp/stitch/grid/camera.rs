@@ -58,7 +58,7 @@ pub(super) struct GridCamera<'a> {
     /// The image border planes' inward unit normals (through the eye).
     planes: [Vector3<f64>; 4],
     /// The eye's distance from the output centre plus the farthest a box moves for it.
-    pub(super) offset: f64,
+    offset: f64,
     /// Per box, its move to the camera's time, in the camera's axes.
     moved: Vec<Vector3<f64>>,
     mask: Option<&'a EgoMask>,
@@ -101,8 +101,9 @@ impl<'a> GridCamera<'a> {
         };
         c.splat_points(&scene.points, centre);
         c.boxes = vec![NO_BOX_CELL; c.scan.len()];
-        for (k, (b, m)) in scene.boxes.iter().zip(c.moved.clone()).enumerate() {
-            c.cast_box((k as u16, b), centre, &m);
+        for (k, b) in scene.boxes.iter().enumerate() {
+            let moved = c.moved[k];
+            c.cast_box((k as u16, b), centre, &moved);
         }
         c
     }

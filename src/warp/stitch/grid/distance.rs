@@ -80,18 +80,17 @@ impl DistanceGrid {
             origin: vec![Origin::Empty; width * height],
             box_id: vec![NO_BOX; width * height],
         };
-        // a 360° output's columns repeat every period (its width, or more for a crop of it)
-        let period = output
-            .horizontal_period()
-            .filter(|p| p.is_finite() && *p >= width as f64);
-        g.splat(output, centre, &scene.points, period);
+        // a full turn's columns wrap (u and u ± width are one direction); a crop of a turn
+        // lies within the ±180° its projection gives (a crop past them is refused)
+        let wraps = output.horizontal_period() == Some(width as f64);
+        g.splat(output, centre, &scene.points, wraps);
         let column_gap = ((MAX_COLUMN_GAP_RAD / step.max(1e-6)) as usize).max(1);
         g.fill_columns(column_gap);
         g.fill_rows();
         // the boxes before the carry: a tall box's top return is not a wall's (its faces end
         // where the box does)
         for (k, b) in scene.boxes.iter().enumerate() {
-            g.raster_box(output, bearing, centre, b, k as u16, period);
+            g.raster_box(output, bearing, centre, b, k as u16, wraps);
         }
         g.carry_up(bearing);
         g.ground_and_far(bearing, scene);
@@ -104,7 +103,7 @@ impl DistanceGrid {
         output: &dyn CameraModel,
         centre: &Vector3<f64>,
         points: &[Vector3<f64>],
-        period: Option<f64>,
+        wraps: bool,
     ) {
         let (w, h) = (self.width as i64, self.height as i64);
         for p in points {
@@ -116,8 +115,8 @@ impl DistanceGrid {
             let Ok(px) = output.project(&(r / dist)) else {
                 continue;
             };
-            let x = period.map_or(px.x, |p| (px.x + 0.5).rem_euclid(p) - 0.5);
-            let (u, v) = (x.round() as i64, px.y.round() as i64);
+            let (u, v) = (px.x.round() as i64, px.y.round() as i64);
+            let u = if wraps { u.rem_euclid(w) } else { u };
             if !(0..h).contains(&v) || !(0..w).contains(&u) {
                 continue;
             }
@@ -275,7 +274,7 @@ impl DistanceGrid {
         centre: &Vector3<f64>,
         b: &GridBox,
         id: u16,
-        period: Option<f64>,
+        wraps: bool,
     ) {
         let (w, h) = (self.width as i64, self.height as i64);
         let rt = b.rotation.transpose();
@@ -293,39 +292,25 @@ impl DistanceGrid {
             v0 = v0.min(px.y.floor() as i64 - 1);
             v1 = v1.max(px.y.ceil() as i64 + 1);
         }
-        if let Some(p) = period {
-            // columns taken in one turn: a box across the turn's seam on one side of it
-            for u in us.iter_mut() {
-                *u = (*u + 0.5).rem_euclid(p) - 0.5;
-            }
+        if wraps {
+            // a box across the turn's seam: its columns taken on one side of it
             let (lo, hi) = min_max(&us);
-            if hi - lo > p / 2.0 {
-                for u in us.iter_mut().filter(|u| **u < p / 2.0) {
-                    *u += p;
+            if hi - lo > w as f64 / 2.0 {
+                for u in us.iter_mut().filter(|u| **u < w as f64 / 2.0) {
+                    *u += w as f64;
                 }
             }
         }
         let (lo, hi) = min_max(&us);
         let (u0, u1) = (lo.floor() as i64 - 1, hi.ceil() as i64 + 1);
-        // (a full turn's columns wrap; a crop's beyond it are not in the output)
-        let full_turn = period.is_some_and(|p| p == w as f64);
-        let (u0, u1) = if full_turn {
+        let (u0, u1) = if wraps {
             (u0, u1.min(u0 + w - 1))
         } else {
-            (u0, u1)
+            (u0.max(0), u1.min(w - 1))
         };
         for v in v0.max(0)..=v1.min(h - 1) {
             for uu in u0..=u1 {
-                let u = match (full_turn, period) {
-                    (true, _) => uu.rem_euclid(w),
-                    // a crop of a turn: its columns one turn on, where the box lies past it
-                    (false, Some(p)) if uu >= w => uu - p as i64,
-                    _ => uu,
-                };
-                if !(0..w).contains(&u) {
-                    continue;
-                }
-                let u = u as usize;
+                let u = uu.rem_euclid(w) as usize;
                 let i = v as usize * self.width + u;
                 let dir = bearing.at(u as isize, v as isize);
                 if !dir.x.is_finite() {
