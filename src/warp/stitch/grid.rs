@@ -17,8 +17,10 @@
 //!    from its eye, nearest depth per 8×8 source pixels) holds a surface nearer than X's depth
 //!    by more than 0.3 m plus a tenth of that depth. Occluded cameras give the pixel nothing
 //!    where another camera sees it, else they blend (the fallback rule, [`FALLBACK_SOURCE`]).
-//! 5. A pixel no camera's image holds at its distance is stitched at the proxy distance, then
-//!    at 1 km (the far fill, [`FAR_SOURCE`]).
+//! 5. A pixel no camera's image holds at its distance (nor, on a moving box, where C2 sees it)
+//!    is stitched at the proxy distance (the far fill, [`FAR_SOURCE`]). Its colour is not the
+//!    surface at its distance, whose depth a depth map may hold: so no farther try (the sky's
+//!    rays are at 10 km already).
 //!
 //! Cameras are culled per tile of [`TILE`]×[`TILE`] output pixels by their border planes,
 //! widened by the tile's angular radius and the parallax of the camera's offset at the tile's
@@ -44,9 +46,6 @@ use rayon::prelude::*;
 
 /// Output tile side of the cameras' cull, pixels.
 const TILE: usize = 16;
-/// The far fill's second distance (where the proxy distance is outside every image: the sky
-/// over a camera's top edge), metres.
-const SKY: f64 = 1000.0;
 
 /// The distance from the output centre along a unit bearing to the ground, where the ray
 /// meets it.
@@ -303,14 +302,9 @@ fn row(
             at(grid.d[i] as f64, None, found);
         }
         if found.is_empty() {
-            for d in [options.distance, SKY] {
-                at(d, None, found);
-                if !found.is_empty() {
-                    far[u] = true;
-                    found.iter_mut().for_each(|(_, view)| view.occluded = false);
-                    break;
-                }
-            }
+            at(options.distance, None, found);
+            far[u] = !found.is_empty();
+            found.iter_mut().for_each(|(_, view)| view.occluded = false);
         }
         for (k, view) in found.iter() {
             samples[*k][u] = Some(Sample {
