@@ -190,6 +190,9 @@ fn tables_and_weights(
         )
         .collect();
     let mut sampled = sampled;
+    for (k, table) in sampled.iter_mut().enumerate() {
+        table.reserve(rows.iter().map(|r| r.blocks[k].rounds()).sum());
+    }
     // (zeroed pages: a camera's weights are written only where it samples)
     let mut weights: Vec<Vec<f32>> = vec![vec![0.0; w * h]; cameras.len()];
     let mut far = Vec::with_capacity(w * h);

@@ -34,6 +34,15 @@ pub(crate) struct RowBlocks {
     gaps: Vec<(u32, u32)>,
     reach: u32,
     top_level: u32,
+    /// The rounds the row's groups take (each its pixels' most blocks).
+    rounds: usize,
+}
+
+impl RowBlocks {
+    /// The rounds the row adds to its table.
+    pub(crate) fn rounds(&self) -> usize {
+        self.rounds
+    }
 }
 
 /// A table being built row by row from samples.
@@ -80,23 +89,33 @@ impl SampledRows {
             if let Some(first) = gap.take() {
                 out.gaps.push((first, g as u32));
             }
+            let mut depth = 0;
             for s in group {
                 let before = out.quads.len();
                 match s {
                     Some(s) => self.blocks(s, &mut out),
                     None => out.quads.push(Quad::default()),
                 }
-                out.counts.push((out.quads.len() - before) as u8);
+                let blocks = out.quads.len() - before;
+                depth = depth.max(blocks);
+                out.counts.push(blocks as u8);
                 out.cover.push(match s {
                     Some(_) => Cover::Full,
                     None => Cover::None,
                 });
             }
+            out.rounds += depth;
         }
         if let Some(first) = gap {
             out.gaps.push((first, groups as u32));
         }
         out
+    }
+
+    /// Makes room for `rounds` more rounds (the rows' [`RowBlocks::rounds`] to come): the
+    /// table grows once, not by doubling copies.
+    pub(crate) fn reserve(&mut self, rounds: usize) {
+        self.table.rounds.reserve_exact(rounds);
     }
 
     /// Appends the next row's blocks.
