@@ -282,11 +282,12 @@ fn row(
     let mut far = vec![false; w];
     for u in 0..w {
         let i = v * w + u;
-        if grid.origin[i] == Origin::Empty {
+        let mask = tiles[(v / TILE) * tw + u / TILE];
+        // (no camera may hold the tile's points: most of a whole sphere's rows)
+        if mask == 0 || grid.origin[i] == Origin::Empty {
             continue;
         }
         let b = bearing.at(u as isize, v as isize);
-        let mask = tiles[(v / TILE) * tw + u / TILE];
         let pixel = bearing.pixel_angle(u as isize, v as isize);
         let moved = (grid.box_id[i] != NO_BOX).then_some(grid.box_id[i] as usize);
         let at = |d: f64, moved: Option<usize>, found: &mut Vec<(usize, View)>| {

@@ -49,6 +49,8 @@ const MAX_ROW_GAP: usize = 3;
 const MIN_RANGE: f64 = 0.3;
 /// The farthest ground distance taken, metres.
 const GROUND_LIMIT: f64 = 100.0;
+/// Side of the cells whose corners the ground is cast at, output pixels.
+const GROUND_CELL: usize = 4;
 
 /// The grid, row-major, the output's size.
 pub(super) struct DistanceGrid {
@@ -241,26 +243,79 @@ impl DistanceGrid {
     }
 
     /// What is still empty: the ground where the ray meets it (under [`GROUND_LIMIT`]), else
-    /// the far distance; a pixel without a bearing stays empty.
+    /// the far distance; a pixel without a bearing stays empty. The ground is cast at the
+    /// corners of cells of [`GROUND_CELL`] pixels; a cell whose four corners all meet it takes
+    /// 1/t interpolated bilinearly between them (the ground's 1/t is nearly linear across a
+    /// cell: a plane's is linear in the bearing), the others cast every pixel.
     fn ground_and_far(&mut self, bearing: Bearings, scene: &GridScene) {
-        let w = self.width;
-        for (i, o) in self.origin.iter_mut().enumerate() {
-            if *o != Origin::Empty {
-                continue;
+        let (w, h) = (self.width, self.height);
+        let cast = |u: usize, v: usize| -> Option<f64> {
+            let b = bearing.at(u as isize, v as isize);
+            let ground = scene.ground.as_ref()?;
+            (b.x.is_finite())
+                .then(|| ground(&b))
+                .flatten()
+                .filter(|t| *t > 0.0 && *t < GROUND_LIMIT)
+        };
+        let (cw, ch) = (w.div_ceil(GROUND_CELL), h.div_ceil(GROUND_CELL));
+        // the corners' casts, made on first use (positions up to the width and height: the
+        // output's bearings reach one pixel beyond)
+        let mut corners: Vec<Option<Option<f64>>> = vec![None; (cw + 1) * (ch + 1)];
+        let mut corner = |i: usize, j: usize| {
+            *corners[j * (cw + 1) + i]
+                .get_or_insert_with(|| cast((i * GROUND_CELL).min(w), (j * GROUND_CELL).min(h)))
+        };
+        for cv in 0..ch {
+            let rows = cv * GROUND_CELL..((cv + 1) * GROUND_CELL).min(h);
+            for cu in 0..cw {
+                let columns = cu * GROUND_CELL..((cu + 1) * GROUND_CELL).min(w);
+                let empty = rows
+                    .clone()
+                    .any(|v| self.origin[v * w..][columns.clone()].contains(&Origin::Empty));
+                if !empty {
+                    continue;
+                }
+                let at = [
+                    corner(cu, cv),
+                    corner(cu + 1, cv),
+                    corner(cu, cv + 1),
+                    corner(cu + 1, cv + 1),
+                ];
+                let inverse = match at {
+                    [Some(a), Some(b), Some(c), Some(d)] => {
+                        Some([1.0 / a, 1.0 / b, 1.0 / c, 1.0 / d])
+                    }
+                    _ => None,
+                };
+                let (u0, v0) = (cu * GROUND_CELL, cv * GROUND_CELL);
+                let (du, dv) = (
+                    ((u0 + GROUND_CELL).min(w) - u0) as f64,
+                    ((v0 + GROUND_CELL).min(h) - v0) as f64,
+                );
+                for v in rows.clone() {
+                    for u in columns.clone() {
+                        let i = v * w + u;
+                        if self.origin[i] != Origin::Empty
+                            || !bearing.at(u as isize, v as isize).x.is_finite()
+                        {
+                            continue;
+                        }
+                        let ground = match inverse {
+                            Some([a, b, c, d]) => {
+                                let (fx, fy) = ((u - u0) as f64 / du, (v - v0) as f64 / dv);
+                                let top = a + (b - a) * fx;
+                                let bottom = c + (d - c) * fx;
+                                Some(1.0 / (top + (bottom - top) * fy))
+                            }
+                            None => cast(u, v),
+                        };
+                        (self.d[i], self.origin[i]) = match ground {
+                            Some(t) => (t as f32, Origin::Ground),
+                            None => (FAR_DISTANCE, Origin::Far),
+                        };
+                    }
+                }
             }
-            let b = bearing.at((i % w) as isize, (i / w) as isize);
-            if !b.x.is_finite() {
-                continue;
-            }
-            let ground = scene
-                .ground
-                .as_ref()
-                .and_then(|g| g(&b))
-                .filter(|t| *t > 0.0 && *t < GROUND_LIMIT);
-            (self.d[i], *o) = match ground {
-                Some(t) => (t as f32, Origin::Ground),
-                None => (FAR_DISTANCE, Origin::Far),
-            };
         }
     }
 
