@@ -162,8 +162,9 @@ impl<'a> GridCamera<'a> {
         }
         let t = (border / scale / blend).min(1.0);
         let depth = q.z as f32;
-        // the cells the sample's footprint reaches (its level's pixel and the bilinear tap)
-        let (scan, (boxed, by)) = self.nearest_around(x, y, 1.0 + spread.max(1.0), on_box);
+        // the cells within the sample's footprint: half its spread and the bilinear tap (the
+        // tails of its trilinear taps beyond weigh little)
+        let (scan, (boxed, by)) = self.nearest_around(x, y, 1.0 + spread / 2.0, on_box);
         // (a camera at the output centre sees along the output's own ray: nothing hides
         // the point from it)
         let occluded = self.offset > AT_CENTRE
