@@ -107,9 +107,8 @@ def test_the_mask_is_the_panorama_s_coverage(rig):
         frame = ds.frames[i]
         # the pixels a camera is seen to give (the far fill's and the fallback's aside)
         coverage = panoconv.read_image(frame.source_map)[..., 0] < 64
-        # the cameras cover a band: black above and below (the grid-guided stitch's fallback,
-        # 2-3 % of this 512-px panorama on grazing ground, is not counted)
-        assert 0.15 < coverage.mean() < 0.9
+        # the cameras cover a band: black above and below
+        assert 0.2 < coverage.mean() < 0.9
         for epoch in range(4):
             ds.set_epoch(epoch)
             x = ds[i]

@@ -13,8 +13,8 @@
 //! 3. Its weight is the stitch's margin weight (step 3 of the stitch's model, the margin the
 //!    border distance over the pinhole's scale f/cos²θ), 0 where its ego mask lies within
 //!    1 + max(1, s) pixels of the sample (s source pixels an output pixel).
-//! 4. Camera i is occluded at the pixel when its occlusion buffer (the scan and the boxes seen
-//!    from its eye, nearest depth per 8×8 source pixels) holds a surface nearer than X's depth
+//! 4. Camera i is occluded at the pixel when its occlusion buffer (the scan but its ground
+//!    returns, and the boxes, seen from its eye, nearest depth per 8×8 source pixels) holds a surface nearer than X's depth
 //!    by more than 0.3 m plus a tenth of that depth. Occluded cameras give the pixel nothing
 //!    where another camera sees it, else they blend (the fallback rule, [`FALLBACK_SOURCE`]).
 //! 5. A pixel no camera's image holds at its distance (nor, on a moving box, where C2 sees it)
@@ -55,6 +55,10 @@ pub type GroundHit = Box<dyn Fn(&Vector3<f64>) -> Option<f64> + Sync + Send>;
 pub struct GridScene {
     /// The scan's returns (the vehicle's own removed).
     pub points: Vec<Vector3<f64>>,
+    /// Per return, whether it lies on the ground (within a band of the local ground): the
+    /// ground hides nothing a camera sees beyond it, and a column gap between two of its
+    /// returns takes the ground's distance.
+    pub on_ground: Vec<bool>,
     /// The boxes.
     pub boxes: Vec<GridBox>,
     /// The distance from the output centre along a unit bearing to the ground, where it meets

@@ -1,9 +1,11 @@
 //! A frame's scene for the grid-guided stitch ([`GridScene`]): the scan without its lone
 //! returns (`noise.rs`: one return is noise, not a surface), without the returns in a box
-//! (its faces are exact) or swept by a moving one, the boxes with each camera's move to its time (`motion.rs`), and the ground
-//! fitted locally (`ground.rs`) where the scan has no return.
+//! (its faces are exact) or swept by a moving one, the boxes with each camera's move to its
+//! time (`motion.rs`), and the ground fitted locally (`ground.rs`) where the scan has no
+//! return; the returns within [`GROUND_BAND`] of it marked as the ground's.
 
 use super::{ByX, LocalGround, Motion, Noise, Solid};
+use crate::convert::rig::ground::GROUND_BAND;
 use crate::source::Frame;
 use crate::warp::{GridBox, GridScene, GroundHit};
 use nalgebra::Vector3;
@@ -35,9 +37,17 @@ pub(super) fn grid_scene(frame: &Frame, centre: &Vector3<f64>, eyes: &[Vector3<f
             moved: (0..eyes.len()).map(|i| motion.shift(i, k)).collect(),
         })
         .collect();
+    let on_ground = match &ground {
+        Some(g) => points
+            .iter()
+            .map(|p| g.height(p).abs() < GROUND_BAND)
+            .collect(),
+        None => vec![false; points.len()],
+    };
     let origin = *centre;
     GridScene {
         points,
+        on_ground,
         boxes,
         ground: ground.map(|g| Box::new(move |d: &Vector3<f64>| g.hit(&origin, d)) as GroundHit),
     }

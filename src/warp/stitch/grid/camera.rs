@@ -1,7 +1,7 @@
 //! One pinhole camera of a grid-guided stitch: where it sees a point of the scene (a few flops
 //! a pixel), how wide an output pixel is in its image, its blend weight there, and its two
 //! occlusion buffers, the nearest depth per cell of [`CELL`]×[`CELL`] source pixels: of the
-//! scan's returns, each splatted over half its rings' and azimuth steps' spacing (noisy: a
+//! scan's returns but the ground's, each splatted over half its rings' and azimuth steps' spacing (noisy: a
 //! wide margin), and of the boxes where they were when it fired, ray-cast at each cell's
 //! corners and middle (exact: a narrow margin, and never against the point's own box).
 
@@ -99,7 +99,7 @@ impl<'a> GridCamera<'a> {
             boxes: Vec::new(),
             buffer_width: 0,
         };
-        c.splat_points(&scene.points, centre);
+        c.splat_points(scene, centre);
         c.boxes = vec![NO_BOX_CELL; c.scan.len()];
         for (k, b) in scene.boxes.iter().enumerate() {
             let moved = c.moved[k];
@@ -209,10 +209,11 @@ impl<'a> GridCamera<'a> {
         (scan, boxed)
     }
 
-    /// The scan's returns into the buffer: each return's depth, nearest per cell, over
+    /// The scan's returns but the ground's into the buffer: each return's depth, nearest per
+    /// cell, over
     /// ±[`SPLAT_ACROSS`] vertically and ±[`SPLAT_ALONG`] horizontally, so that a surface
     /// between rings covers its cells.
-    fn splat_points(&mut self, points: &[Vector3<f64>], centre: &Vector3<f64>) {
+    fn splat_points(&mut self, scene: &GridScene, centre: &Vector3<f64>) {
         let (bw, bh) = (
             (self.width as usize).div_ceil(CELL),
             (self.height as usize).div_ceil(CELL),
@@ -224,7 +225,10 @@ impl<'a> GridCamera<'a> {
             self.k.fv * SPLAT_ACROSS / cell,
             self.k.fu * SPLAT_ALONG / cell,
         );
-        for p in points {
+        // (the ground's returns hide nothing: a road seen at a grazing angle is rings metres
+        // apart, each nearer than the road beyond it)
+        let above_ground = (scene.points.iter().zip(&scene.on_ground)).filter(|(_, g)| !**g);
+        for (p, _) in above_ground {
             let q = self.rotation * (p - centre) + self.origin;
             if q.z < 0.3 {
                 continue;

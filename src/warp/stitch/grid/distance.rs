@@ -1,7 +1,8 @@
 //! The scene's distance from the output centre at every output pixel centre, built in the
 //! output's own grid once a frame: each return of the scan in its nearest pixel (nearest
 //! wins), the gaps along a column between two returns closed where they lie on one surface
-//! (linearly in inverse distance; else each side's distance to the gap's middle), short gaps
+//! (linearly in inverse distance; else each side's distance to the gap's middle, or the
+//! ground's between two of the ground's returns: a road at a grazing angle), short gaps
 //! along rows, the boxes ray-cast exactly (nearest wins), a wall's top return carried up where
 //! the scan's top ring ends on it, then the ground where the ray meets it, and the far
 //! distance elsewhere. A scan's rings are degrees apart (1.33° for nuScenes' HDL-32E, 7.6 px
@@ -61,6 +62,8 @@ pub(super) struct DistanceGrid {
     /// The box whose face gives the pixel's distance (its index in the scene's boxes), or
     /// [`NO_BOX`].
     pub(super) box_id: Vec<u16>,
+    /// Whether the pixel's return is the ground's.
+    ground_return: Vec<bool>,
 }
 
 impl DistanceGrid {
@@ -81,11 +84,12 @@ impl DistanceGrid {
             d: vec![0.0; width * height],
             origin: vec![Origin::Empty; width * height],
             box_id: vec![NO_BOX; width * height],
+            ground_return: vec![false; width * height],
         };
         // a full turn's columns wrap (u and u ± width are one direction); a crop of a turn
         // lies within the ±180° its projection gives (a crop past them is refused)
         let wraps = output.horizontal_period() == Some(width as f64);
-        g.splat(output, centre, &scene.points, wraps);
+        g.splat(output, centre, (&scene.points, &scene.on_ground), wraps);
         let column_gap = ((MAX_COLUMN_GAP_RAD / step.max(1e-6)) as usize).max(1);
         g.fill_columns(column_gap);
         g.fill_rows();
@@ -104,11 +108,11 @@ impl DistanceGrid {
         &mut self,
         output: &dyn CameraModel,
         centre: &Vector3<f64>,
-        points: &[Vector3<f64>],
+        (points, on_ground): (&[Vector3<f64>], &[bool]),
         wraps: bool,
     ) {
         let (w, h) = (self.width as i64, self.height as i64);
-        for p in points {
+        for (k, p) in points.iter().enumerate() {
             let r = p - centre;
             let dist = r.norm();
             if !(dist >= MIN_RANGE) {
@@ -127,13 +131,16 @@ impl DistanceGrid {
             if self.origin[i] == Origin::Empty || d < self.d[i] {
                 self.d[i] = d;
                 self.origin[i] = Origin::Return;
+                self.ground_return[i] = on_ground.get(k).copied().unwrap_or(false);
             }
         }
     }
 
     /// Closes each column's gaps of at most `max_gap` rows between two returns: in inverse
     /// distance, linearly, where the two lie on one surface (their relative difference under a
-    /// bound growing with the gap), else each side's distance to the gap's middle.
+    /// bound growing with the gap), else each side's distance to the gap's middle; but a gap
+    /// between two returns of the ground that are not one surface by that bound (rings on a
+    /// road seen at a grazing angle) is left to the ground model.
     fn fill_columns(&mut self, max_gap: usize) {
         let (w, h) = (self.width, self.height);
         for u in 0..w {
@@ -163,6 +170,9 @@ impl DistanceGrid {
         // the bound grows with the gap: a surface seen at a grazing angle (the road) changes
         // its distance along the column
         let one_surface = rel < 0.03 + 0.02 * gap as f32;
+        if !one_surface && self.ground_return[l * w + u] && self.ground_return[v * w + u] {
+            return;
+        }
         for k in 1..=gap {
             let t = k as f32 / (gap + 1) as f32;
             let s = match (one_surface, t < 0.5) {
@@ -409,6 +419,62 @@ pub(super) fn slab(o: &Vector3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::{Equirect, ImageSize, Intrinsics};
+    use crate::warp::reach::OutputGrid;
+    use nalgebra::Point2;
+
+    /// A road 1.5 m under the centre seen at a grazing angle: two returns on it in one
+    /// column, rows apart and far from one surface by the column fill's bound (1/t differs by
+    /// more than half). Where they are the ground's, the pixels between take the ground's
+    /// distance; as any other returns, each side's distance (the step the ground's returns
+    /// made before: the cameras then sampled the road at a wrong distance).
+    #[test]
+    fn a_ring_gap_on_the_road_takes_the_ground_between_its_returns() {
+        let f = 360.0 / (2.0 * std::f64::consts::PI);
+        let output = Equirect::new(Intrinsics::new(f, f, 179.5, 89.5), ImageSize::new(360, 180));
+        let out_grid = OutputGrid::of(&output);
+        let bearing = Bearings { grid: &out_grid };
+        let road = |b: &Vector3<f64>| (b.y > 1e-3).then(|| 1.5 / b.y);
+        // (the reference frame's y points down: rows below the horizon, 2° and 7° down)
+        let (u, rows) = (100usize, [91usize, 96]);
+        let point = |v: usize| {
+            let b = output
+                .unproject(&Point2::new(u as f64, v as f64))
+                .unwrap()
+                .normalize();
+            b * road(&b).unwrap()
+        };
+        let build = |on_ground: bool| {
+            let scene = GridScene {
+                points: rows.iter().map(|&v| point(v)).collect(),
+                on_ground: vec![on_ground; 2],
+                boxes: Vec::new(),
+                ground: Some(Box::new(road)),
+            };
+            DistanceGrid::build(&output, bearing, &Vector3::zeros(), &scene, out_grid.step)
+        };
+        let (ground, other) = (build(true), build(false));
+        for v in rows[0] + 1..rows[1] {
+            let i = v * 360 + u;
+            let b = bearing.at(u as isize, v as isize);
+            let want = road(&b).unwrap() as f32;
+            assert_eq!(ground.origin[i], Origin::Ground, "row {v}");
+            assert!(
+                (ground.d[i] - want).abs() < 0.01 * want,
+                "row {v}: {} vs {want}",
+                ground.d[i]
+            );
+            assert_eq!(other.origin[i], Origin::Fill, "row {v}");
+            assert!(
+                (other.d[i] - want).abs() > 0.1 * want,
+                "row {v}: {} vs {want}",
+                other.d[i]
+            );
+        }
+        for v in rows {
+            assert_eq!(ground.origin[v * 360 + u], Origin::Return);
+        }
+    }
 
     #[test]
     fn the_slab_test_meets_a_box_at_its_near_face() {
