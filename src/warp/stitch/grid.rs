@@ -55,6 +55,10 @@ pub type GroundHit = Box<dyn Fn(&Vector3<f64>) -> Option<f64> + Sync + Send>;
 pub struct GridScene {
     /// The scan's returns (the vehicle's own removed).
     pub points: Vec<Vector3<f64>>,
+    /// The scan's ring spacing, measured from it (the median elevation gap between
+    /// neighbouring rings), radians: how far a return's surface reaches across the rings,
+    /// and how uncertain its bearing is.
+    pub ring_spacing: f64,
     /// Per return, whether it lies on the ground (within a band of the local ground): the
     /// ground hides nothing a camera sees beyond it, and a column gap between two of its
     /// returns takes the ground's distance.

@@ -47,6 +47,7 @@ pub(super) fn grid_scene(frame: &Frame, centre: &Vector3<f64>, eyes: &[Vector3<f
     let origin = *centre;
     GridScene {
         points,
+        ring_spacing: noise.spacing,
         on_ground,
         boxes,
         ground: ground.map(|g| Box::new(move |d: &Vector3<f64>| g.hit(&origin, d)) as GroundHit),

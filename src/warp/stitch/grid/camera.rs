@@ -19,7 +19,8 @@ const CELL: usize = 8;
 const SPLAT_ACROSS: f64 = 0.0061;
 const SPLAT_ALONG: f64 = 0.0026;
 /// A return in a camera's scan buffer hides the point only when nearer by more than this
-/// margin plus [`SCAN_SHARE`] of the point's depth (the scan's noise and the buffer's cells).
+/// margin plus [`SCAN_SHARE`] and the ring spacing (radians) of the point's depth (the scan's
+/// noise, the buffer's cells, and a return's bearing uncertain by up to a spacing).
 const SCAN_MARGIN: f32 = 0.3;
 const SCAN_SHARE: f32 = 0.1;
 /// A box in its box buffer, by more than this margin plus [`BOX_SHARE`] of the depth.
@@ -62,6 +63,8 @@ pub(super) struct GridCamera<'a> {
     /// Per box, its move to the camera's time, in the camera's axes.
     moved: Vec<Vector3<f64>>,
     mask: Option<&'a EgoMask>,
+    /// [`SCAN_SHARE`] and the scan's ring spacing.
+    scan_share: f32,
     /// The scan's buffer, and the boxes' (depth, box index), row-major.
     scan: Vec<f32>,
     boxes: Vec<(f32, u16)>,
@@ -95,6 +98,7 @@ impl<'a> GridCamera<'a> {
             offset: origin.norm() + moved.iter().map(|m| m.norm()).fold(0.0, f64::max),
             moved,
             mask,
+            scan_share: SCAN_SHARE + scene.ring_spacing as f32,
             scan: Vec::new(),
             boxes: Vec::new(),
             buffer_width: 0,
@@ -168,7 +172,7 @@ impl<'a> GridCamera<'a> {
         // (a camera at the output centre sees along the output's own ray: nothing hides
         // the point from it)
         let occluded = self.offset > AT_CENTRE
-            && (scan < depth - (SCAN_MARGIN + SCAN_SHARE * depth)
+            && (scan < depth - (SCAN_MARGIN + self.scan_share * depth)
                 || (boxed < depth - (BOX_MARGIN + BOX_SHARE * depth)
                     && on_box != Some(by as usize)));
         Some(View {
@@ -221,10 +225,8 @@ impl<'a> GridCamera<'a> {
         self.buffer_width = bw;
         self.scan = vec![f32::MAX; bw * bh];
         let cell = CELL as f64;
-        let (hv, hu) = (
-            self.k.fv * SPLAT_ACROSS / cell,
-            self.k.fu * SPLAT_ALONG / cell,
-        );
+        let across = SPLAT_ACROSS.max(scene.ring_spacing / 2.0);
+        let (hv, hu) = (self.k.fv * across / cell, self.k.fu * SPLAT_ALONG / cell);
         // (the ground's returns hide nothing: a road seen at a grazing angle is rings metres
         // apart, each nearer than the road beyond it)
         let above_ground = (scene.points.iter().zip(&scene.on_ground)).filter(|(_, g)| !**g);
@@ -359,4 +361,81 @@ fn border_planes(k: &Intrinsics, w: f64, h: f64) -> [Vector3<f64>; 4] {
         Vector3::new(0.0, 1.0, -yt).normalize(),
         Vector3::new(0.0, -1.0, yb).normalize(),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{CameraModel, ImageSize, Perspective};
+
+    /// A facade 5 m ahead scanned by rings `spacing` apart (the scene's measured spacing
+    /// `measured`), seen by a pinhole 0.5 m beside the output centre.
+    fn facade_camera(spacing: f64, measured: f64, test: impl FnOnce(&GridCamera)) {
+        let lens = Perspective::new(
+            Intrinsics::new(500.0, 500.0, 319.5, 239.5),
+            ImageSize::new(640, 480),
+        );
+        let camera = StitchCamera {
+            model: &lens,
+            rotation: Matrix3::identity(),
+            translation: Vector3::new(-0.5, 0.0, 0.0),
+            max_theta: None,
+        };
+        let mut points = Vec::new();
+        for ring in -3..=3 {
+            let elevation = ring as f64 * spacing;
+            for step in -100..=100 {
+                let azimuth = (step as f64 * 0.1f64).to_radians();
+                // (the reference frame's y points down)
+                let d = Vector3::new(
+                    azimuth.sin() * elevation.cos(),
+                    -elevation.sin(),
+                    azimuth.cos() * elevation.cos(),
+                );
+                points.push(d * (5.0 / d.z));
+            }
+        }
+        let scene = GridScene {
+            on_ground: vec![false; points.len()],
+            points,
+            ring_spacing: measured,
+            boxes: Vec::new(),
+            ground: None,
+        };
+        let k = lens.pinhole().unwrap();
+        test(&GridCamera::new(
+            (0, &camera, k),
+            &Vector3::zeros(),
+            &scene,
+            None,
+        ));
+    }
+
+    /// Whether the camera finds the point `distance` along bearing (azimuth 0, `elevation`)
+    /// hidden.
+    fn hidden(camera: &GridCamera, elevation: f64, distance: f64) -> bool {
+        let b = Vector3::new(0.0, -elevation.sin(), elevation.cos());
+        let view = camera
+            .view(&b, distance, None, (1e-3, 0.1))
+            .expect("in the image");
+        view.occluded
+    }
+
+    #[test]
+    fn rings_far_apart_cover_the_facade_between_them_and_widen_the_margin() {
+        let spacing = 3f64.to_radians();
+        let middle = spacing / 2.0;
+        // the facade between two rings hides the point 10 m behind it only when the buffer
+        // knows the rings are 3° apart (half a spacing each side of a ring): with the
+        // splat's least extent the middle of the gap is open
+        facade_camera(spacing, spacing, |c| assert!(hidden(c, middle, 10.0)));
+        facade_camera(spacing, 0.0, |c| assert!(!hidden(c, middle, 10.0)));
+        // on a ring: a return 1.1 m in front of a point 6.1 m away hides it where the
+        // margin is 0.3 m and 10 % (+ 0.2 % for rings 0.1° apart), not where it grows by
+        // the 3° spacing's 5.2 % of the depth
+        facade_camera(spacing, 0.1f64.to_radians(), |c| {
+            assert!(hidden(c, 0.0, 6.1))
+        });
+        facade_camera(spacing, spacing, |c| assert!(!hidden(c, 0.0, 6.1)));
+    }
 }

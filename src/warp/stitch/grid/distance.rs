@@ -448,6 +448,7 @@ mod tests {
             let scene = GridScene {
                 points: rows.iter().map(|&v| point(v)).collect(),
                 on_ground: vec![on_ground; 2],
+                ring_spacing: 0.01,
                 boxes: Vec::new(),
                 ground: Some(Box::new(road)),
             };
