@@ -14,11 +14,16 @@ and a cylindrical view at 640x480 (yaw, pitch, roll, principal point and lens dr
 - cached: one table applied again and again (panoconv's `Warp.image`, `cv2.remap` with the
   precomputed float maps, and with the fixed-point maps of `cv2.convertMaps`).
 
-Per core: one process, OpenCV single-threaded, CPU seconds (`time.process_time`), so other
+Per core: one process, one thread (OpenCV single-threaded; benches/random_cameras.sh sets
+OPENBLAS_NUM_THREADS and RAYON_NUM_THREADS to 1), CPU seconds (`time.process_time`), so other
 load on the machine changes the figures less than wall time would (the load average is
-printed). Then a 4-worker loader of `RandomCameraDataset` against 1 worker: the same arrays.
+printed). Every way runs once a round after an untimed first run, the rounds interleaved
+(`--rounds`, 5): the rates are the rounds' medians, each ratio the median of its rounds'
+ratios (with their range), since a run of 20 samples lasts a fraction of a second and the
+machine's speed drifts between runs. Then a 4-worker loader of `RandomCameraDataset` against
+1 worker: the same arrays.
 
-    benches/random_cameras.sh [--kitti DIR] [--samples N]
+    benches/random_cameras.sh [--kitti DIR] [--samples N] [--rounds R]
 
 builds the module in release, as `pip install .` does, and runs this with numpy and
 opencv-python beside it; `PYTHONPATH=python python benches/random_cameras.py` runs it with the
@@ -31,6 +36,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing as mp
 import os
+import statistics
 import time
 from pathlib import Path
 
@@ -188,7 +194,7 @@ def per_core(fn, n):
     return n / (time.process_time() - t)
 
 
-def bench_family(name, sampler, frames, n):
+def bench_family(name, sampler, frames, n, rounds):
     draws = [sampler.draw(sample_seed(7, 0, i)) for i in range(n)]
     cams = [panoconv.random_cameras.camera_of(d) for d in draws]
 
@@ -206,11 +212,25 @@ def bench_family(name, sampler, frames, n):
         src, image, _, objs, _ = frames[i % len(frames)]
         numpy_sample(src, cams[i], draws[i], image, objs)
 
-    rates = {
-        "panoconv, defaults (pyramid)": per_core(ours({}), n),
-        "panoconv, antialias='taps'": per_core(ours({"antialias": "taps"}), n),
-        "panoconv, supersample 1": per_core(ours({"supersample": 1}), n),
-        "numpy + cv2.remap": per_core(theirs, n),
+    ways = {
+        "panoconv, defaults (pyramid)": ours({}),
+        "panoconv, antialias='taps'": ours({"antialias": "taps"}),
+        "panoconv, supersample 1": ours({"supersample": 1}),
+        "numpy + cv2.remap": theirs,
+    }
+    # rounds of every way in turn: a change of the machine's speed between two ways' runs
+    # moves one round's ratios, not the median's
+    per_round = {k: [] for k in ways}
+    # (a first run of each way, untimed: lazily built caches and the allocator's first pages)
+    for fn in ways.values():
+        per_core(fn, min(n, 3))
+    for _ in range(rounds):
+        for k, fn in ways.items():
+            per_round[k].append(per_core(fn, n))
+    rates = {k: statistics.median(v) for k, v in per_round.items()}
+    base_rounds = per_round["numpy + cv2.remap"]
+    ratios = {
+        k: sorted(r / b for r, b in zip(v, base_rounds)) for k, v in per_round.items()
     }
     # one table kept: apply only
     src, image, _, _, _ = frames[0]
@@ -237,11 +257,12 @@ def bench_family(name, sampler, frames, n):
     diff = np.abs(ours_img - theirs_img.astype(int))[both].mean() if both.any() else float("nan")
     print(f"\n{name} ({n} drawn cameras, {warp.coverage:.0%} of the first one covered;"
           f" mean |panoconv - numpy way| {diff:.2f} grey levels where both sample)")
-    base = rates["numpy + cv2.remap"]
     for k, v in rates.items():
         rel = ""
-        if not k.startswith("cached"):
-            rel = f"  {v / base:5.2f}x the numpy way"
+        if k in ratios:
+            r = ratios[k]
+            rel = (f"  {statistics.median(r):5.2f}x the numpy way"
+                   f" (rounds {r[0]:.2f}-{r[-1]:.2f})")
         print(f"  {k:38s} {v:9.1f} samples/s per core{rel}")
     cached = rates["cached: Warp.image"]
     for k in ("cached: cv2.remap float maps", "cached: cv2.remap fixed-point maps"):
@@ -294,6 +315,8 @@ def main():
     ap.add_argument("--kitti", type=Path, default=REPO.parent / "shared" / "kitti")
     ap.add_argument("--samples", type=int, default=20, help="drawn cameras per family")
     ap.add_argument("--workers", type=int, default=4)
+    ap.add_argument("--rounds", type=int, default=5,
+                    help="interleaved rounds of every way; medians are printed")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}"
@@ -303,7 +326,7 @@ def main():
     frames = load_frames(args.kitti)
     print(f"{len(frames)} real KITTI frames, drawn cameras at {SIZE[0]}x{SIZE[1]}")
     for name, sampler in SAMPLERS.items():
-        bench_family(name, sampler, frames, args.samples)
+        bench_family(name, sampler, frames, args.samples, args.rounds)
     loader(args.kitti, 2 * args.samples, args.workers)
 
 

@@ -5,7 +5,7 @@
 # tests' module (scripts/install_python_package.sh's dev-profile build) is left alone. The
 # Python that runs it is $PYTHON, else benches/.venv (opencv-python-headless and numpy, pinned; set up on
 # first use as benches/run.sh does).
-#   benches/random_cameras.sh [--kitti DIR] [--samples N] [--workers N]
+#   benches/random_cameras.sh [--kitti DIR] [--samples N] [--workers N] [--rounds R]
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"
@@ -24,4 +24,7 @@ rm -rf "$package"
 mkdir -p "$package"
 cp "$root"/python/panoconv/*.py "$root/python/panoconv/py.typed" "$package/"
 cp "$target/release/lib_native.so" "$package/_native.abi3.so"
+# per core: one thread (numpy's BLAS and panoconv's rayon pool would otherwise add threads
+# whose idle spinning counts as the process's CPU time)
+export OPENBLAS_NUM_THREADS=1 RAYON_NUM_THREADS=1
 PYTHONPATH="$target/bench-python" exec "$PYTHON" "$here/random_cameras.py" "$@"
