@@ -63,6 +63,10 @@ pub struct GridScene {
     /// ground hides nothing a camera sees beyond it, and a column gap between two of its
     /// returns takes the ground's distance.
     pub on_ground: Vec<bool>,
+    /// The ground's plane normal, where it has one: a return of the ground moves to its
+    /// pixel's centre along the plane (the centre's distance differs by up to half a pixel's
+    /// grade, metres on a road seen at a grazing angle).
+    pub ground_normal: Option<Vector3<f64>>,
     /// The boxes.
     pub boxes: Vec<GridBox>,
     /// The distance from the output centre along a unit bearing to the ground, where it meets

@@ -49,6 +49,7 @@ pub(super) fn grid_scene(frame: &Frame, centre: &Vector3<f64>, eyes: &[Vector3<f
         points,
         ring_spacing: noise.spacing,
         on_ground,
+        ground_normal: ground.as_ref().map(|g| g.plane.normal),
         boxes,
         ground: ground.map(|g| Box::new(move |d: &Vector3<f64>| g.hit(&origin, d)) as GroundHit),
     }

@@ -397,6 +397,7 @@ mod tests {
         }
         let scene = GridScene {
             on_ground: vec![false; points.len()],
+            ground_normal: None,
             points,
             ring_spacing: measured,
             boxes: Vec::new(),

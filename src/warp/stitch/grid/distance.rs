@@ -1,6 +1,7 @@
 //! The scene's distance from the output centre at every output pixel centre, built in the
 //! output's own grid once a frame: each return of the scan in its nearest pixel (nearest
-//! wins), the gaps along a column between two returns closed where they lie on one surface
+//! wins; a return of the ground at the pixel centre's distance along the ground's plane),
+//! the gaps along a column between two returns closed where they lie on one surface
 //! (linearly in inverse distance; else each side's distance to the gap's middle, or the
 //! ground's between two of the ground's returns: a road at a grazing angle), short gaps
 //! along rows, the boxes ray-cast exactly (nearest wins), a wall's top return carried up where
@@ -89,7 +90,7 @@ impl DistanceGrid {
         // a full turn's columns wrap (u and u ± width are one direction); a crop of a turn
         // lies within the ±180° its projection gives (a crop past them is refused)
         let wraps = output.horizontal_period() == Some(width as f64);
-        g.splat(output, centre, (&scene.points, &scene.on_ground), wraps);
+        g.splat(output, (bearing, centre), scene, wraps);
         let column_gap = ((MAX_COLUMN_GAP_RAD / step.max(1e-6)) as usize).max(1);
         g.fill_columns(column_gap);
         g.fill_rows();
@@ -107,12 +108,12 @@ impl DistanceGrid {
     fn splat(
         &mut self,
         output: &dyn CameraModel,
-        centre: &Vector3<f64>,
-        (points, on_ground): (&[Vector3<f64>], &[bool]),
+        (bearing, centre): (Bearings, &Vector3<f64>),
+        scene: &GridScene,
         wraps: bool,
     ) {
         let (w, h) = (self.width as i64, self.height as i64);
-        for (k, p) in points.iter().enumerate() {
+        for (k, p) in scene.points.iter().enumerate() {
             let r = p - centre;
             let dist = r.norm();
             if !(dist >= MIN_RANGE) {
@@ -127,11 +128,24 @@ impl DistanceGrid {
                 continue;
             }
             let i = (v * w + u) as usize;
-            let d = dist as f32;
+            let on_ground = scene.on_ground.get(k).copied().unwrap_or(false);
+            let d = match scene.ground_normal.filter(|_| on_ground) {
+                // on the plane through the return parallel to the ground's, n·X = n·r: the
+                // pixel centre's bearing b meets it at t = n·r / n·b
+                Some(n) => {
+                    let t = n.dot(&r) / n.dot(&bearing.at(u as isize, v as isize));
+                    if t.is_finite() && t > 0.0 && (t / dist - 1.0).abs() < 0.5 {
+                        t
+                    } else {
+                        dist
+                    }
+                }
+                None => dist,
+            } as f32;
             if self.origin[i] == Origin::Empty || d < self.d[i] {
                 self.d[i] = d;
                 self.origin[i] = Origin::Return;
-                self.ground_return[i] = on_ground.get(k).copied().unwrap_or(false);
+                self.ground_return[i] = on_ground;
             }
         }
     }
@@ -448,6 +462,7 @@ mod tests {
             let scene = GridScene {
                 points: rows.iter().map(|&v| point(v)).collect(),
                 on_ground: vec![on_ground; 2],
+                ground_normal: None,
                 ring_spacing: 0.01,
                 boxes: Vec::new(),
                 ground: Some(Box::new(road)),
@@ -475,6 +490,50 @@ mod tests {
         for v in rows {
             assert_eq!(ground.origin[v * 360 + u], Origin::Return);
         }
+    }
+
+    /// A return of the road 0.4 px below its pixel's centre, 2.5° under the horizon: the
+    /// pixel takes the road's distance at its centre (the plane's grade moves it by 16 %
+    /// there), where a return of anything else keeps its own.
+    #[test]
+    fn a_return_of_the_ground_gives_its_pixel_the_ground_at_the_centre() {
+        let f = 360.0 / (2.0 * std::f64::consts::PI);
+        let output = Equirect::new(Intrinsics::new(f, f, 179.5, 89.5), ImageSize::new(360, 180));
+        let out_grid = OutputGrid::of(&output);
+        let bearing = Bearings { grid: &out_grid };
+        let road = |b: &Vector3<f64>| (b.y > 1e-3).then(|| 1.5 / b.y);
+        let (u, v) = (100usize, 92usize);
+        let off = output
+            .unproject(&Point2::new(u as f64, v as f64 + 0.4))
+            .unwrap()
+            .normalize();
+        let build = |on_ground: bool| {
+            let scene = GridScene {
+                points: vec![off * road(&off).unwrap()],
+                on_ground: vec![on_ground],
+                ground_normal: Some(-Vector3::y()),
+                ring_spacing: 0.01,
+                boxes: Vec::new(),
+                ground: Some(Box::new(road)),
+            };
+            DistanceGrid::build(&output, bearing, &Vector3::zeros(), &scene, out_grid.step)
+        };
+        let i = v * 360 + u;
+        let centre = road(&bearing.at(u as isize, v as isize)).unwrap();
+        let own = road(&off).unwrap();
+        assert!((centre / own - 1.0).abs() > 0.1, "{centre} {own}");
+        let (ground, other) = (build(true), build(false));
+        assert_eq!(ground.origin[i], Origin::Return);
+        assert!(
+            (ground.d[i] as f64 / centre - 1.0).abs() < 1e-6,
+            "{}",
+            ground.d[i]
+        );
+        assert!(
+            (other.d[i] as f64 / own - 1.0).abs() < 1e-6,
+            "{}",
+            other.d[i]
+        );
     }
 
     #[test]
