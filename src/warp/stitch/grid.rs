@@ -14,8 +14,9 @@
 //!    border distance over the pinhole's scale f/cos²θ), 0 where its ego mask lies within
 //!    1 + max(1, s) pixels of the sample (s source pixels an output pixel).
 //! 4. Camera i is occluded at the pixel when its occlusion buffer (the scan but its ground
-//!    returns, and the boxes, seen from its eye, nearest depth per 8×8 source pixels) holds a surface nearer than X's depth
-//!    by more than 0.3 m plus a tenth of that depth. Occluded cameras give the pixel nothing
+//!    returns, and the boxes, seen from its eye, nearest depth per 8×8 source pixels) holds a
+//!    surface nearer than X's depth by more than 0.3 m plus a tenth of that depth plus the
+//!    scan's ring spacing (radians) times it. Occluded cameras give the pixel nothing
 //!    where another camera sees it, else they blend (the fallback rule, [`FALLBACK_SOURCE`]).
 //! 5. A pixel no camera's image holds at its distance (nor, on a moving box, where C2 sees it)
 //!    is stitched at the proxy distance (the far fill, [`FAR_SOURCE`]). Its colour is not the

@@ -1,8 +1,8 @@
 //! One pinhole camera of a grid-guided stitch: where it sees a point of the scene (a few flops
 //! a pixel), how wide an output pixel is in its image, its blend weight there, and its two
 //! occlusion buffers, the nearest depth per cell of [`CELL`]×[`CELL`] source pixels: of the
-//! scan's returns but the ground's, each splatted over half its rings' and azimuth steps' spacing (noisy: a
-//! wide margin), and of the boxes where they were when it fired, ray-cast at each cell's
+//! scan's returns but the ground's, each splatted over half its rings' and azimuth steps'
+//! spacing (noisy: a wide margin), and of the boxes where they were when it fired, ray-cast at each cell's
 //! corners and middle (exact: a narrow margin, and never against the point's own box).
 
 use super::distance::slab;
@@ -214,9 +214,8 @@ impl<'a> GridCamera<'a> {
     }
 
     /// The scan's returns but the ground's into the buffer: each return's depth, nearest per
-    /// cell, over
-    /// ±[`SPLAT_ACROSS`] vertically and ±[`SPLAT_ALONG`] horizontally, so that a surface
-    /// between rings covers its cells.
+    /// cell, over half the ring spacing (at least ±[`SPLAT_ACROSS`]) vertically and
+    /// ±[`SPLAT_ALONG`] horizontally, so that a surface between rings covers its cells.
     fn splat_points(&mut self, scene: &GridScene, centre: &Vector3<f64>) {
         let (bw, bh) = (
             (self.width as usize).div_ceil(CELL),

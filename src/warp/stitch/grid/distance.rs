@@ -436,6 +436,20 @@ mod tests {
     use crate::camera::{Equirect, ImageSize, Intrinsics};
     use crate::warp::reach::OutputGrid;
     use nalgebra::Point2;
+    use std::sync::Arc;
+
+    /// A whole-sphere panorama of 1° pixels and its bearings.
+    fn one_degree_panorama() -> (Equirect, Arc<OutputGrid>) {
+        let f = 360.0 / (2.0 * std::f64::consts::PI);
+        let output = Equirect::new(Intrinsics::new(f, f, 179.5, 89.5), ImageSize::new(360, 180));
+        let grid = OutputGrid::of(&output);
+        (output, grid)
+    }
+
+    /// The distance to a road 1.5 m under the centre along unit bearing `b` (y down).
+    fn road(b: &Vector3<f64>) -> Option<f64> {
+        (b.y > 1e-3).then(|| 1.5 / b.y)
+    }
 
     /// A road 1.5 m under the centre seen at a grazing angle: two returns on it in one
     /// column, rows apart and far from one surface by the column fill's bound (1/t differs by
@@ -444,11 +458,8 @@ mod tests {
     /// made before: the cameras then sampled the road at a wrong distance).
     #[test]
     fn a_ring_gap_on_the_road_takes_the_ground_between_its_returns() {
-        let f = 360.0 / (2.0 * std::f64::consts::PI);
-        let output = Equirect::new(Intrinsics::new(f, f, 179.5, 89.5), ImageSize::new(360, 180));
-        let out_grid = OutputGrid::of(&output);
+        let (output, out_grid) = one_degree_panorama();
         let bearing = Bearings { grid: &out_grid };
-        let road = |b: &Vector3<f64>| (b.y > 1e-3).then(|| 1.5 / b.y);
         // (the reference frame's y points down: rows below the horizon, 2° and 7° down)
         let (u, rows) = (100usize, [91usize, 96]);
         let point = |v: usize| {
@@ -497,11 +508,8 @@ mod tests {
     /// there), where a return of anything else keeps its own.
     #[test]
     fn a_return_of_the_ground_gives_its_pixel_the_ground_at_the_centre() {
-        let f = 360.0 / (2.0 * std::f64::consts::PI);
-        let output = Equirect::new(Intrinsics::new(f, f, 179.5, 89.5), ImageSize::new(360, 180));
-        let out_grid = OutputGrid::of(&output);
+        let (output, out_grid) = one_degree_panorama();
         let bearing = Bearings { grid: &out_grid };
-        let road = |b: &Vector3<f64>| (b.y > 1e-3).then(|| 1.5 / b.y);
         let (u, v) = (100usize, 92usize);
         let off = output
             .unproject(&Point2::new(u as f64, v as f64 + 0.4))
