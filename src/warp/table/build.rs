@@ -22,6 +22,7 @@ mod level;
 
 use level::{count, scales2};
 mod local;
+mod pair;
 mod plain;
 mod quantize;
 mod surface;
@@ -397,8 +398,9 @@ impl<'a> Builder<'a> {
     /// Appends the quads of supersampled pixel (u, v) (`nu`×`nv` taps at pyramid level
     /// `level`, its neighbourhood of mapped centres `near`) and gives how many of its taps lie
     /// inside the source. The taps are interpolated from `near` where that is exact enough
-    /// (see `local.rs`), else each mapped; merged in a dense grid where it fits (see
-    /// `dense.rs`), else by offset.
+    /// (see `local.rs`), else each mapped; a pair's are its blocks at half weight (see
+    /// `pair.rs`), more taps are merged in a dense grid where it fits (see `dense.rs`), else
+    /// by offset.
     fn supersampled(
         &self,
         (u, v, level): (usize, usize, u32),
@@ -408,7 +410,16 @@ impl<'a> Builder<'a> {
         parts: &mut Parts,
         quads: &mut Vec<Quad>,
     ) -> u32 {
-        self.tap_positions((u, v, level), (nu, nv), near, parts);
+        parts.taps.clear();
+        match (nu * nv == 2).then(|| self.local_pair(near, nu == 2, level)) {
+            Some(Some(pair)) => parts.taps.extend_from_slice(&pair),
+            _ => self.tap_positions((u, v, level), (nu, nv), near, parts),
+        }
+        if let &[a, b] = &parts.taps[..] {
+            if let Some(inside) = self.pair_quads(&[a, b], level, quads) {
+                return inside;
+            }
+        }
         if let Some(inside) = self.dense_quads(&parts.taps, level, scratch, quads) {
             return inside;
         }

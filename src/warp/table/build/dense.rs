@@ -1,4 +1,5 @@
-//! A supersampled pixel's taps merged without a sort: their bilinear weights are added into a
+//! A supersampled pixel's taps (three or more: a pair's are `pair.rs`'s) merged without a
+//! sort: their bilinear weights are added into a
 //! small dense grid of the source pixels under the taps' bounding box, which is then tiled with
 //! 2×2 blocks ([`Quad`]s) whose integer weights are rounded cumulatively (each weight the
 //! difference of two rounded running sums), so that they sum to the pixel's total exactly and

@@ -322,19 +322,26 @@ pub(super) fn round_of(offset: &[u32; LANES], w: &[[i32; LANES]; 4]) -> Round {
     round
 }
 
-/// `quantize_block(_, weights, WEIGHT_ONE, WEIGHT_ONE)`'s integer weights, as selects: each
-/// weight rounded, the largest (the first on ties) taking up the rounding error so that they
-/// sum to `WEIGHT_ONE`.
+/// `quantize_block(_, weights, WEIGHT_ONE, WEIGHT_ONE)`'s integer weights (see
+/// [`quantize_as`]).
 #[inline(always)]
 fn quantize(weights: [f64; 4]) -> [i32; 4] {
-    let scale = WEIGHT_ONE as f64;
+    quantize_as(weights, WEIGHT_ONE as f64, WEIGHT_ONE)
+}
+
+/// `quantize_block(_, weights, total, scale)`'s integer weights, as selects: each weight
+/// times `scale` rounded, the largest (the first on ties) taking up the rounding error so that
+/// they sum to `total`.
+#[inline(always)]
+pub(super) fn quantize_as(weights: [f64; 4], scale: f64, total: i32) -> [i32; 4] {
     let [y0, y1, y2, y3] = [
         weights[0] * scale,
         weights[1] * scale,
         weights[2] * scale,
         weights[3] * scale,
     ];
-    // SAFETY: 0 <= y + 0.5 <= WEIGHT_ONE + 0.5 (the weights of a point inside the source)
+    // SAFETY: 0 <= y + 0.5 <= WEIGHT_ONE + 0.5 (the weights of points inside the source, at
+    // most two taps at half the scale)
     let q = [y0, y1, y2, y3].map(|y| unsafe { (y + 0.5).to_int_unchecked::<i32>() });
     let (big, top) = (0, y0);
     let (big, top) = if y1 > top { (1, y1) } else { (big, top) };
@@ -345,7 +352,7 @@ fn quantize(weights: [f64; 4]) -> [i32; 4] {
         .wrapping_add(q[1])
         .wrapping_add(q[2])
         .wrapping_add(q[3]);
-    let fix = WEIGHT_ONE.wrapping_sub(sum);
+    let fix = total.wrapping_sub(sum);
     [
         q[0].wrapping_add(if big == 0 { fix } else { 0 }),
         q[1].wrapping_add(if big == 1 { fix } else { 0 }),

@@ -18,12 +18,12 @@ use nalgebra::{Point2, Vector2};
 /// interpolation misses stay far smaller (the mapping is smooth over a few output pixels);
 /// `the_interpolated_taps_are_the_exact_ones` below measures the error where it is allowed
 /// (under 0.01 source pixel; 155 pixels at a pole without the limit).
-const MAX_BEND: f64 = 0.5;
+pub(super) const MAX_BEND: f64 = 0.5;
 
 /// Source pixels an interpolated tap keeps from the border of a source that does not wrap, so
 /// that it lies on the same side as the exact tap (far above the interpolation's error): which
 /// taps are inside, and so a pixel's coverage, is the exact mapping's.
-const BORDER_MARGIN: f64 = 0.05;
+pub(super) const BORDER_MARGIN: f64 = 0.05;
 
 /// The source positions of a pixel's 3×3 neighbourhood of centres: rows above, here and below,
 /// each columns u - 1, u, u + 1.
@@ -36,9 +36,22 @@ pub(super) fn near(rows: [&[Option<Point2<f64>>]; 3], u: usize) -> Near {
     rows.map(|row| [row[u], row[u + 1], row[u + 2]])
 }
 
+/// The tap of Lagrange weights `lu` along u and `lv` along v, from the centre `c` and the
+/// neighbourhood `d` relative to it (each interpolated row first, then across it: every
+/// caller the same operations in the same order, so the same bits).
+#[inline(always)]
+fn tap_at(c: Point2<f64>, d: &Offsets, lu: [f64; 3], lv: [f64; 3]) -> Point2<f64> {
+    let row: [Vector2<f64>; 3] =
+        std::array::from_fn(|k| d[0][k] * lv[0] + d[1][k] * lv[1] + d[2][k] * lv[2]);
+    c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])
+}
+
+/// The positions of a neighbourhood's centres relative to its centre's (rows, then columns).
+type Offsets = [[Vector2<f64>; 3]; 3];
+
 /// The weights of the centres at offsets -1, 0 and 1 in the quadratic through them, at `t`.
 #[inline(always)]
-fn lagrange(t: f64) -> [f64; 3] {
+pub(super) fn lagrange(t: f64) -> [f64; 3] {
     [0.5 * t * (t - 1.0), 1.0 - t * t, 0.5 * t * (t + 1.0)]
 }
 
@@ -57,14 +70,88 @@ impl Builder<'_> {
         out: &mut Vec<Option<Point2<f64>>>,
     ) -> bool {
         let unit = (1u32 << level) as f64;
-        let Some(c) = near[1][1] else { return false };
+        let Some((c, d)) = self.relative(near, unit) else {
+            return false;
+        };
+        let start = out.len();
+        let mut across = [[0.0; 3]; MAX_SUPERSAMPLE as usize];
+        for (i, l) in across.iter_mut().take(nu as usize).enumerate() {
+            *l = lagrange(tap_offset(i as u32, nu));
+        }
+        for j in 0..nv {
+            let lv = lagrange(tap_offset(j, nv));
+            for &lu in &across[..nu as usize] {
+                out.push(Some(tap_at(c, &d, lu, lv)));
+            }
+        }
+        if self.near_border(&out[start..], BORDER_MARGIN * unit) {
+            out.truncate(start);
+            return false;
+        }
+        true
+    }
+
+    /// The two taps of a pixel whose neighbourhood is `near`, side by side (`across`: 2×1, at
+    /// u ∓ 1/4) or one above the other (1×2), interpolated quadratically along that axis alone
+    /// from the centre and its two neighbours on it (the taps lie on the pixel's row or
+    /// column: its other neighbours weigh zero in [`Builder::local_taps`], which gives the same
+    /// values wherever it holds); None where a neighbour on the axis has no position, the bend
+    /// along it exceeds [`MAX_BEND`] (times 2^`level`), or a tap is near a border. A pinhole
+    /// source's mapping is smooth wherever its centres are: the axis's bend is the whole test
+    /// (`lanes/pyramid.rs` repeats these operations in lanes). Elsewhere `local_taps`'s test
+    /// of the whole neighbourhood holds too: near a 360° source's pole three smooth centres
+    /// on a row can hide a turn of a level pixel between them.
+    #[inline]
+    pub(super) fn local_pair(
+        &self,
+        near: &Near,
+        across: bool,
+        level: u32,
+    ) -> Option<[Option<Point2<f64>>; 2]> {
+        let unit = (1u32 << level) as f64;
+        let c = near[1][1]?;
+        if self.pinhole.is_none() {
+            self.relative(near, unit)?;
+        }
+        let [a, b] = match across {
+            true => [near[1][0], near[1][2]],
+            false => [near[0][1], near[2][1]],
+        };
         let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
-        // positions relative to the centre (a 360° source's taken the short way round)
+        let relative = |p: Option<Point2<f64>>| -> Option<Vector2<f64>> {
+            let mut e = p? - c;
+            if let Some(w) = period {
+                e.x -= w * (e.x / w).round();
+            }
+            Some(e)
+        };
+        let (a, b) = (relative(a)?, relative(b)?);
+        let s = a + b;
+        // (NaN fails it too)
+        if !(s.x * s.x + s.y * s.y <= (MAX_BEND * unit) * (MAX_BEND * unit)) {
+            return None;
+        }
+        let pair = [0, 1].map(|i| {
+            let t = lagrange(tap_offset(i, 2));
+            Some(Point2::new(
+                c.x + (a.x * t[0] + b.x * t[2]),
+                c.y + (a.y * t[0] + b.y * t[2]),
+            ))
+        });
+        (!self.near_border(&pair, BORDER_MARGIN * unit)).then_some(pair)
+    }
+
+    /// The centre of a neighbourhood and its eight neighbours' positions relative to it (a
+    /// 360° source's taken the short way round); None where the local model does not hold (a
+    /// neighbour without a position, a bend above [`MAX_BEND`] times `unit`).
+    #[inline(always)]
+    fn relative(&self, near: &Near, unit: f64) -> Option<(Point2<f64>, Offsets)> {
+        let c = near[1][1]?;
+        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut d = [[Vector2::zeros(); 3]; 3];
         for (dr, row) in d.iter_mut().zip(near) {
             for (e, p) in dr.iter_mut().zip(row) {
-                let Some(p) = p else { return false };
-                *e = p - c;
+                *e = (*p)? - c;
                 if let Some(w) = period {
                     e.x -= w * (e.x / w).round();
                 }
@@ -78,27 +165,7 @@ impl Builder<'_> {
             .max(down.norm_squared())
             .max(twist.norm_squared());
         // (NaN fails it too)
-        if !(bend <= (MAX_BEND * unit) * (MAX_BEND * unit)) {
-            return false;
-        }
-        let start = out.len();
-        let mut across = [[0.0; 3]; MAX_SUPERSAMPLE as usize];
-        for (i, l) in across.iter_mut().take(nu as usize).enumerate() {
-            *l = lagrange(tap_offset(i as u32, nu));
-        }
-        for j in 0..nv {
-            let lv = lagrange(tap_offset(j, nv));
-            let row: [Vector2<f64>; 3] =
-                std::array::from_fn(|k| d[0][k] * lv[0] + d[1][k] * lv[1] + d[2][k] * lv[2]);
-            for lu in &across[..nu as usize] {
-                out.push(Some(c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])));
-            }
-        }
-        if self.near_border(&out[start..], BORDER_MARGIN * unit) {
-            out.truncate(start);
-            return false;
-        }
-        true
+        (bend <= (MAX_BEND * unit) * (MAX_BEND * unit)).then_some((c, d))
     }
 
     /// Whether a tap lies within `margin` of the border of the source's valid area (columns
@@ -281,6 +348,106 @@ mod tests {
                 "{name}: an interpolated tap {err} px from the exact one"
             );
             assert!(share > 0.5, "{name}: {share}");
+        }
+    }
+
+    #[test]
+    fn a_pair_is_the_general_rules_two_taps_or_the_exact_ones() {
+        // `local_pair` gives `local_taps`'s 2×1 and 1×2 taps wherever that holds, and where
+        // only it holds (a pinhole's pixel whose neighbours off its axis are missing: the
+        // footprint's edge) taps within 0.01 level pixel of the exact ones; a 360° source
+        // near its poles keeps the general rule: a pinhole seen by a turned cylindrical view
+        // (the training samples' case) and a panorama, at levels 0 to 3
+        let pinhole = Perspective::new(
+            Intrinsics::new(720.0, 720.0, 620.5, 187.0),
+            ImageSize::new(1242, 375),
+        );
+        let view = Projection::Cylindrical.camera(
+            Intrinsics::new(150.0, 150.0, 160.0, 60.0),
+            ImageSize::new(320, 120),
+        );
+        let pano = Equirect::new(
+            Intrinsics::new(
+                400.0 / std::f64::consts::TAU,
+                200.0 / std::f64::consts::PI,
+                199.5,
+                99.5,
+            ),
+            ImageSize::new(400, 200),
+        );
+        let cases: [Case; 2] = [
+            (
+                "cylindrical view",
+                view.as_ref(),
+                &pinhole,
+                [0.2, -0.05, 0.08],
+                Wrap::None,
+            ),
+            (
+                "pano poles",
+                view.as_ref(),
+                &pano,
+                [0.3, 1.2, 0.2],
+                Wrap::Horizontal,
+            ),
+        ];
+        for (name, dst, src, [y, p, r], wrap) in cases {
+            // (only a pinhole's pairs hold where the general rule does not)
+            let pinhole = src.pinhole().is_some();
+            let rot = rotation_ypr(y, p, r);
+            let b = Builder::new(dst, src, &rot, wrap, 8, None);
+            let (w, h) = (dst.size().width as usize, dst.size().height as isize);
+            let period = src.size().width as f64;
+            let mut parts = Parts::default();
+            let rows: Vec<Vec<Option<Point2<f64>>>> = (-1..=h)
+                .map(|v| {
+                    let mut out = Vec::new();
+                    b.centres(v, &mut parts, &mut out);
+                    out
+                })
+                .collect();
+            let (mut same, mut alone, mut refused, mut worst) = (0, 0, 0, 0.0f64);
+            for v in 0..h as usize {
+                for u in 0..w {
+                    let n = near([&rows[v], &rows[v + 1], &rows[v + 2]], u);
+                    for (level, across) in (0..4).flat_map(|k| [(k, true), (k, false)]) {
+                        let mut general = Vec::new();
+                        let (nu, nv) = if across { (2, 1) } else { (1, 2) };
+                        let ok = b.local_taps(&n, (nu, nv, level), &mut general);
+                        let Some(pair) = b.local_pair(&n, across, level) else {
+                            assert!(!ok, "{name} ({u}, {v}) level {level}: refused alone");
+                            refused += 1;
+                            continue;
+                        };
+                        if ok {
+                            assert_eq!(&pair[..], &general[..], "{name} ({u}, {v})");
+                            same += 1;
+                            continue;
+                        }
+                        let mut bearings = Vec::new();
+                        b.tap_bearings(u as f64, v as f64, nu, nv, &mut bearings);
+                        let mut exact = Vec::new();
+                        b.bearings_to_src(&mut bearings, &mut exact);
+                        for (g, e) in pair.iter().zip(&exact) {
+                            let (g, e) = (g.expect("a tap"), e.expect("an exact tap"));
+                            let mut dx = g.x - e.x;
+                            if wrap == Wrap::Horizontal {
+                                dx -= period * (dx / period).round();
+                            }
+                            worst = worst.max(dx.hypot(g.y - e.y) / (1u32 << level) as f64);
+                        }
+                        alone += 1;
+                    }
+                }
+            }
+            eprintln!("{name}: {same} as local_taps, {alone} alone (worst {worst:.5} level px), {refused} refused");
+            // (each outcome met: the comparison covers it)
+            assert!(same > 1000 && refused > 100, "{name}: {same}, {refused}");
+            assert_eq!(alone > 10, pinhole, "{name}: {alone} alone");
+            assert!(
+                worst < 0.01,
+                "{name}: a tap {worst} level pixels from the exact one"
+            );
         }
     }
 }

@@ -1,13 +1,17 @@
 //! The build of a pyramid table (see `level.rs`) of a separable output from a pinhole
 //! source (serially, or in bands of rows as `Builder::band`), a group of [`LANES`] pixels at a
 //! time: each row's centres mapped in lanes into columns of x and y (NaN x where a centre has
-//! none), each group's scales and levels taken from them, and its one-tap pixels' blocks made
+//! none), each group's scales and levels taken from them, and its pixels' blocks made
 //! straight from the lanes with the very operations of [`Builder::block_at`] and
 //! `quantize_block`, a level at a time. A group of one-tap pixels (a turned view drawn per
-//! training sample: all but its anisotropic sides) is one round; in a group with a pixel of
-//! two or more taps those take the per-pixel path (`Builder::row`'s) and the group
-//! [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without the band's
-//! per-pixel quads and counts.
+//! training sample: all but its anisotropic sides) is one round; its two-tap pixels (the
+//! anisotropic sides: 2×1 or 1×2 taps, interpolated along their axis from the centres beside
+//! them, as `Builder::local_pair`, each tap's block at half weight, as `Builder::pair_quads`)
+//! add a second round where they have two blocks. A group with a pixel of three or more taps,
+//! or of two whose interpolation does not hold, takes the per-pixel path (`Builder::row`'s)
+//! for those, and [`RemapTable::push_row`]'s rounds: the same table, entry for entry, without
+//! the band's per-pixel quads and counts. Groups without a mapped centre are stored without
+//! rounds (depth 0), as the per-pixel build stores its runs of such pixels.
 
 use super::super::{count, local, Builder, Parts, Scratch, BAND_ROWS};
 use super::{clamp, quantize, round_of, tail, Lanes};
@@ -16,6 +20,10 @@ use crate::warp::kernel::{Quad, Round, LANES};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable, MAX_SUPERSAMPLE};
 use nalgebra::Point2;
 use rayon::prelude::*;
+
+mod pairs;
+
+use pairs::{pair_taps, Pair};
 
 /// A row's pixel centres in the source: at index i column i - 1 (columns -1..=width), then
 /// NaN up to a group's reads past the row's end; x NaN where a centre has no position.
@@ -62,8 +70,9 @@ struct Levels {
     /// NaN past the last level (no scale reaches it): `Builder::level_of`'s bounds.
     from: [f64; LANES],
     /// The smallest squared scale at a pixel's level from which `count` gives it two taps or
-    /// more along that axis.
+    /// more along that axis, and three or more.
     two_taps: f64,
+    three_taps: f64,
     /// Each level's last column and row (as positions), and its last block's top-left ones.
     last: [[f64; LANES]; 2],
     last_block: [[i32; LANES]; 2],
@@ -79,6 +88,7 @@ impl Builder<'_> {
         let mut l = Levels {
             from: [f64::NAN; LANES],
             two_taps: first_true(|s| count(s).min(self.cap) >= 2),
+            three_taps: first_true(|s| count(s).min(self.cap) >= 3),
             last: [[0.0; LANES]; 2],
             last_block: [[0; LANES]; 2],
             row: [0; LANES],
@@ -230,7 +240,8 @@ impl Builder<'_> {
         fallback.parts.tap_rows.iter_mut().for_each(Vec::clear);
         let mut reach = 0;
         // the groups with a pixel the footprint keeps; the others take nothing (most groups
-        // of a wide view), written at once
+        // of a wide view) and are stored without rounds (depth 0: what the per-pixel build's
+        // runs of pixels without a centre give; nothing to write, nothing to apply)
         let (lo, hi) = (
             here.kept.start.saturating_sub(1),
             (here.kept.end.saturating_sub(1)).min(w),
@@ -241,8 +252,7 @@ impl Builder<'_> {
             (0, 0)
         };
         let blank = |t: &mut RemapTable, groups: usize| {
-            t.rounds.resize(t.rounds.len() + groups, Round::default());
-            t.depth.resize(t.depth.len() + groups, 1);
+            t.depth.resize(t.depth.len() + groups, 0);
         };
         blank(t, g_lo);
         for first in (g_lo * LANES..g_hi * LANES).step_by(LANES) {
@@ -254,14 +264,15 @@ impl Builder<'_> {
             }
             if !valid.contains(&true) {
                 // (most groups of a wide view: outside the footprint)
-                t.rounds.push(Round::default());
-                t.depth.push(1);
+                t.depth.push(0);
                 continue;
             }
             let at = |c: &Centres, i: usize| [&c.x, &c.y].map(|c| Centres::lanes(c, i));
-            let su = scales2_lanes(centre, [at(here, first), at(here, first + 2)]);
-            let sv = scales2_lanes(centre, [at(above, first + 1), at(below, first + 1)]);
-            let (level, one_tap) = levels_lanes(levels, su, sv, valid);
+            let across = [at(here, first), at(here, first + 2)];
+            let down = [at(above, first + 1), at(below, first + 1)];
+            let su = scales2_lanes(centre, across);
+            let sv = scales2_lanes(centre, down);
+            let (level, one_tap, pair) = levels_lanes(levels, su, sv, valid);
             // (the row's place in `t`, which may hold a band of rows from v)
             let at = t.row_reach.len() * w + first;
             let cover = &mut t.cover[at..at + n];
@@ -270,6 +281,28 @@ impl Builder<'_> {
                 *lane &= one;
             }
             let (round, inside, far) = self.one_tap_group(centre, levels, level, lanes);
+            // the two-tap pixels whose taps are interpolated, made from the lanes too
+            let pairs: [bool; LANES] =
+                std::array::from_fn(|l| valid[l] && !lanes[l] && pair[l] != Pair::No);
+            let (taps, paired) = match pairs.contains(&true) {
+                true => pair_taps(self, centre, [across, down], (pair, level), pairs),
+                false => Default::default(),
+            };
+            if paired.contains(&true) && (0..LANES).all(|l| valid[l] == (lanes[l] || paired[l])) {
+                let one = (&round, inside);
+                let far = far.max(self.pair_group(
+                    one,
+                    (taps, paired),
+                    levels,
+                    level,
+                    n,
+                    cover,
+                    (&mut t.rounds, &mut t.depth),
+                ));
+                *top = (*top).max(top_sampled(&level, cover));
+                reach = reach.max(far);
+                continue;
+            }
             if lanes != valid {
                 // a pixel of two taps or more: those pixel by pixel, the others from the lanes
                 let group = (&round, lanes, inside);
@@ -330,11 +363,40 @@ impl Builder<'_> {
     #[inline(always)]
     fn one_tap_level(
         &self,
-        [cx, cy]: [Lanes; 2],
+        c: [Lanes; 2],
         levels: &Levels,
         k: u32,
         valid: [bool; LANES],
     ) -> (Round, [bool; LANES], u32) {
+        let (offset, weights, inside) = self.blocks_level(c, levels, k, valid);
+        let mut w = [[0i32; LANES]; 4];
+        for l in 0..LANES {
+            let q = quantize([weights[0][l], weights[1][l], weights[2][l], weights[3][l]]);
+            for i in 0..4 {
+                w[i][l] = if inside[l] { q[i] } else { 0 };
+            }
+        }
+        // (three times an offset fits a u32: `pyramid_lanes_table` checks the source's size,
+        // and a level's rows are the source's)
+        (
+            round_of(&offset, &w),
+            inside,
+            offset.into_iter().max().unwrap_or(0),
+        )
+    }
+
+    /// The bilinear blocks at level `k` of the lanes `valid` at positions `c` (x, y lanes):
+    /// each lane's top-left pixel's offset in the pyramid and float weights (top-left,
+    /// bottom-left, top-right, bottom-right) as [`Builder::block_at`] gives them, and whether
+    /// it is inside the source (the others' offsets 0).
+    #[inline(always)]
+    fn blocks_level(
+        &self,
+        [cx, cy]: [Lanes; 2],
+        levels: &Levels,
+        k: u32,
+        valid: [bool; LANES],
+    ) -> ([u32; LANES], [Lanes; 4], [bool; LANES]) {
         let size = self.source_size;
         let (sw, sh) = (size.width as f64, size.height as f64);
         // (a level below 8: no bounds check)
@@ -346,7 +408,7 @@ impl Builder<'_> {
         let f = 1.0 / (1u32 << k) as f64;
         let mut inside = [false; LANES];
         let mut offset = [0u32; LANES];
-        let mut w = [[0i32; LANES]; 4];
+        let mut w = [[0.0; LANES]; 4];
         for l in 0..LANES {
             let (x, y) = (cx[l], cy[l]);
             // `block_at`'s test: level 0's border whatever the level
@@ -361,29 +423,23 @@ impl Builder<'_> {
             let x0 = unsafe { x.to_int_unchecked::<i32>() }.min(block_x);
             let y0 = unsafe { y.to_int_unchecked::<i32>() }.min(block_y);
             let (fx, fy) = (x - x0 as f64, y - y0 as f64);
-            let q = quantize([
+            let b = [
                 (1.0 - fx) * (1.0 - fy),
                 (1.0 - fx) * fy,
                 fx * (1.0 - fy),
                 fx * fy,
-            ]);
+            ];
             inside[l] = ok;
             // (below the pyramid's pixel count: no wrap, see `lanes_table`)
             let at = (row.wrapping_add(y0 as u32))
                 .wrapping_mul(size.width)
                 .wrapping_add(x0 as u32);
             offset[l] = if ok { at } else { 0 };
-            for k in 0..4 {
-                w[k][l] = if ok { q[k] } else { 0 };
+            for i in 0..4 {
+                w[i][l] = b[i];
             }
         }
-        // (three times an offset fits a u32: `pyramid_lanes_table` checks the source's size,
-        // and a level's rows are the source's)
-        (
-            round_of(&offset, &w),
-            inside,
-            offset.into_iter().max().unwrap_or(0),
-        )
+        (offset, w, inside)
     }
 
     /// The quads of a group's pixels (the `cover.len()` from column `first` of row `v`) into
@@ -514,7 +570,8 @@ fn scales2_lanes(c: [Lanes; 2], [a, b]: [[Lanes; 2]; 2]) -> Lanes {
 }
 
 /// The levels of a group's pixels of squared scales `su` and `sv` (where `valid`; 0
-/// elsewhere), and whether each takes one tap there along both axes: `Builder::row`'s
+/// elsewhere), whether each takes one tap there along both axes, and which take two taps side
+/// by side ([`Pair::Across`]) or one above the other ([`Pair::Down`]): `Builder::row`'s
 /// `level_of` and `count`, through their bounds (`levels`).
 #[inline(always)]
 fn levels_lanes(
@@ -522,9 +579,10 @@ fn levels_lanes(
     su: Lanes,
     sv: Lanes,
     valid: [bool; LANES],
-) -> ([u32; LANES], [bool; LANES]) {
+) -> ([u32; LANES], [bool; LANES], [Pair; LANES]) {
     let mut level = [0u32; LANES];
     let mut one = [false; LANES];
+    let mut pair = [Pair::No; LANES];
     for l in 0..LANES {
         let m = su[l].min(sv[l]);
         let mut k = 0u32;
@@ -537,10 +595,17 @@ fn levels_lanes(
         let down = 1.0 / (1u32 << (2 * k)) as f64;
         // (`count` gives one tap where a scale is not finite)
         let fine = |s: f64| !s.is_finite() || s < levels.two_taps;
-        one[l] = fine(su[l] * down) && fine(sv[l] * down);
+        let two = |s: f64| s.is_finite() && s >= levels.two_taps && s < levels.three_taps;
+        let (u, v) = (su[l] * down, sv[l] * down);
+        one[l] = fine(u) && fine(v);
+        pair[l] = match (two(u) && fine(v), fine(u) && two(v)) {
+            (true, _) => Pair::Across,
+            (_, true) => Pair::Down,
+            _ => Pair::No,
+        };
         level[l] = k;
     }
-    (level, one)
+    (level, one, pair)
 }
 
 /// The smallest non-negative double at which `step` (false, then true from some point on:
