@@ -205,6 +205,28 @@ mod tests {
         Wrap,
     );
 
+    /// A 360° equirect panorama `width` pixels wide (half as tall).
+    fn panorama(width: u32) -> Equirect {
+        let w = width as f64;
+        Equirect::new(
+            Intrinsics::new(
+                w / std::f64::consts::TAU,
+                w / 2.0 / std::f64::consts::PI,
+                w / 2.0 - 0.5,
+                w / 4.0 - 0.5,
+            ),
+            ImageSize::new(width, width / 2),
+        )
+    }
+
+    /// A KITTI colour camera (its size and about its intrinsics).
+    fn kitti_pinhole() -> Perspective {
+        Perspective::new(
+            Intrinsics::new(720.0, 720.0, 620.5, 187.0),
+            ImageSize::new(1242, 375),
+        )
+    }
+
     /// The largest distance (source pixels) between a pixel's interpolated taps and its exact
     /// ones, over every supersampled pixel (4×4 taps) whose taps are interpolated, and the share
     /// of the pixels whose neighbourhood lies in the source (within 2 pixels) that are.
@@ -270,15 +292,7 @@ mod tests {
         // one wherever the bend allows it, near a 360° source's poles (an equirect output
         // tilted 40°, scale about 2), on a fisheye output's rim seen from a pinhole (scale up
         // to 8) and on a coarse perspective view of a pinhole; and most pixels use it.
-        let pano = Equirect::new(
-            Intrinsics::new(
-                800.0 / std::f64::consts::TAU,
-                400.0 / std::f64::consts::PI,
-                399.5,
-                199.5,
-            ),
-            ImageSize::new(800, 400),
-        );
+        let pano = panorama(800);
         let small = Projection::Equirect.camera(
             Intrinsics::new(
                 400.0 / std::f64::consts::TAU,
@@ -288,10 +302,7 @@ mod tests {
             ),
             ImageSize::new(400, 200),
         );
-        let pinhole = Perspective::new(
-            Intrinsics::new(720.0, 720.0, 620.5, 187.0),
-            ImageSize::new(1242, 375),
-        );
+        let pinhole = kitti_pinhole();
         let lens = Fisheye::new(
             RadialModel::Equidistant,
             Intrinsics::new(60.0, 60.0, 100.0, 80.0),
@@ -358,23 +369,12 @@ mod tests {
         // footprint's edge) taps within 0.01 level pixel of the exact ones; a 360° source
         // near its poles keeps the general rule: a pinhole seen by a turned cylindrical view
         // (the training samples' case) and a panorama, at levels 0 to 3
-        let pinhole = Perspective::new(
-            Intrinsics::new(720.0, 720.0, 620.5, 187.0),
-            ImageSize::new(1242, 375),
-        );
+        let pinhole = kitti_pinhole();
         let view = Projection::Cylindrical.camera(
             Intrinsics::new(150.0, 150.0, 160.0, 60.0),
             ImageSize::new(320, 120),
         );
-        let pano = Equirect::new(
-            Intrinsics::new(
-                400.0 / std::f64::consts::TAU,
-                200.0 / std::f64::consts::PI,
-                199.5,
-                99.5,
-            ),
-            ImageSize::new(400, 200),
-        );
+        let pano = panorama(400);
         let cases: [Case; 2] = [
             (
                 "cylindrical view",
