@@ -415,7 +415,7 @@ impl<'a> Builder<'a> {
             Some(Some(pair)) => parts.taps.extend_from_slice(&pair),
             _ => self.tap_positions((u, v, level), (nu, nv), near, parts),
         }
-        if let &[a, b] = &parts.taps[..] {
+        if let (2, &[a, b]) = (nu * nv, &parts.taps[..]) {
             if let Some(inside) = self.pair_quads(&[a, b], level, quads) {
                 return inside;
             }

@@ -36,16 +36,6 @@ pub(super) fn near(rows: [&[Option<Point2<f64>>]; 3], u: usize) -> Near {
     rows.map(|row| [row[u], row[u + 1], row[u + 2]])
 }
 
-/// The tap of Lagrange weights `lu` along u and `lv` along v, from the centre `c` and the
-/// neighbourhood `d` relative to it (each interpolated row first, then across it: every
-/// caller the same operations in the same order, so the same bits).
-#[inline(always)]
-fn tap_at(c: Point2<f64>, d: &Offsets, lu: [f64; 3], lv: [f64; 3]) -> Point2<f64> {
-    let row: [Vector2<f64>; 3] =
-        std::array::from_fn(|k| d[0][k] * lv[0] + d[1][k] * lv[1] + d[2][k] * lv[2]);
-    c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])
-}
-
 /// The positions of a neighbourhood's centres relative to its centre's (rows, then columns).
 type Offsets = [[Vector2<f64>; 3]; 3];
 
@@ -80,8 +70,10 @@ impl Builder<'_> {
         }
         for j in 0..nv {
             let lv = lagrange(tap_offset(j, nv));
-            for &lu in &across[..nu as usize] {
-                out.push(Some(tap_at(c, &d, lu, lv)));
+            let row: [Vector2<f64>; 3] =
+                std::array::from_fn(|k| d[0][k] * lv[0] + d[1][k] * lv[1] + d[2][k] * lv[2]);
+            for lu in &across[..nu as usize] {
+                out.push(Some(c + (row[0] * lu[0] + row[1] * lu[1] + row[2] * lu[2])));
             }
         }
         if self.near_border(&out[start..], BORDER_MARGIN * unit) {
@@ -117,15 +109,7 @@ impl Builder<'_> {
             true => [near[1][0], near[1][2]],
             false => [near[0][1], near[2][1]],
         };
-        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
-        let relative = |p: Option<Point2<f64>>| -> Option<Vector2<f64>> {
-            let mut e = p? - c;
-            if let Some(w) = period {
-                e.x -= w * (e.x / w).round();
-            }
-            Some(e)
-        };
-        let (a, b) = (relative(a)?, relative(b)?);
+        let (a, b) = (self.short_way(a?, c), self.short_way(b?, c));
         let s = a + b;
         // (NaN fails it too)
         if !(s.x * s.x + s.y * s.y <= (MAX_BEND * unit) * (MAX_BEND * unit)) {
@@ -147,14 +131,10 @@ impl Builder<'_> {
     #[inline(always)]
     fn relative(&self, near: &Near, unit: f64) -> Option<(Point2<f64>, Offsets)> {
         let c = near[1][1]?;
-        let period = (self.wrap == Wrap::Horizontal).then_some(self.source_size.width as f64);
         let mut d = [[Vector2::zeros(); 3]; 3];
         for (dr, row) in d.iter_mut().zip(near) {
             for (e, p) in dr.iter_mut().zip(row) {
-                *e = (*p)? - c;
-                if let Some(w) = period {
-                    e.x -= w * (e.x / w).round();
-                }
+                *e = self.short_way((*p)?, c);
             }
         }
         let across = d[1][0] + d[1][2];
@@ -166,6 +146,17 @@ impl Builder<'_> {
             .max(twist.norm_squared());
         // (NaN fails it too)
         (bend <= (MAX_BEND * unit) * (MAX_BEND * unit)).then_some((c, d))
+    }
+
+    /// Source position `p` relative to `c`, a 360° source's taken the short way round.
+    #[inline(always)]
+    fn short_way(&self, p: Point2<f64>, c: Point2<f64>) -> Vector2<f64> {
+        let mut e = p - c;
+        if self.wrap == Wrap::Horizontal {
+            let w = self.source_size.width as f64;
+            e.x -= w * (e.x / w).round();
+        }
+        e
     }
 
     /// Whether a tap lies within `margin` of the border of the source's valid area (columns
