@@ -116,27 +116,42 @@ pub fn grid_applies(cameras: &[StitchCamera]) -> bool {
         .all(|c| c.model.pinhole().is_some() && c.max_theta.is_none())
 }
 
-/// One row's share of the build: per camera its blocks and, from its first sampled column, its
-/// weights (negative: a fallback weight); the far fill's pixels.
-struct Row {
+/// Output rows a unit of the build's parallel work: a band's samples are placed first, then
+/// its blocks and weights sized and made, a few allocations a band ([`SampledRows::band`];
+/// every thread allocates from one heap, `run::alloc`).
+const BAND: usize = 8;
+
+/// A band of rows' share of the build: per camera its blocks and, per row from its first
+/// sampled column, its weights (negative: a fallback weight); the far fill's pixels.
+struct Band {
     blocks: Vec<RowBlocks>,
-    weights: Vec<(usize, Vec<f32>)>,
+    weights: Vec<BandWeights>,
     far: Vec<bool>,
 }
 
-/// A thread's buffers for its rows: per camera a row of samples and weights, all None and 0
-/// between rows (a row clears only the columns it set).
+/// A camera's weights in a band: per row its first sampled column and its columns' count,
+/// the rows' weights one after the other.
+struct BandWeights {
+    spans: Vec<(usize, usize)>,
+    values: Vec<f32>,
+}
+
+/// A thread's buffers for its bands: per camera a band of samples and weights (row-major),
+/// all None and 0 between bands (a band clears only the columns it set), and per camera and
+/// band row the columns it samples.
 struct Scratch {
     samples: Vec<Vec<Option<Sample>>>,
     weights: Vec<Vec<f32>>,
+    spans: Vec<[(usize, usize); BAND]>,
     found: Vec<(usize, View)>,
 }
 
 impl Scratch {
     fn new(cameras: usize, width: usize) -> Self {
         Self {
-            samples: vec![vec![None; width]; cameras],
-            weights: vec![vec![0.0; width]; cameras],
+            samples: vec![vec![None; BAND * width]; cameras],
+            weights: vec![vec![0.0; BAND * width]; cameras],
+            spans: vec![[(0, 0); BAND]; cameras],
             found: Vec::with_capacity(cameras),
         }
     }
@@ -187,13 +202,14 @@ fn tables_and_weights(
         .iter()
         .map(|c| SampledRows::new(size, c.model.size()))
         .collect();
-    let rows: Vec<Row> = (0..h)
+    let bands: Vec<Band> = (0..h.div_ceil(BAND))
         .into_par_iter()
         .map_init(
             || Scratch::new(cameras.len(), w),
-            |scratch, v| {
-                row(
-                    v,
+            |scratch, b| {
+                let rows = b * BAND..((b + 1) * BAND).min(h);
+                band(
+                    rows,
                     scratch,
                     (&views, &sampled),
                     (&grid, bearing, &tiles),
@@ -204,21 +220,26 @@ fn tables_and_weights(
         .collect();
     let mut sampled = sampled;
     for (k, table) in sampled.iter_mut().enumerate() {
-        table.reserve(rows.iter().map(|r| r.blocks[k].rounds()).sum());
+        table.reserve(bands.iter().map(|b| b.blocks[k].rounds()).sum());
     }
     // (zeroed pages: a camera's weights are written only where it samples)
     let mut weights: Vec<Vec<f32>> = vec![vec![0.0; w * h]; cameras.len()];
     let mut far = Vec::with_capacity(w * h);
-    for (v, r) in rows.into_iter().enumerate() {
-        for ((table, blocks), (all, (first, row))) in sampled
+    for (b, band) in bands.into_iter().enumerate() {
+        for ((table, blocks), (all, band_weights)) in sampled
             .iter_mut()
-            .zip(r.blocks)
-            .zip(weights.iter_mut().zip(r.weights))
+            .zip(&band.blocks)
+            .zip(weights.iter_mut().zip(&band.weights))
         {
             table.push(blocks);
-            all[v * w + first..][..row.len()].copy_from_slice(&row);
+            let mut values = &band_weights.values[..];
+            for (r, &(first, len)) in band_weights.spans.iter().enumerate() {
+                let row;
+                (row, values) = values.split_at(len);
+                all[(b * BAND + r) * w + first..][..len].copy_from_slice(row);
+            }
         }
-        far.extend_from_slice(&r.far);
+        far.extend_from_slice(&band.far);
     }
     let fallback = fallback::resolve(&mut weights);
     let distances = (0..w * h)
@@ -275,24 +296,71 @@ fn cull(views: &[GridCamera], grid: &DistanceGrid, bearing: Bearings, proxy: f64
         .collect()
 }
 
-/// Output row `v`'s samples and weights of every camera.
-fn row(
-    v: usize,
+/// Output rows `rows`' blocks and weights of every camera.
+fn band(
+    rows: std::ops::Range<usize>,
     scratch: &mut Scratch,
     (views, sampled): (&[GridCamera], &[SampledRows]),
     (grid, bearing, tiles): (&DistanceGrid, Bearings, &[u64]),
     options: StitchOptions,
-) -> Row {
+) -> Band {
+    let w = grid.width;
+    let mut far = vec![false; rows.len() * w];
+    for (r, v) in rows.clone().enumerate() {
+        let far = &mut far[r * w..][..w];
+        row((v, r), scratch, far, views, (grid, bearing, tiles), options);
+    }
+    let mut blocks = Vec::with_capacity(views.len());
+    let mut weights = Vec::with_capacity(views.len());
+    for (k, table) in sampled.iter().enumerate() {
+        let spans = &scratch.spans[k][..rows.len()];
+        let (samples, values) = (&mut scratch.samples[k], &mut scratch.weights[k]);
+        let span = |r: usize| {
+            let (first, end) = spans[r];
+            first.min(end)..end
+        };
+        blocks.push(table.band((0..rows.len()).map(|r| (&samples[r * w..][..w], span(r)))));
+        let mut band_weights = BandWeights {
+            spans: Vec::with_capacity(rows.len()),
+            values: Vec::with_capacity((0..rows.len()).map(|r| span(r).len()).sum()),
+        };
+        for r in 0..rows.len() {
+            let span = span(r);
+            let at = r * w + span.start..r * w + span.end;
+            band_weights.spans.push((span.start, span.len()));
+            band_weights.values.extend_from_slice(&values[at.clone()]);
+            samples[at.clone()].fill(None);
+            values[at].fill(0.0);
+        }
+        weights.push(band_weights);
+    }
+    Band {
+        blocks,
+        weights,
+        far,
+    }
+}
+
+/// Output row `v`'s samples and weights of every camera, into row `r` of the thread's band
+/// buffers; its far fill's pixels.
+fn row(
+    (v, r): (usize, usize),
+    scratch: &mut Scratch,
+    far: &mut [bool],
+    views: &[GridCamera],
+    (grid, bearing, tiles): (&DistanceGrid, Bearings, &[u64]),
+    options: StitchOptions,
+) {
     let w = grid.width;
     let tw = w.div_ceil(TILE);
     let Scratch {
         samples,
         weights,
+        spans,
         found,
     } = scratch;
     // per camera the columns it samples
-    let mut spans = vec![(w, 0); views.len()];
-    let mut far = vec![false; w];
+    spans.iter_mut().for_each(|s| s[r] = (w, 0));
     for u in 0..w {
         let i = v * w + u;
         let mask = tiles[(v / TILE) * tw + u / TILE];
@@ -324,33 +392,19 @@ fn row(
             found.iter_mut().for_each(|(_, view)| view.occluded = false);
         }
         for (k, view) in found.iter() {
-            samples[*k][u] = Some(Sample {
+            samples[*k][r * w + u] = Some(Sample {
                 x: view.x,
                 y: view.y,
                 lod: view.lod,
             });
-            weights[*k][u] = if view.occluded {
+            weights[*k][r * w + u] = if view.occluded {
                 -view.weight
             } else {
                 view.weight
             };
-            spans[*k] = (spans[*k].0.min(u), u + 1);
+            let span = &mut spans[*k][r];
+            *span = (span.0.min(u), u + 1);
         }
-    }
-    let mut blocks = Vec::with_capacity(views.len());
-    let mut row_weights = Vec::with_capacity(views.len());
-    for (k, table) in sampled.iter().enumerate() {
-        let (first, end) = spans[k];
-        let span = first.min(end)..end;
-        blocks.push(table.row(&samples[k], span.clone()));
-        row_weights.push((span.start, weights[k][span.clone()].to_vec()));
-        samples[k][span.clone()].fill(None);
-        weights[k][span].fill(0.0);
-    }
-    Row {
-        blocks,
-        weights: row_weights,
-        far,
     }
 }
 

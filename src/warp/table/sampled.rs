@@ -25,21 +25,34 @@ pub(crate) struct Sample {
     pub lod: f32,
 }
 
-/// A row's blocks, made on any thread, pushed in row order ([`SampledRows::push`]).
+/// The blocks of a band of consecutive rows ([`SampledRows::band`]), made on any thread, pushed
+/// in row order ([`SampledRows::push`]). A band, not a row, is the unit of work, its vectors
+/// sized once: every thread allocates from one heap (`run::alloc`), so a vector a row that grows
+/// by reallocation keeps the other threads waiting on its lock.
 #[derive(Debug, Default)]
 pub(crate) struct RowBlocks {
     quads: Vec<Quad>,
     counts: Vec<u8>,
     cover: Vec<Cover>,
     gaps: Vec<(u32, u32)>,
-    reach: u32,
+    /// Per row, where it ends in the vectors above, and its reach.
+    rows: Vec<RowEnd>,
     top_level: u32,
-    /// The rounds the row's groups take (each its pixels' most blocks).
+    /// The rounds the rows' groups take (each its pixels' most blocks).
     rounds: usize,
 }
 
+/// One row's end in its band's vectors.
+#[derive(Debug, Clone, Copy)]
+struct RowEnd {
+    quads: usize,
+    counts: usize,
+    gaps: usize,
+    reach: u32,
+}
+
 impl RowBlocks {
-    /// The rounds the row adds to its table.
+    /// The rounds the rows add to their table.
     pub(crate) fn rounds(&self) -> usize {
         self.rounds
     }
@@ -73,16 +86,48 @@ impl SampledRows {
         }
     }
 
-    /// The blocks of one row of `samples` (one per output column), every sample outside the
-    /// columns `span` None (their groups are not looked at). Needs no state but the source's
-    /// shape: rows may be made in parallel.
-    pub(crate) fn row(&self, samples: &[Option<Sample>], span: Range<usize>) -> RowBlocks {
-        let mut out = RowBlocks::default();
+    /// The blocks of a band of consecutive rows, each its `samples` (one per output column)
+    /// and the columns `span` outside which every sample is None (their groups are not looked
+    /// at). The band's vectors are sized before they are filled: one allocation each. Needs
+    /// no state but the source's shape: bands may be made in parallel.
+    pub(crate) fn band<'s, I>(&self, rows: I) -> RowBlocks
+    where
+        I: Iterator<Item = (&'s [Option<Sample>], Range<usize>)> + Clone,
+    {
+        let (mut pixels, mut most_quads, mut gaps, mut count) = (0, 0, 0, 0);
+        for (samples, span) in rows.clone() {
+            for group in active_groups(samples, &span) {
+                pixels += group.len();
+                most_quads += group
+                    .iter()
+                    .map(|s| 1 + usize::from(s.is_some()))
+                    .sum::<usize>();
+                gaps += 1;
+            }
+            gaps += 1;
+            count += 1;
+        }
+        let mut out = RowBlocks {
+            quads: Vec::with_capacity(most_quads),
+            counts: Vec::with_capacity(pixels),
+            cover: Vec::with_capacity(pixels),
+            gaps: Vec::with_capacity(gaps),
+            rows: Vec::with_capacity(count),
+            ..RowBlocks::default()
+        };
+        for (samples, span) in rows {
+            self.row(samples, span, &mut out);
+        }
+        out
+    }
+
+    /// Appends to `out` the blocks of the next row of `samples` ([`SampledRows::band`]).
+    fn row(&self, samples: &[Option<Sample>], span: Range<usize>, out: &mut RowBlocks) {
         let groups = samples.len().div_ceil(LANES);
         let mut gap: Option<u32> = None;
+        let mut reach = 0;
         for (g, group) in samples.chunks(LANES).enumerate() {
-            let outside = g * LANES >= span.end || (g + 1) * LANES <= span.start;
-            if outside || group.iter().all(Option::is_none) {
+            if !is_active(g, group, &span) {
                 gap.get_or_insert(g as u32);
                 continue;
             }
@@ -93,7 +138,7 @@ impl SampledRows {
             for s in group {
                 let before = out.quads.len();
                 match s {
-                    Some(s) => self.blocks(s, &mut out),
+                    Some(s) => reach = reach.max(self.blocks(s, out)),
                     None => out.quads.push(Quad::default()),
                 }
                 let blocks = out.quads.len() - before;
@@ -109,7 +154,12 @@ impl SampledRows {
         if let Some(first) = gap {
             out.gaps.push((first, groups as u32));
         }
-        out
+        out.rows.push(RowEnd {
+            quads: out.quads.len(),
+            counts: out.counts.len(),
+            gaps: out.gaps.len(),
+            reach,
+        });
     }
 
     /// Makes room for `rounds` more rounds (the rows' [`RowBlocks::rounds`] to come): the
@@ -118,11 +168,22 @@ impl SampledRows {
         self.table.rounds.reserve_exact(rounds);
     }
 
-    /// Appends the next row's blocks.
-    pub(crate) fn push(&mut self, row: RowBlocks) {
-        self.table.levels = self.table.levels.max(row.top_level + 1);
-        self.table
-            .push_row((&row.quads, &row.counts, &row.cover), &row.gaps, row.reach);
+    /// Appends the band's rows, the next rows of the table.
+    pub(crate) fn push(&mut self, band: &RowBlocks) {
+        self.table.levels = self.table.levels.max(band.top_level + 1);
+        let (mut quads, mut counts, mut gaps) = (0, 0, 0);
+        for end in &band.rows {
+            self.table.push_row(
+                (
+                    &band.quads[quads..end.quads],
+                    &band.counts[counts..end.counts],
+                    &band.cover[counts..end.counts],
+                ),
+                &band.gaps[gaps..end.gaps],
+                end.reach,
+            );
+            (quads, counts, gaps) = (end.quads, end.counts, end.gaps);
+        }
     }
 
     /// The table (every row pushed).
@@ -135,8 +196,8 @@ impl SampledRows {
         self.table
     }
 
-    /// Appends the one or two quads of sample `s`.
-    fn blocks(&self, s: &Sample, out: &mut RowBlocks) {
+    /// Appends the one or two quads of sample `s`; their farthest offset.
+    fn blocks(&self, s: &Sample, out: &mut RowBlocks) -> u32 {
         let top = self.shapes.len() as u32 - 1;
         let lod = if s.lod.is_finite() {
             s.lod.max(0.0)
@@ -145,17 +206,21 @@ impl SampledRows {
         };
         let k = (lod as u32).min(top);
         let f = if k == top { 0.0 } else { lod - k as f32 };
-        let fine = ((1.0 - f as f64) * WEIGHT_ONE as f64).round() as i32;
+        // (1 - f has f32's 24 bits, so + 0.5 is exact and the cast rounds half up as round()
+        // would, without its call)
+        let fine = ((1.0 - f as f64) * WEIGHT_ONE as f64 + 0.5) as i32;
+        let mut reach = 0;
         for (level, total) in [(k, fine), (k + 1, WEIGHT_ONE - fine)] {
             if total == 0 {
                 continue;
             }
             let (offset, w) = self.block_at(s, level);
             let quad = quantize_block(offset, w, total, total as f64);
-            out.reach = out.reach.max(quad.offset);
+            reach = reach.max(quad.offset);
             out.top_level = out.top_level.max(level);
             out.quads.push(quad);
         }
+        reach
     }
 
     /// The bilinear block of `s`'s position at `level`: its top-left pixel's index in the
@@ -164,9 +229,10 @@ impl SampledRows {
     /// to them (a caller samples within the source).
     fn block_at(&self, s: &Sample, level: u32) -> (u32, [f64; 4]) {
         let (lw, lh, row) = self.shapes[level as usize];
-        let f = (1u32 << level) as f64;
-        let x = ((s.x as f64 + 0.5) / f - 0.5).clamp(0.0, lw as f64 - 1.0);
-        let y = ((s.y as f64 + 0.5) / f - 0.5).clamp(0.0, lh as f64 - 1.0);
+        // (a power of two: the product is the quotient exactly)
+        let per = 1.0 / (1u32 << level) as f64;
+        let x = ((s.x as f64 + 0.5) * per - 0.5).clamp(0.0, lw as f64 - 1.0);
+        let y = ((s.y as f64 + 0.5) * per - 0.5).clamp(0.0, lh as f64 - 1.0);
         // (x, y >= 0: truncation is floor; a level is at least 2×2)
         let x0 = (x as u32).min(lw - 2);
         let y0 = (y as u32).min(lh - 2);
@@ -179,6 +245,25 @@ impl SampledRows {
         ];
         ((row + y0) * self.table.source_size.width + x0, w)
     }
+}
+
+/// Whether group `g` of a row (its `group` of samples) holds blocks: it meets the row's `span`
+/// and samples something.
+fn is_active(g: usize, group: &[Option<Sample>], span: &Range<usize>) -> bool {
+    let outside = g * LANES >= span.end || (g + 1) * LANES <= span.start;
+    !outside && group.iter().any(Option::is_some)
+}
+
+/// The groups of a row that hold blocks ([`is_active`]).
+fn active_groups<'s>(
+    samples: &'s [Option<Sample>],
+    span: &'s Range<usize>,
+) -> impl Iterator<Item = &'s [Option<Sample>]> + 's {
+    samples
+        .chunks(LANES)
+        .enumerate()
+        .filter(|(g, group)| is_active(*g, group, span))
+        .map(|(_, group)| group)
 }
 
 #[cfg(test)]
@@ -208,8 +293,8 @@ mod tests {
                     })
                 })
                 .collect();
-            let row = rows.row(&samples, 0..samples.len());
-            rows.push(row);
+            let band = rows.band([(&samples[..], 0..samples.len())].into_iter());
+            rows.push(&band);
         }
         let table = rows.finish();
         let src = source();
@@ -228,6 +313,54 @@ mod tests {
         assert!(!table.is_inside(4, 1) && table.is_inside(5, 1));
     }
 
+    /// Rows of samples at levels 0-4, the columns outside 3..29 of row 2 and all of row 4
+    /// None, every fifth sample None, a group of row 1 all None.
+    fn band_rows() -> Vec<(Vec<Option<Sample>>, Range<usize>)> {
+        (0..5)
+            .map(|v| {
+                let span = match v {
+                    2 => 3..29,
+                    4 => 0..0,
+                    _ => 0..40,
+                };
+                let samples = (0..40)
+                    .map(|u| {
+                        let hole = u % 5 == 3 || (v == 1 && (16..24).contains(&u));
+                        (span.contains(&u) && !hole).then_some(Sample {
+                            x: 1.3 * u as f32 + 0.2 * v as f32,
+                            y: 4.0 + 7.7 * v as f32,
+                            lod: (u * 7 + v * 3) as f32 % 5.0 - 0.5,
+                        })
+                    })
+                    .collect();
+                (samples, span)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_band_of_rows_is_the_table_of_its_rows_one_by_one() {
+        let (size, source_size) = (ImageSize::new(40, 5), ImageSize::new(64, 48));
+        let rows = band_rows();
+        let mut whole = SampledRows::new(size, source_size);
+        let band = whole.band(rows.iter().map(|(s, span)| (&s[..], span.clone())));
+        assert_eq!(band.rows.len(), 5);
+        whole.push(&band);
+        let mut single = SampledRows::new(size, source_size);
+        for row in &rows {
+            let band = single.band(std::iter::once((&row.0[..], row.1.clone())));
+            single.push(&band);
+        }
+        let (whole, single) = (whole.finish(), single.finish());
+        assert_eq!(whole, single);
+        assert!(whole.levels() >= 4, "levels {}", whole.levels());
+        let src = source();
+        assert_eq!(whole.apply(&src).as_raw(), single.apply(&src).as_raw());
+        // (row 4 samples nothing, row 2 nothing outside its span)
+        assert!((0..40).all(|u| !whole.is_inside(u, 4)));
+        assert!(!whole.is_inside(1, 2) && whole.is_inside(4, 2));
+    }
+
     #[test]
     fn a_level_between_two_blends_them_and_a_flat_source_stays_flat() {
         let mut flat = RgbImage::new(64, 48);
@@ -243,8 +376,8 @@ mod tests {
                 })
             })
             .collect();
-        let row = rows.row(&samples, 0..samples.len());
-        rows.push(row);
+        let band = rows.band([(&samples[..], 0..samples.len())].into_iter());
+        rows.push(&band);
         let table = rows.finish();
         assert!(table.levels() >= 4, "levels {}", table.levels());
         let out = table.apply(&flat);

@@ -33,9 +33,11 @@ impl Noise {
     /// The noise of the scan `points` seen from `origin`: its ring spacing is the median of
     /// the elevation gaps above [`SAME_RING_DEG`] between returns of one azimuth bin.
     pub(super) fn measure(origin: &Vector3<f64>, points: &[Vector3<f64>]) -> Noise {
-        // per azimuth bin (from −180°), the elevations
-        let count = (360.0 / SPACING_BIN_DEG).round() as i64 + 2;
-        let mut bins: Vec<Vec<f64>> = vec![Vec::new(); count as usize];
+        // per azimuth bin (from −180°), the elevations: binned by a counting sort into one
+        // vector (a vector a bin grows by many small reallocations, and every thread allocates
+        // from one heap, `run::alloc`)
+        let count = (360.0 / SPACING_BIN_DEG).round() as usize + 2;
+        let mut binned: Vec<(usize, f64)> = Vec::with_capacity(points.len());
         for p in points {
             let v = p - origin;
             let range = v.norm();
@@ -44,11 +46,25 @@ impl Noise {
             }
             let azimuth = v.x.atan2(v.z).to_degrees();
             let elevation = (-v.y / range).asin().to_degrees();
-            let bin = (azimuth / SPACING_BIN_DEG).floor() as i64 + count / 2;
-            bins[bin.clamp(0, count - 1) as usize].push(elevation);
+            let bin = (azimuth / SPACING_BIN_DEG).floor() as i64 + count as i64 / 2;
+            binned.push((bin.clamp(0, count as i64 - 1) as usize, elevation));
         }
-        let mut gaps = Vec::new();
-        for e in &mut bins {
+        let mut starts = vec![0; count + 1];
+        for &(bin, _) in &binned {
+            starts[bin + 1] += 1;
+        }
+        for k in 0..count {
+            starts[k + 1] += starts[k];
+        }
+        let mut next = starts.clone();
+        let mut elevations = vec![0.0; binned.len()];
+        for (bin, elevation) in binned {
+            elevations[next[bin]] = elevation;
+            next[bin] += 1;
+        }
+        let mut gaps = Vec::with_capacity(elevations.len());
+        for bin in starts.windows(2) {
+            let e = &mut elevations[bin[0]..bin[1]];
             e.sort_by(f64::total_cmp);
             gaps.extend(
                 e.windows(2)

@@ -188,11 +188,12 @@ impl<'a> GridCamera<'a> {
     /// y: the scan's, and the nearest box's other than `own` with its index.
     #[inline]
     fn nearest_around(&self, x: f64, y: f64, reach: f64, own: Option<usize>) -> (f32, (f32, u16)) {
-        let cell = CELL as f64;
+        // (exact: a power of two; a cast truncates, which is the floor of what max leaves)
+        let per_cell = 1.0 / CELL as f64;
         let rows = self.scan.len() / self.buffer_width.max(1);
         let span = |a: f64, n: usize| {
-            let lo = ((a - reach + 0.5) / cell).floor().max(0.0) as usize;
-            let hi = (((a + reach + 0.5) / cell).floor().max(0.0) as usize).min(n.max(1) - 1);
+            let lo = ((a - reach + 0.5) * per_cell).max(0.0) as usize;
+            let hi = (((a + reach + 0.5) * per_cell).max(0.0) as usize).min(n.max(1) - 1);
             lo..=hi
         };
         let (columns, rows) = (span(x, self.buffer_width), span(y, rows));
