@@ -36,30 +36,36 @@ pub(super) fn resolve(weights: &mut [Vec<f32>]) -> Vec<bool> {
         .into_par_iter()
         .zip(fallback.par_chunks_mut(PIECE))
         .for_each(|(mut parts, fallback)| {
-            // camera by camera over the piece (loops the compiler vectorises)
             let mut seen = [false; PIECE];
-            for w in &parts {
-                for (s, x) in seen.iter_mut().zip(w.iter()) {
-                    *s |= *x > 0.0;
-                }
-            }
-            for w in parts.iter_mut() {
-                for (x, s) in w.iter_mut().zip(&seen) {
-                    if *x < 0.0 {
-                        *x = if *s { 0.0 } else { -*x };
-                    }
-                }
-            }
-            for w in &parts {
-                for (flag, x) in fallback.iter_mut().zip(w.iter()) {
-                    *flag |= *x > 0.0;
-                }
-            }
-            for (flag, s) in fallback.iter_mut().zip(&seen) {
-                *flag &= !*s;
-            }
+            resolve_pixels(&mut parts, fallback, &mut seen[..fallback.len()]);
         });
     fallback
+}
+
+/// [`resolve`] of some pixels: `weights` every camera's weights of them, `fallback` their
+/// flags (false on entry), `seen` as many pixels' room (false on entry, left as it was
+/// computed). Camera by camera over the pixels: loops the compiler vectorises.
+pub(super) fn resolve_pixels(weights: &mut [&mut [f32]], fallback: &mut [bool], seen: &mut [bool]) {
+    for w in weights.iter() {
+        for (s, x) in seen.iter_mut().zip(w.iter()) {
+            *s |= *x > 0.0;
+        }
+    }
+    for w in weights.iter_mut() {
+        for (x, s) in w.iter_mut().zip(seen.iter()) {
+            if *x < 0.0 {
+                *x = if *s { 0.0 } else { -*x };
+            }
+        }
+    }
+    for w in weights.iter() {
+        for (flag, x) in fallback.iter_mut().zip(w.iter()) {
+            *flag |= *x > 0.0;
+        }
+    }
+    for (flag, s) in fallback.iter_mut().zip(seen.iter()) {
+        *flag &= !*s;
+    }
 }
 
 #[cfg(test)]

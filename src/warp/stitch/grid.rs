@@ -122,10 +122,12 @@ pub fn grid_applies(cameras: &[StitchCamera]) -> bool {
 const BAND: usize = 8;
 
 /// A band of rows' share of the build: per camera its blocks and, per row from its first
-/// sampled column, its weights (negative: a fallback weight); the far fill's pixels.
+/// sampled column, its weights (resolved: [`fallback::resolve`]); the pixels the fallback
+/// filled and the far fill's.
 struct Band {
     blocks: Vec<RowBlocks>,
     weights: Vec<BandWeights>,
+    fallback: Vec<bool>,
     far: Vec<bool>,
 }
 
@@ -136,14 +138,15 @@ struct BandWeights {
     values: Vec<f32>,
 }
 
-/// A thread's buffers for its bands: per camera a band of samples and weights (row-major),
-/// all None and 0 between bands (a band clears only the columns it set), and per camera and
-/// band row the columns it samples.
+/// A thread's buffers for its bands: per camera a band of samples and weights (row-major,
+/// negative: a fallback weight), all None and 0 between bands (a band clears only the columns
+/// it set), and per camera and band row the columns it samples; the fallback's room.
 struct Scratch {
     samples: Vec<Vec<Option<Sample>>>,
     weights: Vec<Vec<f32>>,
     spans: Vec<[(usize, usize); BAND]>,
     found: Vec<(usize, View)>,
+    seen: Vec<bool>,
 }
 
 impl Scratch {
@@ -153,6 +156,7 @@ impl Scratch {
             weights: vec![vec![0.0; BAND * width]; cameras],
             spans: vec![[(0, 0); BAND]; cameras],
             found: Vec::with_capacity(cameras),
+            seen: vec![false; BAND * width],
         }
     }
 }
@@ -222,10 +226,12 @@ fn tables_and_weights(
     for (k, table) in sampled.iter_mut().enumerate() {
         table.reserve(bands.iter().map(|b| b.blocks[k].rounds()).sum());
     }
-    // (zeroed pages: a camera's weights are written only where it samples)
-    let mut weights: Vec<Vec<f32>> = vec![vec![0.0; w * h]; cameras.len()];
-    let mut far = Vec::with_capacity(w * h);
-    for (b, band) in bands.into_iter().enumerate() {
+    // (each written once, row by row: zeros around a row's span)
+    let mut weights: Vec<Vec<f32>> = (0..cameras.len())
+        .map(|_| Vec::with_capacity(w * h))
+        .collect();
+    let (mut fallback, mut far) = (Vec::with_capacity(w * h), Vec::with_capacity(w * h));
+    for band in bands {
         for ((table, blocks), (all, band_weights)) in sampled
             .iter_mut()
             .zip(&band.blocks)
@@ -233,15 +239,18 @@ fn tables_and_weights(
         {
             table.push(blocks);
             let mut values = &band_weights.values[..];
-            for (r, &(first, len)) in band_weights.spans.iter().enumerate() {
+            for &(first, len) in &band_weights.spans {
                 let row;
                 (row, values) = values.split_at(len);
-                all[(b * BAND + r) * w + first..][..len].copy_from_slice(row);
+                let start = all.len();
+                all.resize(start + first, 0.0);
+                all.extend_from_slice(row);
+                all.resize(start + w, 0.0);
             }
         }
+        fallback.extend_from_slice(&band.fallback);
         far.extend_from_slice(&band.far);
     }
-    let fallback = fallback::resolve(&mut weights);
     let distances = (0..w * h)
         .map(|i| match grid.origin[i] {
             Origin::Empty => 0.0,
@@ -310,6 +319,13 @@ fn band(
         let far = &mut far[r * w..][..w];
         row((v, r), scratch, far, views, (grid, bearing, tiles), options);
     }
+    // the fallback resolved while the band's weights are in the cache
+    let n = rows.len() * w;
+    let mut fallback = vec![false; n];
+    let mut parts: Vec<&mut [f32]> = scratch.weights.iter_mut().map(|x| &mut x[..n]).collect();
+    let seen = &mut scratch.seen[..n];
+    seen.fill(false);
+    fallback::resolve_pixels(&mut parts, &mut fallback, seen);
     let mut blocks = Vec::with_capacity(views.len());
     let mut weights = Vec::with_capacity(views.len());
     for (k, table) in sampled.iter().enumerate() {
@@ -337,6 +353,7 @@ fn band(
     Band {
         blocks,
         weights,
+        fallback,
         far,
     }
 }
@@ -358,6 +375,7 @@ fn row(
         weights,
         spans,
         found,
+        ..
     } = scratch;
     // per camera the columns it samples
     spans.iter_mut().for_each(|s| s[r] = (w, 0));
