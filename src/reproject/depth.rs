@@ -102,15 +102,17 @@ pub fn depth_map(
     let mut projected = Vec::with_capacity(rect.len());
     for p in rect {
         let rel = p - centre;
-        let Ok(px) = output.project_point(&rel) else {
-            continue;
-        };
+        // the source first: a scan all around meets a camera's image with a fraction of its
+        // points, and a pinhole source's test is a division where a panorama's is trigonometry
         let Ok(src_px) = source.project_point(&rel) else {
             continue;
         };
         if !source.contains(&src_px) {
             continue;
         }
+        let Ok(px) = output.project_point(&rel) else {
+            continue;
+        };
         let (u, v) = (px.x.round(), px.y.round());
         if u < 0.0 || v < 0.0 || u >= size.width as f64 || v >= size.height as f64 {
             continue;
