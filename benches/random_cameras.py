@@ -20,8 +20,17 @@ load on the machine changes the figures less than wall time would (the load aver
 printed). Every way runs once a round after an untimed first run, the rounds interleaved
 (`--rounds`, 5): the rates are the rounds' medians, each ratio the median of its rounds'
 ratios (with their range), since a run of 20 samples lasts a fraction of a second and the
-machine's speed drifts between runs. Then a 4-worker loader of `RandomCameraDataset` against
-1 worker: the same arrays.
+machine's speed drifts between runs.
+
+Then `RandomCameraDataset`: a 4-worker loader against 1 worker (wall time), the same arrays;
+and, per core in the same interleaved rounds, the dataset at its defaults (`ds[i]`: the frame
+read, its camera drawn, the image warped through the pyramid, the mask, the labels, the LiDAR
+depth) against a numpy + cv2 dataset doing per sample what a user writes without panoconv:
+the image read with `cv2.imread`, label_2 and calib parsed in Python, the scan read with
+`np.fromfile`, the maps and `cv2.remap` above, the mask, the boxes from the 8 corners and a
+sparse depth image (the scan in rect, projected into the drawn camera, the nearest point per
+pixel with `np.minimum.at`, without panoconv's occlusion filter). The numpy side warps into
+the very camera the dataset drew for the same index.
 
     benches/random_cameras.sh [--kitti DIR] [--samples N] [--rounds R]
 
@@ -39,12 +48,13 @@ import os
 import statistics
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
 
 import panoconv
-from panoconv.random_cameras import CameraSampler, RandomCameraDataset, sample_seed
+from panoconv.random_cameras import CameraSampler, RandomCameraDataset, camera_of, sample_seed
 
 REPO = Path(__file__).resolve().parents[1]
 SIZE = (640, 480)
@@ -159,11 +169,11 @@ def project_numpy(cam, drawn, points):
     return uv
 
 
-def boxes_numpy(cam, drawn, objs):
+def boxes_numpy(cam, drawn, objs, corners=panoconv.box_corners):
     w, h = cam.size
     boxes = []
     for o in objs:
-        uv = project_numpy(cam, drawn, panoconv.box_corners(o))
+        uv = project_numpy(cam, drawn, corners(o))
         uv = uv[np.isfinite(uv).all(axis=1)]
         if len(uv) == 0:
             continue
@@ -181,6 +191,112 @@ def numpy_sample(src, cam, drawn, image, objs):
     out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     mask = (mx >= 0) & (mx <= src.width - 1) & (my >= 0) & (my <= src.height - 1)
     return out, mask, boxes_numpy(cam, drawn, objs)
+
+
+# ---- a dataset the numpy + cv2 way: KITTI's files read and parsed per sample ---------------
+
+
+def read_calib_numpy(path):
+    """P2 (3x4), R0_rect (3x3) and Tr_velo_to_cam (3x4, None where absent) of a KITTI calib."""
+    m = {}
+    with open(path) as f:
+        for line in f:
+            key, _, values = line.partition(":")
+            if values.strip():
+                m[key.strip()] = np.array(values.split(), np.float64)
+    tr = m.get("Tr_velo_to_cam")
+    tr = None if tr is None else tr.reshape(3, 4)
+    return m["P2"].reshape(3, 4), m["R0_rect"].reshape(3, 3), tr
+
+
+def read_labels_numpy(path):
+    """Classes and (N, 7) boxes (h, w, l, x, y, z, ry) of a label_2 file's objects with a 3D box
+    (`type trunc occ alpha l t r b h w l x y z ry`; DontCare and placeholder rows left out)."""
+    classes, boxes = [], []
+    with open(path) as f:
+        for line in f:
+            v = line.split()
+            if len(v) < 15 or v[0] == "DontCare":
+                continue
+            box = [float(x) for x in v[8:15]]
+            if min(box[:3]) > 0 and box[5] > -999:
+                classes.append(v[0])
+                boxes.append(box)
+    return classes, np.array(boxes, np.float64).reshape(-1, 7)
+
+
+def corners_numpy(box):
+    """The 8 corners (8, 3) in rect of a label_2 box: bottom face first, then top."""
+    h, w, l, x, y, z, ry = box
+    s, c = np.sin(ry), np.cos(ry)
+    xs = np.array([l, l, -l, -l, l, l, -l, -l]) / 2
+    zs = np.array([w, -w, -w, w, w, -w, -w, w]) / 2
+    ys = np.array([0, 0, 0, 0, -h, -h, -h, -h], np.float64)
+    return np.stack([x + c * xs + s * zs, y + ys, z - s * xs + c * zs], axis=1)
+
+
+def depth_numpy(P2, cam, drawn, rect, src_size):
+    """HxW float32 metres (0: none) of rect points in the drawn camera: each pixel the nearest
+    of the points landing on it. The distance is the drawn projection's own, as panoconv's
+    `Warp.depth` writes it: the range |X - C| for a lens or an equirect, the cylinder's radius
+    hypot(x, z) in the camera's axes for a cylindrical view (z along the optical axis for a
+    pinhole). Points the source camera does not see in its image are left out, as panoconv
+    does; panoconv's occlusion filter is not done here."""
+    w, h = cam.size
+    uv = project_numpy(cam, drawn, rect)
+    p = (rect - cam.C) @ cam.R
+    if drawn["model"] == "cylindrical":
+        d = np.hypot(p[:, 0], p[:, 2])
+    elif drawn["model"] == "perspective":
+        d = p[:, 2]
+    else:
+        d = np.linalg.norm(p, axis=1)
+    s = rect @ P2[:, :3].T + P2[:, 3]  # the source's pixels, homogeneous
+    with np.errstate(invalid="ignore", divide="ignore"):
+        su, sv = s[:, 0] / s[:, 2], s[:, 1] / s[:, 2]
+        u, v = np.rint(uv[:, 0]), np.rint(uv[:, 1])
+        ok = (
+            (s[:, 2] > 0) & (su >= -0.5) & (su < src_size[0] - 0.5)
+            & (sv >= -0.5) & (sv < src_size[1] - 0.5)
+            & (u >= 0) & (u < w) & (v >= 0) & (v < h) & (d > 0)
+        )
+    depth = np.full(h * w, np.inf, np.float32)
+    np.minimum.at(depth, (v[ok] * w + u[ok]).astype(np.intp), d[ok].astype(np.float32))
+    depth[np.isinf(depth)] = 0
+    return depth.reshape(h, w)
+
+
+def numpy_dataset_sample(split, frame_id, cam, drawn):
+    """One sample of a KITTI dataset in a drawn camera, numpy + cv2 only: the frame's files read
+    and parsed, the image warped, the mask, the objects' 2D boxes and the LiDAR depth."""
+    image = cv2.cvtColor(cv2.imread(str(split / "image_2" / f"{frame_id}.png")), cv2.COLOR_BGR2RGB)
+    P2, R0, tr = read_calib_numpy(split / "calib" / f"{frame_id}.txt")
+    classes, boxes_3d = read_labels_numpy(split / "label_2" / f"{frame_id}.txt")
+    K = P2[:, :3]
+    src = SimpleNamespace(K=K, width=image.shape[1], height=image.shape[0])
+    # the drawn camera turns about the source's optical centre (P2 = K [I | -C])
+    dst = SimpleNamespace(R=cam.R, C=-np.linalg.solve(K, P2[:, 3]), size=cam.size)
+    mx, my = maps_numpy(src, dst, drawn)
+    out = cv2.remap(image, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    mask = (mx >= 0) & (mx <= src.width - 1) & (my >= 0) & (my <= src.height - 1)
+    boxes_2d = np.array(boxes_numpy(dst, drawn, boxes_3d, corners_numpy), np.float64)
+    velodyne = split / "velodyne" / f"{frame_id}.bin"
+    if tr is not None and velodyne.is_file():
+        xyz = np.fromfile(velodyne, np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
+        rect_from_velo = R0 @ tr  # R0_rect · Tr_velo_to_cam, 3x4
+        rect = xyz @ rect_from_velo[:, :3].T + rect_from_velo[:, 3]
+        rect = rect[np.isfinite(rect).all(axis=1)]
+        depth = depth_numpy(P2, dst, drawn, rect, (src.width, src.height))
+    else:
+        depth = np.zeros((cam.size[1], cam.size[0]), np.float32)
+    return {
+        "image": out,
+        "mask": mask,
+        "depth": depth,
+        "boxes_2d": boxes_2d.reshape(-1, 4),
+        "classes": np.array(classes, dtype=str),
+        "boxes_3d": boxes_3d[:, [3, 4, 5, 0, 1, 2, 6]],  # x, y, z, h, w, l, ry: the dataset's
+    }
 
 
 # ---- measurements -----------------------------------------------------------------------
@@ -270,6 +386,57 @@ def bench_family(name, sampler, frames, n, rounds):
     return rates
 
 
+def dataset_per_core(ds, samples, split, rounds):
+    """`ds[i]` at its defaults against `numpy_dataset_sample`, per core, in interleaved rounds
+    (bench_family's rule) over the indices of `samples` (the dataset's own samples, loaded
+    already: they give each index's drawn camera and frame)."""
+    n = len(samples)
+    # the cameras the dataset drew, taken from its samples (untimed): the numpy side warps
+    # into the same cameras, its time spent on the sample, not on the draw (a few
+    # microseconds of Python, the same on both sides)
+    draws = [x["camera"] for x in samples]
+    cams = [camera_of(d) for d in draws]
+    ids = [x["id"] for x in samples]
+    indices = [x["index"] for x in samples]
+    ways = {
+        "RandomCameraDataset, defaults": lambda k: ds[indices[k]],
+        "numpy + cv2 dataset": lambda k: numpy_dataset_sample(split, ids[k], cams[k], draws[k]),
+    }
+    base = "numpy + cv2 dataset"
+    per_round = {k: [] for k in ways}
+    for fn in ways.values():  # untimed first runs
+        per_core(fn, min(n, 3))
+    for _ in range(rounds):
+        for k, fn in ways.items():
+            per_round[k].append(per_core(fn, n))
+    rates = {k: statistics.median(v) for k, v in per_round.items()}
+    ratios = {
+        k: sorted(r / b for r, b in zip(v, per_round[base])) for k, v in per_round.items()
+    }
+    # the same geometry: the first sample's pixels and depths where both have them
+    ours, theirs = samples[0], numpy_dataset_sample(split, ids[0], cams[0], draws[0])
+    both = ours["mask"] & theirs["mask"]
+    grey = (np.abs(ours["image"].astype(int) - theirs["image"].astype(int))[both].mean()
+            if both.any() else float("nan"))
+    dboth = (ours["depth"] > 0) & (theirs["depth"] > 0)
+    ddiff = (np.median(np.abs(ours["depth"] - theirs["depth"])[dboth])
+             if dboth.any() else float("nan"))
+    print(f"  per core, {n} samples:")
+    for k, v in rates.items():
+        rel = ""
+        if k != base:
+            r = ratios[k]
+            rel = (f"  {statistics.median(r):5.2f}x the numpy way"
+                   f" (rounds {r[0]:.2f}-{r[-1]:.2f})")
+        print(f"  {k:38s} {v:9.1f} samples/s per core{rel}")
+    print(f"  first sample, panoconv / numpy way: mean |difference| {grey:.2f} grey levels where"
+          f" both sample (the pyramid against bilinear); depth at"
+          f" {np.count_nonzero(ours['depth'])} / {np.count_nonzero(theirs['depth'])} pixels"
+          f" (panoconv's occlusion filter drops points), median |difference| {ddiff:.3f} m"
+          f" where both; {len(ours['boxes_2d'])} / {len(theirs['boxes_2d'])} boxes")
+    return rates
+
+
 def load(ds, indices, workers):
     if workers == 1:
         return [ds[i] for i in indices]
@@ -288,7 +455,7 @@ def same(a, b):
     return len(a) == len(b)
 
 
-def loader(kitti, n, workers):
+def loader(kitti, n, workers, rounds):
     sampler = CameraSampler(
         model=["kannala_brandt", "equirect", "cylindrical"],
         fov_deg=(100, 140),
@@ -308,6 +475,7 @@ def loader(kitti, n, workers):
           f" labels):")
     print(f"  1 worker: {n / t1:.1f} samples/s wall; {workers} workers: {n / t2:.1f} samples/s"
           f" wall; same arrays: {same(one, many)}")
+    dataset_per_core(ds, one, kitti / ds.split, rounds)
 
 
 def main():
@@ -327,7 +495,7 @@ def main():
     print(f"{len(frames)} real KITTI frames, drawn cameras at {SIZE[0]}x{SIZE[1]}")
     for name, sampler in SAMPLERS.items():
         bench_family(name, sampler, frames, args.samples, args.rounds)
-    loader(args.kitti, 2 * args.samples, args.workers)
+    loader(args.kitti, 2 * args.samples, args.workers, args.rounds)
 
 
 if __name__ == "__main__":
