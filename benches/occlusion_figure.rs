@@ -41,7 +41,13 @@ fn main() {
     let rect = rect_from_velo(&velo, &Matrix3::identity(), &tr);
     let filter = OcclusionFilter::default();
     for (name, filter) in [("zbuffer", None), ("filtered", Some(&filter))] {
-        let (map, _) = depth_map(&rect, &f.calib.centre(), out.as_ref(), &src, filter);
+        let (map, _) = depth_map(
+            rect.iter().copied(),
+            &f.calib.centre(),
+            out.as_ref(),
+            &src,
+            filter,
+        );
         // darken the picture so the points stand out
         let mut img = image.clone();
         img.as_raw_mut().iter_mut().for_each(|v| *v /= 3);

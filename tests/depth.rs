@@ -68,7 +68,13 @@ fn run(projection: Projection, frame: usize, filter: Option<&OcclusionFilter>) -
     let src = Perspective::new(calib.intrinsics(), calib.size);
     let out: Box<dyn LinearCamera> =
         output_camera(&OutputSpec::new(projection), calib.intrinsics(), &src).unwrap();
-    let (map, _) = depth_map(&rect, &calib.centre(), out.as_ref(), &src, filter);
+    let (map, _) = depth_map(
+        rect.iter().copied(),
+        &calib.centre(),
+        out.as_ref(),
+        &src,
+        filter,
+    );
     score(&map, out.as_ref(), &calib.centre(), &f.scene)
 }
 

@@ -49,12 +49,18 @@ pub fn read_velodyne<'py>(
             "no R0_rect or Tr_velo_to_cam line (needed for LiDAR points)",
         )));
     };
-    let points = py
+    // (the rows made in one pass: no vector of points between the scan and the array)
+    let rows: Vec<[f64; 3]> = py
         .detach(|| {
-            velodyne::read(&path).map(|scan| velodyne::rect_from_velo(&scan.points, &r0, &tr))
+            velodyne::read(&path).map(|scan| {
+                let rect_from_velo = velodyne::rect_from_velo_map(&r0, &tr);
+                let row = |p: &_| {
+                    let q = rect_from_velo(p);
+                    [q.x, q.y, q.z]
+                };
+                scan.points.iter().map(row).collect()
+            })
         })
         .py()?;
-    let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-    let array = Array2::from_shape_vec((points.len(), 3), flat).expect("Nx3");
-    Ok(PyArray2::from_owned_array(py, array))
+    Ok(PyArray2::from_owned_array(py, Array2::from(rows)))
 }

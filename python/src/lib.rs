@@ -1,7 +1,14 @@
 //! `panoconv._native`: the Python module's compiled part (PyO3). The Python package
 //! (`python/panoconv/`) re-exports it; docs/python.md describes the API.
 
+use panoconv::run::alloc::KeepLarge;
 use pyo3::prelude::*;
+
+/// The module's own allocations keep their large freed blocks for the next sample (a loader
+/// allocates the same buffers every sample); Python's and other libraries' malloc is left as
+/// it is.
+#[global_allocator]
+static ALLOCATOR: KeepLarge = KeepLarge::new();
 
 mod calib;
 mod camera;

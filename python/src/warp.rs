@@ -559,14 +559,13 @@ impl Warp {
         let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
         let centre = self.source.centre;
         let map = py.detach(|| {
-            let finite: Vec<Vector3<f64>> = points
+            let finite = points
                 .rows()
                 .into_iter()
                 .map(|r| Vector3::new(r[0], r[1], r[2]))
-                .filter(|p| p.iter().all(|v| v.is_finite()))
-                .collect();
+                .filter(|p| p.iter().all(|v| v.is_finite()));
             let filter = occlusion.then(OcclusionFilter::default);
-            depth_map(&finite, &centre, dst, src, filter.as_ref()).0
+            depth_map(finite, &centre, dst, src, filter.as_ref()).0
         });
         let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
             .expect("shape");
@@ -599,7 +598,7 @@ impl Warp {
                     (t > 0.0 && t.is_finite()).then(|| centre + ray * t)
                 })
                 .collect();
-            depth_map(&points, &centre, dst, src, None).0
+            depth_map(points, &centre, dst, src, None).0
         });
         let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
             .expect("shape");

@@ -38,11 +38,21 @@ pub(super) fn view_depth(
     domain: DepthDomain,
 ) -> (DepthMap, LidarRecord) {
     let (map, occluded) = match domain {
-        DepthDomain::Source(source) => {
-            depth_map(lidar.points, centre, output, source, lidar.filter)
-        }
+        DepthDomain::Source(source) => depth_map(
+            lidar.points.iter().copied(),
+            centre,
+            output,
+            source,
+            lidar.filter,
+        ),
         DepthDomain::Coverage(sources) => {
-            let (mut map, occluded) = depth_map(lidar.points, centre, output, output, lidar.filter);
+            let (mut map, occluded) = depth_map(
+                lidar.points.iter().copied(),
+                centre,
+                output,
+                output,
+                lidar.filter,
+            );
             for (d, s) in map.values.iter_mut().zip(sources) {
                 if *s == NO_SOURCE {
                     *d = 0.0;

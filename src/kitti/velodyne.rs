@@ -70,7 +70,19 @@ pub fn rect_from_velo(
     r0_rect: &nalgebra::Matrix3<f64>,
     tr_velo_to_cam: &nalgebra::Matrix3x4<f64>,
 ) -> Vec<Vector3<f64>> {
+    points
+        .iter()
+        .map(rect_from_velo_map(r0_rect, tr_velo_to_cam))
+        .collect()
+}
+
+/// [`rect_from_velo`] of one point at a time.
+pub fn rect_from_velo_map(
+    r0_rect: &nalgebra::Matrix3<f64>,
+    tr_velo_to_cam: &nalgebra::Matrix3x4<f64>,
+) -> impl Fn(&Vector3<f64>) -> Vector3<f64> {
+    let r0_rect = *r0_rect;
     let r = tr_velo_to_cam.fixed_view::<3, 3>(0, 0).into_owned();
     let t = tr_velo_to_cam.column(3).into_owned();
-    points.iter().map(|p| r0_rect * (r * p + t)).collect()
+    move |p| r0_rect * (r * p + t)
 }

@@ -92,14 +92,14 @@ struct Projected {
 /// point per pixel; optional occlusion filter. Returns the map and how many points the filter
 /// dropped.
 pub fn depth_map(
-    rect: &[Vector3<f64>],
+    rect: impl IntoIterator<Item = Vector3<f64>>,
     centre: &Vector3<f64>,
     output: &dyn CameraModel,
     source: &dyn CameraModel,
     filter: Option<&OcclusionFilter>,
 ) -> (DepthMap, usize) {
     let size = output.size();
-    let mut projected = Vec::with_capacity(rect.len());
+    let mut projected = Vec::new();
     for p in rect {
         let rel = p - centre;
         // the source first: a scan all around meets a camera's image with a fraction of its
