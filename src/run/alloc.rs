@@ -2,7 +2,7 @@
 //! malloc is not the program's own.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::Mutex;
+use std::sync::{Mutex, TryLockError};
 
 /// Keeps freed memory in the process for the next frame instead of handing it back to the
 /// operating system.
@@ -84,14 +84,21 @@ impl KeepLarge {
         layout.size() >= Self::MIN && layout.align() <= Self::ALIGN
     }
 
-    fn kept(&self) -> std::sync::MutexGuard<'_, Kept> {
-        // (a poisoned lock: nothing here panics while holding it; the slots stay whole)
-        self.kept.lock().unwrap_or_else(|e| e.into_inner())
+    /// The slots, unless another thread holds them: then the block is the system's, as if
+    /// none were kept. Never waiting keeps a process forked while a thread held the lock (a
+    /// loader's workers) from waiting forever: its slots are just not used.
+    fn kept(&self) -> Option<std::sync::MutexGuard<'_, Kept>> {
+        match self.kept.try_lock() {
+            Ok(kept) => Some(kept),
+            // (nothing here panics while holding the lock: the slots stay whole)
+            Err(TryLockError::Poisoned(e)) => Some(e.into_inner()),
+            Err(TryLockError::WouldBlock) => None,
+        }
     }
 
     /// A kept block of `class`, taken out.
     fn take(&self, class: usize) -> Option<*mut u8> {
-        let mut kept = self.kept();
+        let mut kept = self.kept()?;
         let len = kept.len;
         let at = kept.blocks[..len].iter().position(|&(c, _)| c == class)?;
         let (_, address) = kept.blocks[at];
@@ -103,7 +110,9 @@ impl KeepLarge {
 
     /// Keeps `ptr` (a block of `class`) if there is room.
     fn keep(&self, class: usize, ptr: *mut u8) -> bool {
-        let mut kept = self.kept();
+        let Some(mut kept) = self.kept() else {
+            return false;
+        };
         if kept.len == Self::SLOTS || kept.bytes + class > Self::KEPT_BYTES {
             return false;
         }
@@ -209,7 +218,19 @@ mod tests {
             assert_ne!(c, b);
             keep.dealloc(c, large(1_000_000));
         }
-        assert_eq!(keep.kept().len, 2);
+        assert_eq!(keep.kept().unwrap().len, 2);
+    }
+
+    #[test]
+    fn a_held_lock_sends_blocks_to_the_system_without_waiting() {
+        let keep = KeepLarge::new();
+        let held = keep.kept.lock().unwrap();
+        unsafe {
+            let a = keep.alloc(large(1_000_000));
+            std::ptr::write_bytes(a, 1, 1_000_000);
+            keep.dealloc(a, large(1_000_000));
+        }
+        assert_eq!(held.len, 0, "nothing kept while the lock was held");
     }
 
     #[test]
@@ -222,7 +243,7 @@ mod tests {
                 keep.dealloc(b, large(size));
             }
         }
-        let kept = keep.kept();
+        let kept = keep.kept().unwrap();
         assert_eq!(kept.len, 3, "128 MiB hold three 40 MiB blocks");
         assert!(kept.bytes <= KeepLarge::KEPT_BYTES);
     }
@@ -247,7 +268,7 @@ mod tests {
             assert!(std::slice::from_raw_parts(t, 500).iter().all(|&x| x == 3));
             keep.dealloc(t, Layout::from_size_align(500, 8).unwrap());
             // a kept block: the 310 000 one's class went back to the slots
-            assert_eq!(keep.kept().len, 2);
+            assert_eq!(keep.kept().unwrap().len, 2);
         }
     }
 }
