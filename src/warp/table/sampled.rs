@@ -27,8 +27,8 @@ pub(crate) struct Sample {
 
 /// The blocks of a band of consecutive rows ([`SampledRows::band`]), made on any thread, pushed
 /// in row order ([`SampledRows::push`]). A band, not a row, is the unit of work, its vectors
-/// sized once: every thread allocates from one heap (`run::alloc`), so a vector a row that grows
-/// by reallocation keeps the other threads waiting on its lock.
+/// sized once: every thread allocates from one heap (`run::alloc`), so a row's vector grown by
+/// reallocation kept the other threads waiting on the heap's lock.
 #[derive(Debug, Default)]
 pub(crate) struct RowBlocks {
     quads: Vec<Quad>,
@@ -206,8 +206,7 @@ impl SampledRows {
         };
         let k = (lod as u32).min(top);
         let f = if k == top { 0.0 } else { lod - k as f32 };
-        // (1 - f has f32's 24 bits, so + 0.5 is exact and the cast rounds half up as round()
-        // would, without its call)
+        // (non-negative: + 0.5 and the cast round half up as round() does, without libm's call)
         let fine = ((1.0 - f as f64) * WEIGHT_ONE as f64 + 0.5) as i32;
         let mut reach = 0;
         for (level, total) in [(k, fine), (k + 1, WEIGHT_ONE - fine)] {
