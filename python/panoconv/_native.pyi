@@ -152,6 +152,10 @@ class Warp:
         """The objects `labels(labels, min_visible)` writes as objects (--min-objects' count)."""
     def depth(self, points_rect: ArrayLike, occlusion: bool = True) -> npt.NDArray[np.float64]:
         """HxW metres (0: none) of rect points (N, 3): the command's depth_2 is round(d·256)."""
+    def depth_velodyne(
+        self, path: str | os.PathLike[str], calib: Calib, occlusion: bool = True
+    ) -> npt.NDArray[np.float64]:
+        """`depth(read_velodyne(path, calib), occlusion)`, the points taken as the file is read."""
     def depth_map(self, depth: ArrayLike) -> npt.NDArray[np.float64]:
         """The source's depth map (HxW metres, 0: none) in the target: each source pixel's 3D
         point, the nearest per target pixel."""

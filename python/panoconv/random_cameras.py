@@ -22,7 +22,6 @@ from ._native import (
     box_corners,
     read_depth,
     read_image,
-    read_velodyne,
 )
 
 _MASK = (1 << 64) - 1
@@ -389,7 +388,7 @@ class RandomCameraDataset:
         if self.depth:
             velodyne = self.root / self.split / "velodyne" / f"{frame.id}.bin"
             if velodyne.is_file() and frame.calib.rect_from_velo is not None:
-                return warp.depth(read_velodyne(velodyne, frame.calib)).astype(np.float32)
+                return warp.depth_velodyne(velodyne, frame.calib).astype(np.float32)
             if frame.depth is not None:
                 return warp.depth_map(read_depth(frame.depth)).astype(np.float32)
         return np.zeros((h, w), np.float32)

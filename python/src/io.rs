@@ -2,6 +2,7 @@
 //! numpy alone: no image library needed to feed `Warp`).
 
 use crate::errors::IntoPy;
+use nalgebra::Vector3;
 use ndarray::{Array2, Array3};
 use numpy::{PyArray2, PyArray3};
 use panoconv::codec::{self, png};
@@ -42,6 +43,27 @@ pub fn read_velodyne<'py>(
     path: PathBuf,
     calib: &crate::calib::Calib,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let rect_from_velo = rect_from_velo(calib)?;
+    // (the rows made as the file is read: no vector of points between the scan and the array)
+    let rows = py
+        .detach(|| {
+            let points = std::fs::metadata(&path).map_or(0, |m| m.len() as usize / 16);
+            let mut rows: Vec<[f64; 3]> = Vec::with_capacity(points);
+            velodyne::for_each_point(&path, |p, _| {
+                let q = rect_from_velo(&p);
+                rows.push([q.x, q.y, q.z]);
+            })
+            .map(|_| rows)
+        })
+        .py()?;
+    Ok(PyArray2::from_owned_array(py, Array2::from(rows)))
+}
+
+/// A calib's map of LiDAR points to rect (R0_rect · Tr_velo_to_cam · p), or the error naming
+/// its file where a line is missing.
+pub(crate) fn rect_from_velo(
+    calib: &crate::calib::Calib,
+) -> PyResult<impl Fn(&Vector3<f64>) -> Vector3<f64> + Sync> {
     let c = &calib.calib;
     let (Some(r0), Some(tr)) = (c.r0_rect, c.tr_velo_to_cam) else {
         return Err(crate::errors::to_py(panoconv::error::Error::file(
@@ -49,18 +71,5 @@ pub fn read_velodyne<'py>(
             "no R0_rect or Tr_velo_to_cam line (needed for LiDAR points)",
         )));
     };
-    // (the rows made in one pass: no vector of points between the scan and the array)
-    let rows: Vec<[f64; 3]> = py
-        .detach(|| {
-            velodyne::read(&path).map(|scan| {
-                let rect_from_velo = velodyne::rect_from_velo_map(&r0, &tr);
-                let row = |p: &_| {
-                    let q = rect_from_velo(p);
-                    [q.x, q.y, q.z]
-                };
-                scan.points.iter().map(row).collect()
-            })
-        })
-        .py()?;
-    Ok(PyArray2::from_owned_array(py, Array2::from(rows)))
+    Ok(velodyne::rect_from_velo_map(&r0, &tr))
 }

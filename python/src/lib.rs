@@ -24,6 +24,7 @@ mod rig;
 mod turned;
 mod vectors;
 mod warp;
+mod warp_depth;
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {

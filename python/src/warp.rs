@@ -6,7 +6,7 @@
 
 use crate::camera::Camera;
 use crate::labels::Label;
-use nalgebra::{Matrix3, Point2, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use ndarray::{Array2, ArrayD, ArrayViewD, IxDyn};
 use numpy::{
     AllowTypeChange, Element, PyArray2, PyArrayDyn, PyArrayLike2, PyReadonlyArrayDyn,
@@ -15,7 +15,6 @@ use numpy::{
 use panoconv::camera::{CameraModel, OutputProjection, Perspective, Projection};
 use panoconv::convert::kitti::{move_label, MovedLabel};
 use panoconv::kitti::Label as KittiLabel;
-use panoconv::reproject::depth::{depth_map, OcclusionFilter};
 use panoconv::reproject::visibility::Visibility;
 use panoconv::warp::{
     narrow_u8, pyramid, Footprint, RemapTable, Wrap, LENS_TAPS_BELOW, MAX_SUPERSAMPLE, TAPS_BELOW,
@@ -71,8 +70,14 @@ impl Warp {
         self.table.get().expect("set above")
     }
 
+    /// The source and target cameras of a depth map, and the centre they share.
+    pub(crate) fn depth_cameras(&self) -> (&dyn CameraModel, &dyn CameraModel, Vector3<f64>) {
+        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
+        (src, dst, self.source.centre)
+    }
+
     /// A ValueError unless `shape` is the source camera's HxW.
-    fn check_source_pixels(&self, shape: &[usize], name: &str) -> PyResult<()> {
+    pub(crate) fn check_source_pixels(&self, shape: &[usize], name: &str) -> PyResult<()> {
         let s = self.source.camera.size();
         if shape != [s.height as usize, s.width as usize] {
             return Err(PyValueError::new_err(format!(
@@ -549,27 +554,21 @@ impl Warp {
         points_rect: PyArrayLike2<'py, f64, AllowTypeChange>,
         occlusion: bool,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let points = points_rect.as_array();
-        if points.ncols() != 3 {
-            return Err(PyValueError::new_err(format!(
-                "points_rect: expected an (N, 3) array, got shape {:?}",
-                points.shape()
-            )));
-        }
-        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
-        let centre = self.source.centre;
-        let map = py.detach(|| {
-            let finite = points
-                .rows()
-                .into_iter()
-                .map(|r| Vector3::new(r[0], r[1], r[2]))
-                .filter(|p| p.iter().all(|v| v.is_finite()));
-            let filter = occlusion.then(OcclusionFilter::default);
-            depth_map(finite, &centre, dst, src, filter.as_ref()).0
-        });
-        let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
-            .expect("shape");
-        Ok(PyArray2::from_owned_array(py, values))
+        crate::warp_depth::of_points(py, self, points_rect, occlusion)
+    }
+
+    /// `depth(read_velodyne(path, calib), occlusion)`, the scan's points taken as the file is
+    /// read (no array of them in between): what `RandomCameraDataset` takes for a frame with
+    /// a `velodyne/` scan.
+    #[pyo3(signature = (path, calib, occlusion=true))]
+    fn depth_velodyne<'py>(
+        &self,
+        py: Python<'py>,
+        path: std::path::PathBuf,
+        calib: &crate::calib::Calib,
+        occlusion: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        crate::warp_depth::of_velodyne(py, self, &path, calib, occlusion)
     }
 
     /// The source's own depth map in the target: `depth` (`HxW` metres over the source's
@@ -584,25 +583,7 @@ impl Warp {
         py: Python<'py>,
         depth: PyArrayLike2<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let depth = depth.as_array();
-        self.check_source_pixels(depth.shape(), "depth")?;
-        let (src, dst) = (self.source.camera.as_ref(), self.target.camera.as_ref());
-        let centre = self.source.centre;
-        let map = py.detach(|| {
-            let points: Vec<Vector3<f64>> = depth
-                .indexed_iter()
-                .filter(|(_, d)| **d > 0.0 && d.is_finite())
-                .filter_map(|((v, u), &d)| {
-                    let ray = src.unproject(&Point2::new(u as f64, v as f64)).ok()?;
-                    let t = d / src.distance(&ray);
-                    (t > 0.0 && t.is_finite()).then(|| centre + ray * t)
-                })
-                .collect();
-            depth_map(points, &centre, dst, src, None).0
-        });
-        let values = Array2::from_shape_vec((map.height as usize, map.width as usize), map.values)
-            .expect("shape");
-        Ok(PyArray2::from_owned_array(py, values))
+        crate::warp_depth::of_source_map(py, self, depth)
     }
 
     /// `mask` within the source's coverage: where every tap of the target's pixel lies inside

@@ -65,8 +65,14 @@ def assert_same_as_the_command(out, dst):
     lines = [l.split() for l in (out / "label_2" / f"{FRAME}.txt").read_text().splitlines()]
     assert [l.tokens for l in labels] == lines
     assert len(lines) >= 2
-    points = panoconv.read_velodyne(split / "velodyne" / f"{FRAME}.bin", calib)
+    scan = split / "velodyne" / f"{FRAME}.bin"
+    points = panoconv.read_velodyne(scan, calib)
     depth = warp.depth(points)
+    # the scan's points taken as the file is read: the same map, filter on and off
+    assert np.array_equal(warp.depth_velodyne(scan, calib), depth)
+    assert np.array_equal(
+        warp.depth_velodyne(scan, calib, occlusion=False), warp.depth(points, occlusion=False)
+    )
     written_depth = panoconv.read_depth(out / "depth_2" / f"{FRAME}.png")
     want16 = np.round(written_depth * 256)
     assert np.array_equal(np.clip(np.round(depth * 256), 0, 65535), want16)
@@ -267,3 +273,22 @@ def test_a_panorama_source_with_the_command_s_rule_gives_panoconv_pano_s_bytes(
     assert np.array_equal(command, want), f"{(command != want).any(axis=2).sum()} pixels differ"
     taps = panoconv.Warp(pano, back, antialias="taps").image(rgb)
     assert (taps != want).any(axis=2).sum() > 100, "the view's pixels take the pyramid"
+
+
+def test_a_broken_scan_or_calib_is_an_error_naming_its_file(tmp_path):
+    split = kitti_dir() / "training"
+    calib = panoconv.read_calib(split / "calib" / f"{FRAME}.txt")
+    warp = panoconv.Warp(calib.camera, calib.camera)
+    scan = (split / "velodyne" / f"{FRAME}.bin").read_bytes()
+    broken = tmp_path / "broken.bin"
+    broken.write_bytes(scan[: len(scan) - 5])
+    for read in (lambda: panoconv.read_velodyne(broken, calib),
+                 lambda: warp.depth_velodyne(broken, calib)):
+        with pytest.raises(Exception, match="broken.bin.*not a whole number of 16-byte points"):
+            read()
+    lines = (split / "calib" / f"{FRAME}.txt").read_text().splitlines()
+    no_velo = tmp_path / "calib.txt"
+    no_velo.write_text("\n".join(l for l in lines if not l.startswith("Tr_velo_to_cam")) + "\n")
+    bare = panoconv.read_calib(no_velo, image=split / "image_2" / f"{FRAME}.png")
+    with pytest.raises(Exception, match="calib.txt.*no R0_rect or Tr_velo_to_cam line"):
+        warp.depth_velodyne(split / "velodyne" / f"{FRAME}.bin", bare)

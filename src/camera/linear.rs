@@ -393,4 +393,38 @@ mod tests {
             "{projected} {rejected}"
         );
     }
+
+    #[test]
+    fn a_pinholes_points_in_lanes_are_its_project_point_bit_for_bit() {
+        let k = Intrinsics::new(707.05, 707.05, 604.08, 180.51);
+        let pinhole = Perspective::new(k, ImageSize::new(1224, 370));
+        let points: Vec<Vector3<f64>> = points()
+            .into_iter()
+            .chain([
+                Vector3::new(1e-13, 1e-13, 1e-13),
+                Vector3::new(0.0, 0.0, 2e-12),
+            ])
+            .collect();
+        let (mut projected, mut rejected) = (0, 0);
+        for eight in points.chunks_exact(8) {
+            let lanes = [0, 1, 2].map(|c| std::array::from_fn::<f64, 8, _>(|l| eight[l][c]));
+            let [u, v] = crate::camera::pinhole_point_lanes(&k, lanes);
+            for (l, p) in eight.iter().enumerate() {
+                match pinhole.project_point(p) {
+                    Ok(q) => {
+                        assert_eq!([u[l], v[l]].map(f64::to_bits), [q.x, q.y].map(f64::to_bits));
+                        projected += 1;
+                    }
+                    Err(_) => {
+                        assert!(u[l].is_nan(), "{p:?}");
+                        rejected += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            projected > 1000 && rejected > 1000,
+            "{projected} {rejected}"
+        );
+    }
 }

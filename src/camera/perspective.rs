@@ -88,3 +88,22 @@ pub(crate) fn pinhole_lanes<const N: usize>(
     }
     out
 }
+
+/// [`crate::camera::CameraModel::project_point`] of a pinhole of intrinsics `k`, lane by lane:
+/// the points (x, y, z, any length) made unit bearings by its very operations (the norm, the
+/// singular test, the divisions), then [`pinhole_lanes`]. NaN u where `project_point` rejects.
+#[inline(always)]
+pub(crate) fn pinhole_point_lanes<const N: usize>(
+    k: &Intrinsics,
+    [x, y, z]: [[f64; N]; 3],
+) -> [[f64; N]; 2] {
+    let mut unit = [[0.0; N]; 3];
+    for i in 0..N {
+        let n = (x[i] * x[i] + y[i] * y[i] + z[i] * z[i]).sqrt();
+        let regular = n > 1e-12;
+        unit[0][i] = x[i] / n;
+        unit[1][i] = y[i] / n;
+        unit[2][i] = if regular { z[i] / n } else { f64::NAN };
+    }
+    pinhole_lanes(k, unit)
+}

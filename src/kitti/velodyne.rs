@@ -35,22 +35,70 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Scan> {
     }
     let mut scan = Scan::default();
     scan.points.reserve(bytes.len() / POINT_BYTES);
+    scan.dropped_non_finite = parse_points(bytes, &mut |p, r| {
+        scan.points.push(p);
+        scan.reflectance.push(r);
+    });
+    Ok(scan)
+}
+
+/// Gives `point` each point of `bytes` (whole points) with a finite position; returns how many
+/// it skipped for a non-finite coordinate.
+fn parse_points(bytes: &[u8], point: &mut impl FnMut(Vector3<f64>, f32)) -> usize {
+    let mut dropped = 0;
     for chunk in bytes.chunks_exact(POINT_BYTES) {
         let f = |i: usize| f32::from_le_bytes([chunk[i], chunk[i + 1], chunk[i + 2], chunk[i + 3]]);
         let (x, y, z, r) = (f(0), f(4), f(8), f(12));
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-            scan.dropped_non_finite += 1;
+            dropped += 1;
             continue;
         }
-        scan.points.push(Vector3::new(x as f64, y as f64, z as f64));
-        scan.reflectance.push(r);
+        point(Vector3::new(x as f64, y as f64, z as f64), r);
     }
-    Ok(scan)
+    dropped
+}
+
+/// Bytes of a scan read at a time: whole points, few enough to stay in the cache from the
+/// kernel's copy to the parse (a whole file is copied out to memory and read back).
+const CHUNK_BYTES: usize = 4096 * POINT_BYTES;
+
+/// Reads a scan file a chunk at a time, giving `point` each point with a finite position (LiDAR
+/// frame) and its reflectance, in the file's order; returns how many points it skipped for a
+/// non-finite coordinate. [`parse`]'s points and errors; on an error the points already given
+/// are not a scan.
+pub fn for_each_point(path: &Path, mut point: impl FnMut(Vector3<f64>, f32)) -> Result<usize> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut buf = vec![0u8; CHUNK_BYTES];
+    let (mut filled, mut total, mut dropped) = (0, 0u64, 0);
+    loop {
+        let n = match file.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(path, e)),
+        };
+        filled += n;
+        total += n as u64;
+        let whole = filled - filled % POINT_BYTES;
+        dropped += parse_points(&buf[..whole], &mut point);
+        buf.copy_within(whole..filled, 0);
+        filled -= whole;
+    }
+    match length_problem(total) {
+        Some(problem) => Err(Error::file(path, problem)),
+        None => Ok(dropped),
+    }
 }
 
 /// Reads and parses a scan file.
 pub fn read(path: &Path) -> Result<Scan> {
-    parse(&crate::fs::read_file(path)?, path)
+    let mut scan = Scan::default();
+    scan.dropped_non_finite = for_each_point(path, |p, r| {
+        scan.points.push(p);
+        scan.reflectance.push(r);
+    })?;
+    Ok(scan)
 }
 
 /// Encodes points (for synthetic scans and tests).
@@ -85,4 +133,52 @@ pub fn rect_from_velo_map(
     let r = tr_velo_to_cam.fixed_view::<3, 3>(0, 0).into_owned();
     let t = tr_velo_to_cam.column(3).into_owned();
     move |p| r0_rect * (r * p + t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scan over three chunks with a non-finite point in each.
+    fn scan_bytes() -> Vec<u8> {
+        let points: Vec<(Vector3<f64>, f32)> = (0..2 * 4096 + 1000)
+            .map(|i| {
+                let x = if i % 4096 == 17 {
+                    f64::NAN
+                } else {
+                    i as f64 * 0.25
+                };
+                (Vector3::new(x, -(i as f64), 0.5 * i as f64), (i % 7) as f32)
+            })
+            .collect();
+        encode(&points)
+    }
+
+    #[test]
+    fn a_scan_read_by_chunks_is_the_parse_of_the_whole_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("000000.bin");
+        let bytes = scan_bytes();
+        std::fs::write(&path, &bytes).unwrap();
+        let whole = parse(&bytes, &path).unwrap();
+        let chunked = read(&path).unwrap();
+        assert_eq!(chunked.points, whole.points);
+        assert_eq!(chunked.reflectance, whole.reflectance);
+        assert_eq!(chunked.dropped_non_finite, 3);
+        assert_eq!(whole.dropped_non_finite, 3);
+        assert_eq!(chunked.points.len(), 2 * 4096 + 1000 - 3);
+
+        std::fs::write(&path, &bytes[..bytes.len() - 5]).unwrap();
+        let (a, b) = (
+            read(&path).unwrap_err().to_string(),
+            parse(&bytes[..bytes.len() - 5], &path)
+                .unwrap_err()
+                .to_string(),
+        );
+        assert_eq!(a, b);
+        assert!(
+            a.contains("000000.bin") && a.contains("not a whole number"),
+            "{a}"
+        );
+    }
 }

@@ -13,7 +13,7 @@
 //! pixels-per-radian at that pixel, so it is the same angular size in every projection and at
 //! every place in the image.
 
-use crate::camera::CameraModel;
+use crate::camera::{pinhole_point_lanes, CameraModel, Intrinsics};
 use nalgebra::{Point2, Vector3};
 
 /// Parameters of the occlusion filter (defaults for a Velodyne HDL-64E, as KITTI).
@@ -98,61 +98,189 @@ pub fn depth_map(
     source: &dyn CameraModel,
     filter: Option<&OcclusionFilter>,
 ) -> (DepthMap, usize) {
-    let size = output.size();
-    let mut projected = Vec::new();
+    let mut points = DepthPoints::new(centre, output, source);
     for p in rect {
-        let rel = p - centre;
+        points.push(p);
+    }
+    points.finish(filter)
+}
+
+/// [`depth_map`] a point at a time, for points read as a stream (a scan file's chunks): `push`
+/// each point, then `finish`.
+pub struct DepthPoints<'a> {
+    centre: Vector3<f64>,
+    output: &'a dyn CameraModel,
+    source: &'a dyn CameraModel,
+    /// The source's intrinsics where it is a pinhole: its test then takes [`LANES`] points
+    /// at once.
+    pinhole: Option<Intrinsics>,
+    front: Option<Vector3<f64>>,
+    /// With `pinhole`: points relative to the centre waiting for their block.
+    block: [Vector3<f64>; LANES],
+    filled: usize,
+    projected: Vec<Projected>,
+}
+
+impl<'a> DepthPoints<'a> {
+    /// Points about `centre` into `output`, those `source` sees.
+    pub fn new(
+        centre: &Vector3<f64>,
+        output: &'a dyn CameraModel,
+        source: &'a dyn CameraModel,
+    ) -> Self {
+        Self {
+            centre: *centre,
+            output,
+            source,
+            pinhole: source.pinhole(),
+            front: source.front_halfspace(),
+            block: [Vector3::zeros(); LANES],
+            filled: 0,
+            projected: Vec::new(),
+        }
+    }
+
+    /// One point, in rect.
+    #[inline]
+    pub fn push(&mut self, p: Vector3<f64>) {
+        let rel = p - self.centre;
         // the source first: a scan all around meets a camera's image with a fraction of its
         // points, and a pinhole source's test is a division where a panorama's is trigonometry
-        let Ok(src_px) = source.project_point(&rel) else {
-            continue;
-        };
-        if !source.contains(&src_px) {
-            continue;
+        if self.pinhole.is_some() {
+            self.block[self.filled] = rel;
+            self.filled += 1;
+            if self.filled == LANES {
+                self.flush();
+            }
+            return;
         }
-        let Ok(px) = output.project_point(&rel) else {
-            continue;
+        // half of a scan all around lies behind a front-only source: a dot product says so
+        // before the projection does
+        if self.front.is_some_and(|n| behind(&n, &rel)) {
+            return;
+        }
+        if matches!(self.source.project_point(&rel), Ok(px) if self.source.contains(&px)) {
+            self.land(&rel);
+        }
+    }
+
+    /// The waiting block's points through the pinhole source's test.
+    fn flush(&mut self) {
+        let Some(k) = self.pinhole else {
+            return;
+        };
+        let n = std::mem::take(&mut self.filled);
+        let [u, v] = pinhole_block(&k, &self.block, n);
+        for i in 0..n {
+            if !u[i].is_nan() && self.source.contains(&Point2::new(u[i], v[i])) {
+                let rel = self.block[i];
+                self.land(&rel);
+            }
+        }
+    }
+
+    /// Keeps a point the source sees where it lands on the output.
+    fn land(&mut self, rel: &Vector3<f64>) {
+        let size = self.output.size();
+        let Ok(px) = self.output.project_point(rel) else {
+            return;
         };
         let (u, v) = (px.x.round(), px.y.round());
         if u < 0.0 || v < 0.0 || u >= size.width as f64 || v >= size.height as f64 {
-            continue;
+            return;
         }
-        let depth = output.distance(&rel);
+        let depth = self.output.distance(rel);
         if depth > 0.0 && depth.is_finite() {
-            projected.push(Projected {
+            self.projected.push(Projected {
                 u: u as u32,
                 v: v as u32,
                 depth,
             });
         }
     }
-    let mut dropped = 0;
-    if let Some(f) = filter {
-        let keep = occlusion_mask(&projected, output, f);
-        dropped = keep.iter().filter(|k| !**k).count();
-        projected = projected
-            .into_iter()
-            .zip(keep)
-            .filter(|(_, k)| *k)
-            .map(|(p, _)| p)
-            .collect();
-    }
-    let mut values = vec![0.0; size.width as usize * size.height as usize];
-    for p in &projected {
-        let slot = &mut values[(p.v * size.width + p.u) as usize];
-        if *slot == 0.0 || p.depth < *slot {
-            *slot = p.depth;
+
+    /// The map, and how many points the occlusion filter dropped.
+    pub fn finish(mut self, filter: Option<&OcclusionFilter>) -> (DepthMap, usize) {
+        self.flush();
+        let (output, mut projected) = (self.output, self.projected);
+        let size = output.size();
+        let mut dropped = 0;
+        if let Some(f) = filter {
+            let keep = occlusion_mask(&projected, output, f);
+            dropped = keep.iter().filter(|k| !**k).count();
+            projected = projected
+                .into_iter()
+                .zip(keep)
+                .filter(|(_, k)| *k)
+                .map(|(p, _)| p)
+                .collect();
         }
+        let mut values = vec![0.0; size.width as usize * size.height as usize];
+        for p in &projected {
+            let slot = &mut values[(p.v * size.width + p.u) as usize];
+            if *slot == 0.0 || p.depth < *slot {
+                *slot = p.depth;
+            }
+        }
+        (
+            DepthMap {
+                width: size.width,
+                height: size.height,
+                values,
+            },
+            dropped,
+        )
     }
-    (
-        DepthMap {
-            width: size.width,
-            height: size.height,
-            values,
-        },
-        dropped,
-    )
 }
+
+/// Points a pinhole source tests at once ([`pinhole_point_lanes`]).
+const LANES: usize = 8;
+
+/// The source pixels of the first `n` of `block` (points about a pinhole source's centre,
+/// intrinsics `k`): [`pinhole_point_lanes`], NaN u where `project_point` rejects; the lanes
+/// overlap the latency of a square root and three divisions a point.
+fn pinhole_block(k: &Intrinsics, block: &[Vector3<f64>; LANES], n: usize) -> [[f64; LANES]; 2] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above).
+        return unsafe { pinhole_block_avx2(k, block, n) };
+    }
+    pinhole_block_any(k, block, n)
+}
+
+/// [`pinhole_block`] compiled for AVX2 (the same IEEE operations, the same bits).
+///
+/// # Safety
+///
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn pinhole_block_avx2(
+    k: &Intrinsics,
+    block: &[Vector3<f64>; LANES],
+    n: usize,
+) -> [[f64; LANES]; 2] {
+    pinhole_block_any(k, block, n)
+}
+
+#[inline(always)]
+fn pinhole_block_any(k: &Intrinsics, block: &[Vector3<f64>; LANES], n: usize) -> [[f64; LANES]; 2] {
+    // (lanes past `n`: the origin, rejected)
+    let lane = |c: usize| std::array::from_fn(|i| if i < n { block[i][c] } else { 0.0 });
+    pinhole_point_lanes(k, [lane(0), lane(1), lane(2)])
+}
+
+/// Whether `p` lies more than [`BEHIND`] radians behind the plane of the unit normal `n` of a
+/// camera's [`CameraModel::front_halfspace`]: no pixel, whatever the model's rounding at its
+/// domain's edge (a lens seeing exactly 90° keeps bearings up to 1e-12 relative past it).
+#[inline(always)]
+fn behind(n: &Vector3<f64>, p: &Vector3<f64>) -> bool {
+    let dot = n.dot(p);
+    dot < 0.0 && dot * dot > BEHIND * BEHIND * p.norm_squared()
+}
+
+/// See [`behind`]: far beyond every model's rounding, far below a LiDAR's angular spacing.
+const BEHIND: f64 = 1e-9;
 
 /// Pixels per radian of `camera` around pixel (u, v), horizontally and vertically.
 fn pixels_per_radian(camera: &dyn CameraModel, u: f64, v: f64) -> (f64, f64) {
@@ -208,11 +336,12 @@ fn occlusion_mask(
         .map(|p| {
             let (rx, ry) = radius[(p.v as usize / CELL) * gw + p.u as usize / CELL];
             let limit = p.depth * (1.0 - f.min_gap);
-            let own = layer(p.depth);
+            // (a logarithm each, taken only for a point a nearer one may hide)
+            let mut own = None;
             for y in (p.v as i64 - ry).max(0)..=(p.v as i64 + ry).min(h as i64 - 1) {
                 for x in (p.u as i64 - rx).max(0)..=(p.u as i64 + rx).min(w as i64 - 1) {
                     let d = nearest[y as usize * w + x as usize];
-                    if d < limit && layer(d) < own {
+                    if d < limit && layer(d) < *own.get_or_insert_with(|| layer(p.depth)) {
                         return false;
                     }
                 }
@@ -235,5 +364,156 @@ mod encoding_tests {
         };
         assert_eq!(map.to_u16(), vec![0, 256, 65533, 65535, 0, 0]);
         assert_eq!(map.valid(), 3);
+    }
+}
+
+#[cfg(test)]
+mod source_tests {
+    use super::*;
+    use crate::camera::{
+        rotation_ypr, Fisheye, ImageSize, Intrinsics, MeiDistortion, Perspective, RadialModel,
+        Rotated, Unified,
+    };
+    use std::f64::consts::FRAC_PI_2;
+
+    /// The front-only sources: a pinhole, a turned one, lenses seeing exactly 90°.
+    fn sources() -> Vec<Box<dyn CameraModel>> {
+        let size = ImageSize::new(800, 600);
+        let k = Intrinsics::new(250.0, 240.0, 399.5, 299.5);
+        let mei = MeiDistortion {
+            k1: -0.1,
+            k2: 0.02,
+            p1: 1e-3,
+            p2: -1e-3,
+        };
+        vec![
+            Box::new(Perspective::new(k, size)),
+            Box::new(Rotated::new(
+                Perspective::new(k, size),
+                rotation_ypr(0.7, -0.3, 0.2),
+            )),
+            Box::new(Fisheye::new(RadialModel::Equidistant, k, size, FRAC_PI_2).unwrap()),
+            Box::new(Unified::new(0.9, mei, k, 0.0, size, FRAC_PI_2).unwrap()),
+        ]
+    }
+
+    /// Draws in [-1, 1) (xorshift from `seed`).
+    fn uniform(mut s: u64) -> impl FnMut() -> f64 {
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        }
+    }
+
+    #[test]
+    fn a_point_behind_a_front_only_source_has_no_pixel() {
+        let mut r = uniform(5);
+        for source in sources() {
+            let n = source.front_halfspace().expect("front-only");
+            let (mut skipped, mut near_plane) = (0, 0);
+            for _ in 0..20_000 {
+                let p = Vector3::new(r(), r(), r()) * 40.0;
+                // points near the plane too: 2e-9 and 1e-12 radians behind it
+                let on_plane = (p - n * n.dot(&p)).normalize() * p.norm();
+                for q in [
+                    p,
+                    on_plane - n * 2e-9 * p.norm(),
+                    on_plane - n * 1e-12 * p.norm(),
+                ] {
+                    if behind(&n, &q) {
+                        skipped += 1;
+                        assert!(source.project_point(&q).is_err(), "{source:?} {q:?}");
+                    } else if n.dot(&q) < 0.0 {
+                        near_plane += 1;
+                    }
+                }
+            }
+            // the rule skips about half the points and leaves those within 1e-9 rad
+            assert!(skipped > 25_000, "{source:?}: {skipped}");
+            assert!(near_plane >= 19_000, "{source:?}: {near_plane}");
+        }
+    }
+
+    /// A camera that hides it is a pinhole: the depth map takes its per-point path.
+    #[derive(Debug)]
+    struct Opaque<'a>(&'a dyn CameraModel);
+
+    impl CameraModel for Opaque<'_> {
+        fn project(
+            &self,
+            d: &Vector3<f64>,
+        ) -> Result<Point2<f64>, crate::camera::ProjectionReject> {
+            self.0.project(d)
+        }
+        fn unproject(
+            &self,
+            px: &Point2<f64>,
+        ) -> Result<Vector3<f64>, crate::camera::ProjectionReject> {
+            self.0.unproject(px)
+        }
+        fn distance(&self, p: &Vector3<f64>) -> f64 {
+            self.0.distance(p)
+        }
+        fn size(&self) -> ImageSize {
+            self.0.size()
+        }
+        fn front_halfspace(&self) -> Option<Vector3<f64>> {
+            self.0.front_halfspace()
+        }
+    }
+
+    #[test]
+    fn a_pinhole_sources_points_in_lanes_give_the_per_point_map() {
+        use crate::camera::{Equirect, Fisheye};
+        let k = Intrinsics::new(707.05, 707.05, 604.08, 180.51);
+        let source = Perspective::new(k, ImageSize::new(1224, 370));
+        let out_k = Intrinsics::new(200.0, 200.0, 319.5, 239.5);
+        let outputs: Vec<Box<dyn CameraModel>> = vec![
+            Box::new(Equirect::new(out_k, ImageSize::new(640, 480))),
+            Box::new(
+                Fisheye::new(
+                    RadialModel::Equidistant,
+                    out_k,
+                    ImageSize::new(640, 480),
+                    1.2,
+                )
+                .unwrap(),
+            ),
+        ];
+        let mut r = uniform(9);
+        // a scan all around (and points at the centre, off to infinity, not finite), 8k + 5
+        let centre = Vector3::new(-0.06, 0.0018, -0.005);
+        let mut points: Vec<Vector3<f64>> = (0..40_000)
+            .map(|_| Vector3::new(r() * 60.0, r() * 3.0, r() * 60.0))
+            .collect();
+        points.extend([centre, centre + Vector3::new(0.0, 0.0, 1e-13)]);
+        points.extend([
+            Vector3::new(f64::NAN, 0.0, 5.0),
+            Vector3::new(0.0, 0.0, 1e300),
+        ]);
+        points.push(Vector3::new(1.0, 0.5, 10.0));
+        assert_eq!(points.len() % LANES, 5);
+        for output in &outputs {
+            for filter in [None, Some(OcclusionFilter::default())] {
+                let lanes = depth_map(
+                    points.clone(),
+                    &centre,
+                    output.as_ref(),
+                    &source,
+                    filter.as_ref(),
+                );
+                let one = depth_map(
+                    points.clone(),
+                    &centre,
+                    output.as_ref(),
+                    &Opaque(&source),
+                    filter.as_ref(),
+                );
+                assert_eq!(lanes, one, "{output:?}");
+                assert!(lanes.0.valid() > 500, "{output:?}: {}", lanes.0.valid());
+            }
+        }
     }
 }

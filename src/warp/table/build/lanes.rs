@@ -375,7 +375,8 @@ fn tail(mut round: Round, n: usize) -> Round {
 #[cfg(test)]
 mod tests {
     use crate::camera::{
-        rotation_ypr, CameraModel, ImageSize, Intrinsics, Perspective, Projection, ProjectionReject,
+        rotation_ypr, CameraModel, Fisheye, ImageSize, Intrinsics, Perspective, Projection,
+        ProjectionReject, RadialModel,
     };
     use crate::warp::{Footprint, RemapTable, Wrap};
     use nalgebra::{Point2, Vector3};
@@ -523,18 +524,20 @@ mod tests {
             lo + (hi - lo) * ((s >> 11) as f64 / (1u64 << 53) as f64)
         };
         let (mut levels, mut covered) = ([0; 5], 0.0);
-        for i in 0..30 {
+        for i in 0..40 {
+            // (every fourth a Kannala-Brandt lens: no column and row shares, its centres
+            // unprojected one by one, the rest of its build in lanes as the linear views')
             let projection = [
-                Projection::Cylindrical,
-                Projection::Equirect,
-                Projection::Perspective,
-            ][i % 3];
+                Some(Projection::Cylindrical),
+                Some(Projection::Equirect),
+                Some(Projection::Perspective),
+                None,
+            ][i % 4];
             let (w, h) = (60 + (i as u32 * 37) % 241, 30 + (i as u32 * 11) % 91);
             let fov = r(0.8, 3.0);
-            let fu = if projection == Projection::Perspective {
-                w as f64 / 2.0 / (fov / 2.0).tan()
-            } else {
-                w as f64 / fov
+            let fu = match projection {
+                Some(Projection::Perspective) => w as f64 / 2.0 / (fov / 2.0).tan(),
+                _ => w as f64 / fov,
             };
             let k = Intrinsics::new(
                 fu,
@@ -542,7 +545,20 @@ mod tests {
                 w as f64 / 2.0 + r(-8.0, 8.0),
                 h as f64 / 2.0 + r(-8.0, 8.0),
             );
-            let dst = projection.camera(k, ImageSize::new(w, h));
+            let size = ImageSize::new(w, h);
+            let dst: Box<dyn CameraModel> = match projection {
+                None => Box::new(
+                    Fisheye::new(
+                        RadialModel::KannalaBrandt([r(-0.03, 0.03), r(-0.01, 0.01), 0.0, 0.0]),
+                        k,
+                        size,
+                        r(1.2, 1.65),
+                    )
+                    .expect("a lens"),
+                ),
+                Some(projection) => projection.camera(k, size),
+            };
+            let projection = projection.map_or("fisheye".into(), |p| p.to_string());
             let rot = rotation_ypr(r(-0.3, 0.3), r(-0.2, 0.2), r(-0.1, 0.1));
             // (the source without `pinhole`: its centres mapped by `project`, one by one; the
             // output's taps still by column and row shares, as the lanes' build maps them)
@@ -559,7 +575,18 @@ mod tests {
                 )
             };
             for seen in [None, seen.as_ref()] {
-                let want = build(&PerPixel(&src), seen, false);
+                // (a lens's reference is the per-pixel build from the pinhole itself: a pinhole
+                // keeps a pair's interpolation on its axis's bend alone, `local_pair`, which
+                // a lens's rim tells from the general source's rule)
+                let want = match projection.as_str() {
+                    "fisheye" => {
+                        super::pyramid::PER_PIXEL_ONLY.set(true);
+                        let want = build(&src, seen, false);
+                        super::pyramid::PER_PIXEL_ONLY.set(false);
+                        want
+                    }
+                    _ => build(&PerPixel(&src), seen, false),
+                };
                 for parallel in [false, true] {
                     let got = build(&src, seen, parallel);
                     assert!(
@@ -574,6 +601,6 @@ mod tests {
         // (levels: the tables' counts; 4 where level 3 is sampled) the cases reach the coarse
         // and the finer levels, and both the source's inside and outside
         assert!(levels[4] > 10 && levels[2] + levels[3] > 10, "{levels:?}");
-        assert!(covered > 60.0 * 0.1 && covered < 60.0 * 0.98, "{covered}");
+        assert!(covered > 80.0 * 0.1 && covered < 80.0 * 0.98, "{covered}");
     }
 }

@@ -1,9 +1,9 @@
-//! The build of a pyramid table (see `level.rs`) of a separable output from a pinhole
-//! source (serially, or in bands of rows as `Builder::band`), a group of [`LANES`] pixels at a
-//! time: each row's centres mapped in lanes into columns of x and y (NaN x where a centre has
-//! none), each group's scales and levels taken from them, and its pixels' blocks made
-//! straight from the lanes with the very operations of [`Builder::block_at`] and
-//! `quantize_block`, a level at a time. A group of one-tap pixels (a turned view drawn per
+//! The build of a pyramid table (see `level.rs`) of any output from a pinhole source
+//! (serially, or in bands of rows as `Builder::band`), a group of [`LANES`] pixels at a time:
+//! each row's centres mapped into columns of x and y (`centres.rs`: in lanes for a separable
+//! output, one by one for a lens; NaN x where a centre has none), each group's scales and
+//! levels taken from them, and its pixels' blocks made straight from the lanes with the very
+//! operations of [`Builder::block_at`] and `quantize_block`, a level at a time. A group of one-tap pixels (a turned view drawn per
 //! training sample: all but its anisotropic sides) is one round; its two-tap pixels (the
 //! anisotropic sides: 2×1 or 1×2 taps, interpolated along their axis from the centres beside
 //! them, as `Builder::local_pair`, each tap's block at half weight, as `Builder::pair_quads`)
@@ -18,35 +18,20 @@ use super::{clamp, quantize, round_of, tail, Lanes};
 use crate::camera::{Intrinsics, Separable};
 use crate::warp::kernel::{Quad, Round, LANES};
 use crate::warp::table::{column_inside, row_inside, Cover, RemapTable, MAX_SUPERSAMPLE};
-use nalgebra::Point2;
 use rayon::prelude::*;
 
+mod centres;
 mod pairs;
 
+use centres::{CentreScratch, Centres};
 use pairs::{pair_taps, Pair};
 
-/// A row's pixel centres in the source: at index i column i - 1 (columns -1..=width), then
-/// NaN up to a group's reads past the row's end; x NaN where a centre has no position.
-#[derive(Default)]
-struct Centres {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    /// The indices mapped (the columns the footprint keeps); NaN x elsewhere.
-    kept: std::ops::Range<usize>,
-}
-
-impl Centres {
-    /// The lanes of coordinate `c` from index `at`.
-    #[inline(always)]
-    fn lanes(c: &[f64], at: usize) -> Lanes {
-        <Lanes>::try_from(&c[at..at + LANES]).expect("a group")
-    }
-
-    /// The centre at index `i`, as `Builder::centres` gives it.
-    #[inline(always)]
-    fn at(&self, i: usize) -> Option<Point2<f64>> {
-        (!self.x[i].is_nan()).then(|| Point2::new(self.x[i], self.y[i]))
-    }
+#[cfg(test)]
+thread_local! {
+    /// Set by a test on its thread: [`Builder::pyramid_lanes_table`] declines, so that the
+    /// table is the per-pixel build's, the reference the lanes must equal.
+    pub(in crate::warp::table::build) static PER_PIXEL_ONLY: std::cell::Cell<bool> =
+        const { std::cell::Cell::new(false) };
 }
 
 /// Scratch space of the groups built pixel by pixel.
@@ -106,8 +91,8 @@ impl Builder<'_> {
         l
     }
 
-    /// The table, where this build makes it: serially, of a separable output from a pinhole
-    /// source whose pyramid the pixels sample (None elsewhere).
+    /// The table, where this build makes it: of an output from a pinhole source whose
+    /// pyramid the pixels sample (None elsewhere).
     pub(in crate::warp::table::build) fn pyramid_lanes_table(
         &self,
         parallel: bool,
@@ -115,9 +100,15 @@ impl Builder<'_> {
         // (block offsets times 3 fit a u32 there: the lanes' rounds do not check them)
         let small =
             self.source_size.width as u64 * self.source_size.height as u64 * 3 <= u32::MAX as u64;
-        let (Some(sep), Some(k)) = (self.by_parts, &self.pinhole) else {
+        // (an output without column and row shares, a lens, has its centres mapped one by one
+        // as `Builder::centres` maps them; the rest is the same)
+        let (sep, Some(k)) = (self.by_parts, &self.pinhole) else {
             return None;
         };
+        #[cfg(test)]
+        if PER_PIXEL_ONLY.get() {
+            return None;
+        }
         if !small || !self.one_block || !(2..=MAX_LEVELS).contains(&self.shapes.len()) {
             return None;
         }
@@ -150,7 +141,7 @@ impl Builder<'_> {
     /// The table's rows `rows` (the whole table where they are all its rows).
     fn pyramid_lanes_rows(
         &self,
-        sep: &dyn Separable,
+        sep: Option<&dyn Separable>,
         k: &Intrinsics,
         rows: std::ops::Range<usize>,
     ) -> RemapTable {
@@ -173,7 +164,7 @@ impl Builder<'_> {
     #[target_feature(enable = "avx2")]
     unsafe fn pyramid_lanes_avx2(
         &self,
-        sep: &dyn Separable,
+        sep: Option<&dyn Separable>,
         k: &Intrinsics,
         rows: std::ops::Range<usize>,
     ) -> RemapTable {
@@ -183,7 +174,7 @@ impl Builder<'_> {
     #[inline(always)]
     fn pyramid_lanes_any(
         &self,
-        sep: &dyn Separable,
+        sep: Option<&dyn Separable>,
         k: &Intrinsics,
         rows: std::ops::Range<usize>,
     ) -> RemapTable {
@@ -203,15 +194,15 @@ impl Builder<'_> {
             levels: 1,
         };
         t.row_starts.push(0);
-        let mut xyz = Default::default();
+        let mut scratch = CentreScratch::default();
         let mut centres: [Centres; 3] = Default::default();
         let v0 = rows.start as isize;
-        self.centres_soa(sep, k, v0 - 1, &mut xyz, &mut centres[0]);
-        self.centres_soa(sep, k, v0, &mut xyz, &mut centres[1]);
+        self.centres_soa(sep, k, v0 - 1, &mut scratch, &mut centres[0]);
+        self.centres_soa(sep, k, v0, &mut scratch, &mut centres[1]);
         let (mut fallback, mut top) = (Fallback::default(), 0);
         let levels = self.levels();
         for v in rows {
-            self.centres_soa(sep, k, v as isize + 1, &mut xyz, &mut centres[2]);
+            self.centres_soa(sep, k, v as isize + 1, &mut scratch, &mut centres[2]);
             let reach = self.pyramid_row(v, &centres, &levels, &mut t, &mut fallback, &mut top);
             t.row_reach.push(reach);
             t.row_starts.push(t.rounds.len() as u32);
@@ -503,36 +494,6 @@ impl Builder<'_> {
             };
         }
         quads.iter().map(|q| q.offset).max().unwrap_or(0)
-    }
-
-    /// The source positions of output row `v`'s centres into `out` (see [`Centres`]), as
-    /// `Builder::centres` maps them ([`Builder::centres_lanes`]'s lanes). `xyz`: scratch.
-    fn centres_soa(
-        &self,
-        sep: &dyn Separable,
-        k: &Intrinsics,
-        v: isize,
-        xyz: &mut [Vec<f64>; 3],
-        out: &mut Centres,
-    ) {
-        let w = self.dst.size().width as isize;
-        let len = (w as usize + 2).next_multiple_of(LANES) + LANES;
-        for c in [&mut out.x, &mut out.y] {
-            c.clear();
-            c.resize(len, f64::NAN);
-        }
-        let (lo, hi) = self.seen.map_or((-1, w), |seen| seen.columns(v, -1, w));
-        let kept = &self.centre_columns[(lo + 1) as usize..(hi + 2).max(lo + 1) as usize];
-        let start = (lo + 1) as usize;
-        out.kept = match kept.len() {
-            0 => 0..0,
-            n => start..start + n,
-        };
-        self.pinhole_groups(sep, k, v, kept, xyz, |g, [px, py], count| {
-            let at = start + g * LANES;
-            out.x[at..at + count].copy_from_slice(&px[..count]);
-            out.y[at..at + count].copy_from_slice(&py[..count]);
-        });
     }
 }
 
