@@ -32,7 +32,9 @@ sparse depth image (the scan in rect, projected into the drawn camera, the neare
 pixel with `np.minimum.at`, without panoconv's occlusion filter). The numpy side warps into
 the very camera the dataset drew for the same index.
 
-    benches/random_cameras.sh [--kitti DIR] [--samples N] [--rounds R]
+    benches/random_cameras.sh [--kitti DIR] [--samples N] [--rounds R] [--dataset-only]
+
+(`--dataset-only`: the `RandomCameraDataset` part alone.)
 
 builds the module in release, as `pip install .` does, and runs this with numpy and
 opencv-python beside it; `PYTHONPATH=python python benches/random_cameras.py` runs it with the
@@ -485,6 +487,8 @@ def main():
     ap.add_argument("--workers", type=int, default=4)
     ap.add_argument("--rounds", type=int, default=5,
                     help="interleaved rounds of every way; medians are printed")
+    ap.add_argument("--dataset-only", action="store_true",
+                    help="only RandomCameraDataset against the numpy dataset")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}"
@@ -494,7 +498,8 @@ def main():
     frames = load_frames(args.kitti)
     print(f"{len(frames)} real KITTI frames, drawn cameras at {SIZE[0]}x{SIZE[1]}")
     for name, sampler in SAMPLERS.items():
-        bench_family(name, sampler, frames, args.samples, args.rounds)
+        if not args.dataset_only:
+            bench_family(name, sampler, frames, args.samples, args.rounds)
     loader(args.kitti, 2 * args.samples, args.workers, args.rounds)
 
 

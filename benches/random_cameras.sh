@@ -5,7 +5,7 @@
 # tests' module (scripts/install_python_package.sh's dev-profile build) is left alone. The
 # Python that runs it is $PYTHON, else benches/.venv (opencv-python-headless and numpy, pinned; set up on
 # first use as benches/run.sh does).
-#   benches/random_cameras.sh [--kitti DIR] [--samples N] [--workers N] [--rounds R]
+#   benches/random_cameras.sh [--kitti DIR] [--samples N] [--workers N] [--rounds R] [--dataset-only]
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"

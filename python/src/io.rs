@@ -64,12 +64,20 @@ pub fn read_velodyne<'py>(
 pub(crate) fn rect_from_velo(
     calib: &crate::calib::Calib,
 ) -> PyResult<impl Fn(&Vector3<f64>) -> Vector3<f64> + Sync> {
+    let (r0, tr) = velo_to_rect(calib)?;
+    Ok(velodyne::rect_from_velo_map(&r0, &tr))
+}
+
+/// A calib's R0_rect and Tr_velo_to_cam, or the error naming its file where a line is missing.
+pub(crate) fn velo_to_rect(
+    calib: &crate::calib::Calib,
+) -> PyResult<(nalgebra::Matrix3<f64>, nalgebra::Matrix3x4<f64>)> {
     let c = &calib.calib;
-    let (Some(r0), Some(tr)) = (c.r0_rect, c.tr_velo_to_cam) else {
-        return Err(crate::errors::to_py(panoconv::error::Error::file(
+    match (c.r0_rect, c.tr_velo_to_cam) {
+        (Some(r0), Some(tr)) => Ok((r0, tr)),
+        _ => Err(crate::errors::to_py(panoconv::error::Error::file(
             &c.path,
             "no R0_rect or Tr_velo_to_cam line (needed for LiDAR points)",
-        )));
-    };
-    Ok(velodyne::rect_from_velo_map(&r0, &tr))
+        ))),
+    }
 }

@@ -49,12 +49,17 @@ pub(crate) fn of_velodyne<'py>(
     calib: &crate::calib::Calib,
     occlusion: bool,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let rect_from_velo = crate::io::rect_from_velo(calib)?;
+    let (r0, tr) = crate::io::velo_to_rect(calib)?;
     let (src, dst, centre) = warp.depth_cameras();
     let map = py
         .detach(|| {
             let mut points = DepthPoints::new(&centre, dst, src);
-            velodyne::for_each_point(path, |p, _| points.push(rect_from_velo(&p)))?;
+            // (a chunk of the file at a time, in lanes: `rect_from_velo_map`'s bits)
+            velodyne::for_each_chunk(path, &mut Default::default(), |columns| {
+                velodyne::rect_from_velo_columns(&r0, &tr, columns);
+                let [x, y, z] = &*columns;
+                points.push_columns([x, y, z]);
+            })?;
             let filter = occlusion.then(OcclusionFilter::default);
             Ok::<_, panoconv::error::Error>(points.finish(filter.as_ref()).0)
         })

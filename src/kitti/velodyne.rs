@@ -67,10 +67,38 @@ const CHUNK_BYTES: usize = 4096 * POINT_BYTES;
 /// non-finite coordinate. [`parse`]'s points and errors; on an error the points already given
 /// are not a scan.
 pub fn for_each_point(path: &Path, mut point: impl FnMut(Vector3<f64>, f32)) -> Result<usize> {
+    let mut dropped = 0;
+    read_chunks(path, |bytes| dropped += parse_points(bytes, &mut point))?;
+    Ok(dropped)
+}
+
+/// [`for_each_point`] a chunk at a time, without reflectance: `chunk` gets the chunk's points
+/// as columns x, y, z (scratch columns, cleared for each chunk), for work in lanes.
+pub fn for_each_chunk(
+    path: &Path,
+    columns: &mut [Vec<f64>; 3],
+    mut chunk: impl FnMut(&mut [Vec<f64>; 3]),
+) -> Result<usize> {
+    let mut dropped = 0;
+    read_chunks(path, |bytes| {
+        columns.iter_mut().for_each(Vec::clear);
+        dropped += parse_points(bytes, &mut |p, _| {
+            columns[0].push(p.x);
+            columns[1].push(p.y);
+            columns[2].push(p.z);
+        });
+        chunk(columns);
+    })?;
+    Ok(dropped)
+}
+
+/// Gives `chunk` a scan file's bytes a whole number of points at a time, in order; the file's
+/// length is checked at its end.
+fn read_chunks(path: &Path, mut chunk: impl FnMut(&[u8])) -> Result<()> {
     use std::io::Read;
     let mut file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut buf = vec![0u8; CHUNK_BYTES];
-    let (mut filled, mut total, mut dropped) = (0, 0u64, 0);
+    let (mut filled, mut total) = (0, 0u64);
     loop {
         let n = match file.read(&mut buf[filled..]) {
             Ok(0) => break,
@@ -81,13 +109,13 @@ pub fn for_each_point(path: &Path, mut point: impl FnMut(Vector3<f64>, f32)) -> 
         filled += n;
         total += n as u64;
         let whole = filled - filled % POINT_BYTES;
-        dropped += parse_points(&buf[..whole], &mut point);
+        chunk(&buf[..whole]);
         buf.copy_within(whole..filled, 0);
         filled -= whole;
     }
     match length_problem(total) {
         Some(problem) => Err(Error::file(path, problem)),
-        None => Ok(dropped),
+        None => Ok(()),
     }
 }
 
@@ -135,6 +163,56 @@ pub fn rect_from_velo_map(
     move |p| r0_rect * (r * p + t)
 }
 
+/// [`rect_from_velo_map`] of columns of points (x, y, z, in place), lane by lane: the very
+/// products and sums of nalgebra's matrix-vector products (each row's terms left to right), the
+/// same bits, compiled for AVX2 where the processor has it.
+pub fn rect_from_velo_columns(
+    r0_rect: &nalgebra::Matrix3<f64>,
+    tr_velo_to_cam: &nalgebra::Matrix3x4<f64>,
+    columns: &mut [Vec<f64>; 3],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above).
+        return unsafe { rect_columns_avx2(r0_rect, tr_velo_to_cam, columns) };
+    }
+    rect_columns_any(r0_rect, tr_velo_to_cam, columns)
+}
+
+/// [`rect_from_velo_columns`] for AVX2.
+///
+/// # Safety
+///
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rect_columns_avx2(
+    r0: &nalgebra::Matrix3<f64>,
+    tr: &nalgebra::Matrix3x4<f64>,
+    columns: &mut [Vec<f64>; 3],
+) {
+    rect_columns_any(r0, tr, columns)
+}
+
+#[inline(always)]
+fn rect_columns_any(
+    r0: &nalgebra::Matrix3<f64>,
+    tr: &nalgebra::Matrix3x4<f64>,
+    [x, y, z]: &mut [Vec<f64>; 3],
+) {
+    let (r0, tr) = (*r0, *tr);
+    let n = x.len().min(y.len()).min(z.len());
+    for i in 0..n {
+        let p = [x[i], y[i], z[i]];
+        let row = |m: &[f64; 3], p: &[f64; 3]| m[0] * p[0] + m[1] * p[1] + m[2] * p[2];
+        let cam: [f64; 3] =
+            std::array::from_fn(|r| row(&[tr[(r, 0)], tr[(r, 1)], tr[(r, 2)]], &p) + tr[(r, 3)]);
+        let rect: [f64; 3] =
+            std::array::from_fn(|r| row(&[r0[(r, 0)], r0[(r, 1)], r0[(r, 2)]], &cam));
+        (x[i], y[i], z[i]) = (rect[0], rect[1], rect[2]);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,5 +258,51 @@ mod tests {
             a.contains("000000.bin") && a.contains("not a whole number"),
             "{a}"
         );
+    }
+
+    #[test]
+    fn rect_columns_are_the_map_of_each_point_bit_for_bit() {
+        let r0 = nalgebra::Matrix3::new(
+            0.9999239,
+            0.00983776,
+            -0.007445048,
+            -0.009869795,
+            0.9999421,
+            -0.004278459,
+            0.007402527,
+            0.004351614,
+            0.9999631,
+        );
+        let tr = nalgebra::Matrix3x4::new(
+            7.533745e-03,
+            -0.9999714,
+            -6.16602e-04,
+            -4.069766e-03,
+            1.480249e-02,
+            7.280733e-04,
+            -0.9998902,
+            -7.631618e-02,
+            0.9998621,
+            7.523790e-03,
+            1.480755e-02,
+            -0.2717806,
+        );
+        let map = rect_from_velo_map(&r0, &tr);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("000000.bin");
+        std::fs::write(&path, scan_bytes()).unwrap();
+        let (mut columns, mut points) = (Default::default(), Vec::new());
+        let dropped = for_each_chunk(&path, &mut columns, |c| {
+            rect_from_velo_columns(&r0, &tr, c);
+            points.extend((0..c[0].len()).map(|i| [c[0][i], c[1][i], c[2][i]]));
+        })
+        .unwrap();
+        let scan = read(&path).unwrap();
+        assert_eq!(dropped, scan.dropped_non_finite);
+        let want: Vec<[f64; 3]> = scan.points.iter().map(|p| map(p).into()).collect();
+        let bits =
+            |v: &[[f64; 3]]| -> Vec<[u64; 3]> { v.iter().map(|p| p.map(f64::to_bits)).collect() };
+        assert_eq!(bits(&points), bits(&want));
+        assert_eq!(points.len(), 2 * 4096 + 1000 - 3);
     }
 }

@@ -118,6 +118,8 @@ pub struct DepthPoints<'a> {
     /// With `pinhole`: points relative to the centre waiting for their block.
     block: [Vector3<f64>; LANES],
     filled: usize,
+    /// With `pinhole`: scratch of `push_columns`, the source pixels (u, v) of its columns.
+    pixels: [Vec<f64>; 2],
     projected: Vec<Projected>,
 }
 
@@ -136,6 +138,7 @@ impl<'a> DepthPoints<'a> {
             front: source.front_halfspace(),
             block: [Vector3::zeros(); LANES],
             filled: 0,
+            pixels: Default::default(),
             projected: Vec::new(),
         }
     }
@@ -162,6 +165,29 @@ impl<'a> DepthPoints<'a> {
         if matches!(self.source.project_point(&rel), Ok(px) if self.source.contains(&px)) {
             self.land(&rel);
         }
+    }
+
+    /// Points in rect as columns (x, y, z), in order: [`DepthPoints::push`] of each, a pinhole
+    /// source's test taken over the whole columns in lanes.
+    pub fn push_columns(&mut self, [x, y, z]: [&[f64]; 3]) {
+        let n = x.len().min(y.len()).min(z.len());
+        let Some(k) = self.pinhole else {
+            for i in 0..n {
+                self.push(Vector3::new(x[i], y[i], z[i]));
+            }
+            return;
+        };
+        // (the points waiting for their block come first)
+        self.flush();
+        let mut pixels = std::mem::take(&mut self.pixels);
+        pinhole_columns(&k, &self.centre, [&x[..n], &y[..n], &z[..n]], &mut pixels);
+        let [u, v] = &pixels;
+        for i in 0..n {
+            if !u[i].is_nan() && self.source.contains(&Point2::new(u[i], v[i])) {
+                self.land(&(Vector3::new(x[i], y[i], z[i]) - self.centre));
+            }
+        }
+        self.pixels = pixels;
     }
 
     /// The waiting block's points through the pinhole source's test.
@@ -270,6 +296,70 @@ fn pinhole_block_any(k: &Intrinsics, block: &[Vector3<f64>; LANES], n: usize) ->
     pinhole_point_lanes(k, [lane(0), lane(1), lane(2)])
 }
 
+/// The source pixels (u, v) into `out` of points (x, y, z columns, rect) about the centre
+/// `centre` of a pinhole source of intrinsics `k`: [`pinhole_block`]'s of each block of
+/// [`LANES`] (`p - centre` as [`DepthPoints::push`] takes it).
+fn pinhole_columns(
+    k: &Intrinsics,
+    centre: &Vector3<f64>,
+    columns: [&[f64]; 3],
+    out: &mut [Vec<f64>; 2],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2 (checked just above).
+        return unsafe { pinhole_columns_avx2(k, centre, columns, out) };
+    }
+    pinhole_columns_any(k, centre, columns, out)
+}
+
+/// [`pinhole_columns`] for AVX2.
+///
+/// # Safety
+///
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn pinhole_columns_avx2(
+    k: &Intrinsics,
+    centre: &Vector3<f64>,
+    columns: [&[f64]; 3],
+    out: &mut [Vec<f64>; 2],
+) {
+    pinhole_columns_any(k, centre, columns, out)
+}
+
+#[inline(always)]
+fn pinhole_columns_any(
+    k: &Intrinsics,
+    centre: &Vector3<f64>,
+    columns: [&[f64]; 3],
+    out: &mut [Vec<f64>; 2],
+) {
+    let n = columns[0].len();
+    for o in out.iter_mut() {
+        o.clear();
+        o.resize(n.next_multiple_of(LANES), f64::NAN);
+    }
+    let c = [centre.x, centre.y, centre.z];
+    for first in (0..n).step_by(LANES) {
+        let m = LANES.min(n - first);
+        // (lanes past the columns' end: the origin, rejected)
+        let lane = |a: usize| -> [f64; LANES] {
+            std::array::from_fn(|i| {
+                if i < m {
+                    columns[a][first + i] - c[a]
+                } else {
+                    0.0
+                }
+            })
+        };
+        let [u, v] = pinhole_point_lanes(k, [lane(0), lane(1), lane(2)]);
+        out[0][first..first + LANES].copy_from_slice(&u);
+        out[1][first..first + LANES].copy_from_slice(&v);
+    }
+}
+
 /// Whether `p` lies more than [`BEHIND`] radians behind the plane of the unit normal `n` of a
 /// camera's [`CameraModel::front_halfspace`]: no pixel, whatever the model's rounding at its
 /// domain's edge (a lens seeing exactly 90° keeps bearings up to 1e-12 relative past it).
@@ -336,17 +426,20 @@ fn occlusion_mask(
         .map(|p| {
             let (rx, ry) = radius[(p.v as usize / CELL) * gw + p.u as usize / CELL];
             let limit = p.depth * (1.0 - f.min_gap);
-            // (a logarithm each, taken only for a point a nearer one may hide)
-            let mut own = None;
-            for y in (p.v as i64 - ry).max(0)..=(p.v as i64 + ry).min(h as i64 - 1) {
-                for x in (p.u as i64 - rx).max(0)..=(p.u as i64 + rx).min(w as i64 - 1) {
-                    let d = nearest[y as usize * w + x as usize];
-                    if d < limit && layer(d) < *own.get_or_insert_with(|| layer(p.depth)) {
-                        return false;
-                    }
-                }
+            let rows =
+                (p.v as i64 - ry).max(0) as usize..=(p.v as i64 + ry).min(h as i64 - 1) as usize;
+            let columns =
+                (p.u as i64 - rx).max(0) as usize..=(p.u as i64 + rx).min(w as i64 - 1) as usize;
+            let window = || rows.clone().map(|y| &nearest[y * w..][columns.clone()]);
+            // the window's nearest first, without a branch a pixel: most points have no nearer
+            // return beside them, and then none hides them
+            let least = window().fold(f64::INFINITY, |m, row| row.iter().fold(m, |m, &d| m.min(d)));
+            if !(least < limit) {
+                return true;
             }
-            true
+            // (a logarithm each, taken only for a point a nearer one may hide)
+            let own = layer(p.depth);
+            !window().flatten().any(|&d| d < limit && layer(d) < own)
         })
         .collect()
 }
@@ -512,6 +605,15 @@ mod source_tests {
                     filter.as_ref(),
                 );
                 assert_eq!(lanes, one, "{output:?}");
+                // columns after a few points pushed one by one (their block goes first)
+                let mut columns = DepthPoints::new(&centre, output.as_ref(), &source);
+                for p in &points[..3] {
+                    columns.push(*p);
+                }
+                let [x, y, z] =
+                    [0, 1, 2].map(|c| points[3..].iter().map(|p| p[c]).collect::<Vec<_>>());
+                columns.push_columns([&x, &y, &z]);
+                assert_eq!(columns.finish(filter.as_ref()), lanes, "{output:?}");
                 assert!(lanes.0.valid() > 500, "{output:?}: {}", lanes.0.valid());
             }
         }
