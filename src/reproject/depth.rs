@@ -106,7 +106,7 @@ pub fn depth_map(
 }
 
 /// [`depth_map`] a point at a time, for points read as a stream (a scan file's chunks): `push`
-/// each point, then `finish`.
+/// each point (or `push_columns` many), then `finish`.
 pub struct DepthPoints<'a> {
     centre: Vector3<f64>,
     output: &'a dyn CameraModel,
