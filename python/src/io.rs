@@ -2,7 +2,6 @@
 //! numpy alone: no image library needed to feed `Warp`).
 
 use crate::errors::IntoPy;
-use nalgebra::Vector3;
 use ndarray::{Array2, Array3};
 use numpy::{PyArray2, PyArray3};
 use panoconv::codec::{self, png};
@@ -43,29 +42,22 @@ pub fn read_velodyne<'py>(
     path: PathBuf,
     calib: &crate::calib::Calib,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let rect_from_velo = rect_from_velo(calib)?;
-    // (the rows made as the file is read: no vector of points between the scan and the array)
+    let (r0, tr) = velo_to_rect(calib)?;
+    // (the rows made as the file is read, mapped to rect in lanes: `rect_from_velo_map`'s
+    // bits; no vector of points between the scan and the array)
     let rows = py
         .detach(|| {
             let points = std::fs::metadata(&path).map_or(0, |m| m.len() as usize / 16);
             let mut rows: Vec<[f64; 3]> = Vec::with_capacity(points);
-            velodyne::for_each_point(&path, |p, _| {
-                let q = rect_from_velo(&p);
-                rows.push([q.x, q.y, q.z]);
+            velodyne::for_each_chunk(&path, &mut Default::default(), |columns| {
+                velodyne::rect_from_velo_columns(&r0, &tr, columns);
+                let [x, y, z] = &*columns;
+                rows.extend((0..x.len()).map(|i| [x[i], y[i], z[i]]));
             })
             .map(|_| rows)
         })
         .py()?;
     Ok(PyArray2::from_owned_array(py, Array2::from(rows)))
-}
-
-/// A calib's map of LiDAR points to rect (R0_rect · Tr_velo_to_cam · p), or the error naming
-/// its file where a line is missing.
-pub(crate) fn rect_from_velo(
-    calib: &crate::calib::Calib,
-) -> PyResult<impl Fn(&Vector3<f64>) -> Vector3<f64> + Sync> {
-    let (r0, tr) = velo_to_rect(calib)?;
-    Ok(velodyne::rect_from_velo_map(&r0, &tr))
 }
 
 /// A calib's R0_rect and Tr_velo_to_cam, or the error naming its file where a line is missing.

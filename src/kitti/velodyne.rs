@@ -62,18 +62,11 @@ fn parse_points(bytes: &[u8], point: &mut impl FnMut(Vector3<f64>, f32)) -> usiz
 /// kernel's copy to the parse (a whole file is copied out to memory and read back).
 const CHUNK_BYTES: usize = 4096 * POINT_BYTES;
 
-/// Reads a scan file a chunk at a time, giving `point` each point with a finite position (LiDAR
-/// frame) and its reflectance, in the file's order; returns how many points it skipped for a
-/// non-finite coordinate. [`parse`]'s points and errors; on an error the points already given
-/// are not a scan.
-pub fn for_each_point(path: &Path, mut point: impl FnMut(Vector3<f64>, f32)) -> Result<usize> {
-    let mut dropped = 0;
-    read_chunks(path, |bytes| dropped += parse_points(bytes, &mut point))?;
-    Ok(dropped)
-}
-
-/// [`for_each_point`] a chunk at a time, without reflectance: `chunk` gets the chunk's points
-/// as columns x, y, z (scratch columns, cleared for each chunk), for work in lanes.
+/// Reads a scan file a chunk at a time (the kernel's copy stays in the cache), giving `chunk`
+/// each chunk's points with a finite position (LiDAR frame) as columns x, y, z (scratch
+/// columns, cleared for each chunk), in the file's order, for work in lanes; returns how many
+/// points it skipped for a non-finite coordinate. [`parse`]'s points and errors, reflectance
+/// aside; on an error the points already given are not a scan.
 pub fn for_each_chunk(
     path: &Path,
     columns: &mut [Vec<f64>; 3],
@@ -121,12 +114,7 @@ fn read_chunks(path: &Path, mut chunk: impl FnMut(&[u8])) -> Result<()> {
 
 /// Reads and parses a scan file.
 pub fn read(path: &Path) -> Result<Scan> {
-    let mut scan = Scan::default();
-    scan.dropped_non_finite = for_each_point(path, |p, r| {
-        scan.points.push(p);
-        scan.reflectance.push(r);
-    })?;
-    Ok(scan)
+    parse(&crate::fs::read_file(path)?, path)
 }
 
 /// Encodes points (for synthetic scans and tests).
@@ -232,6 +220,15 @@ mod tests {
         encode(&points)
     }
 
+    /// The points [`for_each_chunk`] gives, and its count of points skipped.
+    fn by_chunks(path: &Path) -> Result<(Vec<Vector3<f64>>, usize)> {
+        let mut points = Vec::new();
+        let dropped = for_each_chunk(path, &mut Default::default(), |c| {
+            points.extend((0..c[0].len()).map(|i| Vector3::new(c[0][i], c[1][i], c[2][i])));
+        })?;
+        Ok((points, dropped))
+    }
+
     #[test]
     fn a_scan_read_by_chunks_is_the_parse_of_the_whole_file() {
         let dir = tempfile::tempdir().unwrap();
@@ -239,16 +236,15 @@ mod tests {
         let bytes = scan_bytes();
         std::fs::write(&path, &bytes).unwrap();
         let whole = parse(&bytes, &path).unwrap();
-        let chunked = read(&path).unwrap();
-        assert_eq!(chunked.points, whole.points);
-        assert_eq!(chunked.reflectance, whole.reflectance);
-        assert_eq!(chunked.dropped_non_finite, 3);
+        let (points, dropped) = by_chunks(&path).unwrap();
+        assert_eq!(points, whole.points);
+        assert_eq!(dropped, 3);
         assert_eq!(whole.dropped_non_finite, 3);
-        assert_eq!(chunked.points.len(), 2 * 4096 + 1000 - 3);
+        assert_eq!(points.len(), 2 * 4096 + 1000 - 3);
 
         std::fs::write(&path, &bytes[..bytes.len() - 5]).unwrap();
         let (a, b) = (
-            read(&path).unwrap_err().to_string(),
+            by_chunks(&path).unwrap_err().to_string(),
             parse(&bytes[..bytes.len() - 5], &path)
                 .unwrap_err()
                 .to_string(),

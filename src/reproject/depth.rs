@@ -115,10 +115,9 @@ pub struct DepthPoints<'a> {
     /// at once.
     pinhole: Option<Intrinsics>,
     front: Option<Vector3<f64>>,
-    /// With `pinhole`: points relative to the centre waiting for their block.
-    block: [Vector3<f64>; LANES],
-    filled: usize,
-    /// With `pinhole`: scratch of `push_columns`, the source pixels (u, v) of its columns.
+    /// With `pinhole`: points pushed one by one (x, y, z in rect) waiting for their test.
+    pending: [Vec<f64>; 3],
+    /// With `pinhole`: scratch, the source pixels (u, v) of the columns under test.
     pixels: [Vec<f64>; 2],
     projected: Vec<Projected>,
 }
@@ -136,8 +135,7 @@ impl<'a> DepthPoints<'a> {
             source,
             pinhole: source.pinhole(),
             front: source.front_halfspace(),
-            block: [Vector3::zeros(); LANES],
-            filled: 0,
+            pending: Default::default(),
             pixels: Default::default(),
             projected: Vec::new(),
         }
@@ -146,17 +144,18 @@ impl<'a> DepthPoints<'a> {
     /// One point, in rect.
     #[inline]
     pub fn push(&mut self, p: Vector3<f64>) {
-        let rel = p - self.centre;
         // the source first: a scan all around meets a camera's image with a fraction of its
         // points, and a pinhole source's test is a division where a panorama's is trigonometry
         if self.pinhole.is_some() {
-            self.block[self.filled] = rel;
-            self.filled += 1;
-            if self.filled == LANES {
+            for (column, v) in self.pending.iter_mut().zip([p.x, p.y, p.z]) {
+                column.push(v);
+            }
+            if self.pending[0].len() == PENDING {
                 self.flush();
             }
             return;
         }
+        let rel = p - self.centre;
         // half of a scan all around lies behind a front-only source: a dot product says so
         // before the projection does
         if self.front.is_some_and(|n| behind(&n, &rel)) {
@@ -177,32 +176,34 @@ impl<'a> DepthPoints<'a> {
             }
             return;
         };
-        // (the points waiting for their block come first)
+        // (the points pushed one by one come first)
         self.flush();
+        self.seen_by_pinhole(&k, [&x[..n], &y[..n], &z[..n]]);
+    }
+
+    /// The pending points through the pinhole source's test.
+    fn flush(&mut self) {
+        let Some(k) = self.pinhole else {
+            return;
+        };
+        let mut pending = std::mem::take(&mut self.pending);
+        let [x, y, z] = &pending;
+        self.seen_by_pinhole(&k, [x, y, z]);
+        pending.iter_mut().for_each(Vec::clear);
+        self.pending = pending;
+    }
+
+    /// Lands each of the points (columns, rect) that the pinhole source of intrinsics `k` sees.
+    fn seen_by_pinhole(&mut self, k: &Intrinsics, [x, y, z]: [&[f64]; 3]) {
         let mut pixels = std::mem::take(&mut self.pixels);
-        pinhole_columns(&k, &self.centre, [&x[..n], &y[..n], &z[..n]], &mut pixels);
+        pinhole_columns(k, &self.centre, [x, y, z], &mut pixels);
         let [u, v] = &pixels;
-        for i in 0..n {
+        for i in 0..x.len() {
             if !u[i].is_nan() && self.source.contains(&Point2::new(u[i], v[i])) {
                 self.land(&(Vector3::new(x[i], y[i], z[i]) - self.centre));
             }
         }
         self.pixels = pixels;
-    }
-
-    /// The waiting block's points through the pinhole source's test.
-    fn flush(&mut self) {
-        let Some(k) = self.pinhole else {
-            return;
-        };
-        let n = std::mem::take(&mut self.filled);
-        let [u, v] = pinhole_block(&k, &self.block, n);
-        for i in 0..n {
-            if !u[i].is_nan() && self.source.contains(&Point2::new(u[i], v[i])) {
-                let rel = self.block[i];
-                self.land(&rel);
-            }
-        }
     }
 
     /// Keeps a point the source sees where it lands on the output.
@@ -259,46 +260,16 @@ impl<'a> DepthPoints<'a> {
     }
 }
 
-/// Points a pinhole source tests at once ([`pinhole_point_lanes`]).
+/// Points a pinhole source tests at once ([`pinhole_point_lanes`]): the lanes overlap the
+/// latency of a square root and three divisions a point.
 const LANES: usize = 8;
 
-/// The source pixels of the first `n` of `block` (points about a pinhole source's centre,
-/// intrinsics `k`): [`pinhole_point_lanes`], NaN u where `project_point` rejects; the lanes
-/// overlap the latency of a square root and three divisions a point.
-fn pinhole_block(k: &Intrinsics, block: &[Vector3<f64>; LANES], n: usize) -> [[f64; LANES]; 2] {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the processor has AVX2 (checked just above).
-        return unsafe { pinhole_block_avx2(k, block, n) };
-    }
-    pinhole_block_any(k, block, n)
-}
-
-/// [`pinhole_block`] compiled for AVX2 (the same IEEE operations, the same bits).
-///
-/// # Safety
-///
-/// The processor must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn pinhole_block_avx2(
-    k: &Intrinsics,
-    block: &[Vector3<f64>; LANES],
-    n: usize,
-) -> [[f64; LANES]; 2] {
-    pinhole_block_any(k, block, n)
-}
-
-#[inline(always)]
-fn pinhole_block_any(k: &Intrinsics, block: &[Vector3<f64>; LANES], n: usize) -> [[f64; LANES]; 2] {
-    // (lanes past `n`: the origin, rejected)
-    let lane = |c: usize| std::array::from_fn(|i| if i < n { block[i][c] } else { 0.0 });
-    pinhole_point_lanes(k, [lane(0), lane(1), lane(2)])
-}
+/// Points pushed one by one that wait for a pinhole source's test.
+const PENDING: usize = 1024;
 
 /// The source pixels (u, v) into `out` of points (x, y, z columns, rect) about the centre
-/// `centre` of a pinhole source of intrinsics `k`: [`pinhole_block`]'s of each block of
-/// [`LANES`] (`p - centre` as [`DepthPoints::push`] takes it).
+/// `centre` of a pinhole source of intrinsics `k`, [`LANES`] at a time: `project_point` of
+/// `p - centre` ([`pinhole_point_lanes`]), NaN u where it rejects.
 fn pinhole_columns(
     k: &Intrinsics,
     centre: &Vector3<f64>,
@@ -605,7 +576,7 @@ mod source_tests {
                     filter.as_ref(),
                 );
                 assert_eq!(lanes, one, "{output:?}");
-                // columns after a few points pushed one by one (their block goes first)
+                // columns after a few points pushed one by one (those go first)
                 let mut columns = DepthPoints::new(&centre, output.as_ref(), &source);
                 for p in &points[..3] {
                     columns.push(*p);
